@@ -1,0 +1,14 @@
+"""Runnable scenes (imported as ``mpmdem.cases``); each also runs as ``python cases/<name>.py``.
+
+A case module defines NAME, DESCRIPTION, DEFAULTS (SolverConfig fields), ``add_arguments(parser)``
+(optional), ``build(args) -> CaseSetup`` and ``summarize(sim, result, args) -> dict``.
+"""
+
+#: CLI name → module name, in the order ``mpmdem list`` shows them.
+CASES = {
+    "sulsky-disks": "sulsky_disks",
+    "axial-bar": "axial_bar",
+    "elastic-column": "elastic_column",
+}
+
+DEFAULT_CASE = "sulsky-disks"

@@ -1,0 +1,128 @@
+"""Per-step time-step control and status flags, and per-frame diagnostics, all on the device.
+
+The clock is a float64 array [t, dt, t_stop, dt_bound, dt_fixed, cfl] [s] read by every kernel, so
+the host never needs to know dt inside the step loop.
+"""
+
+import functools
+
+import warp as wp
+
+from .state import make_state_structs
+from .types import kernel, scalar_types
+
+__all__ = [
+    "CLOCK_SIZE",
+    "DIAG_NAMES",
+    "STATUS_NONFINITE",
+    "STATUS_OUTSIDE",
+    "advance_time",
+    "compute_dt",
+    "make_diagnostics",
+    "make_wave_speed",
+]
+
+CLOCK_SIZE = 6
+STATUS_NONFINITE = 0
+STATUS_OUTSIDE = 1
+
+#: Order of the per-frame sums written by the diagnostics kernel.
+DIAG_NAMES = (
+    "energy_kinetic",
+    "energy_strain",
+    "energy_gravity",
+    "momentum_x",
+    "momentum_y",
+    "momentum_angular",
+    "mass",
+)
+
+
+@functools.cache
+def make_wave_speed(precision: str):
+    """Per point: largest c_p + |v_p| into ``max_speed``; counts of non-finite and escaped points."""
+    t = scalar_types(precision)
+    T = t.scalar
+    Particles, Grid, Domain = make_state_structs(precision)
+
+    @kernel
+    def wave_speed(
+        P: Particles,
+        D: Domain,
+        materials: wp.array(dtype=t.vec4),
+        max_speed: wp.array(dtype=wp.float32),
+        status: wp.array(dtype=wp.int32),
+    ):
+        p = wp.tid()
+        m = materials[P.material[p]]
+        rho = P.mass[p] / P.vol[p]
+        # dilatational wave speed sqrt((λ+2μ)/ρ) at the current density ("MPM notes" step 8)
+        c = wp.sqrt((m[1] + T(2.0) * m[0]) / rho)
+        s = c + wp.length(P.v[p])
+        x = P.x[p]
+        if not (wp.isfinite(s) and wp.isfinite(x[0]) and wp.isfinite(x[1])):
+            wp.atomic_add(status, STATUS_NONFINITE, 1)
+            return
+        if x[0] < D.lo[0] or x[0] > D.hi[0] or x[1] < D.lo[1] or x[1] > D.hi[1]:
+            wp.atomic_add(status, STATUS_OUTSIDE, 1)
+        wp.atomic_max(max_speed, 0, wp.float32(s))
+
+    return wave_speed
+
+
+@kernel
+def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.float32), h: wp.float64):
+    """dt = κ h / max(c+|v|) (CFL) or the fixed dt, clipped to land on t_stop."""
+    s = wp.float64(max_speed[0])
+    bound = wp.float64(1.0e30)
+    if s > wp.float64(0.0):
+        bound = h / s
+    clock[3] = bound
+    dt = clock[4]
+    if dt <= wp.float64(0.0):
+        dt = clock[5] * bound
+    remaining = clock[2] - clock[0]
+    if remaining <= wp.float64(1.0e-12) * dt:
+        dt = wp.float64(0.0)
+    elif dt > remaining:
+        dt = remaining
+    clock[1] = dt
+
+
+@kernel
+def advance_time(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
+    """t += dt; count steps taken."""
+    dt = clock[1]
+    if dt > wp.float64(0.0):
+        t = clock[0] + dt
+        if clock[2] - t <= wp.float64(1.0e-12) * dt:
+            t = clock[2]
+        clock[0] = t
+        steps[0] = steps[0] + wp.int64(1)
+
+
+@functools.cache
+def make_diagnostics(precision: str):
+    """Sums over points of the DIAG_NAMES quantities into a float64 array."""
+    t = scalar_types(precision)
+    Particles, Grid, Domain = make_state_structs(precision)
+
+    @kernel
+    def diagnostics(P: Particles, D: Domain, out: wp.array(dtype=wp.float64)):
+        p = wp.tid()
+        m = wp.float64(P.mass[p])
+        vx = wp.float64(P.v[p][0])
+        vy = wp.float64(P.v[p][1])
+        x = wp.float64(P.x[p][0])
+        y = wp.float64(P.x[p][1])
+        gx = wp.float64(D.gravity[0])
+        gy = wp.float64(D.gravity[1])
+        wp.atomic_add(out, 0, wp.float64(0.5) * m * (vx * vx + vy * vy))
+        wp.atomic_add(out, 1, wp.float64(P.strain_energy[p]))
+        wp.atomic_add(out, 2, -m * (gx * x + gy * y))
+        wp.atomic_add(out, 3, m * vx)
+        wp.atomic_add(out, 4, m * vy)
+        wp.atomic_add(out, 5, m * (x * vy - y * vx))
+        wp.atomic_add(out, 6, m)
+
+    return diagnostics

@@ -1,0 +1,55 @@
+"""Warp structs that bundle the particle and grid arrays of one precision for kernel launches."""
+
+import functools
+
+import warp as wp
+
+from .types import scalar_types
+
+__all__ = ["make_state_structs"]
+
+
+@functools.cache
+def make_state_structs(precision: str):
+    """(Particles, Grid, Domain) structs for one precision."""
+    t = scalar_types(precision)
+
+    @wp.struct
+    class Particles:
+        x: wp.array(dtype=t.vec2)  # position [m]
+        v: wp.array(dtype=t.vec2)  # velocity [m/s]
+        C: wp.array(dtype=t.mat22)  # affine velocity matrix / velocity gradient [1/s]
+        F: wp.array(dtype=t.mat22)  # deformation gradient
+        stress: wp.array(dtype=t.mat22)  # in-plane Cauchy stress [Pa]
+        mass: wp.array(dtype=t.scalar)  # [kg/m] (per unit thickness)
+        vol: wp.array(dtype=t.scalar)  # current volume [m²]
+        vol0: wp.array(dtype=t.scalar)  # initial volume [m²]
+        half0: wp.array(dtype=t.vec2)  # initial GIMP half-lengths [m]
+        material: wp.array(dtype=wp.int32)  # index into the material table
+        strain_energy: wp.array(dtype=t.scalar)  # stored elastic energy [J/m]
+
+    @wp.struct
+    class Grid:
+        mass: wp.array2d(dtype=t.scalar)  # nodal mass [kg/m]
+        mom: wp.array2d(dtype=t.vec2)  # nodal momentum (with impulse when fused) [kg/s]
+        force: wp.array2d(dtype=t.vec2)  # nodal internal force [N/m]
+        v: wp.array2d(dtype=t.vec2)  # nodal velocity at the start of the step [m/s]
+        vt: wp.array2d(dtype=t.vec2)  # nodal velocity after the force update, Ṽ [m/s]
+        vm: wp.array2d(dtype=t.vec2)  # MUSL: velocity re-mapped from the updated points [m/s]
+
+    @wp.struct
+    class Domain:
+        origin: t.vec2  # position of grid node (0, 0), a ghost node [m]
+        h: t.scalar  # cell size [m]
+        inv_h: t.scalar
+        lo: t.vec2  # domain box [m]
+        hi: t.vec2
+        node_lo: wp.vec2i  # first and last node index on the domain boundary
+        node_hi: wp.vec2i
+        bc_kind: wp.vec4i  # left, right, bottom, top: 0 fixed, 1 slip, 2 friction, 3 free
+        bc_mu: t.vec4  # Coulomb coefficient of friction walls
+        gravity: t.vec2  # [m/s²]
+        gravity_ramp: wp.float64  # gravity grows linearly from 0 over this time [s] (0 = at once)
+        mass_eps: t.scalar  # nodes lighter than this carry no velocity [kg/m]
+
+    return Particles, Grid, Domain

@@ -1,0 +1,258 @@
+"""Particle-to-grid and grid-to-particle kernels for the whole transfer family.
+
+One factory per direction; the variant (shape function, affine term, FLIP fraction, position
+update, which fields to move, whether the stress update is fused) is fixed at build time through
+``wp.static`` so each variant compiles to a lean kernel ("Motion integration" Table 1).
+"""
+
+import functools
+
+import warp as wp
+
+from .constitutive import make_stress_update, make_strain_energy_density
+from .shape_functions import CPGIMP_MAX_HALF, SUPPORT_NODES, make_weights_1d
+from .state import make_state_structs
+from .types import kernel, scalar_types
+
+__all__ = ["make_g2p", "make_p2g", "make_point_weights"]
+
+
+@functools.cache
+def make_point_weights(shape: str, precision: str):
+    """``point_weights(P, D, p) -> (bx, by, wx, wy, dwx, dwy, c)`` for point p.
+
+    c is the point position in grid units; dw are derivatives in grid units.
+    """
+    t = scalar_types(precision)
+    T = t.scalar
+    Particles, Grid, Domain = make_state_structs(precision)
+    weights = make_weights_1d(shape, precision)
+    gimp = shape in ("ugimp", "cpgimp")
+    contiguous = shape == "cpgimp"
+
+    @wp.func
+    def point_weights(P: Particles, D: Domain, p: int):
+        c = (P.x[p] - D.origin) * D.inv_h
+        lp = t.vec2(T(0.0), T(0.0))
+        if wp.static(gimp):
+            lp = P.half0[p] * D.inv_h
+        if wp.static(contiguous):
+            # cpGIMP: the particle domain stretches with F along its material axes.
+            F = P.F[p]
+            sx = wp.sqrt(F[0, 0] * F[0, 0] + F[1, 0] * F[1, 0])
+            sy = wp.sqrt(F[0, 1] * F[0, 1] + F[1, 1] * F[1, 1])
+            lp = t.vec2(wp.min(lp[0] * sx, T(CPGIMP_MAX_HALF)), wp.min(lp[1] * sy, T(CPGIMP_MAX_HALF)))
+        bx, wx, dwx = weights(c[0], lp[0])
+        by, wy, dwy = weights(c[1], lp[1])
+        return bx, by, wx, wy, dwx, dwy, c
+
+    return point_weights
+
+
+@functools.cache
+def make_p2g(
+    shape: str,
+    affine: str,
+    precision: str,
+    *,
+    mass: bool,
+    momentum: bool,
+    force: bool,
+    fused_impulse: bool = False,
+    remap: bool = False,
+):
+    """P2G of mass, momentum (with the affine term) and internal force.
+
+    fused_impulse: add dt·f_int to the momentum (USL with a pure PIC velocity update needs only
+    Ṽ, so mass and impulse go in one pass, as in MLS-MPM). remap: write momentum to ``Grid.vm``
+    (MUSL's re-mapping of the updated particle velocities).
+    """
+    t = scalar_types(precision)
+    T = t.scalar
+    K = SUPPORT_NODES[shape]
+    Particles, Grid, Domain = make_state_structs(precision)
+    point_weights = make_point_weights(shape, precision)
+    has_affine = affine != "none" and momentum
+
+    @kernel
+    def p2g(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
+        p = wp.tid()
+        dt = T(clock[1])
+        if dt <= T(0.0):
+            return
+        bx, by, wx, wy, dwx, dwy, c = point_weights(P, D, p)
+        if bx < 0 or by < 0 or bx + K > G.mass.shape[0] or by + K > G.mass.shape[1]:
+            return  # escaped (or non-finite) point: skipped here, flagged by the status check
+        mp = P.mass[p]
+        mv = mp * P.v[p]
+        mC = t.mat22()
+        if wp.static(has_affine):
+            # APIC / TPIC: m_p (V_p + C_p (x_i − x_p)) ("Motion integration" eq. 19, 23)
+            mC = mp * P.C[p]
+        vs = t.mat22()
+        if wp.static(force):
+            # f_int,i = −Σ_p V_p σ_p ∇N_i(x_p) ("MPM notes" step 4; MPM-SDEM eq. 13)
+            vs = (-P.vol[p] * D.inv_h) * P.stress[p]
+            if wp.static(fused_impulse):
+                vs = vs * dt
+        for i in range(wp.static(K)):
+            for j in range(wp.static(K)):
+                w = wx[i] * wy[j]
+                gi = bx + i
+                gj = by + j
+                if wp.static(mass):
+                    wp.atomic_add(G.mass, gi, gj, w * mp)
+                mom = t.vec2()
+                if wp.static(momentum):
+                    mom = w * mv
+                    if wp.static(has_affine):
+                        dpos = (t.vec2(T(gi), T(gj)) - c) * D.h
+                        mom = mom + w * (mC * dpos)
+                if wp.static(force):
+                    f = vs * t.vec2(dwx[i] * wy[j], wx[i] * dwy[j])
+                    if wp.static(fused_impulse):
+                        mom = mom + f
+                    else:
+                        wp.atomic_add(G.force, gi, gj, f)
+                if wp.static(momentum or fused_impulse):
+                    if wp.static(remap):
+                        wp.atomic_add(G.vm, gi, gj, mom)
+                    else:
+                        wp.atomic_add(G.mom, gi, gj, mom)
+
+    return p2g
+
+
+@functools.cache
+def make_g2p(
+    shape: str,
+    affine: str,
+    flip_fraction: float,
+    position_mode: str,
+    precision: str,
+    material_kinds: tuple,
+    *,
+    velocity: bool,
+    position: bool,
+    stress: str,
+):
+    """G2P: particle velocity, affine matrix, position, and (optionally fused) stress update.
+
+    velocity: update V_p and C_p from Ṽ (and V for FLIP). position: move the points.
+    stress: "none", or the grid field whose gradient drives the stress update: "vt" (USL), "v"
+    (USF: velocities before the force update) or "vm" (MUSL: re-mapped velocities).
+    """
+    t = scalar_types(precision)
+    T = t.scalar
+    K = SUPPORT_NODES[shape]
+    Particles, Grid, Domain = make_state_structs(precision)
+    point_weights = make_point_weights(shape, precision)
+    update_stress = make_stress_update(material_kinds, precision)
+    psi = make_strain_energy_density(precision)
+    X = float(flip_fraction)
+    flip = X > 0.0
+    apic = affine == "apic"
+    taylor = affine == "taylor"
+    # For B-splines the APIC inertia-like tensor D_p is a constant (h²/4, h²/3) times I.
+    d_const = {"bspline2": 0.25, "bspline3": 1.0 / 3.0}.get(shape, 0.0)
+    need_grad_vt = velocity and (taylor or (apic and d_const == 0.0))
+    fused_grad = stress == "vt"
+    has_stress = stress != "none"
+    has_le = 0 in material_kinds
+    has_nh = 1 in material_kinds
+
+    @kernel
+    def g2p(
+        P: Particles,
+        G: Grid,
+        D: Domain,
+        clock: wp.array(dtype=wp.float64),
+        materials: wp.array(dtype=t.vec4),
+    ):
+        p = wp.tid()
+        dt = T(clock[1])
+        if dt <= T(0.0):
+            return
+        bx, by, wx, wy, dwx, dwy, c = point_weights(P, D, p)
+        if bx < 0 or by < 0 or bx + K > G.mass.shape[0] or by + K > G.mass.shape[1]:
+            return  # escaped (or non-finite) point: skipped here, flagged by the status check
+        v_pic = t.vec2()
+        v_old = t.vec2()
+        B = t.mat22()
+        Dm = t.mat22()
+        grad_vt = t.mat22()
+        L = t.mat22()
+        for i in range(wp.static(K)):
+            for j in range(wp.static(K)):
+                w = wx[i] * wy[j]
+                gi = bx + i
+                gj = by + j
+                grad = t.vec2(dwx[i] * wy[j], wx[i] * dwy[j]) * D.inv_h
+                vt = G.vt[gi, gj]
+                if wp.static(velocity or position):
+                    v_pic = v_pic + w * vt  # G→P of Ṽ ("Motion integration" eq. 31)
+                if wp.static(velocity and flip):
+                    v_old = v_old + w * G.v[gi, gj]
+                if wp.static(velocity and apic):
+                    dpos = (t.vec2(T(gi), T(gj)) - c) * D.h
+                    B = B + w * wp.outer(vt, dpos)  # eq. 26
+                    if wp.static(d_const == 0.0):
+                        Dm = Dm + w * wp.outer(dpos, dpos)  # eq. 27
+                if wp.static(need_grad_vt or fused_grad):
+                    grad_vt = grad_vt + wp.outer(vt, grad)  # ∇Ṽ, eq. 22/45
+                if wp.static(stress == "v"):
+                    L = L + wp.outer(G.v[gi, gj], grad)
+                if wp.static(stress == "vm"):
+                    L = L + wp.outer(G.vm[gi, gj], grad)
+        if wp.static(fused_grad):
+            L = grad_vt
+        x_old = P.x[p]
+        if wp.static(velocity):
+            v_new = v_pic
+            if wp.static(flip):
+                # FLIP: V_p + G(Ṽ − V) (eq. 33), blended with PIC by X (eq. 37)
+                v_flip = P.v[p] + (v_pic - v_old)
+                v_new = T(X) * v_flip + T(1.0 - X) * v_pic
+            P.v[p] = v_new
+            if wp.static(apic):
+                if wp.static(d_const != 0.0):
+                    P.C[p] = B * (T(1.0 / d_const) * D.inv_h * D.inv_h)  # C = B D⁻¹, eq. 25
+                else:
+                    det = wp.determinant(Dm)
+                    # D_p is singular for the tent function at a node line: fall back to ∇Ṽ,
+                    # which equals B D⁻¹ for any field affine over the support.
+                    if wp.abs(det) > T(1.0e-6) * D.h * D.h * D.h * D.h:
+                        P.C[p] = B * wp.inverse(Dm)
+                    else:
+                        P.C[p] = grad_vt
+            if wp.static(taylor):
+                P.C[p] = grad_vt
+        if wp.static(position):
+            if wp.static(position_mode == "grid"):
+                P.x[p] = x_old + dt * v_pic  # eq. 32
+            else:
+                P.x[p] = x_old + dt * P.v[p]  # eq. 36 / 38
+        if wp.static(has_stress):
+            m = materials[P.material[p]]
+            mu = m[0]
+            lam = m[1]
+            kind = int(m[3])
+            F_new = (wp.identity(n=2, dtype=T) + dt * L) * P.F[p]  # "MPM notes" step 8
+            sigma_old = P.stress[p]
+            sigma_new = update_stress(kind, F_new, sigma_old, L, dt, mu, lam)
+            vol_old = P.vol[p]
+            vol_new = P.vol0[p] * wp.determinant(F_new)
+            P.F[p] = F_new
+            P.stress[p] = sigma_new
+            P.vol[p] = vol_new
+            if wp.static(has_le):
+                if kind == 0:
+                    # Stored energy by the trapezoidal rule, exact for a linear law.
+                    deps = (T(0.5) * dt) * (L + wp.transpose(L))
+                    dw = T(0.5) * wp.ddot(sigma_old + sigma_new, deps) * T(0.5) * (vol_old + vol_new)
+                    P.strain_energy[p] = P.strain_energy[p] + dw
+            if wp.static(has_nh):
+                if kind == 1:
+                    P.strain_energy[p] = P.vol0[p] * psi(F_new, mu, lam)
+
+    return g2p

@@ -1,0 +1,37 @@
+"""mpmdem: granular MPM meeting spheropolygon DEM in 2D plane strain, on NVIDIA Warp.
+
+Everything a case script needs: ``Scene`` → ``Simulation(scene, SolverConfig(...))`` → ``run()``.
+"""
+
+__version__ = "0.1.0"
+
+from .config import SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverConfig, TransferScheme
+from .errors import BlowUpError, InputError
+from .materials import LinearElastic, Material, NeoHookean
+from .scene import Boundary, MPMBody, Scene
+from .shapes import Shape, disk, polygon, rectangle, seed_points
+from .simulation import RunResult, Simulation, default_device
+
+__all__ = [
+    "SHAPE_FUNCTIONS",
+    "STRESS_UPDATES",
+    "TRANSFER_SCHEMES",
+    "BlowUpError",
+    "Boundary",
+    "InputError",
+    "LinearElastic",
+    "MPMBody",
+    "Material",
+    "NeoHookean",
+    "RunResult",
+    "Scene",
+    "Shape",
+    "Simulation",
+    "SolverConfig",
+    "TransferScheme",
+    "default_device",
+    "disk",
+    "polygon",
+    "rectangle",
+    "seed_points",
+]

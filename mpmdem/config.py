@@ -1,0 +1,140 @@
+"""SolverConfig: the discretisation choices of one run, frozen and validated on construction.
+
+Every field selects a kernel variant that is specialised at build time (see ``mpmdem.kernels``);
+nothing here is read per particle at run time.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Literal
+
+from .errors import InputError
+
+__all__ = [
+    "SHAPE_FUNCTIONS",
+    "STRESS_UPDATES",
+    "TRANSFER_SCHEMES",
+    "SolverConfig",
+    "TransferScheme",
+]
+
+#: Shape functions: original MPM (tent), uniform GIMP, contiguous-particle GIMP,
+#: quadratic and cubic B-splines ("MPM notes"; MPM-SDEM appendix).
+SHAPE_FUNCTIONS = ("linear", "ugimp", "cpgimp", "bspline2", "bspline3")
+
+#: Where the stress update sits in the step ("Motion integration" §3.4).
+STRESS_UPDATES = ("USF", "USL", "MUSL")
+
+
+@dataclass(frozen=True)
+class TransferScheme:
+    """One member of the PIC/FLIP/affine transfer family ("Motion integration" Table 1).
+
+    Attributes:
+        affine: extra term added to the particle velocity in P2G: "none" (eq. 17),
+            "apic" (affine matrix C = B D^-1, eq. 23–27) or "taylor" (velocity gradient, eq. 19–22).
+        flip_fraction: X in eq. 37; 0 is the PIC velocity update (eq. 31), 1 pure FLIP (eq. 33).
+        position: "grid" moves points with the interpolated updated grid velocity (eq. 32);
+            "particle" moves them with the new particle velocity (eq. 36/38, the N-variants).
+    """
+
+    affine: Literal["none", "apic", "taylor"] = "none"
+    flip_fraction: float = 0.0
+    position: Literal["grid", "particle"] = "grid"
+
+
+#: Named schemes of "Motion integration" Table 1 that the kernels provide.
+#: The FLIP fraction of the X-variants is taken from SolverConfig.flip_fraction.
+TRANSFER_SCHEMES: dict[str, TransferScheme] = {
+    "PIC": TransferScheme("none", 0.0, "grid"),
+    "APIC": TransferScheme("apic", 0.0, "grid"),
+    "TPIC": TransferScheme("taylor", 0.0, "grid"),
+    "FLIP": TransferScheme("none", 1.0, "grid"),
+    "AFLIP": TransferScheme("apic", 1.0, "grid"),
+    "TFLIP": TransferScheme("taylor", 1.0, "grid"),
+    "NFLIP": TransferScheme("none", 1.0, "particle"),
+    "ANFLIP": TransferScheme("apic", 1.0, "particle"),
+    "FLIPX": TransferScheme("none", -1.0, "grid"),
+    "AFLIPX": TransferScheme("apic", -1.0, "grid"),
+    "NFLIPX": TransferScheme("none", -1.0, "particle"),
+    "ANFLIPX": TransferScheme("apic", -1.0, "particle"),
+}
+
+
+@dataclass(frozen=True)
+class SolverConfig:
+    """Discretisation and time-step choices of one run.
+
+    Attributes:
+        shape: shape function, one of SHAPE_FUNCTIONS.
+        transfer: transfer scheme name, one of TRANSFER_SCHEMES ("PIC", "FLIP", "APIC", ...).
+        flip_fraction: X of the blended schemes (FLIPX, NFLIPX, ...); 0.99 means 1 % PIC.
+        update: stress-update order, one of STRESS_UPDATES.
+        precision: "f32" or "f64" for every particle and grid field.
+        cfl: time-step factor κ in dt = κ h / max_p(c_p + |v_p|), 0 < κ ≤ 1 (default 0.4).
+        dt: a fixed time step [s]; None (default) computes dt on the device each step from the
+            CFL bound. A fixed dt above the bound is an error.
+        blowup_energy_factor: stop when the total energy exceeds its initial scale by this
+            factor (energy growth is the signature of an unstable explicit step).
+        cuda_graph: record one step as a CUDA graph on GPUs and replay it.
+        sort_interval: on GPUs, re-sort points by cell every this many steps (0 = never).
+    """
+
+    shape: str = "bspline2"
+    transfer: str = "APIC"
+    flip_fraction: float = 0.99
+    update: str = "USL"
+    precision: Literal["f32", "f64"] = "f32"
+    cfl: float = 0.4
+    dt: float | None = None
+    blowup_energy_factor: float = 2.0
+    cuda_graph: bool = True
+    sort_interval: int = 0
+    extra: dict = field(default_factory=dict, compare=False, hash=False, repr=False)
+
+    def __post_init__(self):
+        shape = str(self.shape).lower()
+        if shape not in SHAPE_FUNCTIONS:
+            raise InputError("shape", self.shape, f"one of {', '.join(SHAPE_FUNCTIONS)}")
+        object.__setattr__(self, "shape", shape)
+        transfer = str(self.transfer).upper()
+        if transfer not in TRANSFER_SCHEMES:
+            raise InputError("transfer", self.transfer, f"one of {', '.join(TRANSFER_SCHEMES)}")
+        object.__setattr__(self, "transfer", transfer)
+        update = str(self.update).upper()
+        if update not in STRESS_UPDATES:
+            raise InputError("update", self.update, f"one of {', '.join(STRESS_UPDATES)}")
+        object.__setattr__(self, "update", update)
+        if self.precision not in ("f32", "f64"):
+            raise InputError("precision", self.precision, "one of f32, f64")
+        if not (0.0 <= float(self.flip_fraction) <= 1.0):
+            raise InputError("flip_fraction", self.flip_fraction, "a number in [0, 1]")
+        if not (0.0 < float(self.cfl) <= 1.0):
+            raise InputError("cfl", self.cfl, "a number in (0, 1]; 0.5 or less is advised")
+        if self.dt is not None and not (float(self.dt) > 0.0):
+            raise InputError("dt", self.dt, "a positive time step in seconds, or None for the CFL policy")
+        if not (float(self.blowup_energy_factor) > 0.0):
+            raise InputError("blowup_energy_factor", self.blowup_energy_factor, "a positive number")
+        if int(self.sort_interval) < 0:
+            raise InputError("sort_interval", self.sort_interval, "an integer >= 0")
+
+    @property
+    def scheme(self) -> TransferScheme:
+        """The transfer scheme with the FLIP fraction of the blended variants filled in."""
+        s = TRANSFER_SCHEMES[self.transfer]
+        if s.flip_fraction < 0.0:
+            s = dataclasses.replace(s, flip_fraction=float(self.flip_fraction))
+        return s
+
+    def replace(self, **changes) -> SolverConfig:
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable description, stored with every output file."""
+        d = dataclasses.asdict(self)
+        d.pop("extra")
+        d["scheme"] = dataclasses.asdict(self.scheme)
+        return d

@@ -1,0 +1,243 @@
+"""The MPM stage: device arrays of points and grid, and the kernel launches of one explicit step.
+
+No physics is written here; it picks the kernel variants of ``mpmdem.kernels`` that the config
+asks for and launches them in the order of the chosen stress update (USF, USL, MUSL).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+from .config import SolverConfig
+from .errors import InputError
+from .kernels import grid as kgrid
+from .kernels import reductions as kred
+from .kernels import transfer as ktr
+from .kernels.shape_functions import SUPPORT_NODES
+from .kernels.state import make_state_structs
+from .kernels.types import scalar_types
+from .scene import Scene
+
+__all__ = ["GHOST_NODES", "MPMSolver", "initial_dt_bound"]
+
+#: Ghost node layers around the domain, enough for the widest stencil (4 nodes) of a point that
+#: sits on, or slightly beyond, the domain boundary.
+GHOST_NODES = 3
+
+
+def initial_dt_bound(scene: Scene, particles: dict | None = None) -> float:
+    """Courant bound h / max_p(c_p + |v_p|) [s] of the initial state (κ = 1)."""
+    particles = particles or scene.particles()
+    speeds = []
+    for k, b in enumerate(scene.bodies):
+        sel = particles["body"] == k
+        vmax = float(np.linalg.norm(particles["v"][sel], axis=1).max())
+        speeds.append(b.material.wave_speed + vmax)
+    return scene.cell_size / max(speeds)
+
+
+@dataclass
+class _Launch:
+    kernel: object
+    dim: object
+    inputs: list
+
+
+class MPMSolver:
+    """Device state and step sequence of the MPM stage of one scene.
+
+    Args:
+        scene: the scene; its points are seeded and uploaded once.
+        config: discretisation choices.
+        device: Warp device ("cpu", "cuda", "cuda:0").
+    """
+
+    def __init__(self, scene: Scene, config: SolverConfig, device: str):
+        self.scene = scene
+        self.config = config
+        self.device = wp.get_device(device)
+        self.types = scalar_types(config.precision)
+        host = scene.particles()
+        self.particle_count = len(host["mass"])
+        self.dt_bound0 = initial_dt_bound(scene, host)
+        if config.dt is not None and config.dt > self.dt_bound0:
+            raise InputError(
+                "dt", config.dt,
+                f"at most the stable bound h/max(c+|v|) = {self.dt_bound0:.6g} s of this scene "
+                f"(h = {scene.cell_size:g} m); leave dt unset to use the CFL policy",
+            )
+        if config.shape == "ugimp" and (host["half"] > 0.5 * scene.cell_size + 1e-12).any():
+            raise InputError("shape", config.shape, "uGIMP needs points_per_cell >= 1 (half-lengths <= h/2)")
+        self._allocate(host)
+        self._build()
+
+    # -- set-up -------------------------------------------------------------------------------
+    def _allocate(self, host: dict) -> None:
+        t = self.types
+        T = np.float32 if self.config.precision == "f32" else np.float64
+        dev = self.device
+        scene = self.scene
+        n = self.particle_count
+        mats = scene.materials()
+        mat_index = np.array([mats.index(b.material) for b in scene.bodies], np.int32)[host["body"]]
+        self.material_kinds = tuple(sorted({m.kind_id for m in mats}))
+        Particles, Grid, Domain = make_state_structs(self.config.precision)
+        eye = np.tile(np.eye(2), (n, 1, 1))
+        P = Particles()
+        P.x = wp.array(host["x"].astype(T), dtype=t.vec2, device=dev)
+        P.v = wp.array(host["v"].astype(T), dtype=t.vec2, device=dev)
+        # APIC/TPIC start from the initial rigid rotation's velocity gradient (zero if none)
+        C0 = np.zeros((n, 2, 2))
+        for k, b in enumerate(scene.bodies):
+            C0[host["body"] == k] = np.array([[0.0, -b.angular_velocity], [b.angular_velocity, 0.0]])
+        P.C = wp.array(C0.astype(T), dtype=t.mat22, device=dev)
+        P.F = wp.array(eye.astype(T), dtype=t.mat22, device=dev)
+        P.stress = wp.zeros(n, dtype=t.mat22, device=dev)
+        P.mass = wp.array(host["mass"].astype(T), dtype=t.scalar, device=dev)
+        P.vol = wp.array(host["vol"].astype(T), dtype=t.scalar, device=dev)
+        P.vol0 = wp.array(host["vol"].astype(T), dtype=t.scalar, device=dev)
+        P.half0 = wp.array(host["half"].astype(T), dtype=t.vec2, device=dev)
+        P.material = wp.array(mat_index, dtype=wp.int32, device=dev)
+        P.strain_energy = wp.zeros(n, dtype=t.scalar, device=dev)
+        self.P = P
+        self.body = host["body"]
+
+        nx, ny = scene.cell_counts
+        g = GHOST_NODES
+        shape = (nx + 1 + 2 * g, ny + 1 + 2 * g)
+        self.grid_shape = shape
+        G = Grid()
+        G.mass = wp.zeros(shape, dtype=t.scalar, device=dev)
+        G.mom = wp.zeros(shape, dtype=t.vec2, device=dev)
+        G.force = wp.zeros(shape, dtype=t.vec2, device=dev)
+        G.v = wp.zeros(shape, dtype=t.vec2, device=dev)
+        G.vt = wp.zeros(shape, dtype=t.vec2, device=dev)
+        G.vm = wp.zeros(shape if self.config.update == "MUSL" else (1, 1), dtype=t.vec2, device=dev)
+        self.G = G
+
+        h = scene.cell_size
+        (x0, y0), _ = scene.domain
+        D = Domain()
+        D.origin = t.vec2(x0 - g * h, y0 - g * h)
+        D.h = t.scalar(h)
+        D.inv_h = t.scalar(1.0 / h)
+        D.lo = t.vec2(x0, y0)
+        D.hi = t.vec2(x0 + nx * h, y0 + ny * h)
+        D.node_lo = wp.vec2i(g, g)
+        D.node_hi = wp.vec2i(g + nx, g + ny)
+        bcs = [scene.boundaries[s] for s in ("left", "right", "bottom", "top")]
+        D.bc_kind = wp.vec4i(*[b.kind_id for b in bcs])
+        D.bc_mu = t.vec4(*[b.friction for b in bcs])
+        D.gravity = t.vec2(*scene.gravity)
+        D.gravity_ramp = float(scene.gravity_ramp)
+        D.mass_eps = t.scalar(1.0e-12 * float(host["mass"].min()))
+        self.D = D
+
+        self.materials = wp.array(
+            np.array([[m.shear_modulus, m.lame_lambda, m.density, m.kind_id] for m in mats], T),
+            dtype=t.vec4, device=dev,
+        )
+        self.clock = wp.zeros(kred.CLOCK_SIZE, dtype=wp.float64, device=dev)
+        clock = np.zeros(kred.CLOCK_SIZE)
+        clock[4] = self.config.dt or 0.0
+        clock[5] = self.config.cfl
+        self.clock.assign(clock)
+        self.steps = wp.zeros(1, dtype=wp.int64, device=dev)
+        self.max_speed = wp.zeros(1, dtype=wp.float32, device=dev)
+        self.status = wp.zeros(2, dtype=wp.int32, device=dev)
+        self.diag = wp.zeros(len(kred.DIAG_NAMES), dtype=wp.float64, device=dev)
+
+    def _build(self) -> None:
+        """Pick the kernel variants of this config and lay out the launches of one step."""
+        c = self.config
+        s = c.scheme
+        prec = c.precision
+        n = self.particle_count
+        grid_dim = self.grid_shape
+        P, G, D, clock, mats = self.P, self.G, self.D, self.clock, self.materials
+
+        def p2g(**flags):
+            return _Launch(ktr.make_p2g(c.shape, s.affine, prec, **flags), n, [P, G, D, clock])
+
+        def grid(**flags):
+            return _Launch(kgrid.make_grid_update(prec, **flags), grid_dim, [G, D, clock])
+
+        def g2p(**flags):
+            k = ktr.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds, **flags)
+            return _Launch(k, n, [P, G, D, clock, mats])
+
+        self.fused = c.update == "USL" and s.flip_fraction == 0.0
+        seq: list = []
+        if c.update == "USL":
+            if self.fused:
+                seq += [p2g(mass=True, momentum=True, force=True, fused_impulse=True),
+                        grid(velocity=False, force=False, fused_impulse=True)]
+            else:
+                seq += [p2g(mass=True, momentum=True, force=True), grid(velocity=True, force=True)]
+            seq += [g2p(velocity=True, position=True, stress="vt")]
+        elif c.update == "USF":
+            seq += [p2g(mass=True, momentum=True, force=False), grid(velocity=True, force=False),
+                    g2p(velocity=False, position=False, stress="v"),
+                    p2g(mass=False, momentum=False, force=True), grid(velocity=False, force=True),
+                    g2p(velocity=True, position=True, stress="none")]
+        else:  # MUSL
+            seq += [p2g(mass=True, momentum=True, force=True), grid(velocity=True, force=True),
+                    g2p(velocity=True, position=False, stress="none"),
+                    "zero-vm",
+                    p2g(mass=False, momentum=True, force=False, remap=True),
+                    grid(velocity=False, force=False, remap=True),
+                    g2p(velocity=False, position=True, stress="vm")]
+        self._sequence = seq
+        self._wave_speed = kred.make_wave_speed(prec)
+        self._diagnostics = kred.make_diagnostics(prec)
+
+    # -- stepping -------------------------------------------------------------------------------
+    def step(self) -> None:
+        """Launch one explicit step (dt from the device clock; a no-op once t reaches t_stop)."""
+        dev = self.device
+        self.max_speed.zero_()
+        wp.launch(self._wave_speed, self.particle_count,
+                  inputs=[self.P, self.D, self.materials, self.max_speed, self.status], device=dev)
+        wp.launch(kred.compute_dt, 1, inputs=[self.clock, self.max_speed, float(self.scene.cell_size)], device=dev)
+        G = self.G
+        G.mass.zero_()
+        G.mom.zero_()
+        if not self.fused:
+            G.force.zero_()
+        for item in self._sequence:
+            if item == "zero-vm":
+                G.vm.zero_()
+            else:
+                wp.launch(item.kernel, item.dim, inputs=item.inputs, device=dev)
+        wp.launch(kred.advance_time, 1, inputs=[self.clock, self.steps], device=dev)
+
+    def set_stop_time(self, t_stop: float) -> None:
+        """Steps run until the clock reaches t_stop [s]; later steps do nothing."""
+        wp.copy(self.clock, wp.array([t_stop], dtype=wp.float64, device="cpu"), dest_offset=2, count=1)
+
+    def read_clock(self) -> tuple[float, float, float, int, np.ndarray]:
+        """(t, dt, dt_bound, steps, status counts) — one host sync."""
+        c = self.clock.numpy()
+        return float(c[0]), float(c[1]), float(c[3]), int(self.steps.numpy()[0]), self.status.numpy()
+
+    def diagnostics(self) -> dict[str, float]:
+        """Energies [J/m], momenta [kg/s, kg m/s per m] and mass [kg/m] of the points."""
+        self.diag.zero_()
+        wp.launch(self._diagnostics, self.particle_count, inputs=[self.P, self.D, self.diag], device=self.device)
+        vals = self.diag.numpy()
+        return {name: float(v) for name, v in zip(kred.DIAG_NAMES, vals)}
+
+    def fields(self) -> dict[str, np.ndarray]:
+        """Host copies of the per-point output fields."""
+        P = self.P
+        return {
+            "x": P.x.numpy(), "v": P.v.numpy(), "stress": P.stress.numpy(), "volume": P.vol.numpy(),
+            "mass": P.mass.numpy(), "F": P.F.numpy(), "body": self.body,
+        }
+
+    @property
+    def support_nodes(self) -> int:
+        return SUPPORT_NODES[self.config.shape]

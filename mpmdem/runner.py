@@ -1,0 +1,151 @@
+"""Command-line front of the cases: common flags, config overrides, summary.json, exit codes.
+
+Exit codes: 0 done, 2 bad input (one line on stderr, no traceback), 3 blow-up (the file keeps
+the frames written before it), 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import ModuleType
+
+from .config import SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverConfig
+from .errors import BlowUpError, InputError
+from .scene import Scene
+
+__all__ = ["CaseSetup", "case_module", "make_case_parser", "run_case"]
+
+
+@dataclass
+class CaseSetup:
+    """What a case's ``build`` returns: the scene, the run length and frame count."""
+
+    scene: Scene
+    end_time: float
+    frames: int = 20
+    config: dict = field(default_factory=dict)
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse that reports a bad flag in one line and exits with code 2."""
+
+    def error(self, message):  # noqa: D102
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _positive(name):
+    def parse(text):
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a positive number, got {text!r}") from None
+        if not v > 0:
+            raise argparse.ArgumentTypeError(f"{name} must be a positive number, got {text!r}")
+        return v
+
+    return parse
+
+
+def _choice(name, allowed):
+    lower = {a.lower(): a for a in allowed}
+
+    def parse(text):
+        if text.lower() not in lower:
+            raise argparse.ArgumentTypeError(f"unknown {name} {text!r}; allowed: {', '.join(allowed)}")
+        return lower[text.lower()]
+
+    return parse
+
+
+def make_case_parser(module: ModuleType, prog: str | None = None) -> argparse.ArgumentParser:
+    """The flags every case takes, plus the case's own (``add_arguments``)."""
+    p = OneLineParser(prog=prog or f"mpmdem run {module.NAME}", description=module.DESCRIPTION)
+    p.add_argument("--device", default=None, help="cpu, cuda or cuda:N (default: the GPU if there is one)")
+    p.add_argument("--out", default=None, help=f"output folder (default results/{module.NAME})")
+    p.add_argument("--quick", action="store_true", help="a coarse, short run (for tests and a first look)")
+    p.add_argument("--end-time", type=_positive("--end-time"), default=None, help="simulated time [s]")
+    p.add_argument("--frames", type=int, default=None, help="output frames")
+    p.add_argument("--dt", type=_positive("--dt"), default=None, help="fixed time step [s] (default: CFL)")
+    p.add_argument("--cfl", type=_positive("--cfl"), default=None, help="CFL factor in (0, 1]")
+    p.add_argument("--shape", type=_choice("shape", SHAPE_FUNCTIONS), default=None,
+                   help="shape function: " + ", ".join(SHAPE_FUNCTIONS))
+    p.add_argument("--transfer", type=_choice("transfer", tuple(TRANSFER_SCHEMES)), default=None,
+                   help="transfer scheme: " + ", ".join(TRANSFER_SCHEMES))
+    p.add_argument("--flip-fraction", type=float, default=None, help="FLIP fraction X of blended schemes")
+    p.add_argument("--update", type=_choice("update", STRESS_UPDATES), default=None,
+                   help="stress update: " + ", ".join(STRESS_UPDATES))
+    p.add_argument("--precision", type=_choice("precision", ("f32", "f64")), default=None, help="f32 or f64")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    if hasattr(module, "add_arguments"):
+        module.add_arguments(p)
+    return p
+
+
+def case_module(name: str) -> ModuleType:
+    """Import the module of a case by its CLI name (e.g. "sulsky-disks")."""
+    from .cases import CASES
+
+    if name not in CASES:
+        raise InputError("case", name, "one of " + ", ".join(CASES))
+    return importlib.import_module(f"mpmdem.cases.{CASES[name]}")
+
+
+def config_from_args(setup: CaseSetup, module: ModuleType, args) -> SolverConfig:
+    """Case defaults, then the case's build-time choices, then the flags the user gave."""
+    fields = dict(getattr(module, "DEFAULTS", {}))
+    fields.update(setup.config)
+    for name in ("dt", "cfl", "shape", "transfer", "flip_fraction", "update", "precision"):
+        v = getattr(args, name, None)
+        if v is not None:
+            fields[name] = v
+    return SolverConfig(**fields)
+
+
+def run_case(module: ModuleType, argv: list[str] | None = None, prog: str | None = None) -> int:
+    """Parse flags, run the case, write OUT/summary.json; returns the exit code."""
+    from .simulation import Simulation
+
+    args = make_case_parser(module, prog).parse_args(argv)
+    out = Path(args.out or Path("results") / module.NAME)
+    summary = {"case": module.NAME, "status": "error"}
+    try:
+        setup = module.build(args)
+        config = config_from_args(setup, module, args)
+        end_time = args.end_time or setup.end_time
+        frames = args.frames or setup.frames
+        sim = Simulation(setup.scene, config, device=args.device)
+    except InputError as e:
+        print(f"mpmdem: error: {e}", file=sys.stderr)
+        return 2
+    summary.update(device=sim.device, particles=sim.particle_count, config=config.to_dict(), end_time=end_time)
+    t0 = time.perf_counter()
+    code = 0
+    try:
+        result = sim.run(end_time, out=out, frames=frames, quiet=args.quiet, name=module.NAME.replace("-", "_"))
+        summary.update(status=result.status, steps=result.steps, wall_seconds=time.perf_counter() - t0,
+                       output=str(result.path))
+        summary.update(module.summarize(sim, result, args))
+    except BlowUpError as e:
+        summary.update(status="blown-up", reason=e.reason, message=str(e), time=e.time)
+        print(f"mpmdem: {e}", file=sys.stderr)
+        code = 3
+    except KeyboardInterrupt:
+        summary.update(status="interrupted")
+        print("mpmdem: interrupted; frames written so far are kept", file=sys.stderr)
+        code = 130
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
+    if code == 0 and not args.quiet:
+        print(f"wrote {out / 'summary.json'} and {summary.get('output')}")
+    return code
+
+
+def main_for(module_name: str) -> int:
+    """Entry point of ``python cases/<name>.py``."""
+    return run_case(importlib.import_module(module_name), sys.argv[1:], prog=f"python cases/{module_name.split('.')[-1]}.py")

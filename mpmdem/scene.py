@@ -1,0 +1,221 @@
+"""Scene: the domain, background grid, gravity, walls and MPM bodies of a simulation (SI units).
+
+2D plane strain: masses, forces and energies are per unit thickness (kg/m, N/m, J/m).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Literal
+
+import numpy as np
+
+from .errors import InputError
+from .materials import Material
+from .shapes import Shape, seed_points
+
+__all__ = ["Boundary", "MPMBody", "Scene", "SIDES"]
+
+SIDES = ("left", "right", "bottom", "top")
+BOUNDARY_KINDS = ("fixed", "slip", "friction", "free")
+
+
+@dataclass(frozen=True)
+class Boundary:
+    """Condition on one side of the domain, applied to the grid nodes on and beyond it.
+
+    Attributes:
+        kind: "fixed" (no-slip, v = 0), "slip" (roller: no normal motion), "friction" (a wall that
+            points may leave, with Coulomb friction μ while pressed against it) or "free" (none).
+        friction: Coulomb coefficient μ ≥ 0 of a "friction" wall.
+    """
+
+    kind: Literal["fixed", "slip", "friction", "free"] = "slip"
+    friction: float = 0.0
+
+    def __post_init__(self):
+        if self.kind not in BOUNDARY_KINDS:
+            raise InputError("boundary kind", self.kind, f"one of {', '.join(BOUNDARY_KINDS)}")
+        if not (math.isfinite(self.friction) and self.friction >= 0.0):
+            raise InputError("friction", self.friction, "a coefficient of friction >= 0")
+
+    @property
+    def kind_id(self) -> int:
+        return BOUNDARY_KINDS.index(self.kind)
+
+
+@dataclass(frozen=True)
+class MPMBody:
+    """A continuum body: a shape filled with material points."""
+
+    name: str
+    shape: Shape
+    material: Material
+    velocity: tuple[float, float] | Callable[[np.ndarray], np.ndarray]
+    points_per_cell: int
+    angular_velocity: float = 0.0
+
+    def initial_velocity(self, x: np.ndarray) -> np.ndarray:
+        """Velocity [m/s] of points at positions x (N, 2): the field, or the rigid motion."""
+        if callable(self.velocity):
+            return np.asarray(self.velocity(x), dtype=float).reshape(len(x), 2)
+        v = np.tile(np.asarray(self.velocity, dtype=float), (len(x), 1))
+        if self.angular_velocity != 0.0:
+            r = x - x.mean(axis=0)
+            v = v + self.angular_velocity * np.stack([-r[:, 1], r[:, 0]], 1)
+        return v
+
+
+def _as_boundary(side: str, b) -> Boundary:
+    if isinstance(b, Boundary):
+        return b
+    if isinstance(b, str):
+        return Boundary(b)
+    raise InputError(f"boundaries[{side!r}]", b, "a Boundary or one of " + ", ".join(BOUNDARY_KINDS))
+
+
+@dataclass
+class Scene:
+    """The domain, grid and bodies of one simulation.
+
+    Args:
+        domain: ((x0, y0), (x1, y1)) corners of the rectangular domain [m].
+        cell_size: background grid spacing h [m].
+        gravity: body acceleration (gx, gy) [m/s²].
+        boundaries: side ("left", "right", "bottom", "top") → Boundary or kind name;
+            sides not given are "slip".
+        gravity_ramp: gravity grows linearly from zero to its value over this time [s]
+            (quasi-static loading; 0 applies it at once).
+    """
+
+    domain: tuple[tuple[float, float], tuple[float, float]]
+    cell_size: float
+    gravity: tuple[float, float] = (0.0, 0.0)
+    boundaries: dict = field(default_factory=dict)
+    gravity_ramp: float = 0.0
+    bodies: list[MPMBody] = field(default_factory=list)
+
+    def __post_init__(self):
+        try:
+            (x0, y0), (x1, y1) = self.domain
+            x0, y0, x1, y1 = (float(v) for v in (x0, y0, x1, y1))
+        except (TypeError, ValueError):
+            raise InputError("domain", self.domain, "((x0, y0), (x1, y1)) with x0 < x1, y0 < y1") from None
+        if not all(math.isfinite(v) for v in (x0, y0, x1, y1)) or not (x0 < x1 and y0 < y1):
+            raise InputError("domain", self.domain, "((x0, y0), (x1, y1)) with x0 < x1, y0 < y1")
+        self.domain = ((x0, y0), (x1, y1))
+        h = self.cell_size
+        if not isinstance(h, (int, float)) or not math.isfinite(h) or h <= 0.0:
+            raise InputError("cell_size", h, "a grid spacing h > 0 [m]")
+        if h > min(x1 - x0, y1 - y0):
+            raise InputError("cell_size", h, f"at most the smaller domain side, {min(x1 - x0, y1 - y0)} m")
+        self.cell_size = float(h)
+        g = tuple(float(v) for v in np.asarray(self.gravity, dtype=float).ravel())
+        if len(g) != 2 or not all(math.isfinite(v) for v in g):
+            raise InputError("gravity", self.gravity, "a finite (gx, gy) [m/s^2]")
+        self.gravity = g
+        if not (isinstance(self.gravity_ramp, (int, float)) and math.isfinite(self.gravity_ramp)
+                and self.gravity_ramp >= 0.0):
+            raise InputError("gravity_ramp", self.gravity_ramp, "a duration >= 0 [s]")
+        unknown = set(self.boundaries) - set(SIDES)
+        if unknown:
+            raise InputError("boundaries", sorted(unknown), f"sides among {', '.join(SIDES)}")
+        self.boundaries = {s: _as_boundary(s, self.boundaries.get(s, "slip")) for s in SIDES}
+
+    @property
+    def cell_counts(self) -> tuple[int, int]:
+        """Cells per direction; the grid covers the domain, rounded up to whole cells."""
+        (x0, y0), (x1, y1) = self.domain
+        h = self.cell_size
+        return max(1, math.ceil((x1 - x0) / h - 1e-9)), max(1, math.ceil((y1 - y0) / h - 1e-9))
+
+    def add_body(
+        self,
+        shape: Shape,
+        material: Material,
+        *,
+        velocity: tuple[float, float] | Callable[[np.ndarray], np.ndarray] = (0.0, 0.0),
+        angular_velocity: float = 0.0,
+        points_per_cell: int = 2,
+        name: str | None = None,
+    ) -> MPMBody:
+        """Fill ``shape`` with points_per_cell² points per cell of ``material``.
+
+        velocity [m/s] and angular_velocity [rad/s, about the body's centroid] set the initial
+        rigid motion of the body; velocity may instead be a function of the positions (N, 2)
+        returning the velocities (N, 2), for an initial velocity field.
+        """
+        if not isinstance(material, Material):
+            raise InputError("material", material, "a LinearElastic or NeoHookean material")
+        if callable(velocity):
+            vel = velocity
+        else:
+            vel = tuple(float(v) for v in np.asarray(velocity, dtype=float).ravel())
+            if len(vel) != 2 or not all(math.isfinite(v) for v in vel):
+                raise InputError("velocity", velocity, "a finite (vx, vy) [m/s] or a function of positions")
+        if not math.isfinite(float(angular_velocity)):
+            raise InputError("angular_velocity", angular_velocity, "a finite number [rad/s]")
+        if not isinstance(points_per_cell, int) or not 1 <= points_per_cell <= 8:
+            raise InputError("points_per_cell", points_per_cell, "an integer in 1..8 (points per cell per direction)")
+        body = MPMBody(name or f"body{len(self.bodies)}", shape, material, vel, points_per_cell, float(angular_velocity))
+        pts = self._seed(body)
+        (x0, y0), (x1, y1) = self.domain
+        x = pts.positions
+        if callable(vel):
+            try:
+                v = body.initial_velocity(x)
+            except Exception as e:  # a user function that fails is a bad input
+                raise InputError("velocity", velocity, f"a function (N, 2) -> (N, 2); it raised {e!r}") from None
+            if not np.isfinite(v).all():
+                raise InputError("velocity", velocity, "a function returning finite velocities")
+        if (x[:, 0] < x0).any() or (x[:, 0] > x1).any() or (x[:, 1] < y0).any() or (x[:, 1] > y1).any():
+            raise InputError("shape", shape.to_dict(), f"a shape inside the domain {self.domain}")
+        self.bodies.append(body)
+        return body
+
+    def _seed(self, body: MPMBody):
+        return seed_points(body.shape, cell_size=self.cell_size, points_per_cell=body.points_per_cell,
+                           origin=self.domain[0])
+
+    def particles(self) -> dict[str, np.ndarray]:
+        """Host arrays of every material point, body after body (float64)."""
+        if not self.bodies:
+            raise InputError("bodies", [], "at least one body (Scene.add_body)")
+        parts = []
+        for k, b in enumerate(self.bodies):
+            pts = self._seed(b)
+            n = len(pts.volumes)
+            x = pts.positions
+            v = b.initial_velocity(x)
+            parts.append(dict(
+                x=x, v=v, vol=pts.volumes, half=pts.half_sizes,
+                mass=pts.volumes * b.material.density,
+                body=np.full(n, k, np.int32),
+            ))
+        return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+
+    def materials(self) -> list[Material]:
+        """Distinct materials, in body order; a point's material index refers to this list."""
+        out: list[Material] = []
+        for b in self.bodies:
+            if b.material not in out:
+                out.append(b.material)
+        return out
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable description stored with every output file."""
+        return {
+            "domain": self.domain,
+            "cell_size": self.cell_size,
+            "gravity": self.gravity,
+            "gravity_ramp": self.gravity_ramp,
+            "boundaries": {s: {"kind": b.kind, "friction": b.friction} for s, b in self.boundaries.items()},
+            "bodies": [
+                {"name": b.name, "shape": b.shape.to_dict(), "material": b.material.to_dict(),
+                 "velocity": getattr(b.velocity, "__name__", "field") if callable(b.velocity) else b.velocity,
+                 "angular_velocity": b.angular_velocity,
+                 "points_per_cell": b.points_per_cell}
+                for b in self.bodies
+            ],
+        }

@@ -1,0 +1,281 @@
+"""Simulation: the coordinator that advances a Scene in explicit steps and writes its results.
+
+One step (DESIGN "One explicit step"): time step from the device CFL bound → MPM stage. The DEM
+and coupling stages join here in later issues; a scene runs only the stages it uses.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import warp as wp
+
+from . import __version__
+from .config import SolverConfig
+from .errors import BlowUpError, InputError
+from .mpm import MPMSolver
+from .scene import Scene
+
+__all__ = ["RunResult", "Simulation", "default_device"]
+
+
+def default_device() -> str:
+    """"cuda" when a CUDA device is present, else "cpu"."""
+    wp.init()
+    return "cuda" if wp.get_cuda_device_count() > 0 else "cpu"
+
+
+@dataclass
+class RunResult:
+    """What ``Simulation.run`` returns.
+
+    Attributes:
+        path: the HDF5 file (None when no output directory was given).
+        times: frame times [s].
+        diagnostics: name → per-frame values (energies J/m, momenta, dt s, wall time s...).
+        status: "completed", "blown-up" or "interrupted".
+        steps: explicit steps taken.
+    """
+
+    path: Path | None
+    times: np.ndarray
+    diagnostics: dict[str, np.ndarray]
+    status: str
+    steps: int
+    message: str = ""
+    extra: dict = field(default_factory=dict)
+
+
+class Simulation:
+    """Advance a Scene with a SolverConfig on one device.
+
+    Args:
+        scene: what to simulate.
+        config: discretisation choices (default SolverConfig()).
+        device: "cpu", "cuda" or "cuda:N"; None picks the GPU when there is one.
+    """
+
+    def __init__(self, scene: Scene, config: SolverConfig | None = None, *, device: str | None = None):
+        self.scene = scene
+        self.config = config or SolverConfig()
+        wp.config.quiet = True
+        wp.init()
+        device = device or default_device()
+        try:
+            wp.get_device(device)
+        except Exception:
+            allowed = ", ".join(str(d) for d in wp.get_devices())
+            raise InputError("device", device, f"one of {allowed}") from None
+        self.device = str(wp.get_device(device))
+        self.mpm = MPMSolver(scene, self.config, self.device)
+        self._graph = None
+
+    @property
+    def particle_count(self) -> int:
+        return self.mpm.particle_count
+
+    # -- stepping ---------------------------------------------------------------------------------
+    def _capture(self) -> None:
+        """Record one step as a CUDA graph (modules are loaded by a no-op step first)."""
+        if self._graph is not None or not self.config.cuda_graph or not wp.get_device(self.device).is_cuda:
+            return
+        t, *_ = self.mpm.read_clock()
+        self.mpm.set_stop_time(t)  # dt = 0: loads every module, changes nothing
+        self.mpm.step()
+        wp.synchronize_device(self.device)
+        with wp.ScopedCapture(device=self.device) as cap:
+            self.mpm.step()
+        self._graph = cap.graph
+
+    def advance(self, steps: int) -> None:
+        """Launch ``steps`` explicit steps without any host synchronisation."""
+        if self._graph is not None:
+            for _ in range(steps):
+                wp.capture_launch(self._graph)
+        else:
+            for _ in range(steps):
+                self.mpm.step()
+
+    def advance_to(self, t_stop: float, *, max_batch: int | None = None, on_batch=None) -> tuple[float, int]:
+        """Step until the clock reaches t_stop [s]; checks stability after each batch of steps.
+
+        Returns (time reached, steps taken). Raises BlowUpError on NaN/inf or escaped points.
+        """
+        self._capture()
+        mpm = self.mpm
+        mpm.set_stop_time(t_stop)
+        cuda = wp.get_device(self.device).is_cuda
+        max_batch = max_batch or (400 if cuda else 25)
+        t, dt, bound, steps, status = mpm.read_clock()
+        batch = 1
+        while t < t_stop:
+            self.advance(batch)
+            t, dt, bound, steps, status = mpm.read_clock()
+            self._check_status(t, dt, bound, status)
+            if on_batch is not None:
+                on_batch(t, dt)
+            est = (t_stop - t) / dt if dt > 0 else 1
+            batch = int(min(max_batch, max(1, math.ceil(est) + 1)))
+            if dt == 0.0 and t < t_stop:
+                raise BlowUpError("stalled", f"time step became zero at t={t:.6g} s", t)
+        return t, steps
+
+    def _likely_cause(self, dt: float, bound: float) -> str:
+        c = self.config
+        causes = []
+        if c.dt is not None:
+            causes.append(f"the fixed dt = {c.dt:.3g} s against a current bound h/(c+|v|) = {bound:.3g} s "
+                          "(leave dt unset or lower it)")
+        else:
+            causes.append(f"the time step (cfl = {c.cfl:g}, dt = {dt:.3g} s): lower --cfl")
+        if c.scheme.flip_fraction > 0.0:
+            causes.append(f"the transfer scheme {c.transfer} (FLIP noise): try APIC, or a FLIP fraction < 1")
+        if c.shape == "linear":
+            causes.append("cell-crossing of the linear shape function: try bspline2 or cpgimp")
+        for b in self.scene.bodies:
+            if b.material.poisson_ratio > 0.45:
+                causes.append(f"the material of {b.name} (nu = {b.material.poisson_ratio} is nearly incompressible)")
+        return "; ".join(causes)
+
+    def _check_status(self, t: float, dt: float, bound: float, status: np.ndarray) -> None:
+        if status[0] > 0 or not math.isfinite(t):
+            raise BlowUpError(
+                "non-finite",
+                f"simulation blew up at t = {t:.6g} s: {int(status[0])} points have NaN/inf values. "
+                f"Likely cause: {self._likely_cause(dt, bound)}.", t)
+        if status[1] > 0:
+            raise BlowUpError(
+                "left-domain",
+                f"{int(status[1])} points left the domain at t = {t:.6g} s. Likely cause: a 'free' "
+                f"boundary on that side, or an unstable step ({self._likely_cause(dt, bound)}).", t)
+
+    # -- running ----------------------------------------------------------------------------------
+    def run(
+        self,
+        end_time: float,
+        *,
+        out: str | Path | None = None,
+        frames: int = 20,
+        quiet: bool = False,
+        name: str = "run",
+        attrs: dict | None = None,
+    ) -> RunResult:
+        """Run to ``end_time`` [s], writing ``frames`` frames (plus the initial one).
+
+        With ``out``, writes OUT/<name>.h5 (+ .xdmf) and OUT/energy.csv frame by frame, flushed
+        each frame. A blow-up stops the run with BlowUpError after marking the file; Ctrl-C
+        marks the file "interrupted" and re-raises KeyboardInterrupt. Either way the frames
+        already written stay readable.
+        """
+        if not (isinstance(end_time, (int, float)) and math.isfinite(end_time) and end_time > 0):
+            raise InputError("end_time", end_time, "a positive time in seconds")
+        if not (isinstance(frames, int) and frames >= 1):
+            raise InputError("frames", frames, "an integer >= 1")
+        writer = None
+        path = None
+        if out is not None:
+            from .io import FrameWriter
+
+            out = Path(out)
+            out.mkdir(parents=True, exist_ok=True)
+            path = out / f"{name}.h5"
+            meta = {
+                "version": __version__, "device": self.device, "precision": self.config.precision,
+                "scene": self.scene.to_dict(), "config": self.config.to_dict(), "end_time": end_time,
+                **(attrs or {}),
+            }
+            writer = FrameWriter(path, particle_count=self.particle_count, attrs=meta, csv_path=out / "energy.csv")
+
+        history: dict[str, list] = {}
+        times: list[float] = []
+        start_wall = _time.perf_counter()
+        bar = None
+        if not quiet:
+            from tqdm import tqdm
+
+            bar = tqdm(total=end_time, unit="s", unit_scale=False, desc="sim time",
+                       bar_format="{l_bar}{bar}| {n:.4g}/{total:.4g} s [{elapsed}<{remaining}]{postfix}")
+
+        e0 = {}
+
+        def record(t: float, steps: int, dt: float, bound: float) -> None:
+            d = self.mpm.diagnostics()
+            d["energy_total"] = d["energy_kinetic"] + d["energy_strain"] + d["energy_gravity"]
+            d.update(dt=dt, dt_bound=bound, steps=float(steps), wall_time=_time.perf_counter() - start_wall)
+            times.append(t)
+            for k, v in d.items():
+                history.setdefault(k, []).append(v)
+            if writer is not None:
+                writer.write_frame(t, self.mpm.fields(), d)
+            if not e0:
+                e0.update(d)
+            self._check_energy(t, d, e0, dt, bound)
+
+        def on_batch(t: float, dt: float) -> None:
+            if bar is not None:
+                bar.n = min(t, end_time)
+                bar.set_postfix_str(f"dt={dt:.3g} s", refresh=False)
+                bar.refresh()
+
+        status, message = "completed", ""
+        try:
+            t, dt, bound, steps, _ = self.mpm.read_clock()
+            record(t, steps, self.config.dt or self.config.cfl * self.mpm.dt_bound0, self.mpm.dt_bound0)
+            for k in range(1, frames + 1):
+                t, steps = self.advance_to(end_time * k / frames, on_batch=on_batch)
+                _, dt, bound, _, _ = self.mpm.read_clock()
+                record(t, steps, dt, bound)
+        except BlowUpError as e:
+            status, message = "blown-up", str(e)
+            if writer is not None:
+                writer.set_status(status, message)
+                writer.close()
+            raise
+        except KeyboardInterrupt:
+            status, message = "interrupted", "stopped by the user (Ctrl-C)"
+            if writer is not None:
+                writer.set_status(status, message)
+                writer.close()
+            raise
+        finally:
+            if bar is not None:
+                bar.close()
+        if writer is not None:
+            writer.set_status(status, message)
+            writer.close()
+        return RunResult(path, np.array(times), {k: np.array(v) for k, v in history.items()}, status,
+                         int(history["steps"][-1]), message)
+
+    def _check_energy(self, t: float, d: dict, e0: dict, dt: float, bound: float) -> None:
+        """Energy growth past blowup_energy_factor × the scene's energy scale is a blow-up."""
+        if not all(math.isfinite(v) for v in d.values()):
+            raise BlowUpError("non-finite", f"simulation blew up at t = {t:.6g} s: non-finite energy. "
+                              f"Likely cause: {self._likely_cause(dt, bound)}.", t)
+        (x0, y0), (x1, y1) = self.scene.domain
+        g = math.hypot(*self.scene.gravity)
+        scale = e0["energy_kinetic"] + e0["energy_strain"] + e0["mass"] * g * math.hypot(x1 - x0, y1 - y0)
+        scale = max(scale, 1e-30)
+        growth = d["energy_total"] - e0["energy_total"]
+        if growth > self.config.blowup_energy_factor * scale:
+            raise BlowUpError(
+                "energy-growth",
+                f"simulation blew up at t = {t:.6g} s: total energy grew by {growth:.3g} J/m, more than "
+                f"{self.config.blowup_energy_factor:g} x its scale {scale:.3g} J/m. "
+                f"Likely cause: {self._likely_cause(dt, bound)}.", t)
+
+    # -- state access -----------------------------------------------------------------------------
+    def fields(self) -> dict[str, np.ndarray]:
+        """Host copies of the per-point fields (x, v, stress, volume, mass, F, body)."""
+        return self.mpm.fields()
+
+    def diagnostics(self) -> dict[str, float]:
+        """Current energies, momenta and mass of the points."""
+        return self.mpm.diagnostics()
+
+    @property
+    def time(self) -> float:
+        return self.mpm.read_clock()[0]
