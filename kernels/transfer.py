@@ -150,11 +150,13 @@ def make_g2p(
     update_stress = make_stress_update(material_kinds, precision)
     psi = make_strain_energy_density(precision)
     X = float(flip_fraction)
+    X_pic = 1.0 - X
     flip = X > 0.0
     apic = affine == "apic"
     taylor = affine == "taylor"
     # For B-splines the APIC inertia-like tensor D_p is a constant (h²/4, h²/3) times I.
     d_const = {"bspline2": 0.25, "bspline3": 1.0 / 3.0}.get(shape, 0.0)
+    inv_d = 1.0 / d_const if d_const else 0.0
     need_grad_vt = velocity and (taylor or (apic and d_const == 0.0))
     fused_grad = stress == "vt"
     has_stress = stress != "none"
@@ -212,11 +214,11 @@ def make_g2p(
             if wp.static(flip):
                 # FLIP: V_p + G(Ṽ − V) (eq. 33), blended with PIC by X (eq. 37)
                 v_flip = P.v[p] + (v_pic - v_old)
-                v_new = T(X) * v_flip + T(1.0 - X) * v_pic
+                v_new = T(X) * v_flip + T(X_pic) * v_pic
             P.v[p] = v_new
             if wp.static(apic):
                 if wp.static(d_const != 0.0):
-                    P.C[p] = B * (T(1.0 / d_const) * D.inv_h * D.inv_h)  # C = B D⁻¹, eq. 25
+                    P.C[p] = B * (T(inv_d) * D.inv_h * D.inv_h)  # C = B D⁻¹, eq. 25
                 else:
                     det = wp.determinant(Dm)
                     # D_p is singular for the tent function at a node line: fall back to ∇Ṽ,

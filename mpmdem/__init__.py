@@ -5,6 +5,10 @@ Everything a case script needs: ``Scene`` → ``Simulation(scene, SolverConfig(.
 
 __version__ = "0.1.0"
 
+import warp as _wp
+
+_wp.config.quiet = True
+
 from .config import SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverConfig, TransferScheme
 from .errors import BlowUpError, InputError
 from .materials import LinearElastic, Material, NeoHookean

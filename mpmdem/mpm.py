@@ -158,12 +158,27 @@ class MPMSolver:
         n = self.particle_count
         grid_dim = self.grid_shape
         P, G, D, clock, mats = self.P, self.G, self.D, self.clock, self.materials
+        # image points at fixed and slip walls (kernels/grid.py: fold_ghosts, mirror_ghosts)
+        mirror_walls = any(b.kind in ("fixed", "slip") for b in self.scene.boundaries.values())
+        mirror = kgrid.make_mirror_ghosts(prec)
 
         def p2g(**flags):
-            return _Launch(ktr.make_p2g(c.shape, s.affine, prec, **flags), n, [P, G, D, clock])
+            launches = [_Launch(ktr.make_p2g(c.shape, s.affine, prec, **flags), n, [P, G, D, clock])]
+            if mirror_walls:
+                fold = kgrid.make_fold_ghosts(
+                    prec, mass=flags["mass"], momentum=flags["momentum"] or flags.get("fused_impulse", False),
+                    force=flags["force"] and not flags.get("fused_impulse", False), remap=flags.get("remap", False))
+                launches.append(_Launch(fold, grid_dim, [G, D, clock]))
+            return launches
 
         def grid(**flags):
-            return _Launch(kgrid.make_grid_update(prec, **flags), grid_dim, [G, D, clock])
+            launches = [_Launch(kgrid.make_grid_update(prec, **flags), grid_dim, [G, D, clock])]
+            if mirror_walls:
+                fields = [G.vm] if flags.get("remap") else [G.vt] if flags.get("fused_impulse") else []
+                if not fields:
+                    fields = ([G.v] if flags.get("velocity") else []) + ([G.vt] if flags.get("force") else [])
+                launches += [_Launch(mirror, grid_dim, [f, D, clock]) for f in fields]
+            return launches
 
         def g2p(**flags):
             k = ktr.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds, **flags)
@@ -190,7 +205,7 @@ class MPMSolver:
                     p2g(mass=False, momentum=True, force=False, remap=True),
                     grid(velocity=False, force=False, remap=True),
                     g2p(velocity=False, position=True, stress="vm")]
-        self._sequence = seq
+        self._sequence = [item for entry in seq for item in (entry if isinstance(entry, list) else [entry])]
         self._wave_speed = kred.make_wave_speed(prec)
         self._diagnostics = kred.make_diagnostics(prec)
 

@@ -69,7 +69,7 @@ class Shape:
 
     def to_dict(self) -> dict:
         """JSON-serialisable description: kind, parameters and the outline's vertices [m]."""
-        d: dict = {"kind": self.kind, **dict(self.params)}
+        d: dict = {"kind": self.kind, **{k: list(v) if isinstance(v, tuple) else v for k, v in self.params}}
         if self.kind in ("polygon", "file"):
             d["vertices"] = [list(c) for c in self.polygon.exterior.coords[:-1]]
             if self.polygon.interiors:
@@ -87,7 +87,7 @@ def _finite(name: str, value: object) -> float:
     except (TypeError, ValueError):
         v = math.nan
     if not math.isfinite(v):
-        raise InputError(name, value, "a finite number [m]")
+        raise InputError(name, value, "a finite number")
     return v
 
 
@@ -103,7 +103,7 @@ def rectangle(x0: float, y0: float, x1: float, y1: float) -> Shape:
         raise InputError("x1", x1, f"greater than x0={x0} (upper-right corner) [m]")
     if not y1 > y0:
         raise InputError("y1", y1, f"greater than y0={y0} (upper-right corner) [m]")
-    return Shape(shapely.box(x0, y0, x1, y1), "rectangle", (("corners", [x0, y0, x1, y1]),))
+    return Shape(shapely.box(x0, y0, x1, y1), "rectangle", (("corners", (x0, y0, x1, y1)),))
 
 
 def disk(center: tuple[float, float] = (0.0, 0.0), radius: float = 1.0, segments: int = 128) -> Shape:
@@ -121,7 +121,7 @@ def disk(center: tuple[float, float] = (0.0, 0.0), radius: float = 1.0, segments
         raise InputError("segments", segments, "an integer >= 8")
     t = 2.0 * np.pi * np.arange(segments) / segments
     outline = Polygon(np.column_stack([c[0] + r * np.cos(t), c[1] + r * np.sin(t)]))
-    params = (("center", [float(c[0]), float(c[1])]), ("radius", r), ("segments", int(segments)))
+    params = (("center", (float(c[0]), float(c[1]))), ("radius", r), ("segments", int(segments)))
     return Shape(outline, "disk", params)
 
 

@@ -119,8 +119,8 @@ class Simulation:
             if on_batch is not None:
                 on_batch(t, dt)
             est = (t_stop - t) / dt if dt > 0 else 1
-            batch = int(min(max_batch, max(1, math.ceil(est) + 1)))
-            if dt == 0.0 and t < t_stop:
+            batch = int(min(max_batch, max(1, math.ceil(est))))
+            if dt <= 0.0 and t < t_stop:
                 raise BlowUpError("stalled", f"time step became zero at t={t:.6g} s", t)
         return t, steps
 
