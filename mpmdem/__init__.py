@@ -7,7 +7,11 @@ __version__ = "0.1.0"
 
 import warp as _wp
 
-_wp.config.quiet = True
+# module-load timings and the init banner are noise for users; warnings and errors still show
+if hasattr(_wp, "LOG_WARNING"):
+    _wp.config.log_level = _wp.LOG_WARNING
+else:  # older Warp
+    _wp.config.quiet = True
 
 from .config import SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverConfig, TransferScheme
 from .errors import BlowUpError, InputError

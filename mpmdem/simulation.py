@@ -62,7 +62,6 @@ class Simulation:
     def __init__(self, scene: Scene, config: SolverConfig | None = None, *, device: str | None = None):
         self.scene = scene
         self.config = config or SolverConfig()
-        wp.config.quiet = True
         wp.init()
         device = device or default_device()
         try:
@@ -217,9 +216,8 @@ class Simulation:
 
         def on_batch(t: float, dt: float) -> None:
             if bar is not None:
-                bar.n = min(t, end_time)
                 bar.set_postfix_str(f"dt={dt:.3g} s", refresh=False)
-                bar.refresh()
+                bar.update(min(t, end_time) - bar.n)
 
         status, message = "completed", ""
         try:
