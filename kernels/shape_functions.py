@@ -36,11 +36,14 @@ def make_shape_law(kind: str, precision: str):
 
         @wp.func
         def law(d: T, lp: T):
-            # Tent function of original MPM ("MPM notes", interpolation function - MPM).
-            r = wp.abs(d)
-            if r >= T(1.0):
-                return T(0.0), T(0.0)
-            return T(1.0) - r, -wp.sign(d)
+            # Tent function of original MPM ("MPM notes", interpolation function - MPM). The
+            # intervals are half-open so that a point on a node line takes the slopes of the cell
+            # above it (nodes base and base+1 see d in [0, 1) and [-1, 0)): Σ dN = 0 everywhere.
+            if d >= T(0.0) and d < T(1.0):
+                return T(1.0) - d, T(-1.0)
+            if d < T(0.0) and d >= T(-1.0):
+                return T(1.0) + d, T(1.0)
+            return T(0.0), T(0.0)
 
     elif kind in ("ugimp", "cpgimp"):
 

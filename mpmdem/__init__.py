@@ -5,6 +5,18 @@ Everything a case script needs: ``Scene`` → ``Simulation(scene, SolverConfig(.
 
 __version__ = "0.1.0"
 
+import os as _os
+
+# In a source checkout run without installing (PYTHONPATH=., python -m pytest), the device code in
+# ../kernels and the cases in ../cases are not inside this folder; an install maps them to
+# mpmdem.kernels and mpmdem.cases (pyproject [tool.setuptools.package-dir]). Let the import
+# system find them in the checkout too.
+_checkout = _os.path.dirname(_os.path.dirname(_os.path.abspath(__file__)))
+if not _os.path.isdir(_os.path.join(__path__[0], "kernels")) and _os.path.isfile(
+    _os.path.join(_checkout, "kernels", "transfer.py")
+):
+    __path__.append(_checkout)
+
 import warp as _wp
 
 # module-load timings and the init banner are noise for users; warnings and errors still show

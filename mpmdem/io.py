@@ -80,7 +80,9 @@ def _resolve_dtype(name: str, float_dtype: type) -> np.dtype:
     try:
         return np.dtype(name)
     except TypeError:
-        raise ValueError(f"unknown dtype {name!r} in field_specs; use 'float' or a numpy dtype name") from None
+        raise ValueError(
+            f"unknown dtype {name!r} in field_specs; use 'float' or a numpy dtype name"
+        ) from None
 
 
 def _component_suffixes(shape: tuple[int, ...]) -> list[tuple[str, tuple[int, ...]]]:
@@ -157,14 +159,18 @@ class FrameWriter:
                 shape, dtype_name = spec
                 shape = tuple(int(n) for n in shape)
             except (TypeError, ValueError):
-                raise ValueError(f"field spec {name!r}: expected (shape tuple, dtype name), got {spec!r}") from None
+                raise ValueError(
+                    f"field spec {name!r}: expected (shape tuple, dtype name), got {spec!r}"
+                ) from None
             if not name or "/" in name:
                 raise ValueError(f"invalid field name {name!r}")
             if any(n < 1 for n in shape):
                 raise ValueError(f"field spec {name!r}: shape {shape} has a zero or negative extent")
             self._specs[name] = (shape, _resolve_dtype(dtype_name, float_dtype))
         # Encode attrs before touching the disk so a bad value leaves nothing half-written.
-        encoded = {str(k): json.dumps(v, default=_json_default) for k, v in attrs.items() if k not in _PLAIN_ATTRS}
+        encoded = {
+            str(k): json.dumps(v, default=_json_default) for k, v in attrs.items() if k not in _PLAIN_ATTRS
+        }
 
         self.path.parent.mkdir(parents=True, exist_ok=True)
         # A sidecar left by an earlier run of the same name would describe frames that no longer exist.
@@ -214,7 +220,9 @@ class FrameWriter:
 
     # ------------------------------------------------------------------ writing
 
-    def write_frame(self, time: float, fields: Mapping[str, np.ndarray], diagnostics: Mapping[str, float]) -> None:
+    def write_frame(
+        self, time: float, fields: Mapping[str, np.ndarray], diagnostics: Mapping[str, float]
+    ) -> None:
         """Append one frame: every particle field, the time and every diagnostic; then flush.
 
         Args:

@@ -246,12 +246,12 @@ class MPMSolver:
         return {name: float(v) for name, v in zip(kred.DIAG_NAMES, vals)}
 
     def fields(self) -> dict[str, np.ndarray]:
-        """Host copies of the per-point output fields."""
+        """Host copies of the per-point output fields (copies: on the CPU ``numpy()`` is a view)."""
         P = self.P
-        return {
-            "x": P.x.numpy(), "v": P.v.numpy(), "stress": P.stress.numpy(), "volume": P.vol.numpy(),
-            "mass": P.mass.numpy(), "F": P.F.numpy(), "body": self.body,
-        }
+        fields = {"x": P.x, "v": P.v, "stress": P.stress, "volume": P.vol, "mass": P.mass, "F": P.F}
+        out = {k: np.array(a.numpy(), copy=True) for k, a in fields.items()}
+        out["body"] = self.body.copy()
+        return out
 
     @property
     def support_nodes(self) -> int:

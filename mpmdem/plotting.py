@@ -120,7 +120,8 @@ def plot_run(
             if names:
                 ax.legend(fontsize="small")
             else:
-                ax.text(0.5, 0.5, f"no {prefix}* diagnostics", ha="center", va="center", transform=ax.transAxes)
+                ax.text(0.5, 0.5, f"no {prefix}* diagnostics", ha="center", va="center",
+                        transform=ax.transAxes)
             ax.set_xlabel("time [s]")
             ax.set_ylabel(ylabel)
             ax.set_title(f"{prefix.rstrip('_')}: {Path(path).name}")
@@ -138,20 +139,19 @@ def plot_run(
                 vol = np.asarray(rf.field("volume", k), dtype=np.float64)
             except KeyError:
                 vol = None
-            written.append(_snapshot(plt, out / f"snapshot_{k:04d}.png", x, c, vol, label, field, k, float(times[k])))
+            png = out / f"snapshot_{k:04d}.png"
+            written.append(_snapshot(plt, png, x, c, vol, label, field, k, float(times[k])))
     return written
 
 
 def _snapshot(plt, path: Path, x: np.ndarray, c: np.ndarray, vol: np.ndarray | None,
               label: str, field: str, frame: int, t: float) -> Path:
     """Scatter particles at x coloured by c, marker size from the particle volume; save to path."""
-    # Fixed axes (no automatic layout) so the data → points scale used for the marker size is final.
-    fig = plt.figure(figsize=(7.5, 6))
-    ax = fig.add_axes((0.12, 0.1, 0.66, 0.8))
     placed = np.isfinite(x).all(axis=1)  # a blown-up run may hold non-finite positions
     x, c = x[placed], c[placed]
     vol = vol[placed] if vol is not None else None
     n = len(x)
+    aspect = 0.75
     if n:
         lo, hi = x.min(axis=0), x.max(axis=0)
         if vol is not None and np.all(np.isfinite(vol)) and np.any(vol > 0):
@@ -160,6 +160,15 @@ def _snapshot(plt, path: Path, x: np.ndarray, c: np.ndarray, vol: np.ndarray | N
             extent = float(np.prod(np.maximum(hi - lo, 1e-12)))
             d = np.full(n, np.sqrt(extent / n))
         pad = max(float(np.max(d)), 1e-9 * max(float(np.max(np.abs(x))), 1.0))
+        aspect = float((hi[1] - lo[1] + 2 * pad) / (hi[0] - lo[0] + 2 * pad))
+    # Fixed axes (no automatic layout) so the data → points scale used for the marker size is final;
+    # the figure height follows the data's aspect ratio to limit empty margins.
+    ax_w = 5.0
+    ax_h = min(max(ax_w * aspect, 2.0), 8.0)
+    fig_w, fig_h = 7.6, ax_h + 1.4
+    fig = plt.figure(figsize=(fig_w, fig_h))
+    ax = fig.add_axes((0.9 / fig_w, 0.7 / fig_h, ax_w / fig_w, ax_h / fig_h))
+    if n:
         ax.set_xlim(lo[0] - pad, hi[0] + pad)
         ax.set_ylim(lo[1] - pad, hi[1] + pad)
         ax.set_aspect("equal", adjustable="box")
@@ -182,10 +191,11 @@ def _snapshot(plt, path: Path, x: np.ndarray, c: np.ndarray, vol: np.ndarray | N
                        linewidths=0.5, label="non-finite")
             ax.legend(loc="upper right", fontsize="small")
         pos = ax.get_position()
-        cax = fig.add_axes((pos.x1 + 0.03, pos.y0, 0.03, pos.height))
+        cax = fig.add_axes((pos.x1 + 0.2 / fig_w, pos.y0, 0.2 / fig_w, pos.height))
         fig.colorbar(sc, cax=cax, label=label)
     else:
-        ax.text(0.5, 0.5, "no particles with finite positions", ha="center", va="center", transform=ax.transAxes)
+        ax.text(0.5, 0.5, "no particles with finite positions", ha="center", va="center",
+                transform=ax.transAxes)
         ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")

@@ -302,7 +302,8 @@ def test_plot_run_writes_pngs(tmp_path):
     out = tmp_path / "plots"
     files = plot_run(path, out)
     names = [p.name for p in files]
-    assert names == ["energy.png", "momentum.png", "snapshot_0000.png", "snapshot_0002.png", "snapshot_0004.png"]
+    assert names == ["energy.png", "momentum.png",
+                     "snapshot_0000.png", "snapshot_0002.png", "snapshot_0004.png"]
     for p in files:
         assert p.parent == out and p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     files = plot_run(path, out, field="pressure", frames=[1, -1])

@@ -1,0 +1,25 @@
+"""Small scene builders shared by the tests."""
+
+import numpy as np
+
+from mpmdem import LinearElastic, NeoHookean, Scene, disk
+
+
+def free_disk_scene(*, cell_size=0.1, velocity=(0.0, 0.0), angular_velocity=0.0, material=None,
+                    gravity=(0.0, 0.0), boundaries=None, radius=0.3, center=(1.0, 1.0)):
+    """One disk in the middle of a 2 m × 2 m box, far from the walls."""
+    scene = Scene(domain=((0.0, 0.0), (2.0, 2.0)), cell_size=cell_size, gravity=gravity,
+                  boundaries=boundaries or {})
+    scene.add_body(disk(center=center, radius=radius), material or NeoHookean(1.0e4, 0.3, 1000.0),
+                   velocity=velocity, angular_velocity=angular_velocity)
+    return scene
+
+
+def random_velocity(seed=0, scale=0.1):
+    """A velocity field function with random point velocities."""
+    def field(x):
+        return np.random.default_rng(seed).normal(0.0, scale, size=x.shape)
+    return field
+
+
+__all__ = ["LinearElastic", "free_disk_scene", "random_velocity"]
