@@ -9,7 +9,8 @@ import functools
 
 import warp as wp
 
-from .constitutive import make_stress_update, make_strain_energy_density
+from .constitutive import make_strain_energy_density, make_stress_update
+from .reductions import make_speed_check
 from .shape_functions import CPGIMP_MAX_HALF, SUPPORT_NODES, make_weights_1d
 from .state import make_state_structs
 from .types import kernel, scalar_types
@@ -141,6 +142,7 @@ def make_g2p(
     velocity: update V_p and C_p from Ṽ (and V for FLIP). position: move the points.
     stress: "none", or the grid field whose gradient drives the stress update: "vt" (USL), "v"
     (USF: velocities before the force update) or "vm" (MUSL: re-mapped velocities).
+    The variant that moves the points (always the step's last) also does the speed check.
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -162,6 +164,7 @@ def make_g2p(
     has_stress = stress != "none"
     has_le = 0 in material_kinds
     has_nh = 1 in material_kinds
+    speed_check = make_speed_check(precision)
 
     @kernel
     def g2p(
@@ -170,6 +173,8 @@ def make_g2p(
         D: Domain,
         clock: wp.array(dtype=wp.float64),
         materials: wp.array(dtype=t.vec4),
+        max_speed: wp.array(dtype=wp.float32),
+        status: wp.array(dtype=wp.int32),
     ):
         p = wp.tid()
         dt = T(clock[1])
@@ -256,5 +261,9 @@ def make_g2p(
             if wp.static(has_nh):
                 if kind == 1:
                     P.strain_energy[p] = P.vol0[p] * psi(F_new, mu, lam)
+        if wp.static(position):
+            # the kernel that moves the points is the last of the step: it also gathers the
+            # CFL speed for the next step and flags non-finite or escaped points
+            speed_check(P, D, materials, p, max_speed, status)
 
     return g2p

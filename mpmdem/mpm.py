@@ -146,7 +146,7 @@ class MPMSolver:
         clock[5] = self.config.cfl
         self.clock.assign(clock)
         self.steps = wp.zeros(1, dtype=wp.int64, device=dev)
-        self.max_speed = wp.zeros(1, dtype=wp.float32, device=dev)
+        self.max_speed = wp.zeros(kred.SPEED_SLOTS, dtype=wp.float32, device=dev)
         self.status = wp.zeros(2, dtype=wp.int32, device=dev)
         self.diag = wp.zeros(len(kred.DIAG_NAMES), dtype=wp.float64, device=dev)
 
@@ -182,7 +182,7 @@ class MPMSolver:
 
         def g2p(**flags):
             k = ktr.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds, **flags)
-            return _Launch(k, n, [P, G, D, clock, mats])
+            return _Launch(k, n, [P, G, D, clock, mats, self.max_speed, self.status])
 
         self.fused = c.update == "USL" and s.flip_fraction == 0.0
         seq: list = []
@@ -206,16 +206,14 @@ class MPMSolver:
                     grid(velocity=False, force=False, remap=True),
                     g2p(velocity=False, position=True, stress="vm")]
         self._sequence = [item for entry in seq for item in (entry if isinstance(entry, list) else [entry])]
-        self._wave_speed = kred.make_wave_speed(prec)
         self._diagnostics = kred.make_diagnostics(prec)
+        # speeds of the initial state, for the first step's dt (later steps: inside G2P)
+        wp.launch(kred.make_wave_speed(prec), n, inputs=[P, D, mats, self.max_speed, self.status], device=self.device)
 
     # -- stepping -------------------------------------------------------------------------------
     def step(self) -> None:
         """Launch one explicit step (dt from the device clock; a no-op once t reaches t_stop)."""
         dev = self.device
-        self.max_speed.zero_()
-        wp.launch(self._wave_speed, self.particle_count,
-                  inputs=[self.P, self.D, self.materials, self.max_speed, self.status], device=dev)
         wp.launch(kred.compute_dt, 1, inputs=[self.clock, self.max_speed, float(self.scene.cell_size)], device=dev)
         G = self.G
         G.mass.zero_()
