@@ -176,7 +176,8 @@ def make_mirror_ghosts(precision: str):
 
 
 @functools.cache
-def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool, remap: bool = False):
+def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool, remap: bool = False,
+                     deterministic: bool = False):
     """Fold what points put on ghost nodes back onto their interior mirrors.
 
     This is the image-point method: a point near a fixed or slip wall has a mirror image beyond
@@ -190,7 +191,7 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
     T = t.scalar
     Particles, Grid, Domain = make_state_structs(precision)
 
-    @kernel
+    @kernel(deterministic=deterministic)
     def fold_ghosts(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
         i, j = wp.tid()
         if clock[1] <= wp.float64(0.0):

@@ -61,12 +61,14 @@ def make_p2g(
     force: bool,
     fused_impulse: bool = False,
     remap: bool = False,
+    deterministic: bool = False,
 ):
     """P2G of mass, momentum (with the affine term) and internal force.
 
     fused_impulse: add dt·f_int to the momentum (USL with a pure PIC velocity update needs only
     Ṽ, so mass and impulse go in one pass, as in MLS-MPM). remap: write momentum to ``Grid.vm``
-    (MUSL's re-mapping of the updated particle velocities).
+    (MUSL's re-mapping of the updated particle velocities). deterministic: run-to-run
+    bit-identical float atomics on GPUs.
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -75,7 +77,7 @@ def make_p2g(
     point_weights = make_point_weights(shape, precision)
     has_affine = affine != "none" and momentum
 
-    @kernel
+    @kernel(deterministic=deterministic)
     def p2g(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
         p = wp.tid()
         dt = T(clock[1])

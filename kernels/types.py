@@ -12,9 +12,20 @@ __all__ = ["KERNEL_OPTIONS", "ScalarTypes", "kernel", "scalar_types"]
 KERNEL_OPTIONS = {"enable_backward": False}
 
 
-def kernel(fn):
-    """``wp.kernel`` in its own module, without backward pass."""
-    return wp.kernel(fn, module="unique", module_options=KERNEL_OPTIONS)
+def kernel(fn=None, *, deterministic: bool = False):
+    """``wp.kernel`` in its own module, without backward pass.
+
+    deterministic: order float atomics so that repeated runs on one GPU are bit-identical
+    (Warp's ``DeterministicMode.RUN_TO_RUN``; CPU runs are always deterministic).
+    """
+    options = dict(KERNEL_OPTIONS)
+    if deterministic and hasattr(wp, "DeterministicMode"):
+        options["deterministic"] = wp.DeterministicMode.RUN_TO_RUN
+
+    def wrap(f):
+        return wp.kernel(f, module="unique", module_options=options)
+
+    return wrap if fn is None else wrap(fn)
 
 
 class ScalarTypes(NamedTuple):

@@ -7,7 +7,7 @@ nothing here is read per particle at run time.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Literal
 
 from .errors import InputError
@@ -79,7 +79,8 @@ class SolverConfig:
         blowup_energy_factor: stop when the total energy exceeds its initial scale by this
             factor (energy growth is the signature of an unstable explicit step).
         cuda_graph: record one step as a CUDA graph on GPUs and replay it.
-        sort_interval: on GPUs, re-sort points by cell every this many steps (0 = never).
+        deterministic: make GPU runs bit-identical from run to run (ordered float atomics in
+            P2G; slower). CPU runs always are. Needed for bit-for-bit checkpoint restarts on GPUs.
     """
 
     shape: str = "bspline2"
@@ -91,8 +92,7 @@ class SolverConfig:
     dt: float | None = None
     blowup_energy_factor: float = 2.0
     cuda_graph: bool = True
-    sort_interval: int = 0
-    extra: dict = field(default_factory=dict, compare=False, hash=False, repr=False)
+    deterministic: bool = False
 
     def __post_init__(self):
         shape = str(self.shape).lower()
@@ -117,8 +117,6 @@ class SolverConfig:
             raise InputError("dt", self.dt, "a positive time step in seconds, or None for the CFL policy")
         if not (float(self.blowup_energy_factor) > 0.0):
             raise InputError("blowup_energy_factor", self.blowup_energy_factor, "a positive number")
-        if int(self.sort_interval) < 0:
-            raise InputError("sort_interval", self.sort_interval, "an integer >= 0")
 
     @property
     def scheme(self) -> TransferScheme:
@@ -135,6 +133,5 @@ class SolverConfig:
     def to_dict(self) -> dict:
         """JSON-serialisable description, stored with every output file."""
         d = dataclasses.asdict(self)
-        d.pop("extra")
         d["scheme"] = dataclasses.asdict(self.scheme)
         return d

@@ -163,11 +163,13 @@ class MPMSolver:
         mirror = kgrid.make_mirror_ghosts(prec)
 
         def p2g(**flags):
-            launches = [_Launch(ktr.make_p2g(c.shape, s.affine, prec, **flags), n, [P, G, D, clock])]
+            launches = [_Launch(ktr.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic, **flags),
+                                n, [P, G, D, clock])]
             if mirror_walls:
                 fold = kgrid.make_fold_ghosts(
                     prec, mass=flags["mass"], momentum=flags["momentum"] or flags.get("fused_impulse", False),
-                    force=flags["force"] and not flags.get("fused_impulse", False), remap=flags.get("remap", False))
+                    force=flags["force"] and not flags.get("fused_impulse", False), remap=flags.get("remap", False),
+                    deterministic=c.deterministic)
                 launches.append(_Launch(fold, grid_dim, [G, D, clock]))
             return launches
 

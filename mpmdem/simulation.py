@@ -6,6 +6,7 @@ and coupling stages join here in later issues; a scene runs only the stages it u
 
 from __future__ import annotations
 
+import json
 import math
 import time as _time
 from dataclasses import dataclass, field
@@ -21,6 +22,9 @@ from .mpm import MPMSolver
 from .scene import Scene
 
 __all__ = ["RunResult", "Simulation", "default_device"]
+
+#: Point arrays that change during a run (what a checkpoint must hold).
+_STATE_FIELDS = ("x", "v", "C", "F", "stress", "vol", "strain_energy")
 
 
 def default_device() -> str:
@@ -221,10 +225,12 @@ class Simulation:
 
         status, message = "completed", ""
         try:
-            t, dt, bound, steps, _ = self.mpm.read_clock()
-            record(t, steps, self.config.dt or self.config.cfl * self.mpm.dt_bound0, self.mpm.dt_bound0)
+            t_start, dt, bound, steps, _ = self.mpm.read_clock()
+            if t_start >= end_time:
+                raise InputError("end_time", end_time, f"a time after the current time {t_start:g} s")
+            record(t_start, steps, self.config.dt or self.config.cfl * self.mpm.dt_bound0, self.mpm.dt_bound0)
             for k in range(1, frames + 1):
-                t, steps = self.advance_to(end_time * k / frames, on_batch=on_batch)
+                t, steps = self.advance_to(t_start + (end_time - t_start) * k / frames, on_batch=on_batch)
                 _, dt, bound, _, _ = self.mpm.read_clock()
                 record(t, steps, dt, bound)
         except BlowUpError as e:
@@ -264,6 +270,35 @@ class Simulation:
                 f"simulation blew up at t = {t:.6g} s: total energy grew by {growth:.3g} J/m, more than "
                 f"{self.config.blowup_energy_factor:g} x its scale {scale:.3g} J/m. "
                 f"Likely cause: {self._likely_cause(dt, bound)}.", t)
+
+    # -- checkpoints -------------------------------------------------------------------------------
+    def save_checkpoint(self, path: str | Path) -> Path:
+        """Write every time-varying device array (points, clock, step count, CFL speeds) to an
+        .npz file. Restoring it into a Simulation of the same scene and config on the same device
+        continues bit for bit."""
+        path = Path(path)
+        arrays = {f"P.{name}": getattr(self.mpm.P, name).numpy() for name in _STATE_FIELDS}
+        arrays.update(clock=self.mpm.clock.numpy(), steps=self.mpm.steps.numpy(),
+                      max_speed=self.mpm.max_speed.numpy(), status=self.mpm.status.numpy())
+        with open(path, "wb") as f:
+            np.savez(f, **arrays, meta=np.array(json.dumps(
+                {"version": __version__, "scene": self.scene.to_dict(), "config": self.config.to_dict()})))
+        return path
+
+    def load_checkpoint(self, path: str | Path) -> None:
+        """Restore a checkpoint written by save_checkpoint for this scene and config."""
+        with np.load(Path(path)) as data:
+            meta = json.loads(str(data["meta"]))
+            if meta["config"] != json.loads(json.dumps(self.config.to_dict())) or meta["scene"] != json.loads(
+                json.dumps(self.scene.to_dict())
+            ):
+                raise InputError("checkpoint", str(path), "a checkpoint of this same scene and config")
+            for name in _STATE_FIELDS:
+                getattr(self.mpm.P, name).assign(data[f"P.{name}"])
+            self.mpm.clock.assign(data["clock"])
+            self.mpm.steps.assign(data["steps"])
+            self.mpm.max_speed.assign(data["max_speed"])
+            self.mpm.status.assign(data["status"])
 
     # -- state access -----------------------------------------------------------------------------
     def fields(self) -> dict[str, np.ndarray]:
