@@ -168,8 +168,7 @@ class MPMSolver:
             if mirror_walls:
                 fold = kgrid.make_fold_ghosts(
                     prec, mass=flags["mass"], momentum=flags["momentum"] or flags.get("fused_impulse", False),
-                    force=flags["force"] and not flags.get("fused_impulse", False), remap=flags.get("remap", False),
-                    deterministic=c.deterministic)
+                    force=flags["force"] and not flags.get("fused_impulse", False), remap=flags.get("remap", False))
                 launches.append(_Launch(fold, grid_dim, [G, D, clock]))
             return launches
 
