@@ -4,6 +4,8 @@ Runs the axial bar (first-mode vibration against the analytic centre-of-mass vel
 period, f64, APIC, USL) at several resolutions for each shape in ``mpmdem.SHAPE_FUNCTIONS``.
 The error is ``centre_velocity_error_max`` of ``cases/axial_bar.py``: the largest deviation of
 the centre-of-mass velocity from the analytic one over 40 frames, relative to its amplitude.
+``seconds`` is the wall time of ``Simulation.run``; the first run of each shape also pays for
+Warp's kernel compilation (or its cache load).
 
 Prints one JSON line per run, then a table of the observed order log2(e_h / e_{h/2}) per
 refinement; writes the lines to bench/results/convergence.jsonl and a log-log plot of error
@@ -25,10 +27,10 @@ from types import SimpleNamespace
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt
+import mpmdem.cases.axial_bar as ab
 
-import mpmdem.cases.axial_bar as ab  # noqa: E402
-from mpmdem import SHAPE_FUNCTIONS, Simulation, SolverConfig  # noqa: E402
+from mpmdem import SHAPE_FUNCTIONS, Simulation, SolverConfig
 
 RESULTS = Path(__file__).resolve().parent / "results"
 FRAMES = 40
@@ -52,26 +54,29 @@ def order_table(rows: list[dict], cells: list[int]) -> str:
     """Text table: per shape, the error at each resolution and log2(e_h / e_{h/2})."""
     errors = {(r["shape"], r["cells"]): r["error"] for r in rows}
     shapes = list(dict.fromkeys(r["shape"] for r in rows))
-    head = ["shape"] + [f"e({c})" for c in cells] + [f"p({a}->{b})" for a, b in zip(cells, cells[1:])]
+    head = ["shape"] + [f"e({c})" for c in cells] + [f"p({a}->{b})" for a, b in zip(cells, cells[1:], strict=False)]
     lines = ["  ".join(f"{h:>12}" for h in head)]
     for s in shapes:
         e = [errors[(s, c)] for c in cells]
-        orders = [math.log2(a / b) if a > 0 and b > 0 else float("nan") for a, b in zip(e, e[1:])]
+        orders = [math.log2(a / b) if a > 0 and b > 0 else float("nan") for a, b in zip(e, e[1:], strict=False)]
         lines.append("  ".join([f"{s:>12}"] + [f"{v:12.3e}" for v in e] + [f"{p:12.2f}" for p in orders]))
     return "\n".join(lines)
 
 
 def plot(rows: list[dict], path: Path) -> None:
-    """Log-log error vs h, one line per shape, with a slope-2 guide through the finest bspline2 point."""
+    """Log-log error vs h, one line per shape, with a slope-2 guide just below the finest errors."""
     fig, ax = plt.subplots(figsize=(6.4, 4.8), constrained_layout=True)
     shapes = list(dict.fromkeys(r["shape"] for r in rows))
-    for s in shapes:
+    # distinct markers and dashes keep lines that coincide (uGIMP and cpGIMP often do) visible
+    styles = [("o", "-"), ("s", "--"), ("^", ":"), ("D", "-"), ("v", "--")]
+    for k, s in enumerate(shapes):
         pts = sorted((r["h"], r["error"]) for r in rows if r["shape"] == s)
-        ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=s)
+        marker, dashes = styles[k % len(styles)]
+        ax.loglog([p[0] for p in pts], [p[1] for p in pts], marker=marker, linestyle=dashes,
+                  markerfacecolor="none", label=s)
     hs = sorted({r["h"] for r in rows})
-    anchor = min(rows, key=lambda r: (r["h"], r["error"]))
-    guide = [anchor["error"] * (h / anchor["h"]) ** 2 for h in hs]
-    ax.loglog(hs, guide, "k--", lw=1, label="slope 2")
+    e_anchor = 0.5 * min(r["error"] for r in rows if r["h"] == hs[0])
+    ax.loglog(hs, [e_anchor * (h / hs[0]) ** 2 for h in hs], "k-", lw=0.8, alpha=0.6, label="slope 2")
     ax.set_xlabel("cell size h [m]")
     ax.set_ylabel("max centre-of-mass velocity error / amplitude")
     ax.set_title("Axial bar, one period (APIC, USL, f64)")

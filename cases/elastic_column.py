@@ -9,7 +9,7 @@ import sys
 
 import numpy as np
 
-from mpmdem import Boundary, LinearElastic, Scene, rectangle
+from mpmdem import LinearElastic, Scene, rectangle
 from mpmdem.runner import CaseSetup
 
 NAME = "elastic-column"

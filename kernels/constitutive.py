@@ -11,7 +11,7 @@ import warp as wp
 
 from .types import scalar_types
 
-__all__ = ["LINEAR_ELASTIC", "NEO_HOOKEAN", "make_stress_update", "make_strain_energy_density"]
+__all__ = ["LINEAR_ELASTIC", "NEO_HOOKEAN", "make_strain_energy_density", "make_stress_update"]
 
 LINEAR_ELASTIC = 0
 NEO_HOOKEAN = 1
@@ -46,7 +46,7 @@ def make_stress_update(kinds: tuple[int, ...], precision: str):
 
     @wp.func
     def update(kind: int, F_new: mat22, sigma: mat22, L: mat22, dt: T, mu: T, lam: T):
-        I = wp.identity(n=2, dtype=T)
+        eye = wp.identity(n=2, dtype=T)
         out = sigma
         if wp.static(has_le):
             if kind == LINEAR_ELASTIC:
@@ -54,13 +54,13 @@ def make_stress_update(kinds: tuple[int, ...], precision: str):
                 # σ̇ = λ tr(ε̇) I + 2μ ε̇ + W σ − σ W, ε̇ = sym(L), W = skew(L).
                 eps = T(0.5) * (L + wp.transpose(L))
                 W = T(0.5) * (L - wp.transpose(L))
-                rate = lam * wp.trace(eps) * I + T(2.0) * mu * eps + W * sigma - sigma * W
+                rate = lam * wp.trace(eps) * eye + T(2.0) * mu * eps + W * sigma - sigma * W
                 out = sigma + dt * rate
         if wp.static(has_nh):
             if kind == NEO_HOOKEAN:
                 # Compressible Neo-Hookean Cauchy stress ("MPM notes", step 8).
                 J = wp.determinant(F_new)
-                out = (mu / J) * (F_new * wp.transpose(F_new) - I) + (lam * wp.log(J) / J) * I
+                out = (mu / J) * (F_new * wp.transpose(F_new) - eye) + (lam * wp.log(J) / J) * eye
         return out
 
     return update

@@ -13,8 +13,8 @@ __all__ = [
     "BC_FRICTION",
     "BC_SLIP",
     "make_boundary_condition",
-    "make_grid_update",
     "make_fold_ghosts",
+    "make_grid_update",
     "make_mirror_ghosts",
 ]
 

@@ -13,8 +13,8 @@ from .types import kernel, scalar_types
 
 __all__ = [
     "CLOCK_SIZE",
-    "SPEED_SLOTS",
     "DIAG_NAMES",
+    "SPEED_SLOTS",
     "STATUS_NONFINITE",
     "STATUS_OUTSIDE",
     "advance_time",
@@ -142,7 +142,7 @@ def advance_time(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int
 @functools.cache
 def make_diagnostics(precision: str):
     """Sums over points of the DIAG_NAMES quantities into a float64 array."""
-    t = scalar_types(precision)
+    scalar_types(precision)
     Particles, Grid, Domain = make_state_structs(precision)
 
     @kernel

@@ -242,7 +242,7 @@ class MPMSolver:
         self.diag.zero_()
         wp.launch(self._diagnostics, self.particle_count, inputs=[self.P, self.D, self.diag], device=self.device)
         vals = self.diag.numpy()
-        return {name: float(v) for name, v in zip(kred.DIAG_NAMES, vals)}
+        return {name: float(v) for name, v in zip(kred.DIAG_NAMES, vals, strict=False)}
 
     def fields(self) -> dict[str, np.ndarray]:
         """Host copies of the per-point output fields (copies: on the CPU ``numpy()`` is a view)."""

@@ -35,7 +35,7 @@ class CaseSetup:
 class OneLineParser(argparse.ArgumentParser):
     """argparse that reports a bad flag in one line and exits with code 2."""
 
-    def error(self, message):  # noqa: D102
+    def error(self, message):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
@@ -145,7 +145,3 @@ def run_case(module: ModuleType, argv: list[str] | None = None, prog: str | None
         print(f"wrote {out / 'summary.json'} and {summary.get('output')}")
     return code
 
-
-def main_for(module_name: str) -> int:
-    """Entry point of ``python cases/<name>.py``."""
-    return run_case(importlib.import_module(module_name), sys.argv[1:], prog=f"python cases/{module_name.split('.')[-1]}.py")

@@ -6,8 +6,9 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable, Literal
+from typing import Literal
 
 import numpy as np
 
@@ -15,7 +16,7 @@ from .errors import InputError
 from .materials import Material
 from .shapes import Shape, seed_points
 
-__all__ = ["Boundary", "MPMBody", "Scene", "SIDES"]
+__all__ = ["SIDES", "Boundary", "MPMBody", "Scene"]
 
 SIDES = ("left", "right", "bottom", "top")
 BOUNDARY_KINDS = ("fixed", "slip", "friction", "free")
@@ -158,7 +159,8 @@ class Scene:
             raise InputError("angular_velocity", angular_velocity, "a finite number [rad/s]")
         if not isinstance(points_per_cell, int) or not 1 <= points_per_cell <= 8:
             raise InputError("points_per_cell", points_per_cell, "an integer in 1..8 (points per cell per direction)")
-        body = MPMBody(name or f"body{len(self.bodies)}", shape, material, vel, points_per_cell, float(angular_velocity))
+        name = name or f"body{len(self.bodies)}"
+        body = MPMBody(name, shape, material, vel, points_per_cell, float(angular_velocity))
         pts = self._seed(body)
         (x0, y0), (x1, y1) = self.domain
         x = pts.positions

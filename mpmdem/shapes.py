@@ -98,7 +98,7 @@ def _summary(arr: np.ndarray) -> str:
 
 def rectangle(x0: float, y0: float, x1: float, y1: float) -> Shape:
     """Axis-aligned rectangle from its lower-left (x0, y0) to its upper-right (x1, y1) corner [m]."""
-    x0, y0, x1, y1 = (_finite(n, v) for n, v in zip(("x0", "y0", "x1", "y1"), (x0, y0, x1, y1)))
+    x0, y0, x1, y1 = (_finite(n, v) for n, v in zip(("x0", "y0", "x1", "y1"), (x0, y0, x1, y1), strict=False))
     if not x1 > x0:
         raise InputError("x1", x1, f"greater than x0={x0} (upper-right corner) [m]")
     if not y1 > y0:

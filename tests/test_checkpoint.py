@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-
 from helpers import free_disk_scene, random_velocity
+
 from mpmdem import InputError, Simulation, SolverConfig
 
 

@@ -3,9 +3,19 @@
 import math
 
 import pytest
-
 from helpers import free_disk_scene
-from mpmdem import Boundary, InputError, LinearElastic, NeoHookean, Scene, Simulation, SolverConfig, disk, rectangle
+
+from mpmdem import (
+    Boundary,
+    InputError,
+    LinearElastic,
+    NeoHookean,
+    Scene,
+    Simulation,
+    SolverConfig,
+    disk,
+    rectangle,
+)
 
 MAT = LinearElastic(1.0e6, 0.3, 1000.0)
 

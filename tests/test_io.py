@@ -199,7 +199,7 @@ def _resolve_hyperslab(item: ET.Element, h5dir: Path) -> np.ndarray:
     with h5py.File(h5dir / fname, "r") as f:
         ds = f[dset]
         assert list(ds.shape) == [int(d) for d in src.get("Dimensions").split()]
-        idx = tuple(slice(b, b + c * s, s) for b, s, c in zip(start, stride, count))
+        idx = tuple(slice(b, b + c * s, s) for b, s, c in zip(start, stride, count, strict=False))
         out = ds[idx]
     return out.reshape([int(d) for d in item.get("Dimensions").split()])
 

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from helpers import free_disk_scene
+
 from mpmdem import BlowUpError, Simulation, SolverConfig
 from mpmdem.io import RunFile
 
