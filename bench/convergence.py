@@ -88,6 +88,7 @@ def plot(rows: list[dict], path: Path) -> None:
 
 
 def main(argv=None) -> None:
+    """Parse the flags; run every shape at every resolution; print the table; save lines and plot."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--device", default="cpu", help="cpu, cuda or cuda:N (default cpu)")
     parser.add_argument("--cells", default="8,16,32,64", help="comma-separated cells along the bar")

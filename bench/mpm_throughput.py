@@ -36,6 +36,8 @@ POINTS_PER_CELL = 2
 WARMUP_STEPS = 5
 GPU_SIZES = (65536, 262144, 1048576, 4194304)
 CPU_SIZES = (16384,)
+#: What the reference implements, for its rows.
+REFERENCE_CONFIG = SolverConfig(shape="bspline2", transfer="APIC", update="USL", precision="f32")
 
 
 def grid_cells(particles: int) -> int:
@@ -45,7 +47,7 @@ def grid_cells(particles: int) -> int:
 
 
 def build_scene(n: int) -> Scene:
-    """The benchmark scene on an n × n grid over the unit square."""
+    """Build the benchmark scene on an n × n grid over the unit square."""
     scene = Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=1.0 / n, gravity=GRAVITY,
                   boundaries={side: "slip" for side in ("left", "right", "bottom", "top")})
     scene.add_body(rectangle(*BLOCK), NeoHookean(YOUNGS, POISSON, DENSITY), points_per_cell=POINTS_PER_CELL)
@@ -149,7 +151,11 @@ def ref_g2p(
 
 
 class Reference:
-    """Minimal f32 MLS-MPM state of the benchmark scene on one device."""
+    """Minimal f32 MLS-MPM state of the benchmark scene on one device.
+
+    Nodes sit at (i h, j h), i, j = 0..n; there is no bounds check, so points must stay more than
+    a cell inside the unit square (the block does, for far longer than a benchmark runs).
+    """
 
     def __init__(self, positions: np.ndarray, n: int, dt: float, device):
         self.device = device
@@ -201,9 +207,9 @@ class Reference:
 
 
 # -- timing ---------------------------------------------------------------------------------------
-def time_reference(scene: Scene, n: int, dt: float, steps: int, device) -> tuple[float, bool]:
+def time_reference(positions: np.ndarray, n: int, dt: float, steps: int, device) -> tuple[float, bool]:
     """Seconds for ``steps`` reference steps, and whether the positions stayed finite."""
-    ref = Reference(scene.particles()["x"], n, dt, device)
+    ref = Reference(positions, n, dt, device)
     ref.prepare()
     ref.advance(WARMUP_STEPS)
     wp.synchronize_device(device)
@@ -233,26 +239,31 @@ def time_mpmdem(scene: Scene, config: SolverConfig, steps: int, device) -> tuple
     return seconds, bool(np.isfinite(sim.mpm.P.x.numpy()).all())
 
 
+def row(impl: str, device, config: SolverConfig, particles: int, n: int, steps: int, seconds: float,
+        ratio_to: float | None, finite: bool) -> dict:
+    """One JSON record; ``ratio_to`` is the reference pups an mpmdem row is divided by."""
+    pups = particles * steps / seconds
+    return dict(case="neo-hookean-block", impl=impl, device=str(device), precision=config.precision,
+                shape=config.shape, transfer=config.transfer, update=config.update, particles=particles,
+                grid=n, steps=steps, seconds=seconds, pups=pups,
+                ratio=None if ratio_to is None else pups / ratio_to, finite=finite)
+
+
 def measure(particles: int, config: SolverConfig, steps: int, device) -> list[dict]:
-    """The reference row and the mpmdem row of one problem size."""
+    """Time the reference, then mpmdem, at one size; return their two rows."""
     n = grid_cells(particles)
     scene = build_scene(n)
-    count = len(scene.particles()["mass"])
+    positions = scene.particles()["x"]
+    count = len(positions)
     dt = config.cfl * scene.cell_size / scene.bodies[0].material.wave_speed
-    common = dict(case="neo-hookean-block", device=str(device), particles=count, grid=n, steps=steps)
-    ref_s, ref_ok = time_reference(scene, n, dt, steps, device)
-    ref_pups = count * steps / ref_s
-    rows = [dict(common, impl="reference", precision="f32", shape="bspline2", transfer="APIC", update="USL",
-                 seconds=ref_s, pups=ref_pups, ratio=None, finite=ref_ok)]
+    ref_s, ref_ok = time_reference(positions, n, dt, steps, device)
+    ref = row("reference", device, REFERENCE_CONFIG, count, n, steps, ref_s, None, ref_ok)
     s, ok = time_mpmdem(scene, config, steps, device)
-    pups = count * steps / s
-    rows.append(dict(common, impl="mpmdem", precision=config.precision, shape=config.shape,
-                     transfer=config.transfer, update=config.update, seconds=s, pups=pups,
-                     ratio=pups / ref_pups, finite=ok))
-    return rows
+    return [ref, row("mpmdem", device, config, count, n, steps, s, ref["pups"], ok)]
 
 
 def main(argv=None) -> None:
+    """Parse the flags; time every size; print (and append) one JSON line per run."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--device", default=None, help="cpu, cuda or cuda:N (default: cuda if present)")
     parser.add_argument("--sizes", default=None,
