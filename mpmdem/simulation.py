@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import json
 import math
+import signal
+import threading
 import time as _time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -218,7 +220,22 @@ class Simulation:
                 e0.update(d)
             self._check_energy(t, d, e0, dt, bound)
 
+        # Ctrl-C sets a flag that is acted on between batches of steps, so it never lands in the
+        # middle of an HDF5 write; a second Ctrl-C interrupts at once.
+        interrupted = []
+
+        def on_sigint(signum, frame):
+            if interrupted:
+                raise KeyboardInterrupt
+            interrupted.append(True)
+
+        previous_handler = None
+        if threading.current_thread() is threading.main_thread():
+            previous_handler = signal.signal(signal.SIGINT, on_sigint)
+
         def on_batch(t: float, dt: float) -> None:
+            if interrupted:
+                raise KeyboardInterrupt
             if bar is not None:
                 bar.set_postfix_str(f"dt={dt:.3g} s", refresh=False)
                 bar.update(min(t, end_time) - bar.n)
@@ -246,6 +263,8 @@ class Simulation:
                 writer.close()
             raise
         finally:
+            if previous_handler is not None:
+                signal.signal(signal.SIGINT, previous_handler)
             if bar is not None:
                 bar.close()
         if writer is not None:
