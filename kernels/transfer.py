@@ -51,6 +51,19 @@ def make_point_weights(shape: str, precision: str):
 
 
 @functools.cache
+def make_stencil_on_grid(shape: str, precision: str):
+    """``stencil_on_grid(bx, by, G)``: whether the K×K nodes from (bx, by) lie on the grid."""
+    K = SUPPORT_NODES[shape]
+    Grid = make_state_structs(precision)[1]
+
+    @wp.func
+    def stencil_on_grid(bx: int, by: int, G: Grid):
+        return bx >= 0 and by >= 0 and bx + K <= G.mass.shape[0] and by + K <= G.mass.shape[1]
+
+    return stencil_on_grid
+
+
+@functools.cache
 def make_p2g(
     shape: str,
     affine: str,
@@ -75,6 +88,7 @@ def make_p2g(
     K = SUPPORT_NODES[shape]
     Particles, Grid, Domain = make_state_structs(precision)
     point_weights = make_point_weights(shape, precision)
+    stencil_on_grid = make_stencil_on_grid(shape, precision)
     has_affine = affine != "none" and momentum
 
     @kernel(deterministic=deterministic)
@@ -84,7 +98,7 @@ def make_p2g(
         if dt <= T(0.0):
             return
         bx, by, wx, wy, dwx, dwy, c = point_weights(P, D, p)
-        if bx < 0 or by < 0 or bx + K > G.mass.shape[0] or by + K > G.mass.shape[1]:
+        if not stencil_on_grid(bx, by, G):
             return  # escaped (or non-finite) point: skipped here, flagged by the status check
         mp = P.mass[p]
         mv = mp * P.v[p]
@@ -151,6 +165,7 @@ def make_g2p(
     K = SUPPORT_NODES[shape]
     Particles, Grid, Domain = make_state_structs(precision)
     point_weights = make_point_weights(shape, precision)
+    stencil_on_grid = make_stencil_on_grid(shape, precision)
     update_stress = make_stress_update(material_kinds, precision)
     psi = make_strain_energy_density(precision)
     X = float(flip_fraction)
@@ -183,7 +198,7 @@ def make_g2p(
         if dt <= T(0.0):
             return
         bx, by, wx, wy, dwx, dwy, c = point_weights(P, D, p)
-        if bx < 0 or by < 0 or bx + K > G.mass.shape[0] or by + K > G.mass.shape[1]:
+        if not stencil_on_grid(bx, by, G):
             return  # escaped (or non-finite) point: skipped here, flagged by the status check
         v_pic = t.vec2()
         v_old = t.vec2()
