@@ -8,6 +8,7 @@ import functools
 
 import warp as wp
 
+from .constitutive import make_strain_energy_density
 from .state import make_state_structs
 from .types import kernel, scalar_types
 
@@ -43,7 +44,7 @@ DIAG_NAMES = (
 #: The largest point speed is reduced into this many slots (point p uses slot p % SPEED_SLOTS) and
 #: a point only issues its atomic when it beats the slot's current value: a million points then
 #: cost a few thousand uncontended atomics instead of a million on one address.
-SPEED_SLOTS = 256
+SPEED_SLOTS = 32
 
 
 @functools.cache
@@ -113,7 +114,7 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
     output frames land up to one step after their nominal time and record the time reached.
     """
     s = wp.float64(0.0)
-    for k in range(SPEED_SLOTS):
+    for k in range(wp.static(SPEED_SLOTS)):  # unrolled: independent loads
         s = wp.max(s, wp.float64(max_speed[k]))
     bound = wp.float64(1.0e30)
     if s > wp.float64(0.0):
@@ -125,7 +126,7 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
     if clock[0] >= clock[2]:
         dt = wp.float64(0.0)
     else:
-        for k in range(SPEED_SLOTS):
+        for k in range(wp.static(SPEED_SLOTS)):
             max_speed[k] = wp.float32(0.0)  # refilled by this step's G2P
     clock[1] = dt
 
@@ -140,13 +141,19 @@ def advance_time(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int
 
 
 @functools.cache
-def make_diagnostics(precision: str):
-    """Sums over points of the DIAG_NAMES quantities into a float64 array."""
-    scalar_types(precision)
+def make_diagnostics(precision: str, material_kinds: tuple = (0,)):
+    """Sums over points of the DIAG_NAMES quantities into a float64 array.
+
+    Stored energy: accumulated per point for the rate-form linear elastic law; for Neo-Hookean
+    points it is a function of F alone, evaluated here (so the step never computes it).
+    """
+    t = scalar_types(precision)
     Particles, Grid, Domain = make_state_structs(precision)
+    psi = make_strain_energy_density(precision)
+    has_nh = 1 in material_kinds
 
     @kernel
-    def diagnostics(P: Particles, D: Domain, out: wp.array(dtype=wp.float64)):
+    def diagnostics(P: Particles, D: Domain, materials: wp.array(dtype=t.vec4), out: wp.array(dtype=wp.float64)):
         p = wp.tid()
         m = wp.float64(P.mass[p])
         vx = wp.float64(P.v[p][0])
@@ -155,8 +162,13 @@ def make_diagnostics(precision: str):
         y = wp.float64(P.x[p][1])
         gx = wp.float64(D.gravity[0])
         gy = wp.float64(D.gravity[1])
+        energy = wp.float64(P.strain_energy[p])
+        if wp.static(has_nh):
+            mat = materials[P.material[p]]
+            if int(mat[3]) == 1:
+                energy = wp.float64(P.vol0[p] * psi(P.F[p], mat[0], mat[1]))
         wp.atomic_add(out, 0, wp.float64(0.5) * m * (vx * vx + vy * vy))
-        wp.atomic_add(out, 1, wp.float64(P.strain_energy[p]))
+        wp.atomic_add(out, 1, energy)
         wp.atomic_add(out, 2, -m * (gx * x + gy * y))
         wp.atomic_add(out, 3, m * vx)
         wp.atomic_add(out, 4, m * vy)

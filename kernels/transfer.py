@@ -9,7 +9,7 @@ import functools
 
 import warp as wp
 
-from .constitutive import make_strain_energy_density, make_stress_update
+from .constitutive import make_stress_update
 from .reductions import make_speed_check
 from .shape_functions import CPGIMP_MAX_HALF, SUPPORT_NODES, make_weights_1d
 from .state import make_state_structs
@@ -167,7 +167,6 @@ def make_g2p(
     point_weights = make_point_weights(shape, precision)
     stencil_on_grid = make_stencil_on_grid(shape, precision)
     update_stress = make_stress_update(material_kinds, precision)
-    psi = make_strain_energy_density(precision)
     X = float(flip_fraction)
     X_pic = 1.0 - X
     flip = X > 0.0
@@ -180,7 +179,6 @@ def make_g2p(
     fused_grad = stress == "vt"
     has_stress = stress != "none"
     has_le = 0 in material_kinds
-    has_nh = 1 in material_kinds
     speed_check = make_speed_check(precision)
 
     @kernel
@@ -275,9 +273,6 @@ def make_g2p(
                     deps = (T(0.5) * dt) * (L + wp.transpose(L))
                     dw = T(0.5) * wp.ddot(sigma_old + sigma_new, deps) * T(0.5) * (vol_old + vol_new)
                     P.strain_energy[p] = P.strain_energy[p] + dw
-            if wp.static(has_nh):
-                if kind == 1:
-                    P.strain_energy[p] = P.vol0[p] * psi(F_new, mu, lam)
         if wp.static(position):
             # the kernel that moves the points is the last of the step: it also gathers the
             # CFL speed for the next step and flags non-finite or escaped points

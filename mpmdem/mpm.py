@@ -218,7 +218,7 @@ class MPMSolver:
                     grid(velocity=False, force=False, remap=True),
                     g2p(velocity=False, position=True, stress="vm")]
         self._sequence = [item for entry in seq for item in (entry if isinstance(entry, list) else [entry])]
-        self._diagnostics = kred.make_diagnostics(prec)
+        self._diagnostics = kred.make_diagnostics(prec, self.material_kinds)
         # speeds of the initial state, for the first step's dt (later steps: inside G2P)
         wp.launch(kred.make_wave_speed(prec), n, inputs=[P, D, mats, self.max_speed, self.status], device=self.device)
 
@@ -251,7 +251,7 @@ class MPMSolver:
     def diagnostics(self) -> dict[str, float]:
         """Energies [J/m], momenta [kg/s, kg m/s per m] and mass [kg/m] of the points."""
         self.diag.zero_()
-        wp.launch(self._diagnostics, self.particle_count, inputs=[self.P, self.D, self.diag], device=self.device)
+        wp.launch(self._diagnostics, self.particle_count, inputs=[self.P, self.D, self.materials, self.diag], device=self.device)
         vals = self.diag.numpy()
         return {name: float(v) for name, v in zip(kred.DIAG_NAMES, vals, strict=False)}
 
