@@ -251,7 +251,8 @@ class MPMSolver:
     def diagnostics(self) -> dict[str, float]:
         """Energies [J/m], momenta [kg/s, kg m/s per m] and mass [kg/m] of the points."""
         self.diag.zero_()
-        wp.launch(self._diagnostics, self.particle_count, inputs=[self.P, self.D, self.materials, self.diag], device=self.device)
+        wp.launch(self._diagnostics, self.particle_count, inputs=[self.P, self.D, self.materials, self.diag],
+                  device=self.device)
         vals = self.diag.numpy()
         return {name: float(v) for name, v in zip(kred.DIAG_NAMES, vals, strict=False)}
 
