@@ -260,9 +260,13 @@ def make_g2p(
             lam = m[1]
             kind = int(m[3])
             F_new = (wp.identity(n=2, dtype=T) + dt * L) * P.F[p]  # "MPM notes" step 8
-            sigma_old = P.stress[p]
+            sigma_old = t.mat22()
+            if wp.static(has_le):
+                sigma_old = P.stress[p]  # only the rate-form law needs the previous stress
             sigma_new = update_stress(kind, F_new, sigma_old, L, dt, mu, lam)
-            vol_old = P.vol[p]
+            vol_old = T(0.0)
+            if wp.static(has_le):
+                vol_old = P.vol[p]
             vol_new = P.vol0[p] * wp.determinant(F_new)
             P.F[p] = F_new
             P.stress[p] = sigma_new
