@@ -12,10 +12,14 @@ __all__ = [
     "BC_FREE",
     "BC_FRICTION",
     "BC_SLIP",
+    "WORK_SLOTS",
+    "WORK_TERMS",
+    "make_boundary",
     "make_boundary_condition",
     "make_fold_ghosts",
     "make_grid_update",
     "make_mirror_ghosts",
+    "make_xpic_grid",
 ]
 
 BC_FIXED = 0
@@ -52,16 +56,23 @@ def make_boundary_condition(precision: str):
     return apply_bc
 
 
-@functools.cache
-def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impulse: bool = False, remap: bool = False):
-    """Nodal velocity V = p/m (with BC), and/or Ṽ = V + dt (f/m + g) (with BC).
+#: Cumulative works accumulated on the device ("Motion integration" eq. 66-68), each spread over
+#: WORK_SLOTS addresses to keep atomics uncontended; the host sums the slots at output frames.
+WORK_TERMS = ("work_boundary", "work_damping", "work_plastic")
+WORK_SLOTS = 16
 
-    fused_impulse: the momentum already holds p + dt f (USL + PIC), so Ṽ = p/m + dt g.
-    remap: normalise ``Grid.vm`` (MUSL re-mapped momentum) in place instead of ``Grid.mom``.
-    """
+
+@wp.func
+def work_slot(term: int, i: int, j: int) -> int:
+    return term * WORK_SLOTS + (i * 7 + j) % WORK_SLOTS
+
+
+@functools.cache
+def make_boundary(precision: str):
+    """``boundary(v, D, i, j)``: the wall conditions of every side the node (i, j) is on or beyond."""
     t = scalar_types(precision)
     T = t.scalar
-    Particles, Grid, Domain = make_state_structs(precision)
+    Domain = make_state_structs(precision)[2]
     apply_bc = make_boundary_condition(precision)
 
     @wp.func
@@ -77,8 +88,35 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
             out = apply_bc(out, D.bc_kind[3], D.bc_mu[3], t.vec2(T(0.0), T(1.0)))
         return out
 
+    return boundary
+
+
+@functools.cache
+def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impulse: bool = False,
+                     remap: bool = False, damping: bool = False):
+    """Nodal velocity V = p/m (with BC), and/or Ṽ = V + dt (f/m + g) (with BC).
+
+    fused_impulse: the momentum already holds p + dt f (USL + PIC), so Ṽ = p/m + dt g.
+    remap: normalise ``Grid.vm`` (MUSL re-mapped momentum) in place instead of ``Grid.mom``.
+    damping: add Cundall's local damping force ("Motion integration" eq. 61-62).
+    The work of wall reactions and of the damping force is accumulated into ``work``.
+    """
+    t = scalar_types(precision)
+    T = t.scalar
+    Particles, Grid, Domain = make_state_structs(precision)
+    boundary = make_boundary(precision)
+
+    @wp.func
+    def constrain(v: t.vec2, m: T, D: Domain, i: int, j: int, work: wp.array(dtype=wp.float64)):
+        # Wall reaction impulse m Δv acting on the constrained velocity: dW = F·V Δt (eq. 66);
+        # zero for fixed and slip walls, negative for a sliding Coulomb wall.
+        vb = boundary(v, D, i, j)
+        if vb[0] != v[0] or vb[1] != v[1]:
+            wp.atomic_add(work, work_slot(0, i, j), wp.float64(m * wp.dot(vb - v, vb)))
+        return vb
+
     @kernel
-    def grid_update(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
+    def grid_update(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), work: wp.array(dtype=wp.float64)):
         i, j = wp.tid()
         dt = T(clock[1])
         if dt <= T(0.0):
@@ -99,15 +137,25 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
             G.vm[i, j] = boundary(G.vm[i, j] * inv_m, D, i, j)
             return
         if wp.static(fused_impulse):
-            G.vt[i, j] = boundary(G.mom[i, j] * inv_m + dt * g, D, i, j)
+            G.vt[i, j] = constrain(G.mom[i, j] * inv_m + dt * g, m, D, i, j, work)
             return
         v = G.v[i, j]
         if wp.static(velocity):
-            v = boundary(G.mom[i, j] * inv_m, D, i, j)  # "Motion integration" eq. 16
+            v = constrain(G.mom[i, j] * inv_m, m, D, i, j, work)  # "Motion integration" eq. 16
             G.v[i, j] = v
         if wp.static(force):
+            f = G.force[i, j] + m * g
+            if wp.static(damping):
+                # Cundall: f_damp = −D |f| ⊙ sign(V), component by component (eq. 61-62)
+                fd = t.vec2(-D.damping * wp.abs(f[0]) * wp.sign(v[0]), -D.damping * wp.abs(f[1]) * wp.sign(v[1]))
+                if v[0] == T(0.0):
+                    fd = t.vec2(T(0.0), fd[1])
+                if v[1] == T(0.0):
+                    fd = t.vec2(fd[0], T(0.0))
+                f = f + fd
+                wp.atomic_add(work, work_slot(1, i, j), wp.float64(wp.dot(fd, v) * dt))
             # Ṽ = V + a Δt, a = f/m + g ("Motion integration" eq. 28; "MPM notes" steps 5-7)
-            G.vt[i, j] = boundary(v + dt * (G.force[i, j] * inv_m + g), D, i, j)
+            G.vt[i, j] = constrain(v + dt * f * inv_m, m, D, i, j, work)
 
     return grid_update
 
@@ -190,7 +238,8 @@ def _image(i: int, lo: int, hi: int, kind_lo: int, kind_hi: int, n: int):
 
 
 @functools.cache
-def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool, remap: bool = False):
+def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool, remap: bool = False,
+                     xpic: bool = False):
     """Fold what points put on ghost nodes back onto their interior mirrors.
 
     This is the image-point method: a point near a fixed or slip wall has a mirror image beyond
@@ -258,5 +307,45 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
                 fold_vec(G.mom, i, j, gi, gj, kx, ky)
         if wp.static(force):
             fold_vec(G.force, i, j, gi, gj, kx, ky)
+        if wp.static(xpic):
+            fold_vec(G.pk, i, j, gi, gj, kx, ky)
 
     return fold_ghosts
+
+
+@functools.cache
+def make_xpic_grid(precision: str):
+    """(xpic_init, xpic_update) grid kernels of XPIC(m) ("Motion integration" eq. 39-40).
+
+    (I − (I − S)^m) V = Σ_{k=1..m} (−1)^{k+1} C(m,k) S^k V with S = G P_m, and S^k V = G v*_k where
+    v*_1 = P_m V is the nodal velocity and v*_k = P_m G v*_{k−1}. xpic_init sets v*_1 and the sum
+    m v*_1; each xpic_update (after an xpic gather/scatter pair) normalises v*_k and adds
+    coef · v*_k. G2P then interpolates the sum (``Grid.vs``).
+    """
+    t = scalar_types(precision)
+    T = t.scalar
+    Particles, Grid, Domain = make_state_structs(precision)
+    boundary = make_boundary(precision)
+
+    @kernel
+    def xpic_init(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), coef: float):
+        i, j = wp.tid()
+        if clock[1] <= wp.float64(0.0):
+            return
+        v = G.v[i, j]
+        G.vk[i, j] = v
+        G.vs[i, j] = T(coef) * v
+
+    @kernel
+    def xpic_update(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), coef: float):
+        i, j = wp.tid()
+        if clock[1] <= wp.float64(0.0):
+            return
+        m = G.mass[i, j]
+        v = t.vec2()
+        if m > D.mass_eps:
+            v = boundary(G.pk[i, j] / m, D, i, j)
+        G.vk[i, j] = v
+        G.vs[i, j] = G.vs[i, j] + T(coef) * v
+
+    return xpic_init, xpic_update

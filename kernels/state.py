@@ -27,6 +27,7 @@ def make_state_structs(precision: str):
         half0: wp.array(dtype=t.vec2)  # initial GIMP half-lengths [m]
         material: wp.array(dtype=wp.int32)  # index into the material table
         strain_energy: wp.array(dtype=t.scalar)  # stored elastic energy [J/m]
+        tmp: wp.array(dtype=t.vec2)  # XPIC scratch (G v*_k, then the displacement) [m/s or m]
 
     @wp.struct
     class Grid:
@@ -36,6 +37,9 @@ def make_state_structs(precision: str):
         v: wp.array2d(dtype=t.vec2)  # nodal velocity at the start of the step [m/s]
         vt: wp.array2d(dtype=t.vec2)  # nodal velocity after the force update, Ṽ [m/s]
         vm: wp.array2d(dtype=t.vec2)  # MUSL: velocity re-mapped from the updated points [m/s]
+        vs: wp.array2d(dtype=t.vec2)  # XPIC: Σ_k (−1)^{k+1} C(m,k) v*_k [m/s]
+        vk: wp.array2d(dtype=t.vec2)  # XPIC: v*_k = (P_m G)^{k−1} P_m V [m/s]
+        pk: wp.array2d(dtype=t.vec2)  # XPIC: momentum accumulator of the next v*_k [kg m/s]
 
     @wp.struct
     class Domain:
@@ -51,5 +55,6 @@ def make_state_structs(precision: str):
         gravity: t.vec2  # [m/s²]
         gravity_ramp: wp.float64  # gravity grows linearly from 0 over this time [s] (0 = at once)
         mass_eps: t.scalar  # nodes lighter than this carry no velocity [kg/m]
+        damping: t.scalar  # Cundall's local damping coefficient D
 
     return Particles, Grid, Domain

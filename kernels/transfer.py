@@ -15,7 +15,7 @@ from .shape_functions import CPGIMP_MAX_HALF, SUPPORT_NODES, make_weights_1d
 from .state import make_state_structs
 from .types import kernel, scalar_types
 
-__all__ = ["make_g2p", "make_p2g", "make_point_weights"]
+__all__ = ["make_g2p", "make_p2g", "make_point_weights", "make_xpic_gather", "make_xpic_scatter"]
 
 
 @functools.cache
@@ -152,6 +152,7 @@ def make_g2p(
     velocity: bool,
     position: bool,
     stress: str,
+    stress_fraction: float = 1.0,
 ):
     """G2P: particle velocity, affine matrix, position, and (optionally fused) stress update.
 
@@ -159,6 +160,10 @@ def make_g2p(
     stress: "none", or the grid field whose gradient drives the stress update: "vt" (USL), "v"
     (USF: velocities before the force update) or "vm" (MUSL: re-mapped velocities).
     The variant that moves the points (always the step's last) also does the speed check.
+    stress_fraction: the share of dt this stress update covers (0.5 for each half of USAVG).
+    position_mode "xpic": XPIC(m) velocity (eq. 40, from the smoothed field ``Grid.vs``) and
+    position (eq. 41) updates; when velocity and position are split (MUSL) the displacement is
+    kept in ``Particles.tmp`` between the two kernels.
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -170,6 +175,9 @@ def make_g2p(
     X = float(flip_fraction)
     X_pic = 1.0 - X
     flip = X > 0.0
+    xpic = position_mode == "xpic"
+    need_v_old = (velocity and (flip or xpic))
+    stress_dt = float(stress_fraction)
     apic = affine == "apic"
     taylor = affine == "taylor"
     # For B-splines the APIC inertia-like tensor D_p is a constant (h²/4, h²/3) times I.
@@ -200,6 +208,7 @@ def make_g2p(
             return  # escaped (or non-finite) point: skipped here, flagged by the status check
         v_pic = t.vec2()
         v_old = t.vec2()
+        v_s = t.vec2()
         B = t.mat22()
         Dm = t.mat22()
         grad_vt = t.mat22()
@@ -213,8 +222,10 @@ def make_g2p(
                 vt = G.vt[gi, gj]
                 if wp.static(velocity or position):
                     v_pic = v_pic + w * vt  # G→P of Ṽ ("Motion integration" eq. 31)
-                if wp.static(velocity and flip):
+                if wp.static(need_v_old):
                     v_old = v_old + w * G.v[gi, gj]
+                if wp.static(velocity and xpic):
+                    v_s = v_s + w * G.vs[gi, gj]  # G of the smoothed field, eq. 39-40
                 if wp.static(velocity and apic):
                     dpos = (t.vec2(T(gi), T(gj)) - c) * D.h
                     B = B + w * wp.outer(vt, dpos)  # eq. 26
@@ -235,6 +246,15 @@ def make_g2p(
                 # FLIP: V_p + G(Ṽ − V) (eq. 33), blended with PIC by X (eq. 37)
                 v_flip = P.v[p] + (v_pic - v_old)
                 v_new = T(X) * v_flip + T(X_pic) * v_pic
+            if wp.static(xpic):
+                # XPIC(m): V − (I − S)^m V + G a Δt = G(Vs + Ṽ − V) (eq. 40), and the second
+                # order move x + Δt [G Ṽ − ½ G a Δt − ½ (I − S)^m V] (eq. 41)
+                v_new = v_s + v_pic - v_old
+                dx = dt * (T(0.5) * (v_pic + v_old) - T(0.5) * P.v[p] + T(0.5) * v_s)
+                if wp.static(position):
+                    P.x[p] = x_old + dx
+                else:
+                    P.tmp[p] = dx
             P.v[p] = v_new
             if wp.static(apic):
                 if wp.static(d_const != 0.0):
@@ -249,12 +269,15 @@ def make_g2p(
                         P.C[p] = grad_vt
             if wp.static(taylor):
                 P.C[p] = grad_vt
-        if wp.static(position):
+        if wp.static(position and not xpic):
             if wp.static(position_mode == "grid"):
                 P.x[p] = x_old + dt * v_pic  # eq. 32
             else:
                 P.x[p] = x_old + dt * P.v[p]  # eq. 36 / 38
+        if wp.static(position and xpic and not velocity):
+            P.x[p] = x_old + P.tmp[p]
         if wp.static(has_stress):
+            dt = dt * T(stress_dt)
             m = materials[P.material[p]]
             mu = m[0]
             lam = m[1]
@@ -283,3 +306,55 @@ def make_g2p(
             speed_check(P, D, materials, p, max_speed, status)
 
     return g2p
+
+
+@functools.cache
+def make_xpic_gather(shape: str, precision: str):
+    """XPIC smoothing, first half: Particles.tmp = G v*_{k−1} (interpolate ``Grid.vk``)."""
+    t = scalar_types(precision)
+    K = SUPPORT_NODES[shape]
+    Particles, Grid, Domain = make_state_structs(precision)
+    point_weights = make_point_weights(shape, precision)
+    stencil_on_grid = make_stencil_on_grid(shape, precision)
+
+    @kernel
+    def xpic_gather(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
+        p = wp.tid()
+        if clock[1] <= wp.float64(0.0):
+            return
+        bx, by, wx, wy, dwx, dwy, c = point_weights(P, D, p)
+        if not stencil_on_grid(bx, by, G):
+            return
+        v = t.vec2()
+        for i in range(wp.static(K)):
+            for j in range(wp.static(K)):
+                v = v + (wx[i] * wy[j]) * G.vk[bx + i, by + j]
+        P.tmp[p] = v
+
+
+    return xpic_gather
+
+
+@functools.cache
+def make_xpic_scatter(shape: str, precision: str, *, deterministic: bool = False):
+    """XPIC smoothing, second half: Grid.pk += Σ_p N m_p Particles.tmp (mass-weighted P2G)."""
+    K = SUPPORT_NODES[shape]
+    Particles, Grid, Domain = make_state_structs(precision)
+    point_weights = make_point_weights(shape, precision)
+    stencil_on_grid = make_stencil_on_grid(shape, precision)
+
+    @kernel(deterministic=deterministic)
+    def xpic_scatter(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
+        p = wp.tid()
+        if clock[1] <= wp.float64(0.0):
+            return
+        bx, by, wx, wy, dwx, dwy, c = point_weights(P, D, p)
+        if not stencil_on_grid(bx, by, G):
+            return
+        mv = P.mass[p] * P.tmp[p]
+        for i in range(wp.static(K)):
+            for j in range(wp.static(K)):
+                wp.atomic_add(G.pk, bx + i, by + j, (wx[i] * wy[j]) * mv)
+
+
+    return xpic_scatter

@@ -24,8 +24,10 @@ __all__ = [
 #: quadratic and cubic B-splines ("MPM notes"; MPM-SDEM appendix).
 SHAPE_FUNCTIONS = ("linear", "ugimp", "cpgimp", "bspline2", "bspline3")
 
-#: Where the stress update sits in the step ("Motion integration" §3.4).
-STRESS_UPDATES = ("USF", "USL", "MUSL")
+#: Where the stress update sits in the step ("Motion integration" §3.4): first (USF), last with
+#: the updated grid velocities (USL), last with velocities re-mapped from the updated points
+#: (MUSL), or half before and half after the force update (USAVG).
+STRESS_UPDATES = ("USF", "USL", "MUSL", "USAVG")
 
 
 @dataclass(frozen=True)
@@ -37,12 +39,15 @@ class TransferScheme:
             "apic" (affine matrix C = B D^-1, eq. 23–27) or "taylor" (velocity gradient, eq. 19–22).
         flip_fraction: X in eq. 37; 0 is the PIC velocity update (eq. 31), 1 pure FLIP (eq. 33).
         position: "grid" moves points with the interpolated updated grid velocity (eq. 32);
-            "particle" moves them with the new particle velocity (eq. 36/38, the N-variants).
+            "particle" moves them with the new particle velocity (eq. 36/38, the N-variants);
+            "xpic" is the second-order update of XPIC(m) (eq. 41).
+        xpic: True for XPIC(m): the velocity update of eq. 40 with the order from the config.
     """
 
     affine: Literal["none", "apic", "taylor"] = "none"
     flip_fraction: float = 0.0
-    position: Literal["grid", "particle"] = "grid"
+    position: Literal["grid", "particle", "xpic"] = "grid"
+    xpic: bool = False
 
 
 #: Named schemes of "Motion integration" Table 1 that the kernels provide.
@@ -60,6 +65,7 @@ TRANSFER_SCHEMES: dict[str, TransferScheme] = {
     "AFLIPX": TransferScheme("apic", -1.0, "grid"),
     "NFLIPX": TransferScheme("none", -1.0, "particle"),
     "ANFLIPX": TransferScheme("apic", -1.0, "particle"),
+    "XPIC": TransferScheme("none", 0.0, "xpic", xpic=True),
 }
 
 
@@ -73,9 +79,14 @@ class SolverConfig:
         flip_fraction: X of the blended schemes (FLIPX, NFLIPX, ...); 0.99 means 1 % PIC.
         update: stress-update order, one of STRESS_UPDATES.
         precision: "f32" or "f64" for every particle and grid field.
+        xpic_order: m of XPIC(m), an integer >= 1 (XPIC(1) is PIC; "Motion integration" eq. 39-41).
         cfl: time-step factor κ in dt = κ h / max_p(c_p + |v_p|), 0 < κ ≤ 1 (default 0.4).
         dt: a fixed time step [s]; None (default) computes dt on the device each step from the
             CFL bound. A fixed dt above the bound is an error.
+        damping: Cundall's local damping coefficient D >= 0 ("Motion integration" eq. 61-62);
+            0 (default) is no damping.
+        allow_unstable: accept cfl up to 10 and a fixed dt above the bound (for stability studies
+            such as bench/motion_integration.py; the blow-up detector still stops the run).
         blowup_energy_factor: stop when the total energy exceeds its initial scale by this
             factor (energy growth is the signature of an unstable explicit step).
         cuda_graph: record one step as a CUDA graph on GPUs and replay it.
@@ -86,10 +97,13 @@ class SolverConfig:
     shape: str = "bspline2"
     transfer: str = "APIC"
     flip_fraction: float = 0.99
+    xpic_order: int = 2
     update: str = "USL"
     precision: Literal["f32", "f64"] = "f32"
     cfl: float = 0.4
     dt: float | None = None
+    damping: float = 0.0
+    allow_unstable: bool = False
     blowup_energy_factor: float = 2.0
     cuda_graph: bool = True
     deterministic: bool = False
@@ -111,8 +125,13 @@ class SolverConfig:
             raise InputError("precision", self.precision, "one of f32, f64")
         if not (0.0 <= float(self.flip_fraction) <= 1.0):
             raise InputError("flip_fraction", self.flip_fraction, "a number in [0, 1]")
-        if not (0.0 < float(self.cfl) <= 1.0):
-            raise InputError("cfl", self.cfl, "a number in (0, 1]; 0.5 or less is advised")
+        if not (0.0 < float(self.cfl) <= (10.0 if self.allow_unstable else 1.0)):
+            allowed = "a number in (0, 10] (allow_unstable)" if self.allow_unstable else "a number in (0, 1]"
+            raise InputError("cfl", self.cfl, f"{allowed}; 0.5 or less is advised")
+        if not (isinstance(self.xpic_order, int) and self.xpic_order >= 1):
+            raise InputError("xpic_order", self.xpic_order, "an integer >= 1 (the m of XPIC(m))")
+        if not (float(self.damping) >= 0.0):
+            raise InputError("damping", self.damping, "Cundall's coefficient D >= 0 (0 = off; 0.1 is typical)")
         if self.dt is not None and not (float(self.dt) > 0.0):
             raise InputError("dt", self.dt, "a positive time step in seconds, or None for the CFL policy")
         if not (float(self.blowup_energy_factor) > 0.0):

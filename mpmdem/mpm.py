@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import math
+
 import numpy as np
 import warp as wp
 
@@ -73,7 +75,7 @@ class MPMSolver:
         host = scene.particles()
         self.particle_count = len(host["mass"])
         self.dt_bound0 = initial_dt_bound(scene, host)
-        if config.dt is not None and config.dt > self.dt_bound0:
+        if config.dt is not None and config.dt > self.dt_bound0 and not config.allow_unstable:
             raise InputError(
                 "dt", config.dt,
                 f"at most the stable bound h/max(c+|v|) = {self.dt_bound0:.6g} s of this scene "
@@ -114,6 +116,8 @@ class MPMSolver:
         P.half0 = wp.array(host["half"].astype(T), dtype=t.vec2, device=dev)
         P.material = wp.array(mat_index, dtype=wp.int32, device=dev)
         P.strain_energy = wp.zeros(n, dtype=t.scalar, device=dev)
+        xpic = self.config.scheme.xpic
+        P.tmp = wp.zeros(n if xpic else 1, dtype=t.vec2, device=dev)
         self.P = P
 
         nx, ny = scene.cell_counts
@@ -126,7 +130,9 @@ class MPMSolver:
         G.force = wp.zeros(shape, dtype=t.vec2, device=dev)
         G.v = wp.zeros(shape, dtype=t.vec2, device=dev)
         G.vt = wp.zeros(shape, dtype=t.vec2, device=dev)
-        G.vm = wp.zeros(shape if self.config.update == "MUSL" else (1, 1), dtype=t.vec2, device=dev)
+        G.vm = wp.zeros(shape if self.config.update in ("MUSL", "USAVG") else (1, 1), dtype=t.vec2, device=dev)
+        for name in ("vs", "vk", "pk"):
+            setattr(G, name, wp.zeros(shape if xpic else (1, 1), dtype=t.vec2, device=dev))
         self.G = G
 
         h = scene.cell_size
@@ -145,6 +151,7 @@ class MPMSolver:
         D.gravity = t.vec2(*scene.gravity)
         D.gravity_ramp = float(scene.gravity_ramp)
         D.mass_eps = t.scalar(1.0e-12 * float(host["mass"].min()))
+        D.damping = t.scalar(self.config.damping)
         self.D = D
 
         self.materials = wp.array(
@@ -160,6 +167,7 @@ class MPMSolver:
         self.max_speed = wp.zeros(kred.SPEED_SLOTS, dtype=wp.float32, device=dev)
         self.status = wp.zeros(2, dtype=wp.int32, device=dev)
         self.diag = wp.zeros(len(kred.DIAG_NAMES), dtype=wp.float64, device=dev)
+        self.work = wp.zeros(len(kgrid.WORK_TERMS) * kgrid.WORK_SLOTS, dtype=wp.float64, device=dev)
 
     def _build(self) -> None:
         """Pick the kernel variants of this config and lay out the launches of one step."""
@@ -168,56 +176,85 @@ class MPMSolver:
         prec = c.precision
         n = self.particle_count
         grid_dim = self.grid_shape
-        P, G, D, clock, mats = self.P, self.G, self.D, self.clock, self.materials
+        P, G, D, clock, mats, work = self.P, self.G, self.D, self.clock, self.materials, self.work
         # image points at fixed and slip walls (kernels/grid.py: fold_ghosts, mirror_ghosts)
         mirror_walls = any(b.kind in ("fixed", "slip") for b in self.scene.boundaries.values())
         mirror = kgrid.make_mirror_ghosts(prec)
 
+        def fold(**flags):
+            if not mirror_walls:
+                return []
+            return [_Launch(kgrid.make_fold_ghosts(prec, **flags), grid_dim, [G, D, clock])]
+
+        def mirrored(*fields):
+            return [_Launch(mirror, grid_dim, [f, D, clock]) for f in fields] if mirror_walls else []
+
         def p2g(**flags):
-            launches = [_Launch(ktr.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic, **flags),
-                                n, [P, G, D, clock])]
-            if mirror_walls:
-                fold = kgrid.make_fold_ghosts(
-                    prec, mass=flags["mass"], momentum=flags["momentum"] or flags.get("fused_impulse", False),
-                    force=flags["force"] and not flags.get("fused_impulse", False), remap=flags.get("remap", False))
-                launches.append(_Launch(fold, grid_dim, [G, D, clock]))
-            return launches
+            kernel = ktr.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic, **flags)
+            fused = flags.get("fused_impulse", False)
+            return [_Launch(kernel, n, [P, G, D, clock])] + fold(
+                mass=flags["mass"], momentum=flags["momentum"] or fused, force=flags["force"] and not fused,
+                remap=flags.get("remap", False))
 
         def grid(**flags):
-            launches = [_Launch(kgrid.make_grid_update(prec, **flags), grid_dim, [G, D, clock])]
-            if mirror_walls:
-                fields = [G.vm] if flags.get("remap") else [G.vt] if flags.get("fused_impulse") else []
-                if not fields:
-                    fields = ([G.v] if flags.get("velocity") else []) + ([G.vt] if flags.get("force") else [])
-                launches += [_Launch(mirror, grid_dim, [f, D, clock]) for f in fields]
-            return launches
+            kernel = kgrid.make_grid_update(prec, damping=c.damping > 0.0, **flags)
+            if flags.get("remap"):
+                fields = [G.vm]
+            elif flags.get("fused_impulse"):
+                fields = [G.vt]
+            else:
+                fields = ([G.v] if flags.get("velocity") else []) + ([G.vt] if flags.get("force") else [])
+            return [_Launch(kernel, grid_dim, [G, D, clock, work])] + mirrored(*fields)
 
         def g2p(**flags):
             k = ktr.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds, **flags)
-            return _Launch(k, n, [P, G, D, clock, mats, self.max_speed, self.status])
+            return [_Launch(k, n, [P, G, D, clock, mats, self.max_speed, self.status])]
 
-        self.fused = c.update == "USL" and s.flip_fraction == 0.0
+        def xpic_smoothing():
+            """Σ_k (−1)^{k+1} C(m,k) v*_k into Grid.vs ("Motion integration" eq. 39-40)."""
+            if not s.xpic:
+                return []
+            m = c.xpic_order
+            init, update = kgrid.make_xpic_grid(prec)
+            gather = ktr.make_xpic_gather(c.shape, prec)
+            scatter = ktr.make_xpic_scatter(c.shape, prec, deterministic=c.deterministic)
+            out = [_Launch(init, grid_dim, [G, D, clock, float(m)])]
+            for k in range(2, m + 1):
+                coef = float((-1) ** (k + 1) * math.comb(m, k))
+                out += [_Launch(gather, n, [P, G, D, clock]), ("zero", G.pk), _Launch(scatter, n, [P, G, D, clock])]
+                out += fold(mass=False, momentum=False, force=False, xpic=True)
+                out += [_Launch(update, grid_dim, [G, D, clock, coef])] + mirrored(G.vk)
+            return out + mirrored(G.vs)
+
+        self.fused = c.update == "USL" and s.flip_fraction == 0.0 and not s.xpic and c.damping == 0.0
         seq: list = []
         if c.update == "USL":
             if self.fused:
-                seq += [p2g(mass=True, momentum=True, force=True, fused_impulse=True),
-                        grid(velocity=False, force=False, fused_impulse=True)]
+                seq += p2g(mass=True, momentum=True, force=True, fused_impulse=True)
+                seq += grid(velocity=False, force=False, fused_impulse=True)
             else:
-                seq += [p2g(mass=True, momentum=True, force=True), grid(velocity=True, force=True)]
-            seq += [g2p(velocity=True, position=True, stress="vt")]
+                seq += p2g(mass=True, momentum=True, force=True) + grid(velocity=True, force=True)
+            seq += xpic_smoothing() + g2p(velocity=True, position=True, stress="vt")
         elif c.update == "USF":
-            seq += [p2g(mass=True, momentum=True, force=False), grid(velocity=True, force=False),
-                    g2p(velocity=False, position=False, stress="v"),
-                    p2g(mass=False, momentum=False, force=True), grid(velocity=False, force=True),
-                    g2p(velocity=True, position=True, stress="none")]
-        else:  # MUSL
-            seq += [p2g(mass=True, momentum=True, force=True), grid(velocity=True, force=True),
-                    g2p(velocity=True, position=False, stress="none"),
-                    "zero-vm",
-                    p2g(mass=False, momentum=True, force=False, remap=True),
-                    grid(velocity=False, force=False, remap=True),
-                    g2p(velocity=False, position=True, stress="vm")]
-        self._sequence = [item for entry in seq for item in (entry if isinstance(entry, list) else [entry])]
+            seq += p2g(mass=True, momentum=True, force=False) + grid(velocity=True, force=False)
+            seq += g2p(velocity=False, position=False, stress="v")
+            seq += p2g(mass=False, momentum=False, force=True) + grid(velocity=False, force=True)
+            seq += xpic_smoothing() + g2p(velocity=True, position=True, stress="none")
+        else:
+            # MUSL; USAVG ("Motion integration" §3.4) adds a first half stress update from V
+            # before the forces and makes the MUSL update the second half.
+            half = 0.5 if c.update == "USAVG" else 1.0
+            if c.update == "USAVG":
+                seq += p2g(mass=True, momentum=True, force=False) + grid(velocity=True, force=False)
+                seq += g2p(velocity=False, position=False, stress="v", stress_fraction=half)
+                seq += p2g(mass=False, momentum=False, force=True) + grid(velocity=False, force=True)
+            else:
+                seq += p2g(mass=True, momentum=True, force=True) + grid(velocity=True, force=True)
+            seq += xpic_smoothing() + g2p(velocity=True, position=False, stress="none")
+            seq += [("zero", G.vm)] + p2g(mass=False, momentum=True, force=False, remap=True)
+            seq += grid(velocity=False, force=False, remap=True)
+            seq += g2p(velocity=False, position=True, stress="vm", stress_fraction=half)
+        self._sequence = seq
         self._diagnostics = kred.make_diagnostics(prec, self.material_kinds)
         # speeds of the initial state, for the first step's dt (later steps: inside G2P)
         wp.launch(kred.make_wave_speed(prec), n, inputs=[P, D, mats, self.max_speed, self.status], device=self.device)
@@ -233,8 +270,8 @@ class MPMSolver:
         if not self.fused:
             G.force.zero_()
         for item in self._sequence:
-            if item == "zero-vm":
-                G.vm.zero_()
+            if isinstance(item, tuple):
+                item[1].zero_()
             else:
                 wp.launch(item.kernel, item.dim, inputs=item.inputs, device=dev)
         wp.launch(kred.advance_time, 1, inputs=[self.clock, self.steps], device=dev)
@@ -254,7 +291,10 @@ class MPMSolver:
         wp.launch(self._diagnostics, self.particle_count, inputs=[self.P, self.D, self.materials, self.diag],
                   device=self.device)
         vals = self.diag.numpy()
-        return {name: float(v) for name, v in zip(kred.DIAG_NAMES, vals, strict=False)}
+        out = {name: float(v) for name, v in zip(kred.DIAG_NAMES, vals, strict=True)}
+        works = self.work.numpy().reshape(len(kgrid.WORK_TERMS), kgrid.WORK_SLOTS).sum(axis=1)
+        out.update({name: float(w) for name, w in zip(kgrid.WORK_TERMS, works, strict=True)})
+        return out
 
     def fields(self) -> dict[str, np.ndarray]:
         """Host copies of the per-point output fields (copies: on the CPU ``numpy()`` is a view)."""

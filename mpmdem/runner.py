@@ -78,6 +78,8 @@ def make_case_parser(module: ModuleType, prog: str | None = None) -> argparse.Ar
     p.add_argument("--transfer", type=_choice("transfer", tuple(TRANSFER_SCHEMES)), default=None,
                    help="transfer scheme: " + ", ".join(TRANSFER_SCHEMES))
     p.add_argument("--flip-fraction", type=float, default=None, help="FLIP fraction X of blended schemes")
+    p.add_argument("--xpic-order", type=int, default=None, help="m of XPIC(m) (with --transfer XPIC)")
+    p.add_argument("--damping", type=float, default=None, help="Cundall local damping coefficient D >= 0")
     p.add_argument("--update", type=_choice("update", STRESS_UPDATES), default=None,
                    help="stress update: " + ", ".join(STRESS_UPDATES))
     p.add_argument("--precision", type=_choice("precision", ("f32", "f64")), default=None, help="f32 or f64")
@@ -100,7 +102,7 @@ def config_from_args(setup: CaseSetup, module: ModuleType, args) -> SolverConfig
     """Case defaults, then the case's build-time choices, then the flags the user gave."""
     fields = dict(getattr(module, "DEFAULTS", {}))
     fields.update(setup.config)
-    for name in ("dt", "cfl", "shape", "transfer", "flip_fraction", "update", "precision"):
+    for name in ("dt", "cfl", "shape", "transfer", "flip_fraction", "xpic_order", "damping", "update", "precision"):
         v = getattr(args, name, None)
         if v is not None:
             fields[name] = v

@@ -20,6 +20,7 @@ import warp as wp
 from . import __version__
 from .config import SolverConfig
 from .errors import BlowUpError, InputError
+from .kernels.grid import WORK_TERMS
 from .mpm import MPMSolver
 from .scene import Scene
 
@@ -210,14 +211,20 @@ class Simulation:
         def record(t: float, steps: int, dt: float, bound: float) -> None:
             d = self.mpm.diagnostics()
             d["energy_total"] = d["energy_kinetic"] + d["energy_strain"] + d["energy_gravity"]
+            # Energy balance of "Motion integration" eq. 67-68, over this run: the works of the
+            # walls, of Cundall damping and of plasticity (W ≤ 0 when dissipating) explain part of
+            # ΔE_total; the residual W_MPM is what the discretisation itself gained or lost.
+            if not e0:
+                e0.update(d)
+            for name in WORK_TERMS:
+                d[name] -= e0[name]
+            d["work_numerical"] = d["energy_total"] - e0["energy_total"] - sum(d[name] for name in WORK_TERMS)
             d.update(dt=dt, dt_bound=bound, steps=float(steps), wall_time=_time.perf_counter() - start_wall)
             times.append(t)
             for k, v in d.items():
                 history.setdefault(k, []).append(v)
             if writer is not None:
                 writer.write_frame(t, self.mpm.fields(), d)
-            if not e0:
-                e0.update(d)
             self._check_energy(t, d, e0, dt, bound)
 
         # Ctrl-C sets a flag that is acted on between batches of steps, so it never lands in the
@@ -298,7 +305,8 @@ class Simulation:
         path = Path(path)
         arrays = {f"P.{name}": getattr(self.mpm.P, name).numpy() for name in _STATE_FIELDS}
         arrays.update(clock=self.mpm.clock.numpy(), steps=self.mpm.steps.numpy(),
-                      max_speed=self.mpm.max_speed.numpy(), status=self.mpm.status.numpy())
+                      max_speed=self.mpm.max_speed.numpy(), status=self.mpm.status.numpy(),
+                      work=self.mpm.work.numpy())
         with open(path, "wb") as f:
             np.savez(f, **arrays, meta=np.array(json.dumps(
                 {"version": __version__, "scene": self.scene.to_dict(), "config": self.config.to_dict()})))
@@ -318,6 +326,7 @@ class Simulation:
             self.mpm.steps.assign(data["steps"])
             self.mpm.max_speed.assign(data["max_speed"])
             self.mpm.status.assign(data["status"])
+            self.mpm.work.assign(data["work"])
 
     # -- state access -----------------------------------------------------------------------------
     def fields(self) -> dict[str, np.ndarray]:

@@ -1,0 +1,457 @@
+"""Motion integration: accuracy, cost and stability of every transfer scheme and update order.
+
+For each case (``rotating-disk``: a free spinning elastic disk; ``bouncing-disk``: an elastic
+disk dropped on a rigid floor) it runs every transfer scheme of ``mpmdem.TRANSFER_SCHEMES``
+(read at run time; XPIC runs as XPIC(2) and XPIC(4) when ``SolverConfig`` has ``xpic_order``)
+× every stress-update order of ``mpmdem.STRESS_UPDATES`` × CFL factors κ × resolutions.
+
+- κ is the factor of the device time-step policy dt = κ h / max_p(c_p + |v_p|), so κ = dt/dt_CFL
+  (``cfl_measured`` is the median of dt/dt_bound over the frames). κ > 1 is past the Courant
+  bound: those runs pass ``allow_unstable=True`` when ``SolverConfig`` has that field, and are
+  skipped with a printed note otherwise.
+- Resolutions are the case's own cell sizes: ``quick`` (its ``--quick`` build) and ``default``.
+  Both run the same simulated time, the quick build's end time (× ``--end-time-scale``), so the
+  errors of the two resolutions measure the same thing. Frames scale with the end time.
+- error: rotating disk |1 − L_final/L_0| (angular momentum); bouncing disk |1 − e| with e the
+  first rebound ratio (|1 − E_final/E_0| when there is no rebound; ``error_kind`` says which);
+  any other case (``--cases sulsky-disks``) the energy error. ``energy_error`` is
+  |1 − E_final/E_0| (the case's own figure when it reports one, else the frame diagnostics).
+- A run that raises ``BlowUpError`` is unstable (``reason`` = its keyword); an ``InputError``
+  is recorded as ``rejected``; any other exception as ``error`` with its message. No run stops
+  the sweep.
+- ``wall_seconds`` times ``Simulation.run`` only. One untimed warm-up run (a few steps) per
+  (case, scheme, order, resolution) loads, and the first time compiles, the kernels first; its
+  time is ``warmup_seconds``.
+
+Default sweep size: 2 cases × 14 scheme variants × 4 orders × 6 κ × 2 resolutions is 1344 runs.
+The cases are small (hundreds to a few thousand points), so a CPU run costs well under a
+second at the quick resolution and a few seconds at the default one; the default resolution
+runs only κ ≤ ``--default-max-cfl`` (default 1.0: the blown-up runs past the bound end early
+anyway, but they add little at a second resolution), which keeps the full CPU sweep on two
+cores to about twenty minutes once the kernels are compiled (first compile of each new kernel
+variant: add ~10–30 s each). ``--smoke`` runs 2 schemes × 2 orders × κ 0.5, 2.5 × quick only.
+
+Writes one JSON line per run to stdout and ``--out``, a Pareto chart (error vs wall time, the
+stable runs, each scheme's Pareto front highlighted) to ``--pareto`` and a stability map
+(fraction of stable runs per scheme and κ) to ``--stability``.
+
+    python bench/motion_integration.py --smoke                    # < 1 min on a CPU
+    python bench/motion_integration.py --device cpu               # the full sweep
+    python bench/motion_integration.py --device cuda --default-max-cfl 10
+    python bench/motion_integration.py --replot bench/results/motion_integration.jsonl
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import importlib
+import json
+import math
+import time
+import traceback
+from pathlib import Path
+
+import matplotlib
+import numpy as np
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+import mpmdem
+from mpmdem import BlowUpError, InputError, Simulation, SolverConfig
+from mpmdem.mpm import initial_dt_bound
+from mpmdem.runner import make_case_parser
+
+RESULTS = Path(__file__).resolve().parent / "results"
+DEFAULT_CASES = ("rotating-disk", "bouncing-disk")
+DEFAULT_CFL = "0.1,0.25,0.5,1.0,1.5,2.5"
+XPIC_ORDERS = (2, 4)
+#: errors below this are drawn at it on the log axis (f32 round-off is ~1e-7)
+ERROR_FLOOR = 1e-10
+#: warm-up run length, in initial CFL steps at κ = 0.5
+WARMUP_STEPS = 3
+
+
+# -- cases ------------------------------------------------------------------------------------------
+def load_case(name: str):
+    """The module of a case by its CLI name, or None when it is not there (yet)."""
+    try:
+        from mpmdem.runner import case_module
+
+        return case_module(name)
+    except (InputError, ImportError):
+        pass
+    try:
+        return importlib.import_module(f"mpmdem.cases.{name.replace('-', '_')}")
+    except ImportError:
+        return None
+
+
+def build_setup(module, resolution: str):
+    """CaseSetup at the case's quick or default resolution (flags filled in by its parser)."""
+    args = make_case_parser(module).parse_args(["--quick"] if resolution == "quick" else [])
+    return args, module.build(args)
+
+
+def _number(v) -> float | None:
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def energy_error(summary: dict, diagnostics: dict) -> float | None:
+    """|1 − E_final/E_0|: the case's own ratio when it reports one, else the frame diagnostics."""
+    for key in ("energy_total_final_over_initial", "total_energy_final_over_initial"):
+        r = _number(summary.get(key))
+        if r is not None:
+            return abs(1.0 - r)
+    e = diagnostics.get("energy_total")
+    if e is None or len(e) < 2 or not np.isfinite(e).all() or e[0] == 0.0:
+        return None
+    return float(abs(1.0 - e[-1] / e[0]))
+
+
+def case_error(case: str, summary: dict, e_err: float | None) -> tuple[float | None, str]:
+    """(error, kind) of one completed run; see the module docstring."""
+    if case == "rotating-disk":
+        r = _number(summary.get("angular_momentum_final_over_initial"))
+        if r is not None:
+            return abs(1.0 - r), "angular-momentum"
+    if case == "bouncing-disk":
+        r = _number(summary.get("rebound_ratio_first"))
+        if r is not None:
+            return abs(1.0 - r), "rebound"
+    return e_err, "energy"
+
+
+# -- the sweep -------------------------------------------------------------------------------------
+def scheme_variants(names: list[str] | None) -> list[tuple[str, int | None]]:
+    """(scheme, xpic_order) pairs: every scheme once, XPIC once per order when it has one."""
+    has_order = "xpic_order" in {f.name for f in dataclasses.fields(SolverConfig)}
+    out = []
+    for s in mpmdem.TRANSFER_SCHEMES:
+        if names is not None and s not in names:
+            continue
+        if s == "XPIC" and has_order:
+            out += [(s, m) for m in XPIC_ORDERS]
+        else:
+            out.append((s, None))
+    return out
+
+
+def label(scheme: str, xpic_order: int | None) -> str:
+    return scheme if xpic_order is None else f"{scheme}({xpic_order})"
+
+
+def make_config(module, setup, scheme: str, xpic_order: int | None, update: str, cfl: float) -> SolverConfig:
+    """Case defaults and build choices, then this run's scheme, order and κ."""
+    fields = dict(getattr(module, "DEFAULTS", {}))
+    fields.update(setup.config)
+    fields.update(transfer=scheme, update=update, cfl=cfl)
+    fields.pop("dt", None)
+    if xpic_order is not None:
+        fields["xpic_order"] = xpic_order
+    if cfl > 1.0:
+        fields["allow_unstable"] = True
+    return SolverConfig(**fields)
+
+
+def warm_up(module, setup, scheme, xpic_order, update, device) -> tuple[float, str | None]:
+    """A few untimed steps that load (and compile) this variant's kernels; (seconds, error)."""
+    start = time.perf_counter()
+    try:
+        config = make_config(module, setup, scheme, xpic_order, update, 0.5)
+        sim = Simulation(setup.scene, config, device=device)
+        sim.run(WARMUP_STEPS * 0.5 * initial_dt_bound(setup.scene), frames=1, quiet=True)
+    except (BlowUpError, InputError):
+        pass  # the timed runs record these
+    except Exception as e:  # a broken kernel variant: its timed runs are skipped
+        return time.perf_counter() - start, f"{type(e).__name__}: {e}"
+    return time.perf_counter() - start, None
+
+
+def run_one(case: str, module, resolution: str, built, scheme: str, xpic_order: int | None, update: str,
+            cfl: float, device: str, end_time: float, frames: int) -> dict:
+    """One timed run of ``built`` = (case args, CaseSetup) to ``end_time``; never raises."""
+    row = dict(case=case, scheme=scheme, xpic_order=xpic_order, update=update, cfl=cfl, cfl_measured=None,
+               resolution=resolution, h=None, particles=None, steps=None, end_time=None, wall_seconds=None,
+               error=None, error_kind=None, energy_error=None, stable=False, status="error", reason=None,
+               blowup_time=None, shape=None, precision=None, device=device, warmup_seconds=None)
+    try:
+        args, setup = built
+        row.update(h=setup.scene.cell_size, end_time=end_time)
+        config = make_config(module, setup, scheme, xpic_order, update, cfl)
+        row.update(shape=config.shape, precision=config.precision)
+        sim = Simulation(setup.scene, config, device=device)
+        row.update(particles=sim.particle_count, device=sim.device)
+        start = time.perf_counter()
+        try:
+            result = sim.run(end_time, frames=frames, quiet=True)
+        finally:
+            row["wall_seconds"] = time.perf_counter() - start
+        d = result.diagnostics
+        ratio = d["dt"][1:] / np.maximum(d["dt_bound"][1:], 1e-300)
+        row.update(steps=result.steps, stable=True, status="completed", cfl_measured=float(np.median(ratio)))
+        try:
+            summary = module.summarize(sim, result, args)
+        except Exception as e:
+            summary = {}
+            row["reason"] = f"summarize failed: {type(e).__name__}: {e}"
+        e_err = energy_error(summary, d)
+        err, kind = case_error(case, summary, e_err)
+        row.update(error=err, error_kind=kind, energy_error=e_err)
+    except BlowUpError as e:
+        row.update(stable=False, status="blown-up", reason=e.reason, blowup_time=e.time)
+    except InputError as e:
+        row.update(stable=False, status="rejected", reason=str(e))
+    except Exception as e:
+        row.update(stable=False, status="error", reason=f"{type(e).__name__}: {e}")
+        traceback.print_exc()
+    return row
+
+
+def sweep(args) -> list[dict]:
+    """Run every requested combination; print and write one JSON line per run."""
+    has_unstable = "allow_unstable" in {f.name for f in dataclasses.fields(SolverConfig)}
+    cfls = sorted(float(c) for c in args.cfl.split(","))
+    if not has_unstable and any(c > 1.0 for c in cfls):
+        skipped = [c for c in cfls if c > 1.0]
+        print(f"note: SolverConfig has no allow_unstable field, so κ = {', '.join(map(str, skipped))} "
+              "(past the Courant bound) are skipped", flush=True)
+        cfls = [c for c in cfls if c <= 1.0]
+    variants = scheme_variants(_subset(args.schemes, mpmdem.TRANSFER_SCHEMES, "scheme"))
+    updates = _subset(args.updates, mpmdem.STRESS_UPDATES, "update") or list(mpmdem.STRESS_UPDATES)
+    resolutions = [r.strip() for r in args.resolutions.split(",")]
+    for r in resolutions:
+        if r not in ("quick", "default"):
+            raise SystemExit(f"--resolutions: unknown resolution {r!r}; allowed: quick, default")
+
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    rows = []
+    sweep_start = time.perf_counter()
+    with args.out.open("w") as out:
+        for case in [c.strip() for c in args.cases.split(",")]:
+            module = load_case(case)
+            if module is None:
+                print(f"note: case {case!r} not found (no mpmdem.cases module); skipped", flush=True)
+                continue
+            _, quick = build_setup(module, "quick")
+            end_time = quick.end_time * args.end_time_scale
+            frames = max(2, round(quick.frames * args.end_time_scale))
+            for resolution in resolutions:
+                res_cfls = [c for c in cfls if resolution != "default" or c <= args.default_max_cfl]
+                built = build_setup(module, resolution)
+                setup = built[1]
+                for scheme, m in variants:
+                    for update in updates:
+                        warm, broken = warm_up(module, setup, scheme, m, update, args.device)
+                        for cfl in res_cfls:
+                            if broken:
+                                row = dict(case=case, scheme=scheme, xpic_order=m, update=update, cfl=cfl,
+                                           resolution=resolution, h=setup.scene.cell_size, stable=False,
+                                           status="error", reason=f"warm-up failed: {broken}",
+                                           device=args.device, error=None, energy_error=None, wall_seconds=None)
+                            else:
+                                row = run_one(case, module, resolution, built, scheme, m, update, cfl,
+                                              args.device, end_time, frames)
+                            row["warmup_seconds"] = warm
+                            rows.append(row)
+                            line = json.dumps(row)
+                            print(line, flush=True)
+                            out.write(line + "\n")
+                            out.flush()
+    print(f"\nsweep: {len(rows)} runs in {time.perf_counter() - sweep_start:.1f} s", flush=True)
+    return rows
+
+
+def _subset(text: str | None, allowed, what: str) -> list[str] | None:
+    if not text:
+        return None
+    names = [t.strip().upper() for t in text.split(",") if t.strip()]
+    bad = [n for n in names if n not in allowed]
+    if bad:
+        raise SystemExit(f"--{what}s: unknown {what} {', '.join(bad)}; allowed: {', '.join(allowed)}")
+    return names
+
+
+# -- reporting -------------------------------------------------------------------------------------
+def _labels(rows: list[dict]) -> list[str]:
+    return list(dict.fromkeys(label(r["scheme"], r.get("xpic_order")) for r in rows))
+
+
+def pareto_front(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Points (seconds, error) not beaten on both by another, in order of seconds."""
+    front, best = [], math.inf
+    for s, e in sorted(points):
+        if e < best:
+            front.append((s, e))
+            best = e
+    return front
+
+
+STYLES = "os^Dv<>pPX*hH8d"
+
+
+def plot_pareto(rows: list[dict], path: Path) -> None:
+    """Per case: error vs wall seconds (log-log) of the stable runs, each scheme's front drawn."""
+    cases = list(dict.fromkeys(r["case"] for r in rows))
+    labels = _labels(rows)
+    colors = plt.get_cmap("tab20")
+    fig, axes = plt.subplots(1, max(1, len(cases)), figsize=(6.2 * max(1, len(cases)) + 1.8, 5.2),
+                             squeeze=False, constrained_layout=True)
+    handles = {}
+    for ax, case in zip(axes[0], cases, strict=False):
+        kinds = set()
+        for k, lab in enumerate(labels):
+            pts = [(r["wall_seconds"], max(r["error"], ERROR_FLOOR)) for r in rows
+                   if r["case"] == case and label(r["scheme"], r.get("xpic_order")) == lab and r["stable"]
+                   and r.get("error") is not None and r.get("wall_seconds")]
+            kinds |= {r.get("error_kind") for r in rows if r["case"] == case and r["stable"]}
+            if not pts:
+                continue
+            color, marker = colors(k % 20), STYLES[k % len(STYLES)]
+            ax.scatter(*zip(*pts, strict=False), s=14, marker=marker, color=color, alpha=0.25, linewidths=0)
+            front = pareto_front(pts)
+            (h,) = ax.plot(*zip(*front, strict=False), marker=marker, color=color, lw=1.3, ms=6,
+                           markeredgecolor="k", markeredgewidth=0.4, drawstyle="steps-post", label=lab)
+            handles[lab] = h
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("wall seconds of Simulation.run")
+        kinds.discard(None)
+        what = {"angular-momentum": "|1 − L/L₀|", "rebound": "|1 − rebound ratio|", "energy": "|1 − E/E₀|"}
+        ax.set_ylabel("error: " + " or ".join(what.get(k, k) for k in sorted(kinds)))
+        device = ", ".join(sorted({str(r.get("device")) for r in rows if r["case"] == case}))
+        ax.set_title(f"{case} ({device}): stable runs; lines = each scheme's Pareto front", fontsize=10)
+        ax.grid(True, which="both", alpha=0.3)
+    fig.legend([handles[lab] for lab in labels if lab in handles], [lab for lab in labels if lab in handles],
+               loc="outside right center", fontsize=8, title="scheme")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def stability_table(rows: list[dict], case: str, labels: list[str], cfls: list[float]):
+    """(fraction stable, stable count, decided count) per scheme × κ; NaN where no run decided."""
+    frac = np.full((len(labels), len(cfls)), np.nan)
+    counts = {}
+    for i, lab in enumerate(labels):
+        for j, c in enumerate(cfls):
+            sel = [r for r in rows if r["case"] == case and label(r["scheme"], r.get("xpic_order")) == lab
+                   and r["cfl"] == c and r["status"] in ("completed", "blown-up")]
+            if sel:
+                n_ok = sum(r["stable"] for r in sel)
+                frac[i, j] = n_ok / len(sel)
+                counts[i, j] = (n_ok, len(sel))
+    return frac, counts
+
+
+def plot_stability(rows: list[dict], path: Path) -> None:
+    """Per case: scheme × κ cells coloured by the fraction of stable runs (over orders, resolutions)."""
+    cases = list(dict.fromkeys(r["case"] for r in rows))
+    labels = _labels(rows)
+    cfls = sorted({r["cfl"] for r in rows})
+    cmap = plt.get_cmap("RdYlGn").copy()
+    cmap.set_bad("0.85")
+    fig, axes = plt.subplots(1, max(1, len(cases)), squeeze=False, constrained_layout=True,
+                             figsize=(1.0 + 0.75 * len(cfls) * max(1, len(cases)) + 1.5, 0.9 + 0.36 * len(labels)))
+    im = None
+    for ax, case in zip(axes[0], cases, strict=False):
+        frac, counts = stability_table(rows, case, labels, cfls)
+        im = ax.imshow(np.ma.masked_invalid(frac), cmap=cmap, vmin=0.0, vmax=1.0, aspect="auto")
+        for i in range(len(labels)):
+            for j in range(len(cfls)):
+                if (i, j) in counts:
+                    ok, n = counts[i, j]
+                    ax.text(j, i, f"{frac[i, j]:.2f}", ha="center", va="center", fontsize=7,
+                            color="k" if 0.2 < frac[i, j] < 0.85 else "w")
+                else:
+                    ax.text(j, i, "n/a", ha="center", va="center", fontsize=6, color="0.4")
+        ax.set_xticks(range(len(cfls)), [f"{c:g}" for c in cfls])
+        ax.set_yticks(range(len(labels)), labels)
+        over = [j for j, c in enumerate(cfls) if c > 1.0]
+        if over:
+            ax.axvline(over[0] - 0.5, color="k", lw=1.5, ls="--")
+        ax.set_xlabel("κ = dt / dt_CFL (dashed: Courant bound)")
+        ax.set_title(f"{case}: fraction stable", fontsize=10)
+    if im is not None:
+        fig.colorbar(im, ax=axes[0].tolist(), shrink=0.8, label="stable runs / runs (orders × resolutions)")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def report(rows: list[dict]) -> str:
+    """Per case and scheme: runs, stable, largest stable κ, best error and its run."""
+    lines = []
+    for case in dict.fromkeys(r["case"] for r in rows):
+        lines.append(f"\n{case}")
+        lines.append(f"{'scheme':>10} {'runs':>5} {'stable':>6} {'rej/err':>7} {'max κ':>6} {'best error':>11}"
+                     f" {'at (update, κ, res, s)':>28} {'median error':>13}")
+        for lab in _labels(rows):
+            sel = [r for r in rows if r["case"] == case and label(r["scheme"], r.get("xpic_order")) == lab]
+            if not sel:
+                continue
+            ok = [r for r in sel if r["stable"] and r.get("error") is not None]
+            bad = sum(r["status"] in ("rejected", "error") for r in sel)
+            ks = [r["cfl"] for r in sel if r["stable"]]
+            if ok:
+                best = min(ok, key=lambda r: r["error"])
+                at = f"{best['update']}, {best['cfl']:g}, {best['resolution']}, {best['wall_seconds']:.2f}"
+                med = float(np.median([r["error"] for r in ok]))
+                lines.append(f"{lab:>10} {len(sel):5d} {sum(r['stable'] for r in sel):6d} {bad:7d} "
+                             f"{max(ks):6g} {best['error']:11.3e} {at:>28} {med:13.3e}")
+            else:
+                lines.append(f"{lab:>10} {len(sel):5d} {0:6d} {bad:7d} {'-':>6} {'-':>11}")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> None:
+    """Parse the flags; run the sweep (or re-read a JSONL); print the table; draw both charts."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--device", default="cpu", help="cpu, cuda or cuda:N (default cpu)")
+    parser.add_argument("--cases", default=",".join(DEFAULT_CASES), help="comma-separated case names")
+    parser.add_argument("--schemes", default=None, help="subset of transfer schemes (default: all)")
+    parser.add_argument("--updates", default=None, help="subset of stress-update orders (default: all)")
+    parser.add_argument("--cfl", default=DEFAULT_CFL, help=f"CFL factors κ = dt/dt_CFL (default {DEFAULT_CFL})")
+    parser.add_argument("--resolutions", default="quick,default", help="quick, default or both")
+    parser.add_argument("--default-max-cfl", type=float, default=1.0,
+                        help="largest κ run at the default resolution (default 1.0; inf for all)")
+    parser.add_argument("--end-time-scale", type=float, default=1.0, help="multiplies the cases' end times")
+    parser.add_argument("--smoke", action="store_true",
+                        help="2 schemes × 2 orders × κ 0.5, 2.5 × quick only (writes *_smoke files)")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="JSON lines file (default bench/results/motion_integration.jsonl)")
+    parser.add_argument("--pareto", type=Path, default=None, help="default bench/results/motion_pareto.png")
+    parser.add_argument("--stability", type=Path, default=None, help="default bench/results/motion_stability.png")
+    parser.add_argument("--replot", type=Path, default=None, help="draw the charts from this JSONL; run nothing")
+    args = parser.parse_args(argv)
+    suffix = "_smoke" if args.smoke else ""
+    args.out = args.out or RESULTS / f"motion_integration{suffix}.jsonl"
+    args.pareto = args.pareto or RESULTS / f"motion_pareto{suffix}.png"
+    args.stability = args.stability or RESULTS / f"motion_stability{suffix}.png"
+    if args.smoke:
+        names = list(mpmdem.TRANSFER_SCHEMES)
+        args.schemes = args.schemes or ",".join([s for s in ("APIC", "FLIP") if s in names] or names[:2])
+        orders = list(mpmdem.STRESS_UPDATES)
+        args.updates = args.updates or ",".join([u for u in ("USL", "MUSL") if u in orders] or orders[:2])
+        args.cfl = "0.5,2.5" if args.cfl == DEFAULT_CFL else args.cfl
+        args.resolutions = "quick"
+
+    if args.replot is not None:
+        rows = [json.loads(line) for line in args.replot.read_text().splitlines() if line.strip()]
+    else:
+        rows = sweep(args)
+    print(report(rows))
+    if rows:
+        plot_pareto(rows, args.pareto)
+        plot_stability(rows, args.stability)
+        print(f"\nlines: {args.out if args.replot is None else args.replot}\npareto: {args.pareto}"
+              f"\nstability: {args.stability}")
+
+
+if __name__ == "__main__":
+    main()
