@@ -93,8 +93,16 @@ def make_boundary(precision: str):
 
 @functools.cache
 def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impulse: bool = False,
-                     remap: bool = False, damping: bool = False):
-    """Nodal velocity V = p/m (with BC), and/or Ṽ = V + dt (f/m + g) (with BC).
+                     remap: bool = False, damping: bool = False, constrained_copy: bool = False,
+                     images: bool = False):
+    """Nodal velocity V = p/m, and/or Ṽ = V + dt (f/m + g) with the wall conditions.
+
+    V is kept as projected, without wall conditions: a wall's impulse belongs to this step's
+    velocity change Ṽ − V (which FLIP adds to the points and XPIC smooths); constraining V as
+    well would hide it, and FLIP points pressed on a wall would keep their normal velocity.
+    constrained_copy: also write V with the wall conditions to ``Grid.vm``, for the stress
+    updates that use V (USF, the first half of USAVG). images: walls fold image points onto
+    the nodes next to them; ``Grid.v`` there is the real points' velocity kept by the fold.
 
     fused_impulse: the momentum already holds p + dt f (USL + PIC), so Ṽ = p/m + dt g.
     remap: normalise ``Grid.vm`` (MUSL re-mapped momentum) in place instead of ``Grid.mom``.
@@ -123,9 +131,9 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
             return
         m = G.mass[i, j]
         if m <= D.mass_eps:
-            if wp.static(remap):
+            if wp.static(remap or constrained_copy):
                 G.vm[i, j] = t.vec2()
-            else:
+            if wp.static(not remap):
                 G.v[i, j] = t.vec2()
                 G.vt[i, j] = t.vec2()
             return
@@ -141,8 +149,17 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
             return
         v = G.v[i, j]
         if wp.static(velocity):
-            v = constrain(G.mom[i, j] * inv_m, m, D, i, j, work)  # "Motion integration" eq. 16
-            G.v[i, j] = v
+            v = G.mom[i, j] * inv_m  # "Motion integration" eq. 16
+            v_free = v
+            if wp.static(images):
+                gi, wx = _image(i, D.node_lo[0], D.node_hi[0], D.bc_kind[0], D.bc_kind[1], G.mass.shape[0])
+                gj, wy = _image(j, D.node_lo[1], D.node_hi[1], D.bc_kind[2], D.bc_kind[3], G.mass.shape[1])
+                inside = i >= D.node_lo[0] and i <= D.node_hi[0] and j >= D.node_lo[1] and j <= D.node_hi[1]
+                if inside and (gi >= 0 or gj >= 0):
+                    v_free = G.vf[i, j]
+            G.v[i, j] = v_free
+            if wp.static(constrained_copy):
+                G.vm[i, j] = boundary(v, D, i, j)
         if wp.static(force):
             f = G.force[i, j] + m * g
             if wp.static(damping):
@@ -169,25 +186,25 @@ def _mirror_node(i: int, j: int, lo: wp.vec2i, hi: wp.vec2i, kinds: wp.vec4i):
     sx = 1.0
     sy = 1.0
     mirrored = False
-    if i < lo[0] and (kinds[0] == BC_FIXED or kinds[0] == BC_SLIP):
+    if i < lo[0] and (kinds[0] != BC_FREE):
         si = wp.min(2 * lo[0] - i, hi[0])
         sx = -1.0
         if kinds[0] == BC_FIXED:
             sy = -1.0
         mirrored = True
-    elif i > hi[0] and (kinds[1] == BC_FIXED or kinds[1] == BC_SLIP):
+    elif i > hi[0] and (kinds[1] != BC_FREE):
         si = wp.max(2 * hi[0] - i, lo[0])
         sx = -1.0
         if kinds[1] == BC_FIXED:
             sy = -1.0
         mirrored = True
-    if j < lo[1] and (kinds[2] == BC_FIXED or kinds[2] == BC_SLIP):
+    if j < lo[1] and (kinds[2] != BC_FREE):
         sj = wp.min(2 * lo[1] - j, hi[1])
         sy = -sy
         if kinds[2] == BC_FIXED:
             sx = -sx
         mirrored = True
-    elif j > hi[1] and (kinds[3] == BC_FIXED or kinds[3] == BC_SLIP):
+    elif j > hi[1] and (kinds[3] != BC_FREE):
         sj = wp.max(2 * hi[1] - j, lo[1])
         sy = -sy
         if kinds[3] == BC_FIXED:
@@ -226,11 +243,11 @@ def make_mirror_ghosts(precision: str):
 @wp.func
 def _image(i: int, lo: int, hi: int, kind_lo: int, kind_hi: int, n: int):
     """Ghost node whose mirror is node i (−1 if none), with the wall it lies beyond (0 lo, 1 hi)."""
-    if i > lo and (kind_lo == BC_FIXED or kind_lo == BC_SLIP):
+    if i > lo and (kind_lo != BC_FREE):
         g = 2 * lo - i
         if g >= 0:
             return g, 0
-    if i < hi and (kind_hi == BC_FIXED or kind_hi == BC_SLIP):
+    if i < hi and (kind_hi != BC_FREE):
         g = 2 * hi - i
         if g < n:
             return g, 1
@@ -291,6 +308,14 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
             return
         kx = D.bc_kind[wx]
         ky = D.bc_kind[2 + wy]
+        if wp.static(mass and momentum and not remap):
+            # velocity of the real points alone: FLIP and XPIC take it as V, so that the images'
+            # push (a wall impulse) is part of this step's change Ṽ − V
+            m0 = G.mass[i, j]
+            if m0 > D.mass_eps:
+                G.vf[i, j] = G.mom[i, j] / m0
+            else:
+                G.vf[i, j] = t.vec2()
         if wp.static(mass):
             m = G.mass[i, j]
             if gi >= 0:

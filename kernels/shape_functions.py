@@ -16,7 +16,7 @@ from .types import scalar_types
 __all__ = ["SUPPORT_NODES", "make_shape_law", "make_weights_1d", "support_radius"]
 
 #: Nodes per direction a point can touch (cpGIMP allows particle half-lengths up to one cell).
-SUPPORT_NODES = {"linear": 2, "ugimp": 3, "cpgimp": 4, "bspline2": 3, "bspline3": 4}
+SUPPORT_NODES = {"linear": 2, "ugimp": 3, "cpgimp": 4, "bspline2": 3, "bspline3": 4, "cpdi1": 2}
 
 #: Largest particle half-length, in cells, that cpGIMP accepts before clamping (keeps 4 nodes).
 CPGIMP_MAX_HALF = 0.999
@@ -24,7 +24,7 @@ CPGIMP_MAX_HALF = 0.999
 
 def support_radius(kind: str) -> float:
     """Half-width of the support of a shape function in cells, for points of zero size."""
-    return {"linear": 1.0, "ugimp": 1.0, "cpgimp": 1.0, "bspline2": 1.5, "bspline3": 2.0}[kind]
+    return {"linear": 1.0, "ugimp": 1.0, "cpgimp": 1.0, "bspline2": 1.5, "bspline3": 2.0, "cpdi1": 1.0}[kind]
 
 
 @functools.cache
@@ -32,7 +32,7 @@ def make_shape_law(kind: str, precision: str):
     """1D law ``law(d, lp) -> (N, dN/dd)`` for signed distance d (cells) and half-length lp."""
     T = scalar_types(precision).scalar
 
-    if kind == "linear":
+    if kind in ("linear", "cpdi1"):  # CPDI1 evaluates the tent function at its domain corners
 
         @wp.func
         def law(d: T, lp: T):

@@ -15,26 +15,37 @@ from .shape_functions import CPGIMP_MAX_HALF, SUPPORT_NODES, make_weights_1d
 from .state import make_state_structs
 from .types import kernel, scalar_types
 
-__all__ = ["make_g2p", "make_p2g", "make_point_weights", "make_xpic_gather", "make_xpic_scatter"]
+__all__ = ["CORNERS", "make_g2p", "make_p2g", "make_stencil", "make_xpic_gather", "make_xpic_scatter"]
+
+
+#: Sub-stencils per point: one for the tensor-product shape functions, one per domain corner
+#: for CPDI1 (each corner carries the tent function of its own cell).
+CORNERS = {"cpdi1": 4}
 
 
 @functools.cache
-def make_point_weights(shape: str, precision: str):
-    """``point_weights(P, D, p) -> (bx, by, wx, wy, dwx, dwy, c)`` for point p.
+def make_stencil(shape: str, precision: str):
+    """The per-point stencil of a shape function, as three ``wp.func``s.
 
-    c is the point position in grid units; dw are derivatives in grid units.
+    ``stencil(P, D, p, k) -> (bx, by, wx, wy, dwx, dwy, g)``: first node and 1D weights of
+    sub-stencil k (k < CORNERS); ``contribution(wx, wy, dwx, dwy, g, i, j, inv_h) -> (w, ∇w)``:
+    weight and physical gradient [1/m] that node (bx+i, by+j) gets from it; ``on_grid(bx, by, G)``.
+    Every transfer kernel sums contributions over k, i, j, so each shape function is written once.
     """
     t = scalar_types(precision)
     T = t.scalar
+    K = SUPPORT_NODES[shape]
     Particles, Grid, Domain = make_state_structs(precision)
     weights = make_weights_1d(shape, precision)
     gimp = shape in ("ugimp", "cpgimp")
     contiguous = shape == "cpgimp"
+    cpdi = shape == "cpdi1"
 
     @wp.func
-    def point_weights(P: Particles, D: Domain, p: int):
+    def stencil(P: Particles, D: Domain, p: int, k: int):
         c = (P.x[p] - D.origin) * D.inv_h
         lp = t.vec2(T(0.0), T(0.0))
+        g = t.vec2()
         if wp.static(gimp):
             lp = P.half0[p] * D.inv_h
         if wp.static(contiguous):
@@ -43,24 +54,71 @@ def make_point_weights(shape: str, precision: str):
             sx = wp.sqrt(F[0, 0] * F[0, 0] + F[1, 0] * F[1, 0])
             sy = wp.sqrt(F[0, 1] * F[0, 1] + F[1, 1] * F[1, 1])
             lp = t.vec2(wp.min(lp[0] * sx, T(CPGIMP_MAX_HALF)), wp.min(lp[1] * sy, T(CPGIMP_MAX_HALF)))
+        if wp.static(cpdi):
+            # CPDI1 (Sadeghirad et al. 2011): the point's domain is the parallelogram spanned by
+            # r1 = F (l_x, 0), r2 = F (0, l_y) around x_p; N_ip is the mean of the tent function at
+            # its corners x1..x4 = x_p ∓ r1 ∓ r2 (counter-clockwise from −r1−r2), and
+            # ∇N_ip = [(N(x1) − N(x3)) a + (N(x2) − N(x4)) b] / V with a = (r1y − r2y, r2x − r1x),
+            # b = (r1y + r2y, −r1x − r2x), V = 4 |r1 × r2|.
+            F = P.F[p]
+            h0 = P.half0[p]
+            r1 = h0[0] * t.vec2(F[0, 0], F[1, 0])
+            r2 = h0[1] * t.vec2(F[0, 1], F[1, 1])
+            s1 = T(-1.0)
+            s2 = T(-1.0)
+            sg = T(1.0)
+            if k == 1:
+                s1 = T(1.0)
+            if k == 2:
+                s1 = T(1.0)
+                s2 = T(1.0)
+                sg = T(-1.0)
+            if k == 3:
+                s2 = T(1.0)
+                sg = T(-1.0)
+            c = c + (s1 * r1 + s2 * r2) * D.inv_h
+            vol = T(4.0) * wp.abs(r1[0] * r2[1] - r1[1] * r2[0])
+            a = t.vec2(r1[1] - r2[1], r2[0] - r1[0])
+            if k == 1 or k == 3:
+                a = t.vec2(r1[1] + r2[1], -r1[0] - r2[0])
+            g = (sg / vol) * a
         bx, wx, dwx = weights(c[0], lp[0])
         by, wy, dwy = weights(c[1], lp[1])
-        return bx, by, wx, wy, dwx, dwy, c
+        return bx, by, wx, wy, dwx, dwy, g
 
-    return point_weights
+    vecK = wp.types.vector(K, T)
+
+    @wp.func
+    def contribution(wx: vecK, wy: vecK, dwx: vecK, dwy: vecK, g: t.vec2, i: int, j: int, inv_h: T):
+        if wp.static(cpdi):
+            n = wx[i] * wy[j]
+            return T(0.25) * n, n * g
+        return wx[i] * wy[j], t.vec2(dwx[i] * wy[j], wx[i] * dwy[j]) * inv_h
+
+    @wp.func
+    def on_grid(bx: int, by: int, G: Grid):
+        return bx >= 0 and by >= 0 and bx + K <= G.mass.shape[0] and by + K <= G.mass.shape[1]
+
+    return stencil, contribution, on_grid
 
 
 @functools.cache
-def make_stencil_on_grid(shape: str, precision: str):
-    """``stencil_on_grid(bx, by, G)``: whether the K×K nodes from (bx, by) lie on the grid."""
-    K = SUPPORT_NODES[shape]
-    Grid = make_state_structs(precision)[1]
+def make_point_on_grid(shape: str, precision: str):
+    """``point_on_grid(P, D, G, p)``: whether every sub-stencil of point p lies on the grid."""
+    NC = CORNERS.get(shape, 1)
+    Particles, Grid, Domain = make_state_structs(precision)
+    stencil, contribution, on_grid = make_stencil(shape, precision)
 
     @wp.func
-    def stencil_on_grid(bx: int, by: int, G: Grid):
-        return bx >= 0 and by >= 0 and bx + K <= G.mass.shape[0] and by + K <= G.mass.shape[1]
+    def point_on_grid(P: Particles, D: Domain, G: Grid, p: int):
+        ok = True
+        for k in range(wp.static(NC)):
+            bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
+            if not on_grid(bx, by, G):
+                ok = False
+        return ok
 
-    return stencil_on_grid
+    return point_on_grid
 
 
 @functools.cache
@@ -86,9 +144,10 @@ def make_p2g(
     t = scalar_types(precision)
     T = t.scalar
     K = SUPPORT_NODES[shape]
+    NC = CORNERS.get(shape, 1)
     Particles, Grid, Domain = make_state_structs(precision)
-    point_weights = make_point_weights(shape, precision)
-    stencil_on_grid = make_stencil_on_grid(shape, precision)
+    stencil, contribution, on_grid = make_stencil(shape, precision)
+    point_on_grid = make_point_on_grid(shape, precision)
     has_affine = affine != "none" and momentum
 
     @kernel(deterministic=deterministic)
@@ -97,9 +156,9 @@ def make_p2g(
         dt = T(clock[1])
         if dt <= T(0.0):
             return
-        bx, by, wx, wy, dwx, dwy, c = point_weights(P, D, p)
-        if not stencil_on_grid(bx, by, G):
+        if not point_on_grid(P, D, G, p):
             return  # escaped (or non-finite) point: skipped here, flagged by the status check
+        c = (P.x[p] - D.origin) * D.inv_h
         mp = P.mass[p]
         mv = mp * P.v[p]
         mC = t.mat22()
@@ -109,33 +168,35 @@ def make_p2g(
         vs = t.mat22()
         if wp.static(force):
             # f_int,i = −Σ_p V_p σ_p ∇N_i(x_p) ("MPM notes" step 4; MPM-SDEM eq. 13)
-            vs = (-P.vol[p] * D.inv_h) * P.stress[p]
+            vs = -P.vol[p] * P.stress[p]
             if wp.static(fused_impulse):
                 vs = vs * dt
-        for i in range(wp.static(K)):
-            for j in range(wp.static(K)):
-                w = wx[i] * wy[j]
-                gi = bx + i
-                gj = by + j
-                if wp.static(mass):
-                    wp.atomic_add(G.mass, gi, gj, w * mp)
-                mom = t.vec2()
-                if wp.static(momentum):
-                    mom = w * mv
-                    if wp.static(has_affine):
-                        dpos = (t.vec2(T(gi), T(gj)) - c) * D.h
-                        mom = mom + w * (mC * dpos)
-                if wp.static(force):
-                    f = vs * t.vec2(dwx[i] * wy[j], wx[i] * dwy[j])
-                    if wp.static(fused_impulse):
-                        mom = mom + f
-                    else:
-                        wp.atomic_add(G.force, gi, gj, f)
-                if wp.static(momentum or fused_impulse):
-                    if wp.static(remap):
-                        wp.atomic_add(G.vm, gi, gj, mom)
-                    else:
-                        wp.atomic_add(G.mom, gi, gj, mom)
+        for k in range(wp.static(NC)):
+            bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
+            for i in range(wp.static(K)):
+                for j in range(wp.static(K)):
+                    w, grad = contribution(wx, wy, dwx, dwy, g, i, j, D.inv_h)
+                    gi = bx + i
+                    gj = by + j
+                    if wp.static(mass):
+                        wp.atomic_add(G.mass, gi, gj, w * mp)
+                    mom = t.vec2()
+                    if wp.static(momentum):
+                        mom = w * mv
+                        if wp.static(has_affine):
+                            dpos = (t.vec2(T(gi), T(gj)) - c) * D.h
+                            mom = mom + w * (mC * dpos)
+                    if wp.static(force):
+                        f = vs * grad
+                        if wp.static(fused_impulse):
+                            mom = mom + f
+                        else:
+                            wp.atomic_add(G.force, gi, gj, f)
+                    if wp.static(momentum or fused_impulse):
+                        if wp.static(remap):
+                            wp.atomic_add(G.vm, gi, gj, mom)
+                        else:
+                            wp.atomic_add(G.mom, gi, gj, mom)
 
     return p2g
 
@@ -168,9 +229,10 @@ def make_g2p(
     t = scalar_types(precision)
     T = t.scalar
     K = SUPPORT_NODES[shape]
+    NC = CORNERS.get(shape, 1)
     Particles, Grid, Domain = make_state_structs(precision)
-    point_weights = make_point_weights(shape, precision)
-    stencil_on_grid = make_stencil_on_grid(shape, precision)
+    stencil, contribution, on_grid = make_stencil(shape, precision)
+    point_on_grid = make_point_on_grid(shape, precision)
     update_stress = make_stress_update(material_kinds, precision)
     X = float(flip_fraction)
     X_pic = 1.0 - X
@@ -203,9 +265,9 @@ def make_g2p(
         dt = T(clock[1])
         if dt <= T(0.0):
             return
-        bx, by, wx, wy, dwx, dwy, c = point_weights(P, D, p)
-        if not stencil_on_grid(bx, by, G):
+        if not point_on_grid(P, D, G, p):
             return  # escaped (or non-finite) point: skipped here, flagged by the status check
+        c = (P.x[p] - D.origin) * D.inv_h
         v_pic = t.vec2()
         v_old = t.vec2()
         v_s = t.vec2()
@@ -213,30 +275,31 @@ def make_g2p(
         Dm = t.mat22()
         grad_vt = t.mat22()
         L = t.mat22()
-        for i in range(wp.static(K)):
-            for j in range(wp.static(K)):
-                w = wx[i] * wy[j]
-                gi = bx + i
-                gj = by + j
-                grad = t.vec2(dwx[i] * wy[j], wx[i] * dwy[j]) * D.inv_h
-                vt = G.vt[gi, gj]
-                if wp.static(velocity or position):
-                    v_pic = v_pic + w * vt  # G→P of Ṽ ("Motion integration" eq. 31)
-                if wp.static(need_v_old):
-                    v_old = v_old + w * G.v[gi, gj]
-                if wp.static(velocity and xpic):
-                    v_s = v_s + w * G.vs[gi, gj]  # G of the smoothed field, eq. 39-40
-                if wp.static(velocity and apic):
-                    dpos = (t.vec2(T(gi), T(gj)) - c) * D.h
-                    B = B + w * wp.outer(vt, dpos)  # eq. 26
-                    if wp.static(d_const == 0.0):
-                        Dm = Dm + w * wp.outer(dpos, dpos)  # eq. 27
-                if wp.static(need_grad_vt or fused_grad):
-                    grad_vt = grad_vt + wp.outer(vt, grad)  # ∇Ṽ, eq. 22/45
-                if wp.static(stress == "v"):
-                    L = L + wp.outer(G.v[gi, gj], grad)
-                if wp.static(stress == "vm"):
-                    L = L + wp.outer(G.vm[gi, gj], grad)
+        for k in range(wp.static(NC)):
+            bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
+            for i in range(wp.static(K)):
+                for j in range(wp.static(K)):
+                    w, grad = contribution(wx, wy, dwx, dwy, g, i, j, D.inv_h)
+                    gi = bx + i
+                    gj = by + j
+                    vt = G.vt[gi, gj]
+                    if wp.static(velocity or position):
+                        v_pic = v_pic + w * vt  # G→P of Ṽ ("Motion integration" eq. 31)
+                    if wp.static(need_v_old):
+                        v_old = v_old + w * G.v[gi, gj]
+                    if wp.static(velocity and xpic):
+                        v_s = v_s + w * G.vs[gi, gj]  # G of the smoothed field, eq. 39-40
+                    if wp.static(velocity and apic):
+                        dpos = (t.vec2(T(gi), T(gj)) - c) * D.h
+                        B = B + w * wp.outer(vt, dpos)  # eq. 26
+                        if wp.static(d_const == 0.0):
+                            Dm = Dm + w * wp.outer(dpos, dpos)  # eq. 27
+                    if wp.static(need_grad_vt or fused_grad):
+                        grad_vt = grad_vt + wp.outer(vt, grad)  # ∇Ṽ, eq. 22/45
+                    if wp.static(stress == "v"):
+                        L = L + wp.outer(G.v[gi, gj], grad)
+                    if wp.static(stress == "vm"):
+                        L = L + wp.outer(G.vm[gi, gj], grad)
         if wp.static(fused_grad):
             L = grad_vt
         x_old = P.x[p]
@@ -313,24 +376,24 @@ def make_xpic_gather(shape: str, precision: str):
     """XPIC smoothing, first half: Particles.tmp = G v*_{k−1} (interpolate ``Grid.vk``)."""
     t = scalar_types(precision)
     K = SUPPORT_NODES[shape]
+    NC = CORNERS.get(shape, 1)
     Particles, Grid, Domain = make_state_structs(precision)
-    point_weights = make_point_weights(shape, precision)
-    stencil_on_grid = make_stencil_on_grid(shape, precision)
+    stencil, contribution, on_grid = make_stencil(shape, precision)
+    point_on_grid = make_point_on_grid(shape, precision)
 
     @kernel
     def xpic_gather(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
         p = wp.tid()
-        if clock[1] <= wp.float64(0.0):
-            return
-        bx, by, wx, wy, dwx, dwy, c = point_weights(P, D, p)
-        if not stencil_on_grid(bx, by, G):
+        if clock[1] <= wp.float64(0.0) or not point_on_grid(P, D, G, p):
             return
         v = t.vec2()
-        for i in range(wp.static(K)):
-            for j in range(wp.static(K)):
-                v = v + (wx[i] * wy[j]) * G.vk[bx + i, by + j]
+        for k in range(wp.static(NC)):
+            bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
+            for i in range(wp.static(K)):
+                for j in range(wp.static(K)):
+                    w, grad = contribution(wx, wy, dwx, dwy, g, i, j, D.inv_h)
+                    v = v + w * G.vk[bx + i, by + j]
         P.tmp[p] = v
-
 
     return xpic_gather
 
@@ -339,22 +402,22 @@ def make_xpic_gather(shape: str, precision: str):
 def make_xpic_scatter(shape: str, precision: str, *, deterministic: bool = False):
     """XPIC smoothing, second half: Grid.pk += Σ_p N m_p Particles.tmp (mass-weighted P2G)."""
     K = SUPPORT_NODES[shape]
+    NC = CORNERS.get(shape, 1)
     Particles, Grid, Domain = make_state_structs(precision)
-    point_weights = make_point_weights(shape, precision)
-    stencil_on_grid = make_stencil_on_grid(shape, precision)
+    stencil, contribution, on_grid = make_stencil(shape, precision)
+    point_on_grid = make_point_on_grid(shape, precision)
 
     @kernel(deterministic=deterministic)
     def xpic_scatter(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
         p = wp.tid()
-        if clock[1] <= wp.float64(0.0):
-            return
-        bx, by, wx, wy, dwx, dwy, c = point_weights(P, D, p)
-        if not stencil_on_grid(bx, by, G):
+        if clock[1] <= wp.float64(0.0) or not point_on_grid(P, D, G, p):
             return
         mv = P.mass[p] * P.tmp[p]
-        for i in range(wp.static(K)):
-            for j in range(wp.static(K)):
-                wp.atomic_add(G.pk, bx + i, by + j, (wx[i] * wy[j]) * mv)
-
+        for k in range(wp.static(NC)):
+            bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
+            for i in range(wp.static(K)):
+                for j in range(wp.static(K)):
+                    w, grad = contribution(wx, wy, dwx, dwy, g, i, j, D.inv_h)
+                    wp.atomic_add(G.pk, bx + i, by + j, w * mv)
 
     return xpic_scatter

@@ -21,8 +21,9 @@ __all__ = [
 ]
 
 #: Shape functions: original MPM (tent), uniform GIMP, contiguous-particle GIMP,
-#: quadratic and cubic B-splines ("MPM notes"; MPM-SDEM appendix).
-SHAPE_FUNCTIONS = ("linear", "ugimp", "cpgimp", "bspline2", "bspline3")
+#: quadratic and cubic B-splines ("MPM notes"; MPM-SDEM appendix), and CPDI1 (parallelogram
+#: domains following F, "Motion integration" §2.2).
+SHAPE_FUNCTIONS = ("linear", "ugimp", "cpgimp", "bspline2", "bspline3", "cpdi1")
 
 #: Where the stress update sits in the step ("Motion integration" §3.4): first (USF), last with
 #: the updated grid velocities (USL), last with velocities re-mapped from the updated points
