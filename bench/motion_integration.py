@@ -44,10 +44,14 @@ stable runs, each scheme's Pareto front highlighted) to ``--pareto`` and a stabi
 from __future__ import annotations
 
 import argparse
+import concurrent.futures
 import dataclasses
+import functools
 import importlib
 import json
 import math
+import multiprocessing
+import tempfile
 import time
 import traceback
 from pathlib import Path
@@ -59,6 +63,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 import mpmdem
+import mpmdem.io
 from mpmdem import BlowUpError, InputError, Simulation, SolverConfig
 from mpmdem.mpm import initial_dt_bound
 from mpmdem.runner import make_case_parser
@@ -66,6 +71,7 @@ from mpmdem.runner import make_case_parser
 RESULTS = Path(__file__).resolve().parent / "results"
 DEFAULT_CASES = ("rotating-disk", "bouncing-disk")
 DEFAULT_CFL = "0.1,0.25,0.5,1.0,1.5,2.5"
+DEFAULT_RES_CFL = "0.5,1.0"
 XPIC_ORDERS = (2, 4)
 #: errors below this are drawn at it on the log axis (f32 round-off is ~1e-7)
 ERROR_FLOOR = 1e-10
@@ -159,47 +165,91 @@ def make_config(module, setup, scheme: str, xpic_order: int | None, update: str,
     return SolverConfig(**fields)
 
 
-def warm_up(module, setup, scheme, xpic_order, update, device) -> tuple[float, str | None]:
-    """A few untimed steps that load (and compile) this variant's kernels; (seconds, error)."""
-    start = time.perf_counter()
+def _short_run(module, setup, scheme, xpic_order, update, device, out):
+    """A few steps at κ = 0.5: loads (the first time compiles) the kernels of this variant."""
+    config = make_config(module, setup, scheme, xpic_order, update, 0.5)
+    sim = Simulation(setup.scene, config, device=device)
+    result = sim.run(WARMUP_STEPS * 0.5 * initial_dt_bound(setup.scene), frames=1, quiet=True, out=out)
+    return sim, result
+
+
+def needs_file(module, device: str) -> bool:
+    """Whether the case's summarize reads the run's HDF5 file (it fails on a run without one)."""
+    args, setup = build_setup(module, "quick")
+    cfg = {**getattr(module, "DEFAULTS", {}), **setup.config}
     try:
-        config = make_config(module, setup, scheme, xpic_order, update, 0.5)
-        sim = Simulation(setup.scene, config, device=device)
-        sim.run(WARMUP_STEPS * 0.5 * initial_dt_bound(setup.scene), frames=1, quiet=True)
-    except (BlowUpError, InputError):
-        pass  # the timed runs record these
-    except Exception as e:  # a broken kernel variant: its timed runs are skipped
-        return time.perf_counter() - start, f"{type(e).__name__}: {e}"
-    return time.perf_counter() - start, None
+        sim, result = _short_run(module, setup, cfg.get("transfer", "APIC"), None, cfg.get("update", "USL"),
+                                 device, None)
+    except Exception:
+        return False
+    try:
+        module.summarize(sim, result, args)
+    except Exception:
+        return True
+    return False
+
+
+class _WriteTimer:
+    """Swaps mpmdem.io.FrameWriter (Simulation.run imports it per call) for a subclass that adds
+    the seconds spent writing frames to ``seconds``, so they can be kept out of wall_seconds."""
+
+    def __init__(self):
+        self.seconds = 0.0
+
+    def __enter__(self):
+        timer = self
+        self.original = base = mpmdem.io.FrameWriter
+
+        def timed(name):
+            def method(self, *a, **k):
+                start = time.perf_counter()
+                try:
+                    return getattr(base, name)(self, *a, **k)
+                finally:
+                    timer.seconds += time.perf_counter() - start
+
+            return method
+
+        mpmdem.io.FrameWriter = type("TimedFrameWriter", (base,), {
+            name: timed(name) for name in ("__init__", "write_frame", "set_status", "close")})
+        return self
+
+    def __exit__(self, *exc):
+        mpmdem.io.FrameWriter = self.original
 
 
 def run_one(case: str, module, resolution: str, built, scheme: str, xpic_order: int | None, update: str,
-            cfl: float, device: str, end_time: float, frames: int) -> dict:
+            cfl: float, device: str, end_time: float, frames: int, with_file: bool) -> dict:
     """One timed run of ``built`` = (case args, CaseSetup) to ``end_time``; never raises."""
     row = dict(case=case, scheme=scheme, xpic_order=xpic_order, update=update, cfl=cfl, cfl_measured=None,
-               resolution=resolution, h=None, particles=None, steps=None, end_time=None, wall_seconds=None,
-               error=None, error_kind=None, energy_error=None, stable=False, status="error", reason=None,
-               blowup_time=None, shape=None, precision=None, device=device, warmup_seconds=None)
+               resolution=resolution, h=None, particles=None, steps=None, end_time=end_time, frames=frames,
+               wall_seconds=None, write_seconds=None, error=None, error_kind=None, energy_error=None,
+               stable=False, status="error", reason=None, blowup_time=None, shape=None, precision=None,
+               device=device, warmup_seconds=None)
     try:
         args, setup = built
-        row.update(h=setup.scene.cell_size, end_time=end_time)
+        row.update(h=setup.scene.cell_size)
         config = make_config(module, setup, scheme, xpic_order, update, cfl)
         row.update(shape=config.shape, precision=config.precision)
         sim = Simulation(setup.scene, config, device=device)
         row.update(particles=sim.particle_count, device=sim.device)
-        start = time.perf_counter()
-        try:
-            result = sim.run(end_time, frames=frames, quiet=True)
-        finally:
-            row["wall_seconds"] = time.perf_counter() - start
-        d = result.diagnostics
-        ratio = d["dt"][1:] / np.maximum(d["dt_bound"][1:], 1e-300)
-        row.update(steps=result.steps, stable=True, status="completed", cfl_measured=float(np.median(ratio)))
-        try:
-            summary = module.summarize(sim, result, args)
-        except Exception as e:
-            summary = {}
-            row["reason"] = f"summarize failed: {type(e).__name__}: {e}"
+        with tempfile.TemporaryDirectory(prefix="motion_integration_") as tmp:
+            writes = _WriteTimer()
+            start = time.perf_counter()
+            try:
+                with writes:
+                    result = sim.run(end_time, frames=frames, quiet=True, out=tmp if with_file else None)
+            finally:
+                row["wall_seconds"] = time.perf_counter() - start - writes.seconds
+                row["write_seconds"] = writes.seconds
+            d = result.diagnostics
+            ratio = d["dt"][1:] / np.maximum(d["dt_bound"][1:], 1e-300)
+            row.update(steps=result.steps, stable=True, status="completed", cfl_measured=float(np.median(ratio)))
+            try:
+                summary = module.summarize(sim, result, args)
+            except Exception as e:
+                summary = {}
+                row["reason"] = f"summarize failed: {type(e).__name__}: {e}"
         e_err = energy_error(summary, d)
         err, kind = case_error(case, summary, e_err)
         row.update(error=err, error_kind=kind, energy_error=e_err)
@@ -213,8 +263,42 @@ def run_one(case: str, module, resolution: str, built, scheme: str, xpic_order: 
     return row
 
 
-def sweep(args) -> list[dict]:
-    """Run every requested combination; print and write one JSON line per run."""
+@functools.cache
+def _built(case: str, resolution: str):
+    return build_setup(load_case(case), resolution)
+
+
+def run_group(task: dict) -> list[dict]:
+    """Warm-up, then the timed runs of one (case, resolution, scheme, order) at every κ of the task."""
+    case, resolution, scheme, m, update = (task[k] for k in ("case", "resolution", "scheme", "xpic_order", "update"))
+    module = load_case(case)
+    built = _built(case, resolution)
+    start = time.perf_counter()
+    broken = None
+    try:
+        with tempfile.TemporaryDirectory(prefix="motion_integration_") as tmp:
+            _short_run(module, built[1], scheme, m, update, task["device"], tmp if task["with_file"] else None)
+    except (BlowUpError, InputError):
+        pass  # the timed runs record these
+    except Exception as e:  # a broken kernel variant: its timed runs are not attempted
+        broken = f"{type(e).__name__}: {e}"
+    warm = time.perf_counter() - start
+    rows = []
+    for cfl in task["cfls"]:
+        if broken:
+            row = dict(case=case, scheme=scheme, xpic_order=m, update=update, cfl=cfl, resolution=resolution,
+                       h=built[1].scene.cell_size, stable=False, status="error", reason=f"warm-up failed: {broken}",
+                       device=task["device"], error=None, energy_error=None, wall_seconds=None)
+        else:
+            row = run_one(case, module, resolution, built, scheme, m, update, cfl, task["device"],
+                          task["end_time"], task["frames"], task["with_file"])
+        row["warmup_seconds"] = warm
+        rows.append(row)
+    return rows
+
+
+def plan(args) -> list[dict]:
+    """The groups of runs of the sweep, quick resolution first (its warm-ups compile the kernels)."""
     has_unstable = "allow_unstable" in {f.name for f in dataclasses.fields(SolverConfig)}
     cfls = sorted(float(c) for c in args.cfl.split(","))
     if not has_unstable and any(c > 1.0 for c in cfls):
@@ -222,48 +306,69 @@ def sweep(args) -> list[dict]:
         print(f"note: SolverConfig has no allow_unstable field, so κ = {', '.join(map(str, skipped))} "
               "(past the Courant bound) are skipped", flush=True)
         cfls = [c for c in cfls if c <= 1.0]
+    if args.default_cfl.strip().lower() == "all":
+        default_cfls = cfls
+    else:
+        wanted = {float(c) for c in args.default_cfl.split(",")}
+        default_cfls = [c for c in cfls if c in wanted]
     variants = scheme_variants(_subset(args.schemes, mpmdem.TRANSFER_SCHEMES, "scheme"))
     updates = _subset(args.updates, mpmdem.STRESS_UPDATES, "update") or list(mpmdem.STRESS_UPDATES)
     resolutions = [r.strip() for r in args.resolutions.split(",")]
     for r in resolutions:
         if r not in ("quick", "default"):
             raise SystemExit(f"--resolutions: unknown resolution {r!r}; allowed: quick, default")
+    tasks = []
+    for case in [c.strip() for c in args.cases.split(",")]:
+        module = load_case(case)
+        if module is None:
+            print(f"note: case {case!r} not found (no mpmdem.cases module); skipped", flush=True)
+            continue
+        _, quick = build_setup(module, "quick")
+        end_time = quick.end_time * args.end_time_scale
+        frames = max(2, round(quick.frames * args.end_time_scale))
+        with_file = needs_file(module, args.device)
+        if with_file:
+            print(f"note: {case}'s summarize reads the run file, so its runs write one to a temporary folder "
+                  "(the seconds spent writing are write_seconds, not in wall_seconds)", flush=True)
+        for resolution in resolutions:
+            res_cfls = default_cfls if resolution == "default" else cfls
+            if not res_cfls:
+                continue
+            for scheme, m in variants:
+                for update in updates:
+                    tasks.append(dict(case=case, resolution=resolution, scheme=scheme, xpic_order=m, update=update,
+                                      cfls=res_cfls, device=args.device, end_time=end_time, frames=frames,
+                                      with_file=with_file))
+    order = {"quick": 0, "default": 1}
+    return sorted(tasks, key=lambda t: order[t["resolution"]])  # stable: cases keep their order
 
+
+def sweep(args) -> list[dict]:
+    """Run every group (in ``--jobs`` processes); print and write one JSON line per run."""
+    tasks = plan(args)
+    runs = sum(len(t["cfls"]) for t in tasks)
+    print(f"sweep: {len(tasks)} groups, {runs} runs, {args.jobs} process(es)", flush=True)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     rows = []
-    sweep_start = time.perf_counter()
+    start = time.perf_counter()
     with args.out.open("w") as out:
-        for case in [c.strip() for c in args.cases.split(",")]:
-            module = load_case(case)
-            if module is None:
-                print(f"note: case {case!r} not found (no mpmdem.cases module); skipped", flush=True)
-                continue
-            _, quick = build_setup(module, "quick")
-            end_time = quick.end_time * args.end_time_scale
-            frames = max(2, round(quick.frames * args.end_time_scale))
-            for resolution in resolutions:
-                res_cfls = [c for c in cfls if resolution != "default" or c <= args.default_max_cfl]
-                built = build_setup(module, resolution)
-                setup = built[1]
-                for scheme, m in variants:
-                    for update in updates:
-                        warm, broken = warm_up(module, setup, scheme, m, update, args.device)
-                        for cfl in res_cfls:
-                            if broken:
-                                row = dict(case=case, scheme=scheme, xpic_order=m, update=update, cfl=cfl,
-                                           resolution=resolution, h=setup.scene.cell_size, stable=False,
-                                           status="error", reason=f"warm-up failed: {broken}",
-                                           device=args.device, error=None, energy_error=None, wall_seconds=None)
-                            else:
-                                row = run_one(case, module, resolution, built, scheme, m, update, cfl,
-                                              args.device, end_time, frames)
-                            row["warmup_seconds"] = warm
-                            rows.append(row)
-                            line = json.dumps(row)
-                            print(line, flush=True)
-                            out.write(line + "\n")
-                            out.flush()
-    print(f"\nsweep: {len(rows)} runs in {time.perf_counter() - sweep_start:.1f} s", flush=True)
+        def emit(group: list[dict]) -> None:
+            for row in group:
+                rows.append(row)
+                line = json.dumps(row)
+                print(line, flush=True)
+                out.write(line + "\n")
+            out.flush()
+
+        if args.jobs <= 1:
+            for task in tasks:
+                emit(run_group(task))
+        else:
+            ctx = multiprocessing.get_context("spawn")
+            with concurrent.futures.ProcessPoolExecutor(args.jobs, mp_context=ctx) as pool:
+                for group in pool.map(run_group, tasks):
+                    emit(group)
+    print(f"\nsweep: {len(rows)} runs in {time.perf_counter() - start:.1f} s", flush=True)
     return rows
 
 
@@ -312,7 +417,7 @@ def plot_pareto(rows: list[dict], path: Path) -> None:
             kinds |= {r.get("error_kind") for r in rows if r["case"] == case and r["stable"]}
             if not pts:
                 continue
-            color, marker = colors(k % 20), STYLES[k % len(STYLES)]
+            color, marker = colors((2 * k) % 20 + (k // 10) % 2), STYLES[k % len(STYLES)]
             ax.scatter(*zip(*pts, strict=False), s=14, marker=marker, color=color, alpha=0.25, linewidths=0)
             front = pareto_front(pts)
             (h,) = ax.plot(*zip(*front, strict=False), marker=marker, color=color, lw=1.3, ms=6,
@@ -356,8 +461,10 @@ def plot_stability(rows: list[dict], path: Path) -> None:
     cfls = sorted({r["cfl"] for r in rows})
     cmap = plt.get_cmap("RdYlGn").copy()
     cmap.set_bad("0.85")
-    fig, axes = plt.subplots(1, max(1, len(cases)), squeeze=False, constrained_layout=True,
-                             figsize=(1.0 + 0.75 * len(cfls) * max(1, len(cases)) + 1.5, 0.9 + 0.36 * len(labels)))
+    ncase = max(1, len(cases))
+    width = max(3.6, 0.75 * len(cfls) + 1.7) * ncase + 1.2
+    fig, axes = plt.subplots(1, ncase, squeeze=False, constrained_layout=True,
+                             figsize=(width, max(3.2, 1.5 + 0.42 * len(labels))))
     im = None
     for ax, case in zip(axes[0], cases, strict=False):
         frac, counts = stability_table(rows, case, labels, cfls)
@@ -366,19 +473,21 @@ def plot_stability(rows: list[dict], path: Path) -> None:
             for j in range(len(cfls)):
                 if (i, j) in counts:
                     ok, n = counts[i, j]
-                    ax.text(j, i, f"{frac[i, j]:.2f}", ha="center", va="center", fontsize=7,
-                            color="k" if 0.2 < frac[i, j] < 0.85 else "w")
+                    ax.text(j, i, f"{frac[i, j]:.2f}\n{ok}/{n}", ha="center", va="center", fontsize=7.5,
+                            linespacing=1.0, color="k" if 0.25 < frac[i, j] < 0.8 else "w")
                 else:
-                    ax.text(j, i, "n/a", ha="center", va="center", fontsize=6, color="0.4")
+                    ax.text(j, i, "n/a", ha="center", va="center", fontsize=6.5, color="0.35")
         ax.set_xticks(range(len(cfls)), [f"{c:g}" for c in cfls])
         ax.set_yticks(range(len(labels)), labels)
         over = [j for j, c in enumerate(cfls) if c > 1.0]
-        if over:
+        if over and over[0] > 0:
             ax.axvline(over[0] - 0.5, color="k", lw=1.5, ls="--")
-        ax.set_xlabel("κ = dt / dt_CFL (dashed: Courant bound)")
-        ax.set_title(f"{case}: fraction stable", fontsize=10)
+        ax.set_xlabel("κ = dt / dt_CFL")
+        ax.set_title(case, fontsize=10)
     if im is not None:
-        fig.colorbar(im, ax=axes[0].tolist(), shrink=0.8, label="stable runs / runs (orders × resolutions)")
+        fig.colorbar(im, ax=axes[0].tolist(), shrink=0.8, label="fraction of runs stable")
+    fig.suptitle("stable runs / runs over update orders × resolutions; dashed: Courant bound κ = 1; "
+                 "n/a: no run completed or blew up", fontsize=8)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -418,8 +527,10 @@ def main(argv=None) -> None:
     parser.add_argument("--updates", default=None, help="subset of stress-update orders (default: all)")
     parser.add_argument("--cfl", default=DEFAULT_CFL, help=f"CFL factors κ = dt/dt_CFL (default {DEFAULT_CFL})")
     parser.add_argument("--resolutions", default="quick,default", help="quick, default or both")
-    parser.add_argument("--default-max-cfl", type=float, default=1.0,
-                        help="largest κ run at the default resolution (default 1.0; inf for all)")
+    parser.add_argument("--default-cfl", default=DEFAULT_RES_CFL,
+                        help=f"κ values also run at the default resolution (default {DEFAULT_RES_CFL}; 'all')")
+    parser.add_argument("--jobs", type=int, default=1,
+                        help="worker processes (default 1; on a CPU 2 halves the time, timings get noisier)")
     parser.add_argument("--end-time-scale", type=float, default=1.0, help="multiplies the cases' end times")
     parser.add_argument("--smoke", action="store_true",
                         help="2 schemes × 2 orders × κ 0.5, 2.5 × quick only (writes *_smoke files)")

@@ -9,6 +9,8 @@ CASES = {
     "sulsky-disks": "sulsky_disks",
     "axial-bar": "axial_bar",
     "elastic-column": "elastic_column",
+    "bouncing-disk": "bouncing_disk",
+    "rotating-disk": "rotating_disk",
 }
 
 DEFAULT_CASE = "sulsky-disks"

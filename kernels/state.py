@@ -37,7 +37,6 @@ def make_state_structs(precision: str):
         v: wp.array2d(dtype=t.vec2)  # nodal velocity at the start of the step [m/s]
         vt: wp.array2d(dtype=t.vec2)  # nodal velocity after the force update, Ṽ [m/s]
         vm: wp.array2d(dtype=t.vec2)  # MUSL: velocity re-mapped from the updated points [m/s]
-        vf: wp.array2d(dtype=t.vec2)  # velocity of the real points at nodes next to image walls [m/s]
         vs: wp.array2d(dtype=t.vec2)  # XPIC: Σ_k (−1)^{k+1} C(m,k) v*_k [m/s]
         vk: wp.array2d(dtype=t.vec2)  # XPIC: v*_k = (P_m G)^{k−1} P_m V [m/s]
         pk: wp.array2d(dtype=t.vec2)  # XPIC: momentum accumulator of the next v*_k [kg m/s]

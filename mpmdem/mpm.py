@@ -129,8 +129,7 @@ class MPMSolver:
         G.force = wp.zeros(shape, dtype=t.vec2, device=dev)
         G.v = wp.zeros(shape, dtype=t.vec2, device=dev)
         G.vt = wp.zeros(shape, dtype=t.vec2, device=dev)
-        G.vm = wp.zeros(shape if self.config.update != "USL" else (1, 1), dtype=t.vec2, device=dev)
-        G.vf = wp.zeros(shape, dtype=t.vec2, device=dev)
+        G.vm = wp.zeros(shape if self.config.update in ("MUSL", "USAVG") else (1, 1), dtype=t.vec2, device=dev)
         for name in ("vs", "vk", "pk"):
             setattr(G, name, wp.zeros(shape if xpic else (1, 1), dtype=t.vec2, device=dev))
         self.G = G
@@ -197,15 +196,13 @@ class MPMSolver:
                 remap=flags.get("remap", False))
 
         def grid(**flags):
-            images = mirror_walls and bool(flags.get("velocity"))
-            kernel = kgrid.make_grid_update(prec, damping=c.damping > 0.0, images=images, **flags)
+            kernel = kgrid.make_grid_update(prec, damping=c.damping > 0.0, **flags)
             if flags.get("remap"):
                 fields = [G.vm]
             elif flags.get("fused_impulse"):
                 fields = [G.vt]
             else:
                 fields = ([G.v] if flags.get("velocity") else []) + ([G.vt] if flags.get("force") else [])
-                fields += [G.vm] if flags.get("constrained_copy") else []
             return [_Launch(kernel, grid_dim, [G, D, clock, work])] + mirrored(*fields)
 
         def g2p(**flags):
@@ -238,9 +235,8 @@ class MPMSolver:
                 seq += p2g(mass=True, momentum=True, force=True) + grid(velocity=True, force=True)
             seq += xpic_smoothing() + g2p(velocity=True, position=True, stress="vt")
         elif c.update == "USF":
-            seq += p2g(mass=True, momentum=True, force=False)
-            seq += grid(velocity=True, force=False, constrained_copy=True)
-            seq += g2p(velocity=False, position=False, stress="vm")
+            seq += p2g(mass=True, momentum=True, force=False) + grid(velocity=True, force=False)
+            seq += g2p(velocity=False, position=False, stress="v")
             seq += p2g(mass=False, momentum=False, force=True) + grid(velocity=False, force=True)
             seq += xpic_smoothing() + g2p(velocity=True, position=True, stress="none")
         else:
@@ -248,9 +244,8 @@ class MPMSolver:
             # before the forces and makes the MUSL update the second half.
             half = 0.5 if c.update == "USAVG" else 1.0
             if c.update == "USAVG":
-                seq += p2g(mass=True, momentum=True, force=False)
-                seq += grid(velocity=True, force=False, constrained_copy=True)
-                seq += g2p(velocity=False, position=False, stress="vm", stress_fraction=half)
+                seq += p2g(mass=True, momentum=True, force=False) + grid(velocity=True, force=False)
+                seq += g2p(velocity=False, position=False, stress="v", stress_fraction=half)
                 seq += p2g(mass=False, momentum=False, force=True) + grid(velocity=False, force=True)
             else:
                 seq += p2g(mass=True, momentum=True, force=True) + grid(velocity=True, force=True)
