@@ -19,25 +19,33 @@ disk dropped on a rigid floor) it runs every transfer scheme of ``mpmdem.TRANSFE
 - A run that raises ``BlowUpError`` is unstable (``reason`` = its keyword); an ``InputError``
   is recorded as ``rejected``; any other exception as ``error`` with its message. No run stops
   the sweep.
-- ``wall_seconds`` times ``Simulation.run`` only. One untimed warm-up run (a few steps) per
-  (case, scheme, order, resolution) loads, and the first time compiles, the kernels first; its
-  time is ``warmup_seconds``.
+- ``wall_seconds`` times ``Simulation.run`` only, less the seconds spent inside the HDF5 frame
+  writer (``write_seconds``): when a case's ``summarize`` reads the run file (bouncing-disk's
+  does), its runs write one to a temporary folder (found out per case by calling ``summarize``
+  on a short run without a file). One untimed warm-up run (a few steps) per (case, scheme, order, resolution) loads, and
+  the first time compiles, the kernels first; its time is ``warmup_seconds``. On CUDA the
+  graph capture of each run's Simulation is inside ``wall_seconds`` (a few ms).
 
-Default sweep size: 2 cases × 14 scheme variants × 4 orders × 6 κ × 2 resolutions is 1344 runs.
-The cases are small (hundreds to a few thousand points), so a CPU run costs well under a
-second at the quick resolution and a few seconds at the default one; the default resolution
-runs only κ ≤ ``--default-max-cfl`` (default 1.0: the blown-up runs past the bound end early
-anyway, but they add little at a second resolution), which keeps the full CPU sweep on two
-cores to about twenty minutes once the kernels are compiled (first compile of each new kernel
-variant: add ~10–30 s each). ``--smoke`` runs 2 schemes × 2 orders × κ 0.5, 2.5 × quick only.
+Default sweep size: 2 cases × 14 scheme variants (12 + XPIC(2), XPIC(4)) × 4 orders × 6 κ at the
+quick resolution, plus κ = 0.5 and 1.0 at the default resolution (``--default-cfl``; ``all`` for
+every κ): 896 runs. The default resolution has 4x the points and 2x the steps, so each of its
+runs costs ~4-8x a quick one, and κ = 0.1 alone would cost more than the rest of its row; the
+two κ at the bound and half of it give each scheme a second resolution on the Pareto chart at
+about a sixth of the cost of all κ (past the bound, runs mostly blow up within a few steps anyway).
+Measured on 2 CPU cores: 9.0 min with the default ``--jobs 2`` on a CPU (one process per core:
+Warp's CPU kernels are single-threaded; each run is timed inside its own process), kernels
+compiled; 22.6 min with one process on a first run that also compiled the kernels and wrote
+frames for both cases (about a quarter of its time went to the writes). The
+first compile of each new kernel variant adds ~1-5 s (``warmup_seconds``). ``--smoke`` runs
+2 schemes × 2 orders × κ 0.5, 2.5 × quick only (~6 s) and writes ``*_smoke`` files.
 
 Writes one JSON line per run to stdout and ``--out``, a Pareto chart (error vs wall time, the
 stable runs, each scheme's Pareto front highlighted) to ``--pareto`` and a stability map
 (fraction of stable runs per scheme and κ) to ``--stability``.
 
-    python bench/motion_integration.py --smoke                    # < 1 min on a CPU
-    python bench/motion_integration.py --device cpu               # the full sweep
-    python bench/motion_integration.py --device cuda --default-max-cfl 10
+    python bench/motion_integration.py --smoke                    # ~6 s on a CPU
+    python bench/motion_integration.py                            # the full sweep, cpu, ~9 min
+    python bench/motion_integration.py --device cuda --default-cfl all
     python bench/motion_integration.py --replot bench/results/motion_integration.jsonl
 """
 
@@ -51,6 +59,7 @@ import importlib
 import json
 import math
 import multiprocessing
+import os
 import tempfile
 import time
 import traceback
@@ -61,6 +70,7 @@ import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 import mpmdem
 import mpmdem.io
@@ -425,6 +435,11 @@ def plot_pareto(rows: list[dict], path: Path) -> None:
             handles[lab] = h
         ax.set_xscale("log")
         ax.set_yscale("log")
+        # 1-2-5 labels on the time axis: the runs span about one decade, too few for decade labels
+        ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.yaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("wall seconds of Simulation.run")
         kinds.discard(None)
         what = {"angular-momentum": "|1 − L/L₀|", "rebound": "|1 − rebound ratio|", "energy": "|1 − E/E₀|"}
@@ -529,8 +544,9 @@ def main(argv=None) -> None:
     parser.add_argument("--resolutions", default="quick,default", help="quick, default or both")
     parser.add_argument("--default-cfl", default=DEFAULT_RES_CFL,
                         help=f"κ values also run at the default resolution (default {DEFAULT_RES_CFL}; 'all')")
-    parser.add_argument("--jobs", type=int, default=1,
-                        help="worker processes (default 1; on a CPU 2 halves the time, timings get noisier)")
+    parser.add_argument("--jobs", type=int, default=None,
+                        help="worker processes, each running whole groups (default 1 on a GPU, 2 on a CPU "
+                             "with 2 or more cores: Warp's CPU kernels use one core)")
     parser.add_argument("--end-time-scale", type=float, default=1.0, help="multiplies the cases' end times")
     parser.add_argument("--smoke", action="store_true",
                         help="2 schemes × 2 orders × κ 0.5, 2.5 × quick only (writes *_smoke files)")
@@ -540,6 +556,8 @@ def main(argv=None) -> None:
     parser.add_argument("--stability", type=Path, default=None, help="default bench/results/motion_stability.png")
     parser.add_argument("--replot", type=Path, default=None, help="draw the charts from this JSONL; run nothing")
     args = parser.parse_args(argv)
+    if args.jobs is None:
+        args.jobs = min(2, os.cpu_count() or 1) if args.device == "cpu" else 1
     suffix = "_smoke" if args.smoke else ""
     args.out = args.out or RESULTS / f"motion_integration{suffix}.jsonl"
     args.pareto = args.pareto or RESULTS / f"motion_pareto{suffix}.png"

@@ -119,6 +119,8 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
     bound = wp.float64(1.0e30)
     if s > wp.float64(0.0):
         bound = h / s
+    if not wp.isfinite(s):
+        bound = clock[3]  # a NaN speed is reported by the status flags; keep the clock sane
     clock[3] = bound
     dt = clock[4]
     if dt <= wp.float64(0.0):
