@@ -68,24 +68,35 @@ def work_slot(term: int, i: int, j: int) -> int:
 
 
 @functools.cache
-def make_boundary(precision: str):
-    """``boundary(v, D, i, j)``: the wall conditions of every side the node (i, j) is on or beyond."""
+def make_boundary(precision: str, bilateral_only: bool = False):
+    """``boundary(v, D, i, j)``: the wall conditions of every side the node (i, j) is on or beyond.
+
+    bilateral_only: apply only the fixed and slip (Dirichlet) conditions, not the unilateral
+    Coulomb walls; used for the start-of-step velocity V (see make_grid_update).
+    """
     t = scalar_types(precision)
     T = t.scalar
     Domain = make_state_structs(precision)[2]
     apply_bc = make_boundary_condition(precision)
 
     @wp.func
+    def side(v: t.vec2, kind: int, mu: T, n: t.vec2):
+        if wp.static(bilateral_only):
+            if kind == BC_FRICTION:
+                return v
+        return apply_bc(v, kind, mu, n)
+
+    @wp.func
     def boundary(v: t.vec2, D: Domain, i: int, j: int):
         out = v
         if i <= D.node_lo[0]:
-            out = apply_bc(out, D.bc_kind[0], D.bc_mu[0], t.vec2(T(-1.0), T(0.0)))
+            out = side(out, D.bc_kind[0], D.bc_mu[0], t.vec2(T(-1.0), T(0.0)))
         if i >= D.node_hi[0]:
-            out = apply_bc(out, D.bc_kind[1], D.bc_mu[1], t.vec2(T(1.0), T(0.0)))
+            out = side(out, D.bc_kind[1], D.bc_mu[1], t.vec2(T(1.0), T(0.0)))
         if j <= D.node_lo[1]:
-            out = apply_bc(out, D.bc_kind[2], D.bc_mu[2], t.vec2(T(0.0), T(-1.0)))
+            out = side(out, D.bc_kind[2], D.bc_mu[2], t.vec2(T(0.0), T(-1.0)))
         if j >= D.node_hi[1]:
-            out = apply_bc(out, D.bc_kind[3], D.bc_mu[3], t.vec2(T(0.0), T(1.0)))
+            out = side(out, D.bc_kind[3], D.bc_mu[3], t.vec2(T(0.0), T(1.0)))
         return out
 
     return boundary
@@ -105,12 +116,20 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     T = t.scalar
     Particles, Grid, Domain = make_state_structs(precision)
     boundary = make_boundary(precision)
+    dirichlet = make_boundary(precision, bilateral_only=True)
 
     @wp.func
     def constrain(v: t.vec2, m: T, D: Domain, i: int, j: int, work: wp.array(dtype=wp.float64)):
         # Wall reaction impulse m Δv acting on the constrained velocity: dW = F·V Δt (eq. 66);
         # zero for fixed and slip walls, negative for a sliding Coulomb wall.
         vb = boundary(v, D, i, j)
+        if vb[0] != v[0] or vb[1] != v[1]:
+            wp.atomic_add(work, work_slot(0, i, j), wp.float64(m * wp.dot(vb - v, vb)))
+        return vb
+
+    @wp.func
+    def constrain_start(v: t.vec2, m: T, D: Domain, i: int, j: int, work: wp.array(dtype=wp.float64)):
+        vb = dirichlet(v, D, i, j)
         if vb[0] != v[0] or vb[1] != v[1]:
             wp.atomic_add(work, work_slot(0, i, j), wp.float64(m * wp.dot(vb - v, vb)))
         return vb
@@ -141,10 +160,13 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
             return
         v = G.v[i, j]
         if wp.static(velocity):
-            # V with the wall conditions: wall nodes keep their prescribed velocity with zero
-            # acceleration ("Motion integration" note to eq. 28), so FLIP's Ṽ − V carries no wall
-            # impulse (measured: a FLIP disk then rebounds to 0.97 of its drop height, 0.86 if not)
-            v = constrain(G.mom[i, j] * inv_m, m, D, i, j, work)  # eq. 16
+            # Fixed and slip (Dirichlet) nodes keep their prescribed velocity with zero acceleration
+            # ("Motion integration" note to eq. 28), so they are constrained in V as in Ṽ and FLIP's
+            # Ṽ − V carries no impulse from them (a FLIP disk then rebounds to 0.97 of its drop
+            # height, 0.86 if not). A Coulomb wall is a unilateral contact: its impulse must reach
+            # the points through Ṽ − V, or FLIP points pressed on it keep their velocity into it and
+            # give the energy back when the wall lets go (+30 % on an impact), so V stays free there.
+            v = constrain_start(G.mom[i, j] * inv_m, m, D, i, j, work)  # eq. 16
             G.v[i, j] = v
         if wp.static(force):
             f = G.force[i, j] + m * g
