@@ -119,20 +119,20 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     dirichlet = make_boundary(precision, bilateral_only=True)
 
     @wp.func
-    def constrain(v: t.vec2, m: T, D: Domain, i: int, j: int, work: wp.array(dtype=wp.float64)):
+    def wall_work(v: t.vec2, vb: t.vec2, m: T, i: int, j: int, work: wp.array(dtype=wp.float64)):
         # Wall reaction impulse m Δv acting on the constrained velocity: dW = F·V Δt (eq. 66);
         # zero for fixed and slip walls, negative for a sliding Coulomb wall.
-        vb = boundary(v, D, i, j)
         if vb[0] != v[0] or vb[1] != v[1]:
             wp.atomic_add(work, work_slot(0, i, j), wp.float64(m * wp.dot(vb - v, vb)))
         return vb
 
     @wp.func
+    def constrain(v: t.vec2, m: T, D: Domain, i: int, j: int, work: wp.array(dtype=wp.float64)):
+        return wall_work(v, boundary(v, D, i, j), m, i, j, work)
+
+    @wp.func
     def constrain_start(v: t.vec2, m: T, D: Domain, i: int, j: int, work: wp.array(dtype=wp.float64)):
-        vb = dirichlet(v, D, i, j)
-        if vb[0] != v[0] or vb[1] != v[1]:
-            wp.atomic_add(work, work_slot(0, i, j), wp.float64(m * wp.dot(vb - v, vb)))
-        return vb
+        return wall_work(v, dirichlet(v, D, i, j), m, i, j, work)
 
     @kernel
     def grid_update(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), work: wp.array(dtype=wp.float64)):

@@ -17,7 +17,6 @@ from .errors import InputError
 from .kernels import grid as kgrid
 from .kernels import reductions as kred
 from .kernels import transfer as ktr
-from .kernels.shape_functions import SUPPORT_NODES
 from .kernels.state import make_state_structs
 from .kernels.types import scalar_types
 from .scene import Scene
@@ -305,7 +304,3 @@ class MPMSolver:
             out[k][self.order] = a.numpy()  # back to the scene's order
         out["body"] = self.body.copy()
         return out
-
-    @property
-    def support_nodes(self) -> int:
-        return SUPPORT_NODES[self.config.shape]

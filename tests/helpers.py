@@ -1,4 +1,10 @@
-"""Small scene builders shared by the tests."""
+"""Small scene builders and a case runner shared by the tests."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -22,4 +28,17 @@ def random_velocity(seed=0, scale=0.1):
     return field
 
 
-__all__ = ["LinearElastic", "free_disk_scene", "random_velocity"]
+ROOT = Path(__file__).resolve().parents[1]
+ENV = {**os.environ, "PYTHONUNBUFFERED": "1"}
+
+
+def run_script(name, out, *flags, timeout=600):
+    """Run ``cases/<name>.py --quick`` on the CPU as a user would; return its summary.json."""
+    cmd = [sys.executable, str(ROOT / "cases" / f"{name}.py"), "--quick", "--quiet", "--device", "cpu",
+           "--out", str(out), *flags]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=ENV)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads((out / "summary.json").read_text())
+
+
+__all__ = ["ENV", "ROOT", "LinearElastic", "free_disk_scene", "random_velocity", "run_script"]

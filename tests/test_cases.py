@@ -1,26 +1,15 @@
 """Each case runs as a script and through the CLI; its summary.json holds the checked figures."""
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import ENV, run_script
 
 from mpmdem.io import RunFile
-
-ROOT = Path(__file__).resolve().parents[1]
-ENV = {**os.environ, "PYTHONUNBUFFERED": "1"}
-
-
-def run_script(name, out, *flags, timeout=600):
-    cmd = [sys.executable, str(ROOT / "cases" / f"{name}.py"), "--quick", "--quiet", "--device", "cpu",
-           "--out", str(out), *flags]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=ENV)
-    assert proc.returncode == 0, proc.stderr
-    return json.loads((out / "summary.json").read_text())
 
 
 def test_axial_bar_matches_analytic_first_mode(tmp_path):

@@ -1,24 +1,8 @@
 """Motion-integration cases ("Motion integration" §4.1, §4.2, appendix B): the bouncing disk's
 rebound and energy, the rotating disk's angular momentum, per transfer scheme and stress update."""
 
-import json
-import os
-import subprocess
-import sys
-from pathlib import Path
-
 import pytest
-
-ROOT = Path(__file__).resolve().parents[1]
-ENV = {**os.environ, "PYTHONUNBUFFERED": "1"}
-
-
-def run_script(name, out, *flags, timeout=600):
-    cmd = [sys.executable, str(ROOT / "cases" / f"{name}.py"), "--quick", "--quiet", "--device", "cpu",
-           "--out", str(out), *flags]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=ENV)
-    assert proc.returncode == 0, proc.stderr
-    return json.loads((out / "summary.json").read_text())
+from helpers import run_script
 
 
 def test_bouncing_disk_flip_usf_rebounds_to_drop_height(tmp_path):
