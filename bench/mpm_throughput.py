@@ -221,12 +221,18 @@ def time_reference(positions: np.ndarray, n: int, dt: float, steps: int, device)
     return seconds, bool(np.isfinite(ref.x.numpy()).all())
 
 
-def time_mpmdem(scene: Scene, config: SolverConfig, steps: int, device) -> tuple[float, bool]:
-    """Seconds for ``steps`` mpmdem steps, and whether the positions stayed finite."""
+def time_mpmdem(scene: Scene, config: SolverConfig, steps: int, device, shuffle: bool = False) -> tuple[float, bool]:
+    """Seconds for ``steps`` mpmdem steps, and whether the positions stayed finite.
+
+    shuffle: put the points in a random memory order after the warm-up (what a long flow does to
+    them), so the effect of ``sort_interval`` shows.
+    """
     sim = Simulation(scene, config, device=str(device))
     sim.advance_to(1.0e-12)  # loads the modules, records the CUDA graph, takes one step
     sim.mpm.set_stop_time(1.0e9)
     sim.advance(WARMUP_STEPS)
+    if shuffle:
+        sim.mpm.shuffle_points()
     wp.synchronize_device(device)
     steps_before = sim.mpm.read_clock()[3]
     start = time.perf_counter()
@@ -241,16 +247,17 @@ def time_mpmdem(scene: Scene, config: SolverConfig, steps: int, device) -> tuple
 
 
 def row(impl: str, device, config: SolverConfig, particles: int, n: int, steps: int, seconds: float,
-        ratio_to: float | None, finite: bool) -> dict:
+        ratio_to: float | None, finite: bool, shuffled: bool = False) -> dict:
     """One JSON record; ``ratio_to`` is the reference pups an mpmdem row is divided by."""
     pups = particles * steps / seconds
     return dict(case="neo-hookean-block", impl=impl, device=str(device), precision=config.precision,
                 shape=config.shape, transfer=config.transfer, update=config.update, particles=particles,
                 grid=n, steps=steps, seconds=seconds, pups=pups,
-                ratio=None if ratio_to is None else pups / ratio_to, finite=finite)
+                ratio=None if ratio_to is None else pups / ratio_to, finite=finite,
+                sort_interval=config.sort_interval, shuffled=shuffled)
 
 
-def measure(particles: int, config: SolverConfig, steps: int, device) -> list[dict]:
+def measure(particles: int, config: SolverConfig, steps: int, device, shuffle: bool = False) -> list[dict]:
     """Time the reference, then mpmdem, at one size; return their two rows."""
     n = grid_cells(particles)
     scene = build_scene(n)
@@ -262,8 +269,8 @@ def measure(particles: int, config: SolverConfig, steps: int, device) -> list[di
     dt = config.cfl * scene.cell_size / scene.bodies[0].material.wave_speed
     ref_s, ref_ok = time_reference(positions, n, dt, steps, device)
     ref = row("reference", device, REFERENCE_CONFIG, count, n, steps, ref_s, None, ref_ok)
-    s, ok = time_mpmdem(scene, config, steps, device)
-    return [ref, row("mpmdem", device, config, count, n, steps, s, ref["pups"], ok)]
+    s, ok = time_mpmdem(scene, config, steps, device, shuffle)
+    return [ref, row("mpmdem", device, config, count, n, steps, s, ref["pups"], ok, shuffle)]
 
 
 def main(argv=None) -> None:
@@ -278,6 +285,10 @@ def main(argv=None) -> None:
     parser.add_argument("--transfer", default="APIC")
     parser.add_argument("--update", default="USL")
     parser.add_argument("--precision", default="f32", choices=("f32", "f64"))
+    parser.add_argument("--sort-interval", type=int, default=None,
+                        help="steps between re-sorts of the points by cell (default: the solver's, 100 on GPUs)")
+    parser.add_argument("--shuffle", action="store_true",
+                        help="randomise the points' memory order before timing (as a long flow would)")
     parser.add_argument("--out", type=Path, default=None, help="also append the JSON lines to this .jsonl file")
     args = parser.parse_args(argv)
 
@@ -286,12 +297,13 @@ def main(argv=None) -> None:
     cuda = device.is_cuda
     sizes = [int(s) for s in args.sizes.split(",")] if args.sizes else list(GPU_SIZES if cuda else CPU_SIZES)
     steps = args.steps or (200 if cuda else 20)
-    config = SolverConfig(shape=args.shape, transfer=args.transfer, update=args.update, precision=args.precision)
+    config = SolverConfig(shape=args.shape, transfer=args.transfer, update=args.update, precision=args.precision,
+                          sort_interval=args.sort_interval)
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
     with wp.ScopedDevice(device):
         for particles in sizes:
-            for row in measure(particles, config, steps, device):
+            for row in measure(particles, config, steps, device, args.shuffle):
                 line = json.dumps(row)
                 print(line, flush=True)
                 if args.out is not None:

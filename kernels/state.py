@@ -28,6 +28,7 @@ def make_state_structs(precision: str):
         material: wp.array(dtype=wp.int32)  # index into the material table
         strain_energy: wp.array(dtype=t.scalar)  # stored elastic energy [J/m]
         tmp: wp.array(dtype=t.vec2)  # XPIC scratch (G v*_k, then the displacement) [m/s or m]
+        pid: wp.array(dtype=wp.int32)  # index of the point in the scene's order (outputs use it)
 
     @wp.struct
     class Grid:

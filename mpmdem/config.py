@@ -91,6 +91,9 @@ class SolverConfig:
         blowup_energy_factor: stop when the total energy exceeds its initial scale by this
             factor (energy growth is the signature of an unstable explicit step).
         cuda_graph: record one step as a CUDA graph on GPUs and replay it.
+        sort_interval: re-sort the points by grid cell every this many steps, which keeps the
+            P2G atomics coalesced as material flows; None (default) means 100 on GPUs and never on
+            CPUs, 0 means never.
         deterministic: make GPU runs bit-identical from run to run (ordered float atomics in
             P2G; slower). CPU runs always are. Needed for bit-for-bit checkpoint restarts on GPUs.
     """
@@ -107,6 +110,7 @@ class SolverConfig:
     allow_unstable: bool = False
     blowup_energy_factor: float = 2.0
     cuda_graph: bool = True
+    sort_interval: int | None = None
     deterministic: bool = False
 
     def __post_init__(self):
@@ -131,6 +135,8 @@ class SolverConfig:
             raise InputError("cfl", self.cfl, f"{allowed}; 0.5 or less is advised")
         if not (isinstance(self.xpic_order, int) and self.xpic_order >= 1):
             raise InputError("xpic_order", self.xpic_order, "an integer >= 1 (the m of XPIC(m))")
+        if self.sort_interval is not None and not (isinstance(self.sort_interval, int) and self.sort_interval >= 0):
+            raise InputError("sort_interval", self.sort_interval, "an integer >= 0 (steps), or None for the default")
         if not (float(self.damping) >= 0.0):
             raise InputError("damping", self.damping, "Cundall's coefficient D >= 0 (0 = off; 0.1 is typical)")
         if self.dt is not None and not (float(self.dt) > 0.0):

@@ -16,6 +16,7 @@ from .config import SolverConfig
 from .errors import InputError
 from .kernels import grid as kgrid
 from .kernels import reductions as kred
+from .kernels import sorting as ksort
 from .kernels import transfer as ktr
 from .kernels.state import make_state_structs
 from .kernels.types import scalar_types
@@ -84,6 +85,7 @@ class MPMSolver:
         self.body = host["body"]
         self.order = device_order(host["x"], scene.domain[0], scene.cell_size)
         self._allocate({k: v[self.order] for k, v in host.items()})
+        self._sort = None
         self._build()
 
     # -- set-up -------------------------------------------------------------------------------
@@ -116,6 +118,7 @@ class MPMSolver:
         P.strain_energy = wp.zeros(n, dtype=t.scalar, device=dev)
         xpic = self.config.scheme.xpic
         P.tmp = wp.zeros(n if xpic else 1, dtype=t.vec2, device=dev)
+        P.pid = wp.array(self.order.astype(np.int32), dtype=wp.int32, device=dev)
         self.P = P
 
         nx, ny = scene.cell_counts
@@ -274,6 +277,41 @@ class MPMSolver:
                 wp.launch(item.kernel, item.dim, inputs=item.inputs, device=dev)
         wp.launch(kred.advance_time, 1, inputs=[self.clock, self.steps], device=dev)
 
+    _POINT_FIELDS = ("x", "v", "C", "F", "stress", "mass", "vol", "vol0", "half0", "material", "strain_energy", "pid")
+
+    def _reorder(self, order: wp.array | None = None) -> None:
+        """Permute every per-point array by ``order`` (new[p] = old[order[p]]); None: by grid cell."""
+        dev = self.device
+        n = self.particle_count
+        if self._sort is None:
+            Particles = make_state_structs(self.config.precision)[0]
+            scratch = Particles()
+            for name in self._POINT_FIELDS:
+                setattr(scratch, name, wp.empty_like(getattr(self.P, name)))
+            scratch.tmp = self.P.tmp
+            keys = wp.empty(2 * n, dtype=wp.int32, device=dev)
+            values = wp.empty(2 * n, dtype=wp.int32, device=dev)
+            self._sort = (scratch, keys, values)
+        scratch, keys, values = self._sort
+        if order is None:
+            rows, cols = self.grid_shape[1], self.grid_shape[0]
+            wp.launch(ksort.make_cell_keys(self.config.precision), n,
+                      inputs=[self.P, self.D, rows, cols, keys, values], device=dev)
+            wp.utils.radix_sort_pairs(keys, values, n)
+            order = values
+        wp.launch(ksort.make_gather_points(self.config.precision), n, inputs=[self.P, scratch, order], device=dev)
+        for name in self._POINT_FIELDS:
+            wp.copy(getattr(self.P, name), getattr(scratch, name))
+
+    def sort_points(self) -> None:
+        """Reorder the points by grid cell (radix sort on the device); outputs keep the scene's order."""
+        self._reorder()
+
+    def shuffle_points(self, seed: int = 0) -> None:
+        """Put the points in a random memory order (benchmarks of sorting; results are unchanged)."""
+        perm = np.random.default_rng(seed).permutation(self.particle_count).astype(np.int32)
+        self._reorder(wp.array(perm, dtype=wp.int32, device=self.device))
+
     def set_stop_time(self, t_stop: float) -> None:
         """Steps run until the clock reaches t_stop [s]; later steps do nothing."""
         wp.copy(self.clock, wp.array([t_stop], dtype=wp.float64, device="cpu"), dest_offset=2, count=1)
@@ -298,9 +336,10 @@ class MPMSolver:
         """Host copies of the per-point output fields (copies: on the CPU ``numpy()`` is a view)."""
         P = self.P
         fields = {"x": P.x, "v": P.v, "stress": P.stress, "volume": P.vol, "mass": P.mass, "F": P.F}
+        pid = P.pid.numpy()
         out = {}
         for k, a in fields.items():
             out[k] = np.empty_like(a.numpy())
-            out[k][self.order] = a.numpy()  # back to the scene's order
+            out[k][pid] = a.numpy()  # back to the scene's order
         out["body"] = self.body.copy()
         return out

@@ -27,7 +27,7 @@ from .scene import Scene
 __all__ = ["RunResult", "Simulation", "default_device"]
 
 #: Point arrays that change during a run (what a checkpoint must hold).
-_STATE_FIELDS = ("x", "v", "C", "F", "stress", "vol", "strain_energy")
+_STATE_FIELDS = ("x", "v", "C", "F", "stress", "vol", "strain_energy", "mass", "vol0", "half0", "material", "pid")
 
 
 def default_device() -> str:
@@ -79,6 +79,11 @@ class Simulation:
         self.device = str(wp.get_device(device))
         self.mpm = MPMSolver(scene, self.config, self.device)
         self._graph = None
+        interval = self.config.sort_interval
+        if interval is None:
+            interval = 100 if wp.get_device(self.device).is_cuda else 0
+        self.sort_interval = interval
+        self._steps_since_sort = 0
 
     @property
     def particle_count(self) -> int:
@@ -98,13 +103,17 @@ class Simulation:
         self._graph = cap.graph
 
     def advance(self, steps: int) -> None:
-        """Launch ``steps`` explicit steps without any host synchronisation."""
-        if self._graph is not None:
-            for _ in range(steps):
+        """Launch ``steps`` explicit steps without any host synchronisation (the points are
+        re-sorted by cell every ``sort_interval`` steps, between two steps)."""
+        for _ in range(steps):
+            if self._graph is not None:
                 wp.capture_launch(self._graph)
-        else:
-            for _ in range(steps):
+            else:
                 self.mpm.step()
+            self._steps_since_sort += 1
+            if self.sort_interval and self._steps_since_sort >= self.sort_interval:
+                self.mpm.sort_points()
+                self._steps_since_sort = 0
 
     def advance_to(self, t_stop: float, *, max_batch: int | None = None, on_batch=None) -> tuple[float, int]:
         """Step until the clock reaches t_stop [s]; checks stability after each batch of steps.
