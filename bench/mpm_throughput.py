@@ -286,7 +286,7 @@ def main(argv=None) -> None:
     parser.add_argument("--update", default="USL")
     parser.add_argument("--precision", default="f32", choices=("f32", "f64"))
     parser.add_argument("--sort-interval", type=int, default=None,
-                        help="steps between re-sorts of the points by cell (default: the solver's, 100 on GPUs)")
+                        help="steps between re-sorts of the points by cell (default: never)")
     parser.add_argument("--shuffle", action="store_true",
                         help="randomise the points' memory order before timing (as a long flow would)")
     parser.add_argument("--out", type=Path, default=None, help="also append the JSON lines to this .jsonl file")

@@ -92,8 +92,8 @@ class SolverConfig:
             factor (energy growth is the signature of an unstable explicit step).
         cuda_graph: record one step as a CUDA graph on GPUs and replay it.
         sort_interval: re-sort the points by grid cell every this many steps, which keeps the
-            P2G atomics coalesced as material flows; None (default) means 100 on GPUs and never on
-            CPUs, 0 means never.
+            P2G atomics coalesced as material flows; None or 0 (default) never re-sorts (the
+            points start in cell order). Its GPU benefit is not measured yet, so it is opt-in.
         deterministic: make GPU runs bit-identical from run to run (ordered float atomics in
             P2G; slower). CPU runs always are. Needed for bit-for-bit checkpoint restarts on GPUs.
     """

@@ -79,10 +79,7 @@ class Simulation:
         self.device = str(wp.get_device(device))
         self.mpm = MPMSolver(scene, self.config, self.device)
         self._graph = None
-        interval = self.config.sort_interval
-        if interval is None:
-            interval = 100 if wp.get_device(self.device).is_cuda else 0
-        self.sort_interval = interval
+        self.sort_interval = self.config.sort_interval or 0
         self._steps_since_sort = 0
 
     @property
