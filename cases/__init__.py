@@ -11,6 +11,10 @@ CASES = {
     "elastic-column": "elastic_column",
     "bouncing-disk": "bouncing_disk",
     "rotating-disk": "rotating_disk",
+    "disk-collision": "disk_collision",
+    "block-on-incline": "block_on_incline",
+    "pentagon-pile": "pentagon_pile",
+    "domino": "domino",
 }
 
 DEFAULT_CASE = "sulsky-disks"

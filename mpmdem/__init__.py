@@ -25,12 +25,23 @@ if hasattr(_wp, "LOG_WARNING"):
 else:  # older Warp
     _wp.config.quiet = True
 
+from .bodies import ContactLaw, RigidBody
 from .config import SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverConfig, TransferScheme
 from .errors import BlowUpError, InputError
 from .materials import LinearElastic, Material, NeoHookean
 from .scene import Boundary, MPMBody, Scene
 from .shapes import Shape, disk, polygon, rectangle, seed_points
 from .simulation import RunResult, Simulation, default_device
+from .spheropolygons import (
+    Spheropolygon,
+    random_convex_polygon,
+    regular_polygon,
+    rod,
+    rounded_rectangle,
+    sphero_disk,
+    spheropolygon,
+    spheropolygon_from_file,
+)
 
 __all__ = [
     "SHAPE_FUNCTIONS",
@@ -38,20 +49,30 @@ __all__ = [
     "TRANSFER_SCHEMES",
     "BlowUpError",
     "Boundary",
+    "ContactLaw",
     "InputError",
     "LinearElastic",
     "MPMBody",
     "Material",
     "NeoHookean",
+    "RigidBody",
     "RunResult",
     "Scene",
     "Shape",
     "Simulation",
     "SolverConfig",
+    "Spheropolygon",
     "TransferScheme",
     "default_device",
     "disk",
     "polygon",
+    "random_convex_polygon",
     "rectangle",
+    "regular_polygon",
+    "rod",
+    "rounded_rectangle",
     "seed_points",
+    "sphero_disk",
+    "spheropolygon",
+    "spheropolygon_from_file",
 ]

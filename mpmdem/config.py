@@ -7,6 +7,7 @@ nothing here is read per particle at run time.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from typing import Literal
 
@@ -95,7 +96,17 @@ class SolverConfig:
             P2G atomics coalesced as material flows; None or 0 (default) never re-sorts (the
             points start in cell order). Its GPU benefit is not measured yet, so it is opt-in.
         deterministic: make GPU runs bit-identical from run to run (ordered float atomics in
-            P2G; slower). CPU runs always are. Needed for bit-for-bit checkpoint restarts on GPUs.
+            P2G and in the DEM contact sums; slower). CPU runs always are. Needed for bit-for-bit
+            checkpoint restarts on GPUs.
+        dem_kappa: κ2 of the DEM time step dt = 2π κ2 sqrt(m* / k_n) (MPM-SDEM eq. 51, with m*
+            the smallest rotational effective mass of the free bodies, see mpmdem.dem); the
+            paper's 0.1 is the default. At most 1/π: above it even one body on one linear spring
+            is unstable with the explicit update.
+        dem_skin: Verlet skin of the DEM neighbour lists [m]; None picks a quarter of the median
+            bounding radius of the bodies. Lists are rebuilt when a body has moved (or turned)
+            more than half the skin since the last build.
+        dem_max_neighbors: neighbour slots per body in the DEM Verlet lists; None picks from the
+            size spread of the bodies. A list that overflows stops the run with a message.
     """
 
     shape: str = "bspline2"
@@ -112,6 +123,9 @@ class SolverConfig:
     cuda_graph: bool = True
     sort_interval: int | None = None
     deterministic: bool = False
+    dem_kappa: float = 0.1
+    dem_skin: float | None = None
+    dem_max_neighbors: int | None = None
 
     def __post_init__(self):
         shape = str(self.shape).lower()
@@ -143,6 +157,16 @@ class SolverConfig:
             raise InputError("dt", self.dt, "a positive time step in seconds, or None for the CFL policy")
         if not (float(self.blowup_energy_factor) > 0.0):
             raise InputError("blowup_energy_factor", self.blowup_energy_factor, "a positive number")
+        kappa_max = 10.0 / math.pi if self.allow_unstable else 1.0 / math.pi
+        if not (0.0 < float(self.dem_kappa) <= kappa_max):
+            raise InputError("dem_kappa", self.dem_kappa,
+                             f"a number in (0, {kappa_max:.4g}] (MPM-SDEM eq. 51; 0.1 is the paper's value)")
+        if self.dem_skin is not None and not (math.isfinite(float(self.dem_skin)) and float(self.dem_skin) > 0.0):
+            raise InputError("dem_skin", self.dem_skin, "a Verlet skin > 0 [m], or None for the default")
+        if self.dem_max_neighbors is not None and not (
+            isinstance(self.dem_max_neighbors, int) and 1 <= self.dem_max_neighbors <= 256
+        ):
+            raise InputError("dem_max_neighbors", self.dem_max_neighbors, "an integer in 1..256, or None (automatic)")
 
     @property
     def scheme(self) -> TransferScheme:

@@ -1,9 +1,17 @@
 """Run files: the HDF5 frame writer, its XDMF sidecar and CSV energy log, and a reader.
 
-A run file (format ``mpmdem-1``) is one HDF5 file holding, for a fixed particle count N:
+A run file (format ``mpmdem-1``) is one HDF5 file holding, for a fixed particle count N >= 0 and a
+fixed count M >= 0 of rigid DEM bodies (spheropolygons):
 
 * ``/particles/<name>``: one resizable dataset per particle field, shape (n_frames, N, *shape),
-  chunked one frame at a time;
+  chunked one frame at a time; absent when N == 0 (older files may hold empty ones);
+* ``/bodies/<name>``: one resizable dataset per body field (x, angle, v, omega, force, torque by
+  default), shape (n_frames, M, *shape), chunked one frame at a time; absent when M == 0;
+* ``/bodies/geometry/<name>``: static per-body data written once: vertex_start (M,) int32,
+  vertex_count (M,) int32, vertices (total_vertices, 2) float64 body-frame core vertices [m],
+  radius (M,) float64 sphero radius [m], motion (M,) int32 (0 free, 1 fixed, 2 kinematic),
+  mass (M,) float64 [kg/m], name (M,) variable-length UTF-8 strings, plus any extra per-body
+  arrays the writer was given;
 * ``/time``: the simulated time of each frame [s], float64;
 * ``/diagnostics/<name>``: one float64 scalar per frame (energies, momenta, dt, ...);
 * root attributes: every entry of the writer's ``attrs`` as a JSON string, plus ``format``
@@ -12,7 +20,8 @@ A run file (format ``mpmdem-1``) is one HDF5 file holding, for a fixed particle 
 The file is flushed after every frame and is never opened with the SWMR / "latest" file format,
 so a writer that crashes or is killed leaves a file that ``RunFile`` (or any HDF5 tool) reads up
 to the last complete frame. Next to it the writer keeps ``<name>.xdmf`` (rewritten atomically
-after every frame) so ParaView can open the run as a time series of point clouds.
+after every frame) so ParaView can open the run as time series of point clouds: a temporal
+collection "particles" (when N > 0) and one "bodies" of the body centroids (when M > 0).
 """
 
 from __future__ import annotations
@@ -30,7 +39,8 @@ from xml.sax.saxutils import quoteattr
 import h5py
 import numpy as np
 
-__all__ = ["FORMAT", "FrameWriter", "RunFile", "default_field_specs"]
+__all__ = ["BODY_GEOMETRY_KEYS", "FORMAT", "FrameWriter", "RunFile", "default_body_field_specs",
+           "default_field_specs"]
 
 FORMAT = "mpmdem-1"
 """Value of the root attribute ``format`` of every run file this module writes."""
@@ -58,6 +68,139 @@ def default_field_specs() -> dict[str, tuple[tuple[int, ...], str]]:
         "F": ((2, 2), "float"),
         "body": ((), "int32"),
     }
+
+
+def default_body_field_specs() -> dict[str, tuple[tuple[int, ...], str]]:
+    """The per-body fields of a run file: name → (per-body shape, dtype name).
+
+    x: centroid [m]; angle: rotation of the body frame [rad]; v: centroid velocity [m/s];
+    omega: angular velocity [rad/s]; force: total contact force [N/m]; torque: total contact
+    torque about the centroid [N·m/m]. "float" stands for the run's precision.
+
+    Returns:
+        A fresh dict that callers may extend.
+    """
+    return {
+        "x": ((2,), "float"),
+        "angle": ((), "float"),
+        "v": ((2,), "float"),
+        "omega": ((), "float"),
+        "force": ((2,), "float"),
+        "torque": ((), "float"),
+    }
+
+
+#: Keys every ``body_geometry`` must have (extra per-body numeric arrays are allowed and stored too).
+BODY_GEOMETRY_KEYS = ("vertex_start", "vertex_count", "vertices", "radius", "motion", "mass", "name")
+
+#: Dtypes of the geometry arrays as stored.
+_GEOMETRY_DTYPES = {
+    "vertex_start": np.int32,
+    "vertex_count": np.int32,
+    "vertices": np.float64,
+    "radius": np.float64,
+    "motion": np.int32,
+    "mass": np.float64,
+}
+
+#: Body motion codes of ``body_geometry["motion"]``.
+MOTION_FREE, MOTION_FIXED, MOTION_KINEMATIC = 0, 1, 2
+
+
+def _parse_specs(
+    specs: Mapping[str, tuple[tuple[int, ...], str]], float_dtype: type, what: str, reserved: tuple[str, ...] = ()
+) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+    """Validate field specs (name → (shape, dtype name)) and resolve their dtypes."""
+    out: dict[str, tuple[tuple[int, ...], np.dtype]] = {}
+    for name, spec in specs.items():
+        try:
+            shape, dtype_name = spec
+            shape = tuple(int(n) for n in shape)
+        except (TypeError, ValueError):
+            raise ValueError(f"{what} spec {name!r}: expected (shape tuple, dtype name), got {spec!r}") from None
+        if not isinstance(name, str) or not name or "/" in name or name in reserved:
+            raise ValueError(f"invalid {what} name {name!r}")
+        if any(n < 1 for n in shape):
+            raise ValueError(f"{what} spec {name!r}: shape {shape} has a zero or negative extent")
+        out[name] = (shape, _resolve_dtype(dtype_name, float_dtype))
+    return out
+
+
+def _check_frame_fields(
+    given: Mapping[str, np.ndarray] | None,
+    specs: Mapping[str, tuple[tuple[int, ...], np.dtype]],
+    count: int,
+    what: str,
+) -> dict[str, np.ndarray]:
+    """Validate one frame's arrays against the specs and cast them; {} when count == 0.
+
+    With count == 0 the frame may be None, empty, or exactly the spec names with zero-length arrays
+    (nothing is stored then).
+    """
+    if count == 0 and not given:
+        return {}
+    given = {} if given is None else given
+    missing = [k for k in specs if k not in given]
+    unknown = [k for k in given if k not in specs]
+    if missing or unknown:
+        raise ValueError(f"frame {what}s must be exactly {sorted(specs)}; missing {missing}, unknown {unknown}")
+    arrays = {}
+    for name, (shape, dtype) in specs.items():
+        a = np.asarray(given[name])
+        if a.shape != (count, *shape):
+            none = f" (this run has no {'bodies' if 'body' in what else 'particles'})" if count == 0 else ""
+            raise ValueError(f"{what} {name!r}: expected shape {(count, *shape)}{none}, got {a.shape}")
+        arrays[name] = a.astype(dtype, copy=False)
+    return arrays if count > 0 else {}
+
+
+def _normalize_geometry(geometry: Mapping[str, Any] | None, m: int) -> dict[str, Any]:
+    """Validate a ``body_geometry`` dict for M bodies; returns the arrays to store (names as list[str])."""
+    if m == 0:
+        if geometry and any(np.size(v) for v in geometry.values()):
+            raise ValueError("body_geometry given but body_count is 0")
+        return {}
+    if geometry is None:
+        raise ValueError(f"body_geometry is required when body_count > 0 (keys {', '.join(BODY_GEOMETRY_KEYS)})")
+    missing = [k for k in BODY_GEOMETRY_KEYS if k not in geometry]
+    if missing:
+        raise ValueError(f"body_geometry is missing {missing}; required keys: {', '.join(BODY_GEOMETRY_KEYS)}")
+    out: dict[str, Any] = {}
+    for key, value in geometry.items():
+        if not isinstance(key, str) or not key or "/" in key:
+            raise ValueError(f"invalid body_geometry key {key!r}")
+        if key == "name":
+            names = [str(v) for v in value]
+            if len(names) != m:
+                raise ValueError(f"body_geometry 'name': expected {m} names, got {len(names)}")
+            out[key] = names
+            continue
+        a = np.asarray(value)
+        if key in _GEOMETRY_DTYPES:
+            dtype = np.dtype(_GEOMETRY_DTYPES[key])
+            if dtype.kind == "i" and a.dtype.kind not in "biu" and not np.all(np.mod(a, 1) == 0):
+                raise ValueError(f"body_geometry {key!r} must hold integers")
+            expected = (None, 2) if key == "vertices" else (m,)
+            if a.ndim != len(expected) or any(e is not None and e != d for e, d in zip(expected, a.shape, strict=True)):
+                shape_txt = "(total_vertices, 2)" if key == "vertices" else f"({m},)"
+                raise ValueError(f"body_geometry {key!r}: expected shape {shape_txt}, got {a.shape}")
+            a = a.astype(dtype)
+        else:
+            if a.ndim < 1 or a.shape[0] != m or a.dtype.kind not in "biuf":
+                raise ValueError(f"extra body_geometry {key!r} must be a numeric per-body array of length {m}")
+        out[key] = a
+    start, count, verts = out["vertex_start"], out["vertex_count"], out["vertices"]
+    if np.any(count < 1) or np.any(start < 0) or np.any(start.astype(np.int64) + count > len(verts)):
+        raise ValueError(
+            f"body_geometry vertex_start/vertex_count must give non-empty ranges inside vertices ({len(verts)} rows)"
+        )
+    if not np.all(np.isfinite(verts)):
+        raise ValueError("body_geometry 'vertices' must be finite")
+    if not np.all(np.isfinite(out["radius"])) or np.any(out["radius"] < 0):
+        raise ValueError("body_geometry 'radius' must be finite and non-negative")
+    if not np.all(np.isin(out["motion"], (MOTION_FREE, MOTION_FIXED, MOTION_KINEMATIC))):
+        raise ValueError("body_geometry 'motion' must be 0 (free), 1 (fixed) or 2 (kinematic)")
+    return out
 
 
 def _json_default(obj: Any) -> Any:
@@ -112,13 +255,14 @@ def _xdmf_number_type(dtype: np.dtype) -> tuple[str, int]:
 class FrameWriter:
     """Write a run frame by frame to HDF5, with an XDMF sidecar and an optional energy CSV.
 
-    Every call of ``write_frame`` appends one frame to every particle dataset, one value to
-    every diagnostic, flushes the HDF5 file and the CSV, and rewrites the XDMF sidecar; a run
+    Every call of ``write_frame`` appends one frame to every particle and body dataset, one value
+    to every diagnostic, flushes the HDF5 file and the CSV, and rewrites the XDMF sidecar; a run
     that dies keeps every frame written before.
 
     Args:
         path: The HDF5 file to create (overwritten if it exists).
-        particle_count: N, the number of particles; fixed for the whole run.
+        particle_count: N, the number of MPM particles; fixed for the whole run. 0 for a run of
+            bodies only: no /particles datasets are created then.
         attrs: Run metadata (scene, config, version, device, precision, ...): JSON-serialisable
             values (numpy scalars/arrays and paths are converted). ``attrs["precision"]``
             ("f32" or "f64", default "f32") sets the dtype of the "float" fields.
@@ -127,9 +271,21 @@ class FrameWriter:
             ``default_field_specs()``: x, v, stress, volume, mass, F, body.
         csv_path: Where to keep the diagnostics as CSV (header ``time,<names...>``, one row per
             frame); None writes no CSV.
+        body_count: M, the number of rigid DEM bodies; fixed for the whole run. 0 (default)
+            creates no /bodies group.
+        body_field_specs: Per-frame body fields, name → (per-body shape, dtype name), as for
+            field_specs ("geometry" is reserved). None gives ``default_body_field_specs()``:
+            x [m], angle [rad], v [m/s], omega [rad/s], force [N/m], torque [N·m/m].
+        body_geometry: Static per-body data, written once under /bodies/geometry; required when
+            body_count > 0. Keys (see ``BODY_GEOMETRY_KEYS``): vertex_start (M,) int,
+            vertex_count (M,) int >= 1, vertices (total_vertices, 2) body-frame core vertices [m],
+            radius (M,) sphero radius [m] >= 0, motion (M,) int (0 free, 1 fixed, 2 kinematic),
+            mass (M,) [kg/m], name (M strings). Extra keys holding numeric per-body arrays
+            (leading dimension M) are stored as given.
 
     Raises:
-        ValueError: particle_count is negative, precision is unknown or a field spec is invalid.
+        ValueError: particle_count or body_count is negative, precision is unknown, a field spec
+            is invalid or body_geometry is missing or inconsistent.
         TypeError: an attrs value cannot be JSON-encoded.
     """
 
@@ -141,32 +297,27 @@ class FrameWriter:
         attrs: Mapping[str, Any],
         field_specs: Mapping[str, tuple[tuple[int, ...], str]] | None = None,
         csv_path: str | os.PathLike | None = None,
+        body_count: int = 0,
+        body_field_specs: Mapping[str, tuple[tuple[int, ...], str]] | None = None,
+        body_geometry: Mapping[str, Any] | None = None,
     ) -> None:
-        if int(particle_count) != particle_count or particle_count < 0:
-            raise ValueError(f"particle_count must be a non-negative integer, got {particle_count!r}")
+        for what, count in (("particle_count", particle_count), ("body_count", body_count)):
+            if int(count) != count or count < 0:
+                raise ValueError(f"{what} must be a non-negative integer, got {count!r}")
         self.path = Path(path)
         self.xdmf_path = self.path.with_suffix(".xdmf")
         self.csv_path = Path(csv_path) if csv_path is not None else None
         self.particle_count = int(particle_count)
+        self.body_count = int(body_count)
         precision = attrs.get("precision", "f32")
         if precision not in _PRECISIONS:
             raise ValueError(f"precision must be one of {', '.join(_PRECISIONS)}, got {precision!r}")
         float_dtype = _PRECISIONS[precision]
-        specs = dict(default_field_specs() if field_specs is None else field_specs)
-        self._specs: dict[str, tuple[tuple[int, ...], np.dtype]] = {}
-        for name, spec in specs.items():
-            try:
-                shape, dtype_name = spec
-                shape = tuple(int(n) for n in shape)
-            except (TypeError, ValueError):
-                raise ValueError(
-                    f"field spec {name!r}: expected (shape tuple, dtype name), got {spec!r}"
-                ) from None
-            if not name or "/" in name:
-                raise ValueError(f"invalid field name {name!r}")
-            if any(n < 1 for n in shape):
-                raise ValueError(f"field spec {name!r}: shape {shape} has a zero or negative extent")
-            self._specs[name] = (shape, _resolve_dtype(dtype_name, float_dtype))
+        specs = default_field_specs() if field_specs is None else field_specs
+        self._specs = _parse_specs(specs, float_dtype, "field")
+        body_specs = default_body_field_specs() if body_field_specs is None else body_field_specs
+        self._body_specs = _parse_specs(body_specs, float_dtype, "body field", reserved=("geometry",))
+        geometry = _normalize_geometry(body_geometry, self.body_count)
         # Encode attrs before touching the disk so a bad value leaves nothing half-written.
         encoded = {
             str(k): json.dumps(v, default=_json_default) for k, v in attrs.items() if k not in _PLAIN_ATTRS
@@ -181,25 +332,36 @@ class FrameWriter:
         self._csv_file = None
         self._csv_writer = None
         self._closed = False
+        self._datasets: dict[str, h5py.Dataset] = {}
+        self._body_datasets: dict[str, h5py.Dataset] = {}
+        self._geometry_dtypes: dict[str, np.dtype] = {}
         self._file = h5py.File(self.path, "w")
         try:
             for k, v in encoded.items():
                 self._file.attrs[k] = v
             self._file.attrs["format"] = FORMAT
-            n = self.particle_count
-            chunk_n = max(n, 1)
-            group = self._file.create_group("particles")
-            self._datasets: dict[str, h5py.Dataset] = {}
-            for name, (shape, dtype) in self._specs.items():
-                self._datasets[name] = group.create_dataset(
-                    name,
-                    shape=(0, n, *shape),
-                    maxshape=(None, n if n > 0 else None, *shape),
-                    chunks=(1, chunk_n, *shape),
-                    dtype=dtype,
-                )
+            n, m = self.particle_count, self.body_count
+            if n > 0:
+                group = self._file.create_group("particles", track_order=True)
+                for name, (shape, dtype) in self._specs.items():
+                    self._datasets[name] = group.create_dataset(
+                        name, shape=(0, n, *shape), maxshape=(None, n, *shape), chunks=(1, n, *shape), dtype=dtype
+                    )
+            if m > 0:
+                bodies = self._file.create_group("bodies", track_order=True)
+                for name, (shape, dtype) in self._body_specs.items():
+                    self._body_datasets[name] = bodies.create_dataset(
+                        name, shape=(0, m, *shape), maxshape=(None, m, *shape), chunks=(1, m, *shape), dtype=dtype
+                    )
+                geo = bodies.create_group("geometry")
+                for key, value in geometry.items():
+                    if key == "name":
+                        ds = geo.create_dataset(key, data=value, dtype=h5py.string_dtype("utf-8"))
+                    else:
+                        ds = geo.create_dataset(key, data=value)
+                    self._geometry_dtypes[key] = ds.dtype
             self._time_ds = self._file.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64)
-            self._diag_group = self._file.create_group("diagnostics")
+            self._diag_group = self._file.create_group("diagnostics", track_order=True)
             self._diag_ds: dict[str, h5py.Dataset] = {}
             self._file.flush()
         except BaseException:
@@ -218,40 +380,40 @@ class FrameWriter:
         """The particle fields: name → (per-particle shape, numpy dtype)."""
         return dict(self._specs)
 
+    @property
+    def body_field_specs(self) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+        """The per-frame body fields: name → (per-body shape, numpy dtype)."""
+        return dict(self._body_specs)
+
     # ------------------------------------------------------------------ writing
 
     def write_frame(
-        self, time: float, fields: Mapping[str, np.ndarray], diagnostics: Mapping[str, float]
+        self,
+        time: float,
+        fields: Mapping[str, np.ndarray] | None,
+        diagnostics: Mapping[str, float],
+        body_fields: Mapping[str, np.ndarray] | None = None,
     ) -> None:
-        """Append one frame: every particle field, the time and every diagnostic; then flush.
+        """Append one frame: every particle and body field, the time and every diagnostic; then flush.
 
         Args:
             time: Simulated time of the frame [s].
-            fields: One array per field of the field specs, shape (N, *shape); values are cast
-                to the field's dtype.
+            fields: One array per particle field of the field specs, shape (N, *shape); values are
+                cast to the field's dtype. With N == 0: None, {} or zero-length arrays.
             diagnostics: Scalar per-frame values (energies [J/m], momenta, dt, ...). The first
                 frame fixes the set of names; later frames must give the same names.
+            body_fields: One array per body field of the body field specs, shape (M, *shape);
+                with M == 0: None, {} or zero-length arrays.
 
         Raises:
             ValueError: a field is missing, unknown or has the wrong shape, or the diagnostic
-                names differ from the first frame's.
+                names differ from the first frame's. Nothing is written then.
             RuntimeError: the writer is closed.
         """
         if self._closed:
             raise RuntimeError(f"FrameWriter for {self.path} is closed")
-        n = self.particle_count
-        missing = [k for k in self._specs if k not in fields]
-        unknown = [k for k in fields if k not in self._specs]
-        if missing or unknown:
-            raise ValueError(
-                f"frame fields must be exactly {sorted(self._specs)}; missing {missing}, unknown {unknown}"
-            )
-        arrays = {}
-        for name, (shape, dtype) in self._specs.items():
-            a = np.asarray(fields[name])
-            if a.shape != (n, *shape):
-                raise ValueError(f"field {name!r}: expected shape {(n, *shape)}, got {a.shape}")
-            arrays[name] = a.astype(dtype, copy=False)
+        arrays = _check_frame_fields(fields, self._specs, self.particle_count, "field")
+        body_arrays = _check_frame_fields(body_fields, self._body_specs, self.body_count, "body field")
         diag = {str(k): float(v) for k, v in diagnostics.items()}
         if self._diag_names is None:
             for k in diag:
@@ -264,12 +426,13 @@ class FrameWriter:
         time = float(time)
 
         i = self._frames
-        # Particle data and diagnostics first, the time last: a reader counts frames by /time,
-        # so a frame interrupted half-way is never seen.
-        for name, a in arrays.items():
-            ds = self._datasets[name]
-            ds.resize(i + 1, axis=0)
-            ds[i] = a
+        # Particle and body data and diagnostics first, the time last: a reader counts frames by
+        # /time, so a frame interrupted half-way is never seen.
+        for datasets, values in ((self._datasets, arrays), (self._body_datasets, body_arrays)):
+            for name, a in values.items():
+                ds = datasets[name]
+                ds.resize(i + 1, axis=0)
+                ds[i] = a
         if self._diag_names is None:
             self._diag_names = list(diag)
             for k in self._diag_names:
@@ -340,33 +503,39 @@ class FrameWriter:
 
     def _write_xdmf(self) -> None:
         """Rewrite the XDMF sidecar for all frames so far (tmp file + os.replace)."""
-        text = _xdmf_document(self.path.name, self.particle_count, self._times, self._specs)
+        static = {k: dt for k, dt in self._geometry_dtypes.items() if k in ("radius", "motion", "mass")}
+        text = _xdmf_document(
+            self.path.name, self.particle_count, self._times, self._specs,
+            body_count=self.body_count, body_specs=self._body_specs, body_static=static,
+        )
         tmp = self.xdmf_path.with_name(self.xdmf_path.name + ".tmp")
         with open(tmp, "w", encoding="utf-8") as f:
             f.write(text)
         os.replace(tmp, self.xdmf_path)
 
 
-def _xdmf_document(
-    h5_name: str,
+def _xdmf_collection(
+    h5: str,
+    group: str,
     n: int,
     times: list[float],
     specs: Mapping[str, tuple[tuple[int, ...], np.dtype]],
-) -> str:
-    """XDMF 2 text: a temporal collection of Polyvertex grids, one per frame.
+    static: Mapping[str, np.dtype] | None = None,
+) -> list[str]:
+    """XDMF lines of one temporal collection of Polyvertex grids over ``/<group>/<field>``.
 
-    Geometry is the XY hyperslab of /particles/x; every field becomes Scalar attributes, one per
-    component (v → v_x, v_y; stress → stress_xx, stress_xy, stress_yx, stress_yy).
+    Geometry is the XY hyperslab of /<group>/x; every field becomes Scalar attributes, one per
+    component. ``static`` names per-point datasets of /<group>/geometry (shape (n,)) added to
+    every frame as attributes, unless a field component already has that name.
     """
     n_frames = len(times)
-    h5 = h5_name.replace("&", "&amp;").replace("<", "&lt;")
 
     def source(name: str, shape: tuple[int, ...], dtype: np.dtype) -> str:
         number, prec = _xdmf_number_type(dtype)
         dims = " ".join(str(d) for d in (n_frames, n, *shape))
         return (
             f'<DataItem Dimensions="{dims}" NumberType="{number}" Precision="{prec}" Format="HDF">'
-            f"{h5}:/particles/{name}</DataItem>"
+            f"{h5}:/{group}/{name}</DataItem>"
         )
 
     def slab(frame: int, idx: tuple[int, ...], src: str, count_tail: tuple[int, ...], out_dims: str) -> str:
@@ -381,21 +550,25 @@ def _xdmf_document(
         )
 
     # Per-field pieces that do not depend on the frame.
-    x_shape, x_dtype = specs.get("x", ((2,), np.dtype(np.float32)))
-    x_src = source("x", x_shape, x_dtype) if "x" in specs else None
+    x_src = source("x", *specs["x"]) if "x" in specs else None
     attr_parts: list[tuple[str, tuple[int, ...], str]] = []
     for name, (shape, dtype) in specs.items():
         src = source(name, shape, dtype)
         for suffix, idx in _component_suffixes(shape):
             attr_parts.append((name + suffix, idx, src))
+    static_parts: list[tuple[str, str]] = []
+    taken = {a for a, _, _ in attr_parts}
+    for name, dtype in (static or {}).items():
+        if name in taken:
+            continue
+        number, prec = _xdmf_number_type(dtype)
+        static_parts.append((
+            name,
+            f'<DataItem Dimensions="{n}" NumberType="{number}" Precision="{prec}" Format="HDF">'
+            f"{h5}:/{group}/geometry/{name}</DataItem>",
+        ))
 
-    lines = [
-        '<?xml version="1.0" encoding="utf-8"?>',
-        '<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>',
-        '<Xdmf Version="2.0" xmlns:xi="http://www.w3.org/2001/XInclude">',
-        " <Domain>",
-        '  <Grid Name="particles" GridType="Collection" CollectionType="Temporal">',
-    ]
+    lines = [f'  <Grid Name="{group}" GridType="Collection" CollectionType="Temporal">']
     for k, t in enumerate(times):
         lines.append(f'   <Grid Name="frame_{k:06d}" GridType="Uniform">')
         lines.append(f'    <Time Value="{t!r}"/>')
@@ -408,8 +581,44 @@ def _xdmf_document(
                 f"    <Attribute Name={quoteattr(aname)} AttributeType=\"Scalar\" Center=\"Node\">"
                 f"{slab(k, idx, src, ones, str(n))}</Attribute>"
             )
+        for aname, item in static_parts:
+            lines.append(
+                f"    <Attribute Name={quoteattr(aname)} AttributeType=\"Scalar\" Center=\"Node\">{item}</Attribute>"
+            )
         lines.append("   </Grid>")
-    lines += ["  </Grid>", " </Domain>", "</Xdmf>", ""]
+    lines.append("  </Grid>")
+    return lines
+
+
+def _xdmf_document(
+    h5_name: str,
+    n: int,
+    times: list[float],
+    specs: Mapping[str, tuple[tuple[int, ...], np.dtype]],
+    *,
+    body_count: int = 0,
+    body_specs: Mapping[str, tuple[tuple[int, ...], np.dtype]] | None = None,
+    body_static: Mapping[str, np.dtype] | None = None,
+) -> str:
+    """XDMF 2 text: temporal collections "particles" (when n > 0) and "bodies" (when body_count > 0).
+
+    Each is a sequence of Polyvertex grids, one per frame, with the XY hyperslab of x as geometry
+    and every field as Scalar attributes, one per component (v → v_x, v_y; stress → stress_xx,
+    stress_xy, stress_yx, stress_yy). The bodies' grids also carry the static radius, motion and
+    mass of /bodies/geometry.
+    """
+    h5 = h5_name.replace("&", "&amp;").replace("<", "&lt;")
+    lines = [
+        '<?xml version="1.0" encoding="utf-8"?>',
+        '<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>',
+        '<Xdmf Version="2.0" xmlns:xi="http://www.w3.org/2001/XInclude">',
+        " <Domain>",
+    ]
+    if n > 0:
+        lines += _xdmf_collection(h5, "particles", n, times, specs)
+    if body_count > 0:
+        lines += _xdmf_collection(h5, "bodies", body_count, times, body_specs or {}, body_static)
+    lines += [" </Domain>", "</Xdmf>", ""]
     return "\n".join(lines)
 
 
@@ -447,10 +656,9 @@ class RunFile:
                 v = v.item()
             self._attrs[k] = v
         t = self._file["time"][()] if "time" in self._file else np.zeros(0)
-        parts = self._file.get("particles")
         lengths = [len(t)]
-        if parts is not None:
-            lengths += [parts[k].shape[0] for k in parts]
+        lengths += [ds.shape[0] for ds in self._particle_datasets().values()]
+        lengths += [ds.shape[0] for ds in self._body_datasets().values()]
         # A writer killed mid-frame may have grown some datasets but not /time: count complete frames.
         self._frames = min(lengths)
         self._times = np.asarray(t[: self._frames], dtype=np.float64)
@@ -472,19 +680,48 @@ class RunFile:
         """Number of complete frames in the file."""
         return self._frames
 
+    def _particle_datasets(self) -> dict[str, h5py.Dataset]:
+        """The per-frame particle datasets (none in a bodies-only file)."""
+        parts = self._file.get("particles")
+        if parts is None:
+            return {}
+        return {k: v for k, v in parts.items() if isinstance(v, h5py.Dataset)}
+
+    def _body_datasets(self) -> dict[str, h5py.Dataset]:
+        """The per-frame body datasets (none in a file without bodies)."""
+        bodies = self._file.get("bodies")
+        if bodies is None:
+            return {}
+        return {k: v for k, v in bodies.items() if isinstance(v, h5py.Dataset)}
+
     @property
     def particle_count(self) -> int:
-        """N, the number of particles per frame."""
-        parts = self._file.get("particles")
-        if parts is None or len(parts) == 0:
+        """N, the number of particles per frame (0 for a run of bodies only)."""
+        parts = self._particle_datasets()
+        if not parts:
             return 0
         return int(next(iter(parts.values())).shape[1])
 
     @property
     def fields(self) -> list[str]:
-        """Names of the particle fields stored per frame."""
-        parts = self._file.get("particles")
-        return list(parts) if parts is not None else []
+        """Names of the particle fields stored per frame ([] when there are no particles)."""
+        return list(self._particle_datasets()) if self.particle_count > 0 else []
+
+    @property
+    def body_count(self) -> int:
+        """M, the number of rigid DEM bodies (0 for files without bodies, including older ones)."""
+        geo = self._file.get("bodies/geometry")
+        if geo is not None and "vertex_count" in geo:
+            return int(geo["vertex_count"].shape[0])
+        bodies = self._body_datasets()
+        if not bodies:
+            return 0
+        return int(next(iter(bodies.values())).shape[1])
+
+    @property
+    def body_fields(self) -> list[str]:
+        """Names of the body fields stored per frame (x, angle, v, omega, force, torque, ...)."""
+        return list(self._body_datasets()) if self.body_count > 0 else []
 
     @property
     def status(self) -> str | None:
@@ -505,16 +742,68 @@ class RunFile:
             KeyError: no such field.
             IndexError: frame out of range.
         """
-        parts = self._file.get("particles")
-        if parts is None or name not in parts:
+        if name not in self.fields:
             raise KeyError(f"no particle field {name!r} in {self.path}; fields: {', '.join(self.fields)}")
+        return self._file["particles"][name][self._frame_index(frame)]
+
+    def body_field(self, name: str, frame: int) -> np.ndarray:
+        """One body field at one frame.
+
+        Args:
+            name: Body field name (x [m], angle [rad], v [m/s], omega [rad/s], force [N/m],
+                torque [N·m/m], ...).
+            frame: Frame index; negative counts from the end as in Python.
+
+        Returns:
+            Array of shape (M, *shape) in the stored dtype.
+
+        Raises:
+            KeyError: no such body field (or no bodies).
+            IndexError: frame out of range.
+        """
+        if name not in self.body_fields:
+            raise KeyError(f"no body field {name!r} in {self.path}; body fields: {', '.join(self.body_fields)}")
+        return self._file["bodies"][name][self._frame_index(frame)]
+
+    def body_geometry(self) -> dict[str, Any]:
+        """The static per-body data of /bodies/geometry.
+
+        Returns:
+            vertex_start (M,) int32, vertex_count (M,) int32, vertices (total_vertices, 2) float64
+            body-frame core vertices [m], radius (M,) float64 [m], motion (M,) int32 (0 free,
+            1 fixed, 2 kinematic), mass (M,) float64 [kg/m], name (list of M str), plus any extra
+            per-body arrays the writer stored. Empty arrays (and no names) when there are no bodies.
+        """
+        out: dict[str, Any] = {
+            "vertex_start": np.zeros(0, np.int32),
+            "vertex_count": np.zeros(0, np.int32),
+            "vertices": np.zeros((0, 2), np.float64),
+            "radius": np.zeros(0, np.float64),
+            "motion": np.zeros(0, np.int32),
+            "mass": np.zeros(0, np.float64),
+            "name": [],
+        }
+        geo = self._file.get("bodies/geometry")
+        if geo is None:
+            return out
+        for key, ds in geo.items():
+            if not isinstance(ds, h5py.Dataset):
+                continue
+            if key == "name" or h5py.check_string_dtype(ds.dtype) is not None:
+                out[key] = [str(v) for v in ds.asstr()[()]]
+            else:
+                out[key] = ds[()]
+        return out
+
+    def _frame_index(self, frame: int) -> int:
+        """A frame index in range(frame_count); negative counts from the end."""
         f = self._frames
         k = int(frame)
         if k < 0:
             k += f
         if not 0 <= k < f:
             raise IndexError(f"frame {frame} out of range for {f} frame(s)")
-        return parts[name][k]
+        return k
 
     @property
     def diagnostics(self) -> dict[str, np.ndarray]:
@@ -545,14 +834,29 @@ class RunFile:
         else:
             lines.append("time:        (no frames)")
         lines.append(f"particles:   {self.particle_count}")
-        parts = self._file.get("particles")
-        if parts is not None and len(parts):
+
+        def describe(datasets: dict[str, h5py.Dataset]) -> str:
             desc = []
-            for k in parts:
-                ds = parts[k]
+            for k, ds in datasets.items():
                 shape = "x".join(str(s) for s in ds.shape[2:]) or "scalar"
                 desc.append(f"{k} ({shape}, {ds.dtype})")
-            lines.append(f"fields:      {', '.join(desc)}")
+            return ", ".join(desc)
+
+        if self.fields:
+            lines.append(f"fields:      {describe(self._particle_datasets())}")
+        m = self.body_count
+        if m:
+            motion = np.asarray(self.body_geometry()["motion"])
+            if len(motion) == m:
+                kinds = [f"{int(np.sum(motion == c))} {w}" for c, w in
+                         ((MOTION_FREE, "free"), (MOTION_FIXED, "fixed"), (MOTION_KINEMATIC, "kinematic"))]
+                lines.append(f"bodies:      {m} ({', '.join(kinds)})")
+            else:
+                lines.append(f"bodies:      {m}")
+            if self.body_fields:
+                lines.append(f"body fields: {describe(self._body_datasets())}")
+        else:
+            lines.append("bodies:      0")
         diags = self.diagnostics
         if diags and self._frames:
             lines.append(f"diagnostics at the last frame (t = {self._times[-1]:.6g} s):")
@@ -586,4 +890,7 @@ class RunFile:
         self.close()
 
     def __repr__(self) -> str:
-        return f"RunFile({str(self.path)!r}, frames={self._frames}, particles={self.particle_count})"
+        return (
+            f"RunFile({str(self.path)!r}, frames={self._frames}, particles={self.particle_count}, "
+            f"bodies={self.body_count})"
+        )

@@ -13,7 +13,7 @@ import numpy as np
 import warp as wp
 
 from .config import SolverConfig
-from .errors import InputError
+from .errors import BlowUpError, InputError
 from .kernels import grid as kgrid
 from .kernels import reductions as kred
 from .kernels import sorting as ksort
@@ -23,6 +23,9 @@ from .kernels.types import scalar_types
 from .scene import Scene
 
 __all__ = ["GHOST_NODES", "MPMSolver", "device_order", "initial_dt_bound"]
+
+#: Point arrays that change during a run (what a checkpoint must hold).
+_STATE_FIELDS = ("x", "v", "C", "F", "stress", "vol", "strain_energy", "mass", "vol0", "half0", "material", "pid")
 
 #: Ghost node layers around the domain, enough for the widest stencil (4 nodes) of a point that
 #: sits on, or slightly beyond, the domain boundary.
@@ -321,6 +324,46 @@ class MPMSolver:
         c = self.clock.numpy()
         return float(c[0]), float(c[1]), float(c[3]), int(self.steps.numpy()[0]), self.status.numpy()
 
+    #: Diagnostics that are works done on the points (for the energy balance).
+    WORK_TERMS = kgrid.WORK_TERMS
+
+    def state_arrays(self) -> dict[str, wp.array]:
+        """Every time-varying device array (what a checkpoint holds), by a stable name."""
+        arrays = {f"P.{name}": getattr(self.P, name) for name in _STATE_FIELDS}
+        arrays.update(clock=self.clock, steps=self.steps, max_speed=self.max_speed, status=self.status,
+                      work=self.work)
+        return arrays
+
+    def _likely_cause(self, dt: float, bound: float) -> str:
+        c = self.config
+        causes = []
+        if c.dt is not None:
+            causes.append(f"the fixed dt = {c.dt:.3g} s against a current bound h/(c+|v|) = {bound:.3g} s "
+                          "(leave dt unset or lower it)")
+        else:
+            causes.append(f"the time step (cfl = {c.cfl:g}, dt = {dt:.3g} s): lower --cfl")
+        if c.scheme.flip_fraction > 0.0:
+            causes.append(f"the transfer scheme {c.transfer} (FLIP noise): try APIC, or a FLIP fraction < 1")
+        if c.shape == "linear":
+            causes.append("cell-crossing of the linear shape function: try bspline2 or cpgimp")
+        for b in self.scene.bodies:
+            if b.material.poisson_ratio > 0.45:
+                causes.append(f"the material of {b.name} (nu = {b.material.poisson_ratio} is nearly incompressible)")
+        return "; ".join(causes)
+
+    def check_status(self, t: float, dt: float, bound: float, status: np.ndarray) -> None:
+        """Raise BlowUpError for NaN/inf or escaped points (counted by the G2P kernel)."""
+        if status[0] > 0 or not math.isfinite(t):
+            raise BlowUpError(
+                "non-finite",
+                f"simulation blew up at t = {t:.6g} s: {int(status[0])} points have NaN/inf values. "
+                f"Likely cause: {self._likely_cause(dt, bound)}.", t)
+        if status[1] > 0:
+            raise BlowUpError(
+                "left-domain",
+                f"{int(status[1])} points left the domain at t = {t:.6g} s. Likely cause: a 'free' "
+                f"boundary on that side, or an unstable step ({self._likely_cause(dt, bound)}).", t)
+
     def diagnostics(self) -> dict[str, float]:
         """Energies [J/m], momenta [kg/s, kg m/s per m] and mass [kg/m] of the points."""
         self.diag.zero_()
@@ -330,6 +373,7 @@ class MPMSolver:
         out = {name: float(v) for name, v in zip(kred.DIAG_NAMES, vals, strict=True)}
         works = self.work.numpy().reshape(len(kgrid.WORK_TERMS), kgrid.WORK_SLOTS).sum(axis=1)
         out.update({name: float(w) for name, w in zip(kgrid.WORK_TERMS, works, strict=True)})
+        out["energy_total"] = out["energy_kinetic"] + out["energy_strain"] + out["energy_gravity"]
         return out
 
     def fields(self) -> dict[str, np.ndarray]:

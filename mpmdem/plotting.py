@@ -1,19 +1,20 @@
-"""Quick-look PNGs of a run file: energy and momentum histories, particle snapshots.
+"""Quick-look PNGs of a run file: energy and momentum histories, particle and body snapshots.
 
-Pure matplotlib (Agg backend), so it works on a headless machine and never touches Warp.
+Pure matplotlib (Agg backend) and shapely, so it works on a headless machine and never touches Warp.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .io import RunFile
 
-__all__ = ["SNAPSHOT_FIELDS", "plot_run"]
+__all__ = ["BODY_SNAPSHOT_FIELDS", "SNAPSHOT_FIELDS", "body_outlines", "plot_run"]
 
 
 def _speed(rf: RunFile, k: int) -> np.ndarray:
@@ -43,7 +44,7 @@ def _jacobian(rf: RunFile, k: int) -> np.ndarray:
     return np.linalg.det(np.asarray(rf.field("F", k), dtype=np.float64))
 
 
-#: Colour fields of a snapshot: name → (extractor, colourbar label with units).
+#: Colour fields of the particles in a snapshot: name → (extractor, colourbar label with units).
 SNAPSHOT_FIELDS: dict[str, tuple[Callable[[RunFile, int], np.ndarray], str]] = {
     "speed": (_speed, "speed |v| [m/s]"),
     "stress_xx": (_stress(0, 0), "stress σxx [Pa]"),
@@ -57,6 +58,160 @@ SNAPSHOT_FIELDS: dict[str, tuple[Callable[[RunFile, int], np.ndarray], str]] = {
 }
 
 
+def _body_norm(name: str) -> Callable[[RunFile, int], np.ndarray]:
+    def get(rf: RunFile, k: int) -> np.ndarray:
+        return np.linalg.norm(np.asarray(rf.body_field(name, k), dtype=np.float64).reshape(rf.body_count, -1), axis=1)
+
+    return get
+
+
+def _body_plain(name: str) -> Callable[[RunFile, int], np.ndarray]:
+    def get(rf: RunFile, k: int) -> np.ndarray:
+        return np.asarray(rf.body_field(name, k), dtype=np.float64).reshape(rf.body_count)
+
+    return get
+
+
+#: Colour fields of the rigid bodies in a snapshot: name → (extractor, colourbar label with units).
+#: A snapshot field that is not listed here draws the (non-fixed) bodies in a single colour.
+BODY_SNAPSHOT_FIELDS: dict[str, tuple[Callable[[RunFile, int], np.ndarray], str]] = {
+    "speed": (_body_norm("v"), "speed |v| [m/s]"),
+    "omega": (_body_plain("omega"), "angular velocity ω [rad/s]"),
+    "angle": (_body_plain("angle"), "rotation angle [rad]"),
+    "force": (_body_norm("force"), "contact force |F| [N/m]"),
+    "torque": (_body_plain("torque"), "contact torque [N·m/m]"),
+}
+
+#: Face colours of bodies: fixed ones, and moving ones when the field is not a body quantity.
+FIXED_BODY_COLOR = "0.65"
+BODY_COLOR = "#d9a05b"
+PARTICLE_COLOR = "tab:blue"
+
+
+def _allowed_fields() -> list[str]:
+    return [*SNAPSHOT_FIELDS, *(k for k in BODY_SNAPSHOT_FIELDS if k not in SNAPSHOT_FIELDS)]
+
+
+def body_outlines(geometry: dict, x: np.ndarray, angle: np.ndarray | None, quad_segs: int = 8) -> list:
+    """Shapely outlines of spheropolygon bodies in world coordinates.
+
+    Each body's core vertices (body frame) are rotated by its angle and translated to its centroid,
+    then dilated by its radius: one vertex gives a disk, two a stadium, more a rounded polygon;
+    radius 0 leaves the bare polygon (and nothing for one or two vertices).
+
+    Args:
+        geometry: ``RunFile.body_geometry()``: vertex_start, vertex_count, vertices [m], radius [m].
+        x: Centroids, shape (M, 2) [m].
+        angle: Rotations, shape (M,) [rad]; None for no rotation.
+        quad_segs: Segments per quarter circle of the rounded corners.
+
+    Returns:
+        M shapely geometries (empty where the centroid or angle is not finite).
+    """
+    import shapely
+
+    start = np.asarray(geometry["vertex_start"], dtype=np.int64)
+    count = np.asarray(geometry["vertex_count"], dtype=np.int64)
+    verts = np.asarray(geometry["vertices"], dtype=np.float64).reshape(-1, 2)
+    radius = np.asarray(geometry["radius"], dtype=np.float64)
+    m = len(count)
+    x = np.asarray(x, dtype=np.float64).reshape(m, 2)
+    theta = np.zeros(m) if angle is None else np.asarray(angle, dtype=np.float64).reshape(m)
+    ok = np.isfinite(x).all(axis=1) & np.isfinite(theta)
+    out = np.array([shapely.Polygon()] * m, dtype=object)
+    # World coordinates of every core vertex, with its body index (sorted by body).
+    body_of = np.repeat(np.arange(m), count)
+    offset = np.arange(len(body_of)) - np.repeat(np.cumsum(count) - count, count)
+    local = verts[np.repeat(start, count) + offset]
+    c, s = np.cos(theta[body_of]), np.sin(theta[body_of])
+    world = x[body_of] + np.stack([c * local[:, 0] - s * local[:, 1], s * local[:, 0] + c * local[:, 1]], axis=1)
+    for kind in (1, 2, 3):
+        sel = ok & ((count == kind) if kind < 3 else (count >= 3))
+        if not sel.any():
+            continue
+        ids = np.flatnonzero(sel)
+        vmask = sel[body_of]
+        _, idx = np.unique(body_of[vmask], return_inverse=True)
+        coords = world[vmask]
+        if kind == 1:
+            core = shapely.points(coords)
+        elif kind == 2:
+            core = shapely.linestrings(coords, indices=idx)
+        else:
+            core = shapely.polygons(shapely.linearrings(coords, indices=idx))
+        a = radius[ids]
+        dilated = np.where(a > 0, shapely.buffer(core, np.maximum(a, 0.0), quad_segs=quad_segs), core)
+        if kind < 3:
+            dilated = np.where(a > 0, dilated, shapely.Polygon())
+        out[ids] = dilated
+    return list(out)
+
+
+def _geometry_path(geom) -> object | None:
+    """A matplotlib Path (holes included) of a shapely (Multi)Polygon; None when empty."""
+    from matplotlib.path import Path as MplPath
+    from shapely.geometry.polygon import orient
+
+    if geom is None or geom.is_empty:
+        return None
+    polys = getattr(geom, "geoms", [geom])
+    rings = []
+    for p in polys:
+        if p.geom_type != "Polygon" or p.is_empty:
+            continue
+        p = orient(p, 1.0)
+        rings.append(MplPath(np.asarray(p.exterior.coords)[:, :2], closed=True))
+        rings += [MplPath(np.asarray(r.coords)[:, :2], closed=True) for r in p.interiors]
+    return MplPath.make_compound_path(*rings) if rings else None
+
+
+@dataclass
+class _BodyDraw:
+    """The bodies of one snapshot: outline paths, colour values (None: single colour), fixed flags."""
+
+    paths: list
+    values: np.ndarray | None
+    fixed: np.ndarray
+    lo: np.ndarray | None
+    hi: np.ndarray | None
+
+
+def _bodies_of_frame(rf: RunFile, k: int, geometry: dict, field: str) -> _BodyDraw | None:
+    """Outlines and colours of the bodies at frame k; None when the file has no drawable bodies."""
+    m = rf.body_count
+    if m == 0 or "x" not in rf.body_fields or len(geometry["vertex_count"]) != m:
+        return None
+    x = np.asarray(rf.body_field("x", k), dtype=np.float64)
+    angle = rf.body_field("angle", k) if "angle" in rf.body_fields else None
+    geoms = body_outlines(geometry, x, angle)
+    values = None
+    if field in BODY_SNAPSHOT_FIELDS:
+        try:
+            values = BODY_SNAPSHOT_FIELDS[field][0](rf, k)
+        except KeyError:  # this file has no such body field
+            values = None
+    motion = np.asarray(geometry["motion"])
+    keep, paths = [], []
+    for i, g in enumerate(geoms):
+        p = _geometry_path(g)
+        if p is not None:
+            keep.append(i)
+            paths.append(p)
+    keep = np.asarray(keep, dtype=np.int64)
+    if paths:
+        allv = np.concatenate([p.vertices for p in paths])
+        lo, hi = allv.min(axis=0), allv.max(axis=0)
+    else:
+        lo = hi = None
+    return _BodyDraw(
+        paths=paths,
+        values=values[keep] if values is not None else None,
+        fixed=(motion[keep] == 1) if len(motion) == m else np.zeros(len(keep), bool),
+        lo=lo,
+        hi=hi,
+    )
+
+
 def plot_run(
     path: str | os.PathLike,
     out_dir: str | os.PathLike,
@@ -66,15 +221,20 @@ def plot_run(
 ) -> list[Path]:
     """Write quick-look PNGs of a run file.
 
-    Writes ``energy.png`` (every diagnostic named ``energy_*`` against time, J/m),
-    ``momentum.png`` (every ``momentum_*`` diagnostic) and ``snapshot_<frame:04d>.png`` for each
-    chosen frame: the particles at their positions, coloured by ``field``.
+    Writes ``energy.png`` (every diagnostic named ``energy_*`` and, dashed, ``work_*`` against
+    time, J/m), ``momentum.png`` (every ``momentum_*`` diagnostic; angular ones on a second axis
+    when linear ones exist too) and ``snapshot_<frame:04d>.png`` for each chosen frame: the
+    particles at their positions coloured by ``field``, and the rigid bodies (if any) as filled
+    rounded polygons: fixed ones grey, the others coloured by ``field`` when it is a body quantity
+    (``BODY_SNAPSHOT_FIELDS``) and in a single colour otherwise.
 
     Args:
         path: The HDF5 run file (also one left by a crashed run).
         out_dir: Folder for the PNGs (created if missing).
         field: Snapshot colour: one of ``SNAPSHOT_FIELDS`` (speed, stress_xx, stress_yy,
-            stress_xy, pressure, volume, mass, body, J).
+            stress_xy, pressure, volume, mass, body, J) or of ``BODY_SNAPSHOT_FIELDS`` (speed,
+            omega, angle, force, torque). A field of one kind only leaves the other kind in a
+            single colour.
         frames: Frame indices to draw (negative counts from the end); None draws the first,
             middle and last frame.
 
@@ -84,8 +244,8 @@ def plot_run(
     Raises:
         ValueError: unknown field, or a frame index out of range.
     """
-    if field not in SNAPSHOT_FIELDS:
-        raise ValueError(f"unknown field {field!r}; allowed: {', '.join(SNAPSHOT_FIELDS)}")
+    if field not in SNAPSHOT_FIELDS and field not in BODY_SNAPSHOT_FIELDS:
+        raise ValueError(f"unknown field {field!r}; allowed: {', '.join(_allowed_fields())}")
     import matplotlib
 
     matplotlib.use("Agg")
@@ -109,49 +269,87 @@ def plot_run(
         times = rf.times
         diags = rf.diagnostics
 
-        for prefix, fname, ylabel in (
-            ("energy_", "energy.png", "energy per unit thickness [J/m]"),
-            ("momentum_", "momentum.png", "momentum per unit thickness [N·s/m]"),
-        ):
-            fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
-            names = [k for k in diags if k.startswith(prefix)]
-            for k in names:
-                ax.plot(times, diags[k][: len(times)], label=k, marker="." if len(times) < 50 else None)
-            if names:
-                ax.legend(fontsize="small")
-            else:
-                ax.text(0.5, 0.5, f"no {prefix}* diagnostics", ha="center", va="center",
-                        transform=ax.transAxes)
-            ax.set_xlabel("time [s]")
-            ax.set_ylabel(ylabel)
-            ax.set_title(f"{prefix.rstrip('_')}: {Path(path).name}")
-            ax.grid(True, alpha=0.3)
-            p = out / fname
-            fig.savefig(p, dpi=120)
-            plt.close(fig)
-            written.append(p)
+        written.append(_history(plt, out / "energy.png", times, diags, ("energy_", "work_"), (),
+                                "energy per unit thickness [J/m]", "energy", Path(path).name))
+        written.append(_history(plt, out / "momentum.png", times, diags, ("momentum_",), ("angular",),
+                                "momentum per unit thickness [N·s/m]", "momentum", Path(path).name,
+                                twin_label="angular momentum per unit thickness [N·m·s/m]"))
 
-        get, label = SNAPSHOT_FIELDS[field]
+        has_particles = rf.particle_count > 0 and "x" in rf.fields
+        geometry = rf.body_geometry() if rf.body_count else None
         for k in chosen:
-            x = np.asarray(rf.field("x", k), dtype=np.float64)
-            c = get(rf, k)
-            try:
-                vol = np.asarray(rf.field("volume", k), dtype=np.float64)
-            except KeyError:
-                vol = None
+            if has_particles:
+                x = np.asarray(rf.field("x", k), dtype=np.float64)
+                c = SNAPSHOT_FIELDS[field][0](rf, k) if field in SNAPSHOT_FIELDS else None
+                try:
+                    vol = np.asarray(rf.field("volume", k), dtype=np.float64)
+                except KeyError:
+                    vol = None
+            else:
+                x, c, vol = np.zeros((0, 2)), None, None
+            bodies = _bodies_of_frame(rf, k, geometry, field) if geometry is not None else None
             png = out / f"snapshot_{k:04d}.png"
-            written.append(_snapshot(plt, png, x, c, vol, label, field, k, float(times[k])))
+            written.append(_snapshot(plt, png, x, c, vol, field, k, float(times[k]), bodies))
     return written
 
 
-def _snapshot(plt, path: Path, x: np.ndarray, c: np.ndarray, vol: np.ndarray | None,
-              label: str, field: str, frame: int, t: float) -> Path:
-    """Scatter particles at x coloured by c, marker size from the particle volume; save to path."""
+def _history(plt, path: Path, times: np.ndarray, diags: dict[str, np.ndarray], prefixes: tuple[str, ...],
+             twin_keys: tuple[str, ...], ylabel: str, title: str, run_name: str,
+             twin_label: str = "") -> Path:
+    """Plot the diagnostics whose names start with one of prefixes against time; save to path.
+
+    Names after the first prefix are dashed; names containing one of twin_keys go on a second
+    y axis (labelled twin_label) when other names exist too.
+    """
+    fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
+    names = [k for k in diags if k.startswith(prefixes)]
+    twin_names = [k for k in names if any(t in k for t in twin_keys)]
+    if len(twin_names) == len(names):
+        twin_names = []
+    marker = "." if len(times) < 50 else None
+    handles = []
+    ax2 = ax.twinx() if twin_names else None
+    for i, k in enumerate(names):
+        target = ax2 if k in twin_names else ax
+        style = "-" if k.startswith(prefixes[0]) else "--"
+        color = f"C{i % 10}"
+        label = f"{k} (right axis)" if target is ax2 else k
+        (h,) = target.plot(times, diags[k][: len(times)], style, color=color, label=label, marker=marker)
+        handles.append(h)
+    if names:
+        ax.legend(handles=handles, fontsize="small")
+    else:
+        ax.text(0.5, 0.5, f"no {'/'.join(p + '*' for p in prefixes)} diagnostics", ha="center", va="center",
+                transform=ax.transAxes)
+    if ax2 is not None:
+        ax2.set_ylabel(twin_label)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel(ylabel)
+    ax.set_title(f"{title}: {run_name}")
+    ax.grid(True, alpha=0.3)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def _snapshot(plt, path: Path, x: np.ndarray, c: np.ndarray | None, vol: np.ndarray | None, field: str,
+              frame: int, t: float, bodies: _BodyDraw | None = None) -> Path:
+    """Draw the particles at x (coloured by c, or one colour when c is None; marker size from the
+    particle volume) and the bodies (filled outlines); save to path."""
+    from matplotlib.collections import PatchCollection
+    from matplotlib.colors import Normalize
+    from matplotlib.patches import PathPatch
+
     placed = np.isfinite(x).all(axis=1)  # a blown-up run may hold non-finite positions
-    x, c = x[placed], c[placed]
+    x = x[placed]
+    c = c[placed] if c is not None else None
     vol = vol[placed] if vol is not None else None
     n = len(x)
-    aspect = 0.75
+    nb = len(bodies.paths) if bodies is not None else 0
+    body_values = bodies.values if bodies is not None else None
+    lo = hi = None
+    d = np.zeros(0)
+    pad = 0.0
     if n:
         lo, hi = x.min(axis=0), x.max(axis=0)
         if vol is not None and np.all(np.isfinite(vol)) and np.any(vol > 0):
@@ -159,8 +357,17 @@ def _snapshot(plt, path: Path, x: np.ndarray, c: np.ndarray, vol: np.ndarray | N
         else:
             extent = float(np.prod(np.maximum(hi - lo, 1e-12)))
             d = np.full(n, np.sqrt(extent / n))
-        pad = max(float(np.max(d)), 1e-9 * max(float(np.max(np.abs(x))), 1.0))
-        aspect = float((hi[1] - lo[1] + 2 * pad) / (hi[0] - lo[0] + 2 * pad))
+        pad = float(np.max(d))
+        lo, hi = lo - pad, hi + pad
+    if nb and bodies.lo is not None:
+        lo = bodies.lo if lo is None else np.minimum(lo, bodies.lo)
+        hi = bodies.hi if hi is None else np.maximum(hi, bodies.hi)
+    aspect = 0.75
+    if lo is not None:
+        span = float(np.max(hi - lo))
+        margin = max(0.02 * span, 1e-9 * max(float(np.max(np.abs(np.concatenate([lo, hi])))), 1.0))
+        lo, hi = lo - margin, hi + margin
+        aspect = float((hi[1] - lo[1]) / (hi[0] - lo[0]))
     # Fixed axes (no automatic layout) so the data → points scale used for the marker size is final;
     # the figure height follows the data's aspect ratio to limit empty margins.
     ax_w = 5.0
@@ -168,33 +375,72 @@ def _snapshot(plt, path: Path, x: np.ndarray, c: np.ndarray, vol: np.ndarray | N
     fig_w, fig_h = 7.6, ax_h + 1.4
     fig = plt.figure(figsize=(fig_w, fig_h))
     ax = fig.add_axes((0.9 / fig_w, 0.7 / fig_h, ax_w / fig_w, ax_h / fig_h))
-    if n:
-        ax.set_xlim(lo[0] - pad, hi[0] + pad)
-        ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    if lo is not None:
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
         ax.set_aspect("equal", adjustable="box")
         ax.apply_aspect()
-        p0, p1 = ax.transData.transform([(0.0, 0.0), (1.0, 0.0)])
-        points_per_m = abs(p1[0] - p0[0]) * 72.0 / fig.dpi
-        sizes = (d * points_per_m) ** 2
-        finite = np.isfinite(c)
-        kw = {}
-        if field == "body":
+        # One colour scale for everything coloured by the field (particles and bodies share "speed").
+        kw: dict = {}
+        finite_vals = [v[np.isfinite(v)] for v in (c, body_values) if v is not None]
+        finite_vals = np.concatenate(finite_vals) if finite_vals else np.zeros(0)
+        if field == "body" and c is not None:
             kw["cmap"] = "tab10"
-            if finite.any():
-                kw.update(vmin=float(np.nanmin(c)) - 0.5, vmax=float(np.nanmin(c)) + 9.5)
+            if finite_vals.size:
+                kw["norm"] = Normalize(float(finite_vals.min()) - 0.5, float(finite_vals.min()) + 9.5)
         else:
             kw["cmap"] = "viridis"
-        sc = ax.scatter(x[finite, 0], x[finite, 1], c=c[finite], s=sizes[finite], marker="s",
-                        linewidths=0, **kw)
-        if (~finite).any():
-            ax.scatter(x[~finite, 0], x[~finite, 1], s=sizes[~finite], marker="x", color="red",
-                       linewidths=0.5, label="non-finite")
-            ax.legend(loc="upper right", fontsize="small")
-        pos = ax.get_position()
-        cax = fig.add_axes((pos.x1 + 0.2 / fig_w, pos.y0, 0.2 / fig_w, pos.height))
-        fig.colorbar(sc, cax=cax, label=label)
+            if finite_vals.size:
+                kw["norm"] = Normalize(float(finite_vals.min()), float(finite_vals.max()))
+        mappable = None
+        label = ""
+        if nb:
+            fixed = bodies.fixed
+            patches = [PathPatch(p) for p in bodies.paths]
+            fixed_patches = [p for p, f in zip(patches, fixed, strict=True) if f]
+            if fixed_patches:
+                ax.add_collection(PatchCollection(fixed_patches, facecolor=FIXED_BODY_COLOR, edgecolor="0.3",
+                                                  linewidths=0.5, zorder=1))
+            free = np.flatnonzero(~fixed)
+            if free.size:
+                free_patches = [patches[i] for i in free]
+                if body_values is not None:
+                    v = body_values[free]
+                    ok = np.isfinite(v)
+                    coll = PatchCollection([free_patches[i] for i in np.flatnonzero(ok)], edgecolor="k",
+                                           linewidths=0.4, zorder=1, **kw)
+                    coll.set_array(v[ok])
+                    ax.add_collection(coll)
+                    if ok.any():
+                        mappable, label = coll, BODY_SNAPSHOT_FIELDS[field][1]
+                    if (~ok).any():
+                        ax.add_collection(PatchCollection([free_patches[i] for i in np.flatnonzero(~ok)],
+                                                          facecolor="white", edgecolor="red", linewidths=0.8,
+                                                          zorder=1))
+                else:
+                    ax.add_collection(PatchCollection(free_patches, facecolor=BODY_COLOR, edgecolor="k",
+                                                      linewidths=0.4, zorder=1))
+        if n:
+            p0, p1 = ax.transData.transform([(0.0, 0.0), (1.0, 0.0)])
+            points_per_m = abs(p1[0] - p0[0]) * 72.0 / fig.dpi
+            sizes = (d * points_per_m) ** 2
+            if c is not None:
+                finite = np.isfinite(c)
+                sc = ax.scatter(x[finite, 0], x[finite, 1], c=c[finite], s=sizes[finite], marker="s",
+                                linewidths=0, zorder=2, **kw)
+                mappable, label = sc, SNAPSHOT_FIELDS[field][1]
+                if (~finite).any():
+                    ax.scatter(x[~finite, 0], x[~finite, 1], s=sizes[~finite], marker="x", color="red",
+                               linewidths=0.5, label="non-finite", zorder=3)
+                    ax.legend(loc="upper right", fontsize="small")
+            else:
+                ax.scatter(x[:, 0], x[:, 1], color=PARTICLE_COLOR, s=sizes, marker="s", linewidths=0, zorder=2)
+        if mappable is not None:
+            pos = ax.get_position()
+            cax = fig.add_axes((pos.x1 + 0.2 / fig_w, pos.y0, 0.2 / fig_w, pos.height))
+            fig.colorbar(mappable, cax=cax, label=label)
     else:
-        ax.text(0.5, 0.5, "no particles with finite positions", ha="center", va="center",
+        ax.text(0.5, 0.5, "no particles or bodies with finite positions", ha="center", va="center",
                 transform=ax.transAxes)
         ax.set_aspect("equal")
     ax.set_xlabel("x [m]")

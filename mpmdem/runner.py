@@ -83,6 +83,8 @@ def make_case_parser(module: ModuleType, prog: str | None = None) -> argparse.Ar
     p.add_argument("--update", type=_choice("update", STRESS_UPDATES), default=None,
                    help="stress update: " + ", ".join(STRESS_UPDATES))
     p.add_argument("--precision", type=_choice("precision", ("f32", "f64")), default=None, help="f32 or f64")
+    p.add_argument("--dem-kappa", type=_positive("--dem-kappa"), default=None,
+                   help="κ2 of the DEM time step 2π κ2 sqrt(m*/k_n) (MPM-SDEM eq. 51; m*: rotational effective mass)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     if hasattr(module, "add_arguments"):
         module.add_arguments(p)
@@ -102,7 +104,8 @@ def config_from_args(setup: CaseSetup, module: ModuleType, args) -> SolverConfig
     """Case defaults, then the case's build-time choices, then the flags the user gave."""
     fields = dict(getattr(module, "DEFAULTS", {}))
     fields.update(setup.config)
-    for name in ("dt", "cfl", "shape", "transfer", "flip_fraction", "xpic_order", "damping", "update", "precision"):
+    for name in ("dt", "cfl", "shape", "transfer", "flip_fraction", "xpic_order", "damping", "update", "precision",
+                 "dem_kappa"):
         v = getattr(args, name, None)
         if v is not None:
             fields[name] = v
@@ -125,7 +128,8 @@ def run_case(module: ModuleType, argv: list[str] | None = None, prog: str | None
     except InputError as e:
         print(f"mpmdem: error: {e}", file=sys.stderr)
         return 2
-    summary.update(device=sim.device, particles=sim.particle_count, config=config.to_dict(), end_time=end_time)
+    summary.update(device=sim.device, particles=sim.particle_count, bodies=sim.body_count, config=config.to_dict(),
+                   end_time=end_time)
     t0 = time.perf_counter()
     code = 0
     try:

@@ -1,4 +1,4 @@
-"""Scene: the domain, background grid, gravity, walls and MPM bodies of a simulation (SI units).
+"""Scene: the domain, background grid, gravity, walls, MPM bodies and rigid DEM bodies (SI units).
 
 2D plane strain: masses, forces and energies are per unit thickness (kg/m, N/m, J/m).
 """
@@ -12,9 +12,11 @@ from typing import Literal
 
 import numpy as np
 
+from .bodies import ContactLaw, RigidBody, make_rigid_body
 from .errors import InputError
 from .materials import Material
 from .shapes import Shape, seed_points
+from .spheropolygons import Spheropolygon, rounded_rectangle
 
 __all__ = ["SIDES", "Boundary", "MPMBody", "Scene"]
 
@@ -81,21 +83,26 @@ class Scene:
     """The domain, grid and bodies of one simulation.
 
     Args:
-        domain: ((x0, y0), (x1, y1)) corners of the rectangular domain [m].
-        cell_size: background grid spacing h [m].
+        domain: ((x0, y0), (x1, y1)) corners of the rectangular domain [m]. MPM points and free
+            rigid bodies that leave it stop the run.
+        cell_size: background grid spacing h [m] of the MPM stage (None for a DEM-only scene).
         gravity: body acceleration (gx, gy) [m/s²].
-        boundaries: side ("left", "right", "bottom", "top") → Boundary or kind name;
-            sides not given are "slip".
+        boundaries: side ("left", "right", "bottom", "top") → Boundary or kind name, the grid
+            conditions of the MPM stage; sides not given are "slip". Rigid bodies meet walls
+            only as fixed bodies (``add_walls``).
         gravity_ramp: gravity grows linearly from zero to its value over this time [s]
             (quasi-static loading; 0 applies it at once).
+        contact: the DEM contact law (needed once there are rigid bodies).
     """
 
     domain: tuple[tuple[float, float], tuple[float, float]]
-    cell_size: float
+    cell_size: float | None = None
     gravity: tuple[float, float] = (0.0, 0.0)
     boundaries: dict = field(default_factory=dict)
     gravity_ramp: float = 0.0
+    contact: ContactLaw | None = None
     bodies: list[MPMBody] = field(default_factory=list)
+    rigid_bodies: list[RigidBody] = field(default_factory=list)
 
     def __post_init__(self):
         try:
@@ -107,11 +114,14 @@ class Scene:
             raise InputError("domain", self.domain, "((x0, y0), (x1, y1)) with x0 < x1, y0 < y1")
         self.domain = ((x0, y0), (x1, y1))
         h = self.cell_size
-        if not isinstance(h, (int, float)) or not math.isfinite(h) or h <= 0.0:
-            raise InputError("cell_size", h, "a grid spacing h > 0 [m]")
-        if h > min(x1 - x0, y1 - y0):
-            raise InputError("cell_size", h, f"at most the smaller domain side, {min(x1 - x0, y1 - y0)} m")
-        self.cell_size = float(h)
+        if h is not None:
+            if not isinstance(h, (int, float)) or not math.isfinite(h) or h <= 0.0:
+                raise InputError("cell_size", h, "a grid spacing h > 0 [m]")
+            if h > min(x1 - x0, y1 - y0):
+                raise InputError("cell_size", h, f"at most the smaller domain side, {min(x1 - x0, y1 - y0)} m")
+            self.cell_size = float(h)
+        if self.contact is not None and not isinstance(self.contact, ContactLaw):
+            raise InputError("contact", self.contact, "a ContactLaw(normal_stiffness, ...) or None")
         g = tuple(float(v) for v in np.asarray(self.gravity, dtype=float).ravel())
         if len(g) != 2 or not all(math.isfinite(v) for v in g):
             raise InputError("gravity", self.gravity, "a finite (gx, gy) [m/s^2]")
@@ -147,6 +157,8 @@ class Scene:
         rigid motion of the body; velocity may instead be a function of the positions (N, 2)
         returning the velocities (N, 2), for an initial velocity field.
         """
+        if self.cell_size is None:
+            raise InputError("cell_size", None, "a grid spacing h > 0 [m] in Scene(...) before adding MPM bodies")
         if not isinstance(material, Material):
             raise InputError("material", material, "a LinearElastic or NeoHookean material")
         if callable(velocity):
@@ -176,9 +188,95 @@ class Scene:
         self.bodies.append(body)
         return body
 
+    def add_rigid_body(
+        self,
+        shape: Spheropolygon,
+        *,
+        density: float,
+        position: tuple[float, float] | None = None,
+        angle: float = 0.0,
+        velocity: tuple[float, float] = (0.0, 0.0),
+        angular_velocity: float = 0.0,
+        motion: Literal["free", "fixed", "kinematic"] = "free",
+        friction: float = 0.5,
+        active: tuple[float, float] = (0.0, math.inf),
+        name: str | None = None,
+    ) -> RigidBody:
+        """Add a spheropolygon moved as a rigid body by the DEM stage.
+
+        Args:
+            shape: the spheropolygon (``sphero_disk``, ``rod``, ``rounded_rectangle``,
+                ``regular_polygon``, ``random_convex_polygon``, ``spheropolygon``...).
+            density: ρ [kg/m³].
+            position: where the centroid goes [m]; None keeps the shape where it was drawn.
+            angle: initial rotation [rad] about the centroid.
+            velocity, angular_velocity: initial velocity [m/s] and angular velocity [rad/s]; for
+                a kinematic body, the prescribed motion.
+            motion: "free", "fixed" (never integrated: costs nothing per step) or "kinematic".
+            friction: Coulomb μ >= 0 (a pair uses the smaller of its two values).
+            active: (t_start, t_end) [s] during which a kinematic body moves.
+        """
+        name = name or f"rigid{len(self.rigid_bodies)}"
+        body = make_rigid_body(shape, density=density, position=position, angle=angle, velocity=velocity,
+                               angular_velocity=angular_velocity, motion=motion, friction=friction,
+                               active=active, name=name)
+        if motion == "free":
+            (x0, y0), (x1, y1) = self.domain
+            x, y = body.position
+            if not (x0 <= x <= x1 and y0 <= y <= y1):
+                raise InputError("position", body.position, f"a centroid inside the domain {self.domain}")
+        self.rigid_bodies.append(body)
+        return body
+
+    def add_walls(
+        self,
+        sides=("left", "right", "bottom"),
+        *,
+        thickness: float | None = None,
+        friction: float = 0.5,
+        density: float = 1000.0,
+    ) -> list[RigidBody]:
+        """Close sides of the domain for rigid bodies with fixed rectangular bodies just outside it.
+
+        The walls' inner faces lie on the domain's sides; they extend a thickness past the
+        corners so that corners are closed. thickness [m] defaults to a tenth of the smaller
+        domain side. Returns the wall bodies (named "wall_<side>").
+        """
+        (x0, y0), (x1, y1) = self.domain
+        w = 0.1 * min(x1 - x0, y1 - y0) if thickness is None else float(thickness)
+        if not (math.isfinite(w) and w > 0.0):
+            raise InputError("thickness", thickness, "a wall thickness > 0 [m]")
+        unknown = [s for s in sides if s not in SIDES]
+        if unknown or isinstance(sides, str):
+            raise InputError("sides", sides, f"a sequence of sides among {', '.join(SIDES)}")
+        lx, ly = x1 - x0 + 2 * w, y1 - y0 + 2 * w
+        cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+        geometry = {
+            "left": ((w, ly), (x0 - 0.5 * w, cy)),
+            "right": ((w, ly), (x1 + 0.5 * w, cy)),
+            "bottom": ((lx, w), (cx, y0 - 0.5 * w)),
+            "top": ((lx, w), (cx, y1 + 0.5 * w)),
+        }
+        out = []
+        for side in sides:
+            (width, height), centre = geometry[side]
+            out.append(self.add_rigid_body(rounded_rectangle(width, height), density=density, position=centre,
+                                           motion="fixed", friction=friction, name=f"wall_{side}"))
+        return out
+
     def _seed(self, body: MPMBody):
         return seed_points(body.shape, cell_size=self.cell_size, points_per_cell=body.points_per_cell,
                            origin=self.domain[0])
+
+    @property
+    def has_mpm(self) -> bool:
+        """Whether the scene has material points (the MPM stage runs)."""
+        return bool(self.bodies)
+
+    @property
+    def has_dem(self) -> bool:
+        """Whether the scene has rigid bodies (the DEM stage runs)."""
+        return bool(self.rigid_bodies)
 
     def particles(self) -> dict[str, np.ndarray]:
         """Host arrays of every material point, body after body (float64)."""
@@ -212,6 +310,8 @@ class Scene:
             "cell_size": self.cell_size,
             "gravity": self.gravity,
             "gravity_ramp": self.gravity_ramp,
+            "contact": self.contact.to_dict() if self.contact is not None else None,
+            "rigid_bodies": [b.to_dict() for b in self.rigid_bodies],
             "boundaries": {s: {"kind": b.kind, "friction": b.friction} for s, b in self.boundaries.items()},
             "bodies": [
                 {"name": b.name, "shape": b.shape.to_dict(), "material": b.material.to_dict(),

@@ -1,7 +1,9 @@
 """Simulation: the coordinator that advances a Scene in explicit steps and writes its results.
 
-One step (DESIGN "One explicit step"): time step from the device CFL bound → MPM stage. The DEM
-and coupling stages join here in later issues; a scene runs only the stages it uses.
+A scene runs only the stages it uses: the MPM stage (material points on a grid; dt from the CFL
+bound on the device) and the DEM stage (rigid spheropolygons; dt from MPM-SDEM eq. 51's DEM
+term). Coupling the two (identified material points) is not built yet: a scene with both kinds
+of body is refused with a clear error.
 """
 
 from __future__ import annotations
@@ -19,15 +21,12 @@ import warp as wp
 
 from . import __version__
 from .config import SolverConfig
+from .dem import DEMSolver
 from .errors import BlowUpError, InputError
-from .kernels.grid import WORK_TERMS
 from .mpm import MPMSolver
 from .scene import Scene
 
 __all__ = ["RunResult", "Simulation", "default_device"]
-
-#: Point arrays that change during a run (what a checkpoint must hold).
-_STATE_FIELDS = ("x", "v", "C", "F", "stress", "vol", "strain_energy", "mass", "vol0", "half0", "material", "pid")
 
 
 def default_device() -> str:
@@ -77,26 +76,40 @@ class Simulation:
             allowed = ", ".join(str(d) for d in wp.get_devices())
             raise InputError("device", device, f"one of {allowed}") from None
         self.device = str(wp.get_device(device))
-        self.mpm = MPMSolver(scene, self.config, self.device)
+        if not (scene.has_mpm or scene.has_dem):
+            raise InputError("bodies", [], "at least one body (Scene.add_body or Scene.add_rigid_body)")
+        if scene.has_mpm and scene.has_dem:
+            raise InputError("rigid_bodies", [b.name for b in scene.rigid_bodies],
+                             "none in a scene with material points: MPM-DEM coupling is not available yet")
+        self.mpm = MPMSolver(scene, self.config, self.device) if scene.has_mpm else None
+        self.dem = DEMSolver(scene, self.config, self.device) if scene.has_dem else None
+        #: the stage that owns the clock
+        self.stage = self.mpm or self.dem
         self._graph = None
         self.sort_interval = self.config.sort_interval or 0
         self._steps_since_sort = 0
 
     @property
     def particle_count(self) -> int:
-        return self.mpm.particle_count
+        """Material points of the MPM stage (0 in a DEM-only scene)."""
+        return self.mpm.particle_count if self.mpm else 0
+
+    @property
+    def body_count(self) -> int:
+        """Rigid bodies of the DEM stage (0 in an MPM-only scene)."""
+        return self.dem.body_count if self.dem else 0
 
     # -- stepping ---------------------------------------------------------------------------------
     def _capture(self) -> None:
         """Record one step as a CUDA graph (modules are loaded by a no-op step first)."""
         if self._graph is not None or not self.config.cuda_graph or not wp.get_device(self.device).is_cuda:
             return
-        t, *_ = self.mpm.read_clock()
-        self.mpm.set_stop_time(t)  # dt = 0: loads every module, changes nothing
-        self.mpm.step()
+        t, *_ = self.stage.read_clock()
+        self.stage.set_stop_time(t)  # dt = 0: loads every module, changes nothing
+        self.stage.step()
         wp.synchronize_device(self.device)
         with wp.ScopedCapture(device=self.device) as cap:
-            self.mpm.step()
+            self.stage.step()
         self._graph = cap.graph
 
     def advance(self, steps: int) -> None:
@@ -106,9 +119,9 @@ class Simulation:
             if self._graph is not None:
                 wp.capture_launch(self._graph)
             else:
-                self.mpm.step()
+                self.stage.step()
             self._steps_since_sort += 1
-            if self.sort_interval and self._steps_since_sort >= self.sort_interval:
+            if self.mpm and self.sort_interval and self._steps_since_sort >= self.sort_interval:
                 self.mpm.sort_points()
                 self._steps_since_sort = 0
 
@@ -118,16 +131,16 @@ class Simulation:
         Returns (time reached, steps taken). Raises BlowUpError on NaN/inf or escaped points.
         """
         self._capture()
-        mpm = self.mpm
-        mpm.set_stop_time(t_stop)
+        stage = self.stage
+        stage.set_stop_time(t_stop)
         cuda = wp.get_device(self.device).is_cuda
         max_batch = max_batch or (400 if cuda else 25)
-        t, dt, bound, steps, status = mpm.read_clock()
+        t, dt, bound, steps, status = stage.read_clock()
         batch = 1
         while t < t_stop:
             self.advance(batch)
-            t, dt, bound, steps, status = mpm.read_clock()
-            self._check_status(t, dt, bound, status)
+            t, dt, bound, steps, status = stage.read_clock()
+            stage.check_status(t, dt, bound, status)
             if on_batch is not None:
                 on_batch(t, dt)
             est = (t_stop - t) / dt if dt > 0 else 1
@@ -135,35 +148,6 @@ class Simulation:
             if dt <= 0.0 and t < t_stop:
                 raise BlowUpError("stalled", f"time step became zero at t={t:.6g} s", t)
         return t, steps
-
-    def _likely_cause(self, dt: float, bound: float) -> str:
-        c = self.config
-        causes = []
-        if c.dt is not None:
-            causes.append(f"the fixed dt = {c.dt:.3g} s against a current bound h/(c+|v|) = {bound:.3g} s "
-                          "(leave dt unset or lower it)")
-        else:
-            causes.append(f"the time step (cfl = {c.cfl:g}, dt = {dt:.3g} s): lower --cfl")
-        if c.scheme.flip_fraction > 0.0:
-            causes.append(f"the transfer scheme {c.transfer} (FLIP noise): try APIC, or a FLIP fraction < 1")
-        if c.shape == "linear":
-            causes.append("cell-crossing of the linear shape function: try bspline2 or cpgimp")
-        for b in self.scene.bodies:
-            if b.material.poisson_ratio > 0.45:
-                causes.append(f"the material of {b.name} (nu = {b.material.poisson_ratio} is nearly incompressible)")
-        return "; ".join(causes)
-
-    def _check_status(self, t: float, dt: float, bound: float, status: np.ndarray) -> None:
-        if status[0] > 0 or not math.isfinite(t):
-            raise BlowUpError(
-                "non-finite",
-                f"simulation blew up at t = {t:.6g} s: {int(status[0])} points have NaN/inf values. "
-                f"Likely cause: {self._likely_cause(dt, bound)}.", t)
-        if status[1] > 0:
-            raise BlowUpError(
-                "left-domain",
-                f"{int(status[1])} points left the domain at t = {t:.6g} s. Likely cause: a 'free' "
-                f"boundary on that side, or an unstable step ({self._likely_cause(dt, bound)}).", t)
 
     # -- running ----------------------------------------------------------------------------------
     def run(
@@ -200,7 +184,9 @@ class Simulation:
                 "scene": self.scene.to_dict(), "config": self.config.to_dict(), "end_time": end_time,
                 **(attrs or {}),
             }
-            writer = FrameWriter(path, particle_count=self.particle_count, attrs=meta, csv_path=out / "energy.csv")
+            writer = FrameWriter(path, particle_count=self.particle_count, attrs=meta, csv_path=out / "energy.csv",
+                                 body_count=self.body_count,
+                                 body_geometry=self.dem.scene_geometry() if self.dem else None)
 
         history: dict[str, list] = {}
         times: list[float] = []
@@ -214,23 +200,26 @@ class Simulation:
 
         e0 = {}
 
+        work_terms = self.stage.WORK_TERMS
+
         def record(t: float, steps: int, dt: float, bound: float) -> None:
-            d = self.mpm.diagnostics()
-            d["energy_total"] = d["energy_kinetic"] + d["energy_strain"] + d["energy_gravity"]
+            d = self.stage.diagnostics()
             # Energy balance of "Motion integration" eq. 67-68, over this run: the works of the
-            # walls, of Cundall damping and of plasticity (W ≤ 0 when dissipating) explain part of
-            # ΔE_total; the residual W_MPM is what the discretisation itself gained or lost.
+            # walls, of Cundall damping, of plasticity and of contact damping and friction (W ≤ 0
+            # when dissipating) explain part of ΔE_total; the residual W_num is what the
+            # discretisation itself gained or lost.
             if not e0:
                 e0.update(d)
-            for name in WORK_TERMS:
+            for name in work_terms:
                 d[name] -= e0[name]
-            d["work_numerical"] = d["energy_total"] - e0["energy_total"] - sum(d[name] for name in WORK_TERMS)
+            d["work_numerical"] = d["energy_total"] - e0["energy_total"] - sum(d[name] for name in work_terms)
             d.update(dt=dt, dt_bound=bound, steps=float(steps), wall_time=_time.perf_counter() - start_wall)
             times.append(t)
             for k, v in d.items():
                 history.setdefault(k, []).append(v)
             if writer is not None:
-                writer.write_frame(t, self.mpm.fields(), d)
+                writer.write_frame(t, self.mpm.fields() if self.mpm else {}, d,
+                                   body_fields=self.dem.fields() if self.dem else None)
             self._check_energy(t, d, e0, dt, bound)
 
         # Ctrl-C sets a flag that is acted on between batches of steps, so it never lands in the
@@ -255,13 +244,16 @@ class Simulation:
 
         status, message = "completed", ""
         try:
-            t_start, dt, bound, steps, _ = self.mpm.read_clock()
+            t_start, dt, bound, steps, _ = self.stage.read_clock()
             if t_start >= end_time:
                 raise InputError("end_time", end_time, f"a time after the current time {t_start:g} s")
-            record(t_start, steps, self.config.dt or self.config.cfl * self.mpm.dt_bound0, self.mpm.dt_bound0)
+            if self.mpm:
+                record(t_start, steps, self.config.dt or self.config.cfl * self.mpm.dt_bound0, self.mpm.dt_bound0)
+            else:
+                record(t_start, steps, self.dem.dt_default, self.dem.dt_bound)
             for k in range(1, frames + 1):
                 t, steps = self.advance_to(t_start + (end_time - t_start) * k / frames, on_batch=on_batch)
-                _, dt, bound, _, _ = self.mpm.read_clock()
+                _, dt, bound, _, _ = self.stage.read_clock()
                 record(t, steps, dt, bound)
         except BlowUpError as e:
             status, message = "blown-up", str(e)
@@ -293,7 +285,8 @@ class Simulation:
                               f"Likely cause: {self._likely_cause(dt, bound)}.", t)
         (x0, y0), (x1, y1) = self.scene.domain
         g = math.hypot(*self.scene.gravity)
-        scale = e0["energy_kinetic"] + e0["energy_strain"] + e0["mass"] * g * math.hypot(x1 - x0, y1 - y0)
+        stored = e0.get("energy_strain", 0.0) + e0.get("energy_contact", 0.0)
+        scale = e0["energy_kinetic"] + stored + e0["mass"] * g * math.hypot(x1 - x0, y1 - y0)
         scale = max(scale, 1e-30)
         growth = d["energy_total"] - e0["energy_total"]
         if growth > self.config.blowup_energy_factor * scale:
@@ -303,16 +296,19 @@ class Simulation:
                 f"{self.config.blowup_energy_factor:g} x its scale {scale:.3g} J/m. "
                 f"Likely cause: {self._likely_cause(dt, bound)}.", t)
 
+    def _likely_cause(self, dt: float, bound: float) -> str:
+        if self.mpm:
+            return self.mpm._likely_cause(dt, bound)
+        return (f"the time step (dt = {dt:.3g} s against the bound 2 sqrt(m*/k_n) = {bound:.3g} s): "
+                "lower dem_kappa or dt")
+
     # -- checkpoints -------------------------------------------------------------------------------
     def save_checkpoint(self, path: str | Path) -> Path:
-        """Write every time-varying device array (points, clock, step count, CFL speeds) to an
-        .npz file. Restoring it into a Simulation of the same scene and config on the same device
-        continues bit for bit."""
+        """Write every time-varying device array (points or bodies, contact lists, clock, step
+        count, CFL speeds) to an .npz file. Restoring it into a Simulation of the same scene and
+        config on the same device continues bit for bit."""
         path = Path(path)
-        arrays = {f"P.{name}": getattr(self.mpm.P, name).numpy() for name in _STATE_FIELDS}
-        arrays.update(clock=self.mpm.clock.numpy(), steps=self.mpm.steps.numpy(),
-                      max_speed=self.mpm.max_speed.numpy(), status=self.mpm.status.numpy(),
-                      work=self.mpm.work.numpy())
+        arrays = {name: a.numpy() for name, a in self.stage.state_arrays().items()}
         with open(path, "wb") as f:
             np.savez(f, **arrays, meta=np.array(json.dumps(
                 {"version": __version__, "scene": self.scene.to_dict(), "config": self.config.to_dict()})))
@@ -326,23 +322,26 @@ class Simulation:
                 json.dumps(self.scene.to_dict())
             ):
                 raise InputError("checkpoint", str(path), "a checkpoint of this same scene and config")
-            for name in _STATE_FIELDS:
-                getattr(self.mpm.P, name).assign(data[f"P.{name}"])
-            self.mpm.clock.assign(data["clock"])
-            self.mpm.steps.assign(data["steps"])
-            self.mpm.max_speed.assign(data["max_speed"])
-            self.mpm.status.assign(data["status"])
-            self.mpm.work.assign(data["work"])
+            for name, a in self.stage.state_arrays().items():
+                a.assign(data[name])
 
     # -- state access -----------------------------------------------------------------------------
     def fields(self) -> dict[str, np.ndarray]:
         """Host copies of the per-point fields (x, v, stress, volume, mass, F, body)."""
+        if self.mpm is None:
+            raise InputError("fields", "points", "a scene with material points (use body_fields for rigid bodies)")
         return self.mpm.fields()
 
+    def body_fields(self) -> dict[str, np.ndarray]:
+        """Host copies of the per-body fields (x, angle, v, omega, force, torque), scene order."""
+        if self.dem is None:
+            raise InputError("body_fields", "bodies", "a scene with rigid bodies")
+        return self.dem.fields()
+
     def diagnostics(self) -> dict[str, float]:
-        """Current energies, momenta and mass of the points."""
-        return self.mpm.diagnostics()
+        """Current energies, momenta and mass of the points or bodies."""
+        return self.stage.diagnostics()
 
     @property
     def time(self) -> float:
-        return self.mpm.read_clock()[0]
+        return self.stage.read_clock()[0]

@@ -1,0 +1,557 @@
+"""Device code of the spheropolygon DEM: world vertices, Verlet lists, contacts, rigid-body update.
+
+A body is a spheropolygon (a core polygon ⊕ a disk of radius a, MPM-SDEM eq. 37) moved as a
+rigid body. Contacts are vertex–edge and vertex–vertex pairs (MPM-SDEM eq. 38–43): every vertex
+of one body against every edge of the other and back. To count each touching spot once, a vertex
+X pairs with an edge only when its projection falls strictly inside the edge and X is in front of
+it, and with a vertex W only when X lies in W's corner (Voronoi) region and W in X's: for convex
+cores these regions tile the outside, so a corner resting on a face is one contact, not three.
+
+Bodies are stored moving-first (free and kinematic), fixed last; fixed bodies are never
+integrated and their world vertices are computed once. Each pair of bodies is listed once, in the
+slots of its owner (the lower index of two small bodies, the small one of a small–large pair),
+and one thread per slot computes the pair and adds its forces to both bodies.
+
+Tangential history (the δ_t of eq. 43) is kept per vertex–edge contact: each pair slot holds
+HISTORY_SLOTS (feature key, δ_t) entries, carried across steps and across list rebuilds.
+"""
+
+import functools
+
+import warp as wp
+
+from .types import kernel, scalar_types
+
+__all__ = [
+    "FREE",
+    "FIXED",
+    "HISTORY_SLOTS",
+    "KINEMATIC",
+    "STATUS_CELL_OVERFLOW",
+    "STATUS_HISTORY_OVERFLOW",
+    "STATUS_NEIGHBOR_OVERFLOW",
+    "STATUS_NONFINITE",
+    "STATUS_OUTSIDE",
+    "make_dem_kernels",
+]
+
+FREE = 0
+FIXED = 1
+KINEMATIC = 2
+
+#: Tangential-history entries per body pair (active vertex–edge contacts of one pair).
+HISTORY_SLOTS = 4
+
+STATUS_NONFINITE = 0
+STATUS_OUTSIDE = 1
+STATUS_NEIGHBOR_OVERFLOW = 2
+STATUS_CELL_OVERFLOW = 3
+STATUS_HISTORY_OVERFLOW = 4
+STATUS_SIZE = 5
+
+#: Feature keys of a contact: kind * KEY_KIND + vertex * KEY_VERTEX + edge (or partner vertex).
+KEY_KIND = 1 << 28
+KEY_VERTEX = 1 << 14
+
+
+@functools.cache
+def make_dem_kernels(precision: str, deterministic: bool = False):
+    """Structs, functions and kernels of the DEM stage for one precision ("f32" or "f64")."""
+    t = scalar_types(precision)
+    T = t.scalar
+    vec2 = t.vec2
+    vec4 = t.vec4
+
+    @wp.struct
+    class Bodies:
+        x: wp.array(dtype=vec2)  # centroid [m]
+        angle: wp.array(dtype=T)  # [rad]
+        v: wp.array(dtype=vec2)  # [m/s] (half-step velocity of the leapfrog update)
+        omega: wp.array(dtype=T)  # [rad/s]
+        force: wp.array(dtype=vec2)  # contact force of this step [N/m]
+        torque: wp.array(dtype=T)  # contact torque about the centroid [N m/m]
+        mass: wp.array(dtype=T)  # [kg/m]
+        inertia: wp.array(dtype=T)  # about the centroid [kg m²/m]
+        inv_mass: wp.array(dtype=T)  # 0 for fixed and kinematic bodies
+        inv_inertia: wp.array(dtype=T)
+        radius: wp.array(dtype=T)  # sphero radius a [m]
+        core_radius: wp.array(dtype=T)  # max |vertex - centroid| [m]
+        friction: wp.array(dtype=T)  # Coulomb μ
+        motion: wp.array(dtype=wp.int32)  # FREE, FIXED, KINEMATIC
+        vstart: wp.array(dtype=wp.int32)  # first vertex in the vertex arrays
+        vcount: wp.array(dtype=wp.int32)
+        x_ref: wp.array(dtype=vec2)  # position and angle at the last list build
+        angle_ref: wp.array(dtype=T)
+        kin_v: wp.array(dtype=vec2)  # prescribed motion of kinematic bodies
+        kin_omega: wp.array(dtype=T)
+        kin_window: wp.array(dtype=wp.vec2d)  # [t_start, t_end) of the prescribed motion [s]
+
+    @wp.struct
+    class Contacts:
+        nbr: wp.array(dtype=wp.int32)  # (bodies * K) partner index of each owned pair, -1 empty
+        count: wp.array(dtype=wp.int32)  # (bodies) pairs owned
+        key: wp.array(dtype=wp.vec4i)  # (bodies * K) feature keys of the tangential history
+        slip: wp.array(dtype=vec4)  # (bodies * K) tangential spring stretch δ_t [m]
+        energy: wp.array(dtype=T)  # (bodies * K) elastic energy of the pair's contacts [J/m]
+        dissipated: wp.array(dtype=wp.vec2d)  # (bodies * K) damping, friction work since build [J/m]
+        body_dissipated: wp.array(dtype=wp.vec2d)  # (bodies) folded in at each rebuild
+        old_nbr: wp.array(dtype=wp.int32)
+        old_key: wp.array(dtype=wp.vec4i)
+        old_slip: wp.array(dtype=vec4)
+        slots: int  # K
+
+    @wp.struct
+    class Params:
+        kn: T  # normal stiffness [N/m per m]
+        kt: T  # tangential stiffness
+        zeta: T  # damping ratio from the restitution coefficient
+        skin: T  # Verlet skin [m]
+        gravity: vec2
+        gravity_ramp: float
+        lo: vec2  # domain corners [m]; a free body whose centroid leaves them is an error
+        hi: vec2
+        cell_origin: vec2  # broad-phase cells
+        inv_cell: T
+        cells_x: int
+        cells_y: int
+        cell_cap: int
+        moving: int  # bodies [0, moving) are free or kinematic
+
+    # -- geometry -------------------------------------------------------------------------------
+    @wp.func
+    def rotate(angle: T, p: vec2):
+        c = wp.cos(angle)
+        s = wp.sin(angle)
+        return vec2(c * p[0] - s * p[1], s * p[0] + c * p[1])
+
+    @wp.func
+    def cross(r: vec2, f: vec2):
+        return r[0] * f[1] - r[1] * f[0]
+
+    @wp.func
+    def spin(w: T, r: vec2):
+        # ω × r for ω along z
+        return vec2(-w * r[1], w * r[0])
+
+    @wp.func
+    def segment_distance(p: vec2, a: vec2, b: vec2):
+        e = b - a
+        l2 = wp.dot(e, e)
+        s = T(0.0)
+        if l2 > T(0.0):
+            s = wp.clamp(wp.dot(p - a, e) / l2, T(0.0), T(1.0))
+        return wp.length(p - (a + s * e))
+
+    @wp.func
+    def in_corner(p: vec2, world: wp.array(dtype=vec2), start: int, count: int, k: int):
+        """Is p in the corner region of vertex k: beyond both edges that meet there."""
+        if count == 1:
+            return True
+        w = world[start + k]
+        nxt = world[start + (k + 1) % count]
+        prv = world[start + (k + count - 1) % count]
+        return wp.dot(p - w, nxt - w) <= T(0.0) and wp.dot(p - w, prv - w) <= T(0.0)
+
+    @wp.func
+    def polygon_distance(p: vec2, world: wp.array(dtype=vec2), start: int, count: int):
+        """Distance [m] from p to the core polygon outline (a point for one vertex)."""
+        d = wp.length(p - world[start])
+        for e in range(count):
+            d = wp.min(d, segment_distance(p, world[start + e], world[start + (e + 1) % count]))
+        return d
+
+    # -- per-step kernels -----------------------------------------------------------------------
+    @kernel
+    def world_vertices(B: Bodies, local: wp.array(dtype=vec2), owner: wp.array(dtype=wp.int32),
+                       world: wp.array(dtype=vec2)):
+        k = wp.tid()
+        b = owner[k]
+        world[k] = B.x[b] + rotate(B.angle[b], local[k])
+
+    @kernel
+    def check_displacement(B: Bodies, prm: Params, flags: wp.array(dtype=wp.int32)):
+        """Flag a rebuild when a body moved or turned more than half the skin since the last build."""
+        i = wp.tid()
+        moved = wp.length(B.x[i] - B.x_ref[i]) + B.core_radius[i] * wp.abs(B.angle[i] - B.angle_ref[i])
+        if moved > T(0.5) * prm.skin or not wp.isfinite(moved):
+            flags[0] = 1
+
+    @wp.func
+    def cell_of(x: vec2, prm: Params):
+        cx = wp.clamp(int(wp.floor((x[0] - prm.cell_origin[0]) * prm.inv_cell)), 0, prm.cells_x - 1)
+        cy = wp.clamp(int(wp.floor((x[1] - prm.cell_origin[1]) * prm.inv_cell)), 0, prm.cells_y - 1)
+        return cx, cy
+
+    @kernel
+    def clear_cells(flags: wp.array(dtype=wp.int32), cell_count: wp.array(dtype=wp.int32)):
+        if flags[0] == 0:
+            return
+        cell_count[wp.tid()] = 0
+
+    @kernel
+    def bin_bodies(B: Bodies, prm: Params, small: wp.array(dtype=wp.int32), flags: wp.array(dtype=wp.int32),
+                   cell_count: wp.array(dtype=wp.int32), cell_items: wp.array(dtype=wp.int32),
+                   status: wp.array(dtype=wp.int32)):
+        if flags[0] == 0:
+            return
+        i = small[wp.tid()]
+        cx, cy = cell_of(B.x[i], prm)
+        c = cx * prm.cells_y + cy
+        s = wp.atomic_add(cell_count, c, 1)
+        if s < prm.cell_cap:
+            cell_items[c * prm.cell_cap + s] = i
+        else:
+            wp.atomic_add(status, STATUS_CELL_OVERFLOW, 1)
+
+    @wp.func
+    def add_pair(C: Contacts, i: int, j: int, n: int, status: wp.array(dtype=wp.int32)):
+        if n < C.slots:
+            C.nbr[i * C.slots + n] = j
+        else:
+            wp.atomic_add(status, STATUS_NEIGHBOR_OVERFLOW, 1)
+        return n + 1
+
+    @kernel
+    def build_lists(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
+                    is_large: wp.array(dtype=wp.int32), large: wp.array(dtype=wp.int32), n_large: int,
+                    flags: wp.array(dtype=wp.int32), cell_count: wp.array(dtype=wp.int32),
+                    cell_items: wp.array(dtype=wp.int32), status: wp.array(dtype=wp.int32)):
+        """Rebuild body i's owned pairs (sorted by partner) and carry over their history."""
+        if flags[0] == 0:
+            return
+        i = wp.tid()
+        K = C.slots
+        base = i * K
+        # keep the old list for the history hand-over, fold the slots' dissipated work
+        folded = C.body_dissipated[i]
+        for s in range(K):
+            C.old_nbr[base + s] = C.nbr[base + s]
+            C.old_key[base + s] = C.key[base + s]
+            C.old_slip[base + s] = C.slip[base + s]
+            folded = folded + C.dissipated[base + s]
+            C.dissipated[base + s] = wp.vec2d(0.0, 0.0)
+            C.nbr[base + s] = -1
+        C.body_dissipated[i] = folded
+        old_count = C.count[i]
+        xi = B.x[i]
+        ri = B.core_radius[i] + B.radius[i]
+        free_i = B.motion[i] == FREE  # pairs need one free body; others never meet
+        n = 0
+        if is_large[i] == 0:
+            cx, cy = cell_of(xi, prm)
+            for gx in range(wp.max(cx - 1, 0), wp.min(cx + 2, prm.cells_x)):
+                for gy in range(wp.max(cy - 1, 0), wp.min(cy + 2, prm.cells_y)):
+                    c = gx * prm.cells_y + gy
+                    for s in range(wp.min(cell_count[c], prm.cell_cap)):
+                        j = cell_items[c * prm.cell_cap + s]
+                        if j > i and (free_i or B.motion[j] == FREE):
+                            rj = B.core_radius[j] + B.radius[j]
+                            if wp.length(B.x[j] - xi) < ri + rj + prm.skin:
+                                n = add_pair(C, i, j, n, status)
+        for s in range(n_large):
+            j = large[s]
+            if j != i and (is_large[i] == 0 or j > i):
+                if free_i or B.motion[j] == FREE:
+                    gap = polygon_distance(xi, world, B.vstart[j], B.vcount[j]) - ri - B.radius[j]
+                    if is_large[i] != 0:
+                        gap = wp.length(B.x[j] - xi) - ri - B.core_radius[j] - B.radius[j]
+                    if gap < prm.skin:
+                        n = add_pair(C, i, j, n, status)
+        n = wp.min(n, K)
+        C.count[i] = n
+        # insertion sort by partner: the pair order (and so the force sums) do not depend on the
+        # order in which threads filled the cells
+        for a in range(1, n):
+            v = C.nbr[base + a]
+            b = a - 1
+            while b >= 0 and C.nbr[base + b] > v:
+                C.nbr[base + b + 1] = C.nbr[base + b]
+                b -= 1
+            C.nbr[base + b + 1] = v
+        # history of pairs that stay listed (both lists are sorted)
+        o = 0
+        for s in range(n):
+            j = C.nbr[base + s]
+            key = wp.vec4i(-1, -1, -1, -1)
+            slip = vec4()
+            while o < old_count and C.old_nbr[base + o] < j:
+                o += 1
+            if o < old_count and C.old_nbr[base + o] == j:
+                key = C.old_key[base + o]
+                slip = C.old_slip[base + o]
+            C.key[base + s] = key
+            C.slip[base + s] = slip
+            C.energy[base + s] = T(0.0)
+        for s in range(n, K):
+            C.key[base + s] = wp.vec4i(-1, -1, -1, -1)
+            C.slip[base + s] = vec4()
+            C.energy[base + s] = T(0.0)
+        B.x_ref[i] = xi
+        B.angle_ref[i] = B.angle[i]
+
+    @kernel
+    def finish_rebuild(flags: wp.array(dtype=wp.int32), rebuilds: wp.array(dtype=wp.int64)):
+        if flags[0] != 0:
+            rebuilds[0] = rebuilds[0] + wp.int64(1)
+        flags[0] = 0
+
+    # -- contact forces (MPM-SDEM eq. 38-43) ------------------------------------------------------
+    @wp.func
+    def find_slip(keys: wp.vec4i, slips: vec4, key: int):
+        out = T(0.0)
+        for h in range(wp.static(HISTORY_SLOTS)):
+            if keys[h] == key:
+                out = slips[h]
+        return out
+
+    @kernel(deterministic=deterministic)
+    def contact_forces(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
+                       clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
+        """Forces and torques of one listed pair, added to both bodies (eq. 39-40)."""
+        tid = wp.tid()
+        K = C.slots
+        i = tid // K
+        if tid - i * K >= C.count[i]:
+            return
+        j = C.nbr[tid]
+        dt = T(clock[1])
+        xi = B.x[i]
+        xj = B.x[j]
+        ai = B.radius[i]
+        aj = B.radius[j]
+        reach = ai + aj
+        old_keys = C.key[tid]
+        old_slips = C.slip[tid]
+        keys = wp.vec4i(-1, -1, -1, -1)
+        slips = vec4()
+        n_hist = 0
+        energy = T(0.0)
+        lost = wp.vec2d(0.0, 0.0)
+        if wp.length(xj - xi) < B.core_radius[i] + B.core_radius[j] + reach:
+            fi = vec2()
+            ti = T(0.0)
+            fj = vec2()
+            tj = T(0.0)
+            vi = B.v[i]
+            vj = B.v[j]
+            wi = B.omega[i]
+            wj = B.omega[j]
+            inv_mi = B.inv_mass[i]
+            inv_mj = B.inv_mass[j]
+            inv_ii = B.inv_inertia[i]
+            inv_ij = B.inv_inertia[j]
+            mu = wp.min(B.friction[i], B.friction[j])
+            si = B.vstart[i]
+            ni = B.vcount[i]
+            sj = B.vstart[j]
+            nj = B.vcount[j]
+            for side in range(2):
+                # side 0: vertices of i against j; side 1: vertices of j against i
+                r_start = si
+                r_count = ni
+                o_start = sj
+                o_count = nj
+                c_o = xj
+                r_o = B.core_radius[j]
+                a_r = ai
+                if side == 1:
+                    r_start = sj
+                    r_count = nj
+                    o_start = si
+                    o_count = ni
+                    c_o = xi
+                    r_o = B.core_radius[i]
+                    a_r = aj
+                for k in range(r_count):
+                    X = world[r_start + k]
+                    if wp.length(X - c_o) >= r_o + reach:
+                        continue
+                    # candidate features of the other body: its edges (0..o_count-1) when it has
+                    # any, then (side 0 only) its vertices as corners
+                    n_feat = 0
+                    if o_count >= 2:
+                        n_feat = o_count
+                    n_corner = 0
+                    if side == 0:
+                        n_corner = o_count
+                    for f in range(n_feat + n_corner):
+                        N = vec2()
+                        d = T(0.0)
+                        key = 0
+                        hit = False
+                        if f < n_feat:
+                            A = world[o_start + f]
+                            E = world[o_start + (f + 1) % o_count] - A
+                            l2 = wp.dot(E, E)
+                            s = wp.dot(X - A, E) / l2
+                            if s > T(0.0) and s < T(1.0):
+                                N = vec2(E[1], -E[0]) / wp.sqrt(l2)  # outward normal of a CCW edge
+                                d = wp.dot(X - A, N)
+                                if d >= T(0.0) and d < reach:
+                                    key = side * KEY_KIND + k * KEY_VERTEX + f
+                                    hit = True
+                        else:
+                            w = f - n_feat
+                            W = world[o_start + w]
+                            D = X - W
+                            d = wp.length(D)
+                            if d < reach and d > T(1.0e-12) * reach:
+                                if in_corner(X, world, o_start, o_count, w) and in_corner(W, world, r_start,
+                                                                                           r_count, k):
+                                    N = D / d
+                                    key = 2 * KEY_KIND + k * KEY_VERTEX + w
+                                    hit = True
+                        if hit:
+                            # overlap eq. 38, contact point eq. 41 (middle of the overlap), N from the
+                            # other body towards the vertex's body
+                            delta = reach - d
+                            p = X - (a_r - T(0.5) * delta) * N
+                            vel = (vi + spin(wi, p - xi)) - (vj + spin(wj, p - xj))
+                            if side == 1:
+                                vel = -vel
+                            vn = wp.dot(vel, N)
+                            tan = vec2(-N[1], N[0])
+                            # normal dashpot c_n = 2ζ sqrt(m_eff k_n) with the effective mass of the
+                            # two bodies at p along N, rotation included (1/m + (r×N)²/I each), so
+                            # that ζ, and so e, hold for off-centre impacts too
+                            lever_i = cross(p - xi, N)
+                            lever_j = cross(p - xj, N)
+                            inv_eff = inv_mi + inv_ii * lever_i * lever_i + inv_mj + inv_ij * lever_j * lever_j
+                            c_n = T(2.0) * prm.zeta * wp.sqrt(prm.kn / inv_eff)
+                            fn = prm.kn * delta - c_n * vn
+                            # tangential spring with history, Coulomb cap k_t δ_t ≤ μ k_n δ_n (eq. 43)
+                            slip = find_slip(old_keys, old_slips, key) + wp.dot(vel, tan) * dt
+                            ft = -prm.kt * slip
+                            cap = mu * prm.kn * delta
+                            if wp.abs(ft) > cap:
+                                slip_new = wp.sign(slip) * cap / prm.kt
+                                lost[1] = lost[1] + wp.float64(cap * wp.abs(slip - slip_new))
+                                slip = slip_new
+                                ft = -wp.sign(slip) * cap
+                            # dashpot work over the step, c_n vn v̄n dt, with v̄n ≈ vn + ½ dt fn/m_eff the
+                            # normal velocity at the middle of the step (the dashpot acts on the lagged
+                            # half-step velocity vn; vn² dt alone errs by O(ω dt), this by O((ω dt)²))
+                            lost[0] = lost[0] + wp.float64(c_n * vn * (vn + T(0.5) * dt * fn * inv_eff) * dt)
+                            energy += T(0.5) * (prm.kn * delta * delta + prm.kt * slip * slip)
+                            if n_hist < wp.static(HISTORY_SLOTS):
+                                keys[n_hist] = key
+                                slips[n_hist] = slip
+                                n_hist += 1
+                            else:
+                                wp.atomic_add(status, STATUS_HISTORY_OVERFLOW, 1)
+                            F = fn * N + ft * tan
+                            if side == 1:
+                                F = -F  # force on i
+                            fi += F
+                            ti += cross(p - xi, F)
+                            fj -= F
+                            tj -= cross(p - xj, F)
+            wp.atomic_add(B.force, i, fi)
+            wp.atomic_add(B.torque, i, ti)
+            wp.atomic_add(B.force, j, fj)
+            wp.atomic_add(B.torque, j, tj)
+        C.key[tid] = keys
+        C.slip[tid] = slips
+        C.energy[tid] = energy
+        C.dissipated[tid] = C.dissipated[tid] + lost
+
+    # -- rigid-body update ----------------------------------------------------------------------
+    @kernel
+    def integrate(B: Bodies, prm: Params, clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
+        """Semi-implicit Euler (leapfrog with half-step velocities, as the MPM stage, MPM-SDEM
+        eq. 17-20): v += dt F/m, x += dt v; the same for ω and the angle (eq. 42)."""
+        i = wp.tid()
+        dt = T(clock[1])
+        t = clock[0]
+        v = B.v[i]
+        w = B.omega[i]
+        if B.motion[i] == KINEMATIC:
+            window = B.kin_window[i]
+            v = vec2()
+            w = T(0.0)
+            if t >= window[0] and t < window[1]:
+                v = B.kin_v[i]
+                w = B.kin_omega[i]
+        else:
+            ramp = 1.0
+            if prm.gravity_ramp > 0.0:
+                ramp = wp.min(float(t) / prm.gravity_ramp, 1.0)
+            v = v + dt * (B.inv_mass[i] * B.force[i] + T(ramp) * prm.gravity)
+            w = w + dt * B.inv_inertia[i] * B.torque[i]
+        x = B.x[i] + dt * v
+        B.v[i] = v
+        B.omega[i] = w
+        B.x[i] = x
+        B.angle[i] = B.angle[i] + dt * w
+        if not (wp.isfinite(x[0]) and wp.isfinite(x[1]) and wp.isfinite(v[0]) and wp.isfinite(v[1])
+                and wp.isfinite(w)):
+            wp.atomic_add(status, STATUS_NONFINITE, 1)
+        elif B.motion[i] == FREE and (x[0] < prm.lo[0] or x[0] > prm.hi[0] or x[1] < prm.lo[1] or x[1] > prm.hi[1]):
+            wp.atomic_add(status, STATUS_OUTSIDE, 1)
+
+    @kernel
+    def dem_dt(clock: wp.array(dtype=wp.float64)):
+        """dt = the fixed dt, or the factor × the bound (both set once: they depend on masses and k_n
+        only); 0 once the clock has reached t_stop."""
+        dt = clock[4]
+        if dt <= wp.float64(0.0):
+            dt = clock[5] * clock[3]
+        if clock[0] >= clock[2]:
+            dt = wp.float64(0.0)
+        clock[1] = dt
+
+    # -- diagnostics ----------------------------------------------------------------------------
+    @kernel
+    def diagnostics(B: Bodies, C: Contacts, prm: Params, out: wp.array(dtype=wp.float64)):
+        """Sums of: kinetic, gravity, contact energy, momenta x, y, angular, mass (free bodies),
+        damping and friction work dissipated in contacts (all pairs)."""
+        i = wp.tid()
+        e = wp.float64(0.0)
+        lost = C.body_dissipated[i]
+        for s in range(C.slots):
+            e += wp.float64(C.energy[i * C.slots + s])
+            lost = lost + C.dissipated[i * C.slots + s]
+        wp.atomic_add(out, 2, e)
+        wp.atomic_add(out, 7, lost[0])
+        wp.atomic_add(out, 8, lost[1])
+        if B.motion[i] != FREE:
+            return
+        m = wp.float64(B.mass[i])
+        inertia = wp.float64(B.inertia[i])
+        vx = wp.float64(B.v[i][0])
+        vy = wp.float64(B.v[i][1])
+        w = wp.float64(B.omega[i])
+        x = wp.float64(B.x[i][0])
+        y = wp.float64(B.x[i][1])
+        wp.atomic_add(out, 0, wp.float64(0.5) * (m * (vx * vx + vy * vy) + inertia * w * w))
+        wp.atomic_add(out, 1, -m * (wp.float64(prm.gravity[0]) * x + wp.float64(prm.gravity[1]) * y))
+        wp.atomic_add(out, 3, m * vx)
+        wp.atomic_add(out, 4, m * vy)
+        wp.atomic_add(out, 5, m * (x * vy - y * vx) + inertia * w)
+        wp.atomic_add(out, 6, m)
+
+    return _Namespace(
+        Bodies=Bodies, Contacts=Contacts, Params=Params, world_vertices=world_vertices,
+        check_displacement=check_displacement, clear_cells=clear_cells, bin_bodies=bin_bodies,
+        build_lists=build_lists, finish_rebuild=finish_rebuild, contact_forces=contact_forces,
+        integrate=integrate, dem_dt=dem_dt, diagnostics=diagnostics,
+    )
+
+
+class _Namespace:
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+
+
+#: Order of the sums written by the diagnostics kernel.
+DIAG_NAMES = (
+    "energy_kinetic",
+    "energy_gravity",
+    "energy_contact",
+    "momentum_x",
+    "momentum_y",
+    "momentum_angular",
+    "mass",
+    "dissipated_damping",
+    "dissipated_friction",
+)

@@ -1,0 +1,371 @@
+"""The DEM stage: device arrays of the rigid spheropolygon bodies and the launches of one step.
+
+No physics here (that is ``mpmdem.kernels.dem``): this module lays the bodies out on the device
+(free and kinematic bodies first, fixed last, each group in cell order), sizes the broad-phase
+cells and the Verlet lists, and launches the kernels of a step:
+
+world vertices → displacement check → (list rebuild, only when flagged on the device) →
+contact forces → rigid-body update → clock.
+
+The rebuild kernels run every step but return at once unless the device flag is set, so the
+step never waits on the host and can be recorded as one CUDA graph.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import warp as wp
+
+from .config import SolverConfig
+from .errors import BlowUpError, InputError
+from .kernels import dem as kdem
+from .kernels import reductions as kred
+from .scene import Scene
+
+__all__ = ["DEMSolver", "dem_time_step_bound"]
+
+#: Bodies larger than this many times the median bounding radius are "large" (walls, gates):
+#: they are not binned in cells; every small body tests them directly. At most MAX_LARGE.
+LARGE_FACTOR = 4.0
+MAX_LARGE = 64
+
+_MOTION_IDS = {"free": kdem.FREE, "fixed": kdem.FIXED, "kinematic": kdem.KINEMATIC}
+
+#: Body arrays that change during a run (what a checkpoint must hold), and the contact arrays.
+_BODY_STATE = ("x", "angle", "v", "omega", "force", "torque", "x_ref", "angle_ref")
+_CONTACT_STATE = ("nbr", "count", "key", "slip", "energy", "dissipated", "body_dissipated")
+
+
+def effective_mass(body) -> float:
+    """Smallest mass [kg/m] a contact on the body can feel: a force at its farthest vertex, normal
+    to the lever arm, sees 1 / (1/m + R²/I) (m for a disk, m/4 for any rectangle)."""
+    m, inertia, r = body.mass, body.inertia, body.shape.core_radius
+    return 1.0 / (1.0 / m + r * r / inertia)
+
+
+def dem_time_step_bound(scene: Scene) -> float:
+    """Largest stable explicit step [s] of one free body on one contact spring, 2 sqrt(m* / k),
+    with k the larger of k_n and k_t and m* the smallest effective mass of the free bodies.
+
+    MPM-SDEM eq. 51 takes 2π κ2 sqrt(m_min / k_n), κ2 = 0.1 by default (π κ2 ≈ 0.31 of this
+    bound). It counts the mass only; a polygon pressed at a corner also turns, which makes the
+    contact stiffer than m suggests (a block rocking on two corners blew up at eq. 51's step), so
+    the rotational effective mass m* (``effective_mass``) stands in for m_min. For disks m* = m.
+    """
+    law = scene.contact
+    masses = [effective_mass(b) for b in scene.rigid_bodies if b.motion == "free"]
+    if not masses:
+        raise InputError("rigid_bodies", [b.name for b in scene.rigid_bodies], "at least one free rigid body")
+    k = max(float(law.normal_stiffness), law.kt)
+    return 2.0 * math.sqrt(min(masses) / k)
+
+
+class DEMSolver:
+    """Device state and step sequence of the DEM stage of one scene.
+
+    Args:
+        scene: the scene; its rigid bodies are uploaded once.
+        config: solver choices (precision, dt, dem_kappa, dem_skin, dem_max_neighbors...).
+        device: Warp device.
+    """
+
+    def __init__(self, scene: Scene, config: SolverConfig, device: str):
+        if scene.contact is None:
+            raise InputError("contact", None, "a ContactLaw(normal_stiffness=...) in the Scene for rigid bodies")
+        self.scene = scene
+        self.config = config
+        self.device = wp.get_device(device)
+        self.k = kdem.make_dem_kernels(config.precision, config.deterministic)
+        self.dt_bound = dem_time_step_bound(scene)
+        if config.dt is not None and config.dt > self.dt_bound and not config.allow_unstable:
+            raise InputError(
+                "dt", config.dt,
+                f"at most the stable bound 2 sqrt(m*/k_n) = {self.dt_bound:.6g} s of these rigid bodies "
+                f"(MPM-SDEM eq. 51 with dem_kappa = {config.dem_kappa:g} gives "
+                f"{math.pi * config.dem_kappa * self.dt_bound:.6g} s); leave dt unset to use it",
+            )
+        self.body_count = len(scene.rigid_bodies)
+        self._layout()
+        self._allocate()
+
+    # -- set-up -------------------------------------------------------------------------------
+    def _layout(self) -> None:
+        """Device order of the bodies, the large/small split, cell size, list sizes."""
+        bodies = self.scene.rigid_bodies
+        motion = np.array([_MOTION_IDS[b.motion] for b in bodies], np.int32)
+        pos = np.array([b.position for b in bodies], float).reshape(-1, 2)
+        bound = np.array([b.shape.bounding_radius for b in bodies])
+        ref = bound[motion == kdem.FREE]
+        median = float(np.median(ref))
+        big = np.flatnonzero(bound > LARGE_FACTOR * median)
+        big = big[np.argsort(-bound[big])][:MAX_LARGE]
+        is_large = np.zeros(len(bodies), bool)
+        is_large[big] = True
+        small_bound = bound[~is_large]
+        r_cut = float(small_bound.max()) if len(small_bound) else median
+        cfg = self.config
+        self.skin = float(cfg.dem_skin) if cfg.dem_skin is not None else 0.25 * median
+        self.cell = 2.0 * r_cut + self.skin
+        # moving bodies first, then fixed; each group by cell column, then height (locality)
+        cx = np.floor(pos[:, 0] / self.cell)
+        order = np.lexsort((pos[:, 1], cx, motion == kdem.FIXED))
+        self.order = order
+        self.moving = int(np.count_nonzero(motion != kdem.FIXED))
+        self.motion = motion[order]
+        self.is_large = is_large[order]
+        # cells over the domain and every small body (a fixed peg may sit outside the domain)
+        (x0, y0), (x1, y1) = self.scene.domain
+        sp = pos[~is_large]
+        lo = np.minimum([x0, y0], sp.min(axis=0) if len(sp) else [x0, y0]) - self.cell
+        hi = np.maximum([x1, y1], sp.max(axis=0) if len(sp) else [x1, y1]) + self.cell
+        self.cell_origin = lo
+        self.cells = tuple(int(v) for v in np.maximum(np.ceil((hi - lo) / self.cell), 1))
+        # capacity of a cell: bodies whose centroids fit in it without overlapping much
+        areas = np.array([b.shape.area for b in bodies])[~is_large]
+        a_min = float(areas.min()) if len(areas) else 1.0
+        self.cell_cap = int(min(128, math.ceil(1.5 * (self.cell + r_cut) ** 2 / a_min) + 4))
+        if cfg.dem_max_neighbors is not None:
+            self.slots = cfg.dem_max_neighbors
+        else:
+            ratio = float(small_bound.max() / small_bound.min()) if len(small_bound) else 1.0
+            self.slots = 12 if ratio <= 1.5 else 24 if ratio <= 3.0 else 48
+            self.slots += min(len(big), 4)
+        self.large = np.flatnonzero(self.is_large).astype(np.int32)
+
+    def _allocate(self) -> None:
+        k = self.k
+        dev = self.device
+        T = np.float32 if self.config.precision == "f32" else np.float64
+        bodies = [self.scene.rigid_bodies[i] for i in self.order]
+        n = self.body_count
+
+        def arr(values, dtype, shape=None):
+            a = np.asarray(values, dtype=T if dtype is None else dtype)
+            return wp.array(a if shape is None else a.reshape(shape), dtype=self._wp(dtype, a), device=dev)
+
+        mass = np.array([b.mass for b in bodies])
+        inertia = np.array([b.inertia for b in bodies])
+        free = self.motion == kdem.FREE
+        counts = np.array([len(b.shape.vertices) for b in bodies], np.int32)
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int32)
+        local = np.concatenate([b.shape.vertices for b in bodies]).astype(T)
+        owner = np.repeat(np.arange(n, dtype=np.int32), counts)
+        world = np.concatenate([b.world_vertices() for b in bodies]).astype(T)
+        self.vertex_count = int(counts.sum())
+        self.moving_vertices = int(counts[: self.moving].sum())
+
+        B = k.Bodies()
+        B.x = arr([b.position for b in bodies], None, (n, 2))
+        B.angle = arr([b.angle for b in bodies], None)
+        B.v = arr([b.velocity if b.motion == "free" else (0.0, 0.0) for b in bodies], None, (n, 2))
+        B.omega = arr([b.angular_velocity if b.motion == "free" else 0.0 for b in bodies], None)
+        B.force = arr(np.zeros((n, 2)), None)
+        B.torque = arr(np.zeros(n), None)
+        B.mass = arr(mass, None)
+        B.inertia = arr(inertia, None)
+        B.inv_mass = arr(np.where(free, 1.0 / mass, 0.0), None)
+        B.inv_inertia = arr(np.where(free, 1.0 / inertia, 0.0), None)
+        B.radius = arr([b.shape.radius for b in bodies], None)
+        B.core_radius = arr([b.shape.core_radius for b in bodies], None)
+        B.friction = arr([b.friction for b in bodies], None)
+        B.motion = arr(self.motion, np.int32)
+        B.vstart = arr(starts, np.int32)
+        B.vcount = arr(counts, np.int32)
+        B.x_ref = arr([b.position for b in bodies], None, (n, 2))
+        B.angle_ref = arr([b.angle for b in bodies], None)
+        B.kin_v = arr([b.velocity if b.motion == "kinematic" else (0.0, 0.0) for b in bodies], None, (n, 2))
+        B.kin_omega = arr([b.angular_velocity if b.motion == "kinematic" else 0.0 for b in bodies], None)
+        window = np.array([[b.active[0], min(b.active[1], 1e300)] for b in bodies], np.float64)
+        B.kin_window = wp.array(window, dtype=wp.vec2d, device=dev)
+        self.B = B
+        self.local = wp.array(local, dtype=self._vec2, device=dev)
+        self.owner = wp.array(owner, dtype=wp.int32, device=dev)
+        self.world = wp.array(world, dtype=self._vec2, device=dev)
+
+        K = self.slots
+        C = k.Contacts()
+        C.slots = K
+        C.nbr = wp.full(n * K, -1, dtype=wp.int32, device=dev)
+        C.count = wp.zeros(n, dtype=wp.int32, device=dev)
+        C.key = wp.full(n * K, wp.vec4i(-1, -1, -1, -1), dtype=wp.vec4i, device=dev)
+        C.slip = wp.zeros(n * K, dtype=self._vec4, device=dev)
+        C.energy = wp.zeros(n * K, dtype=self._scalar, device=dev)
+        C.dissipated = wp.zeros(n * K, dtype=wp.vec2d, device=dev)
+        C.body_dissipated = wp.zeros(n, dtype=wp.vec2d, device=dev)
+        C.old_nbr = wp.full(n * K, -1, dtype=wp.int32, device=dev)
+        C.old_key = wp.full(n * K, wp.vec4i(-1, -1, -1, -1), dtype=wp.vec4i, device=dev)
+        C.old_slip = wp.zeros(n * K, dtype=self._vec4, device=dev)
+        self.C = C
+
+        law = self.scene.contact
+        (x0, y0), (x1, y1) = self.scene.domain
+        P = k.Params()
+        P.kn = float(law.normal_stiffness)
+        P.kt = law.kt
+        P.zeta = law.damping_ratio
+        P.skin = self.skin
+        P.gravity = self._vec2(*self.scene.gravity)
+        P.gravity_ramp = float(self.scene.gravity_ramp)
+        P.lo = self._vec2(x0, y0)
+        P.hi = self._vec2(x1, y1)
+        P.cell_origin = self._vec2(*self.cell_origin)
+        P.inv_cell = 1.0 / self.cell
+        P.cells_x, P.cells_y = self.cells
+        P.cell_cap = self.cell_cap
+        P.moving = self.moving
+        self.P = P
+
+        self.small = wp.array(np.flatnonzero(~self.is_large).astype(np.int32), dtype=wp.int32, device=dev)
+        self.large_ids = wp.array(self.large if len(self.large) else np.zeros(1, np.int32), dtype=wp.int32,
+                                  device=dev)
+        self.is_large_arr = wp.array(self.is_large.astype(np.int32), dtype=wp.int32, device=dev)
+        ncell = self.cells[0] * self.cells[1]
+        self.cell_count = wp.zeros(ncell, dtype=wp.int32, device=dev)
+        self.cell_items = wp.zeros(ncell * self.cell_cap, dtype=wp.int32, device=dev)
+        self.flags = wp.ones(1, dtype=wp.int32, device=dev)  # build the lists in the first step
+        self.rebuilds = wp.zeros(1, dtype=wp.int64, device=dev)
+        self.status = wp.zeros(kdem.STATUS_SIZE, dtype=wp.int32, device=dev)
+        self.diag = wp.zeros(len(kdem.DIAG_NAMES), dtype=wp.float64, device=dev)
+        self.clock = wp.zeros(kred.CLOCK_SIZE, dtype=wp.float64, device=dev)
+        clock = np.zeros(kred.CLOCK_SIZE)
+        clock[3] = self.dt_bound
+        clock[4] = self.config.dt or 0.0
+        clock[5] = math.pi * self.config.dem_kappa  # dt = 2π κ2 sqrt(m/k) (eq. 51) = π κ2 × bound
+        self.clock.assign(clock)
+        self.steps = wp.zeros(1, dtype=wp.int64, device=dev)
+
+    @property
+    def _scalar(self):
+        return wp.float32 if self.config.precision == "f32" else wp.float64
+
+    @property
+    def _vec2(self):
+        return wp.types.vector(2, self._scalar)
+
+    @property
+    def _vec4(self):
+        return wp.types.vector(4, self._scalar)
+
+    def _wp(self, dtype, a):
+        if dtype is not None:
+            return wp.int32
+        return self._vec2 if a.ndim == 2 else self._scalar
+
+    @property
+    def dt_default(self) -> float:
+        """The time step of this scene [s]: the fixed dt, or MPM-SDEM eq. 51's DEM term."""
+        return self.config.dt or math.pi * self.config.dem_kappa * self.dt_bound
+
+    # -- stepping -------------------------------------------------------------------------------
+    def step(self, own_clock: bool = True) -> None:
+        """Launch one DEM step (contacts, then the rigid-body update) on the device clock."""
+        k, B, C, P, dev = self.k, self.B, self.C, self.P, self.device
+        if own_clock:
+            wp.launch(k.dem_dt, 1, inputs=[self.clock], device=dev)
+        if self.moving_vertices:
+            wp.launch(k.world_vertices, self.moving_vertices, inputs=[B, self.local, self.owner, self.world],
+                      device=dev)
+        wp.launch(k.check_displacement, self.moving, inputs=[B, P, self.flags], device=dev)
+        wp.launch(k.clear_cells, len(self.cell_count), inputs=[self.flags, self.cell_count], device=dev)
+        if len(self.small):
+            wp.launch(k.bin_bodies, len(self.small),
+                      inputs=[B, P, self.small, self.flags, self.cell_count, self.cell_items, self.status], device=dev)
+        wp.launch(k.build_lists, self.body_count,
+                  inputs=[B, C, P, self.world, self.is_large_arr, self.large_ids, len(self.large), self.flags,
+                          self.cell_count, self.cell_items, self.status], device=dev)
+        wp.launch(k.finish_rebuild, 1, inputs=[self.flags, self.rebuilds], device=dev)
+        B.force.zero_()
+        B.torque.zero_()
+        wp.launch(k.contact_forces, self.body_count * self.slots,
+                  inputs=[B, C, P, self.world, self.clock, self.status], device=dev)
+        wp.launch(k.integrate, self.moving, inputs=[B, P, self.clock, self.status], device=dev)
+        if own_clock:
+            wp.launch(kred.advance_time, 1, inputs=[self.clock, self.steps], device=dev)
+
+    def set_stop_time(self, t_stop: float) -> None:
+        """Steps run until the clock reaches t_stop [s]; later steps do nothing."""
+        wp.copy(self.clock, wp.array([t_stop], dtype=wp.float64, device="cpu"), dest_offset=2, count=1)
+
+    def read_clock(self) -> tuple[float, float, float, int, np.ndarray]:
+        """(t, dt, dt_bound, steps, status counts) — one host sync."""
+        c = self.clock.numpy()
+        return float(c[0]), float(c[1]), float(c[3]), int(self.steps.numpy()[0]), self.status.numpy()
+
+    def check_status(self, t: float, dt: float, bound: float, status: np.ndarray) -> None:
+        """Raise BlowUpError for non-finite or escaped bodies and overflowing lists."""
+        cfg = self.config
+        cause = (f"the time step (dt = {self.dt_default:.3g} s against the bound 2 sqrt(m*/k_n) = "
+                 f"{self.dt_bound:.3g} s; lower dem_kappa or dt) or a contact stiffness too low for the "
+                 "loads (bodies pass through each other)")
+        if status[kdem.STATUS_NONFINITE] > 0 or not math.isfinite(t):
+            raise BlowUpError("non-finite", f"the DEM blew up at t = {t:.6g} s: "
+                              f"{int(status[kdem.STATUS_NONFINITE])} bodies have NaN/inf values. "
+                              f"Likely cause: {cause}.", t)
+        if status[kdem.STATUS_OUTSIDE] > 0:
+            raise BlowUpError("left-domain", f"{int(status[kdem.STATUS_OUTSIDE])} rigid bodies left the domain at "
+                              f"t = {t:.6g} s. Likely cause: an open side (close it with Scene.add_walls) or "
+                              f"{cause}.", t)
+        if status[kdem.STATUS_NEIGHBOR_OVERFLOW] > 0:
+            raise BlowUpError("list-overflow", f"a DEM Verlet list overflowed at t = {t:.6g} s (more than "
+                              f"{self.slots} neighbours of one body): raise SolverConfig(dem_max_neighbors=...) "
+                              f"(now {cfg.dem_max_neighbors}) or lower dem_skin.", t)
+        if status[kdem.STATUS_CELL_OVERFLOW] > 0:
+            raise BlowUpError("cell-overflow", f"a DEM broad-phase cell held more than {self.cell_cap} bodies at "
+                              f"t = {t:.6g} s: bodies are piled into each other. Likely cause: {cause}.", t)
+
+    def diagnostics(self) -> dict[str, float]:
+        """Energies [J/m], momenta and mass of the free bodies; contact energy and dissipation."""
+        self.diag.zero_()
+        wp.launch(self.k.diagnostics, self.body_count, inputs=[self.B, self.C, self.P, self.diag], device=self.device)
+        vals = dict(zip(kdem.DIAG_NAMES, (float(v) for v in self.diag.numpy()), strict=True))
+        out = {name: vals[name] for name in ("energy_kinetic", "energy_gravity", "energy_contact")}
+        out["energy_total"] = out["energy_kinetic"] + out["energy_gravity"] + out["energy_contact"]
+        out.update({name: vals[name] for name in ("momentum_x", "momentum_y", "momentum_angular", "mass")})
+        # works done on the bodies (<= 0: dissipated), as the MPM stage's work terms
+        out["work_contact_damping"] = -vals["dissipated_damping"]
+        out["work_contact_friction"] = -vals["dissipated_friction"]
+        out["list_rebuilds"] = float(self.rebuilds.numpy()[0])
+        out["listed_pairs"] = float(self.C.count.numpy().sum())
+        out["history_overflows"] = float(self.status.numpy()[kdem.STATUS_HISTORY_OVERFLOW])
+        return out
+
+    #: Diagnostics that are works done on the system (for the energy balance).
+    WORK_TERMS = ("work_contact_damping", "work_contact_friction")
+
+    def fields(self) -> dict[str, np.ndarray]:
+        """Host copies of the per-body output fields, in the scene's order."""
+        B = self.B
+        out = {}
+        for name, a in (("x", B.x), ("angle", B.angle), ("v", B.v), ("omega", B.omega), ("force", B.force),
+                        ("torque", B.torque)):
+            values = a.numpy()
+            out[name] = np.empty_like(values)
+            out[name][self.order] = values
+        return out
+
+    def scene_geometry(self) -> dict:
+        """Static per-body data (vertices, radius, motion, mass, name) in the scene's order."""
+        inv = np.empty_like(self.order)
+        inv[self.order] = np.arange(len(self.order))
+        bodies = self.scene.rigid_bodies
+        counts = np.array([len(b.shape.vertices) for b in bodies], np.int32)
+        return {
+            "vertex_start": np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int32),
+            "vertex_count": counts,
+            "vertices": np.concatenate([b.shape.vertices for b in bodies]).astype(float),
+            "radius": np.array([b.shape.radius for b in bodies]),
+            "motion": np.array([_MOTION_IDS[b.motion] for b in bodies], np.int32),
+            "mass": np.array([b.mass for b in bodies]),
+            "name": [b.name for b in bodies],
+        }
+
+    # -- checkpoints ----------------------------------------------------------------------------
+    def state_arrays(self) -> dict[str, wp.array]:
+        """Every time-varying device array, by a stable name."""
+        arrays = {f"B.{name}": getattr(self.B, name) for name in _BODY_STATE}
+        arrays.update({f"C.{name}": getattr(self.C, name) for name in _CONTACT_STATE})
+        arrays.update(world=self.world, flags=self.flags, rebuilds=self.rebuilds, status=self.status,
+                      clock=self.clock, steps=self.steps)
+        return arrays

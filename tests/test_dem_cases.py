@@ -1,0 +1,66 @@
+"""The DEM cases run as scripts (as a user would) and their summary.json holds the checked figures."""
+
+import math
+
+import pytest
+from helpers import run_script
+
+from mpmdem.io import RunFile
+
+
+def test_disk_collision_case(tmp_path):
+    s = run_script("disk_collision", tmp_path)
+    assert s["status"] == "completed" and s["bodies"] == 4
+    # head-on: e of the spring-dashpot; the case's κ2 = 0.002 puts ~70 steps in a contact, the
+    # leapfrog error O((ω dt)²) is ~1e-3 (measured 0.14 %)
+    assert s["restitution_head_on"] == pytest.approx(s["restitution_set"], rel=0.005)
+    # oblique with friction: both disks spin the same way at the same rate (the friction pair acts
+    # at the contact point, equal and opposite, and the disks are equal)
+    w1, w2 = s["oblique_spin"]
+    assert w1 == pytest.approx(w2, rel=1e-9) and abs(w1) > 1.0
+    assert s["work_friction"] < 0.0
+    # momenta: round-off (f64); the energy balance closes to O((ω dt)²)
+    assert s["momentum_drift_relative"] < 1e-12 and s["angular_momentum_drift_relative"] < 1e-12
+    assert abs(s["energy_balance_residual"]) < 1e-3
+
+
+@pytest.mark.parametrize("angle, mu, slides", [(30.0, 0.3, True), (15.0, 0.4, False)])
+def test_block_on_incline_case(tmp_path, angle, mu, slides):
+    s = run_script("block_on_incline", tmp_path, "--angle", str(angle), "--friction", str(mu))
+    assert s["sliding_expected"] == slides
+    if slides:
+        # steady Coulomb sliding on a real inclined body: a = g (sin θ − μ cos θ); the line fit
+        # over frames after the contact has settled (measured error 1e-12)
+        assert s["acceleration"] == pytest.approx(s["acceleration_expected"], rel=0.005)
+    else:
+        assert s["sticks"] and abs(s["travel_final"]) < 1e-5
+
+
+def test_pentagon_pile_case(tmp_path):
+    s = run_script("pentagon_pile", tmp_path)
+    assert s["status"] == "completed" and s["bodies"] == 60
+    # settled: kinetic energy a vanishing part of the released potential energy, most of which went
+    # into damping and friction (the rest is the O((ω dt)²) leapfrog residual, measured 2 %)
+    assert s["kinetic_over_released"] < 1e-4
+    assert 0.9 < s["dissipated_over_released"] < 1.05
+    assert abs(s["energy_balance_residual"]) < 0.05
+    # a random packing of rounded pentagons: solid fraction well below a crystal's (0.9) and above a
+    # loose gas; about 3-4 contacts per body at rest (isostatic frictional packs: 3)
+    assert 0.6 < s["solid_fraction_lower_half"] < 0.9
+    assert 2.0 < s["contacts_per_body"] < 5.0
+    assert s["list_rebuilds"] >= 10 and s["steps_per_rebuild"] > 5
+    with RunFile(tmp_path / "pentagon_pile.h5") as rf:
+        assert rf.body_count == 63 and rf.particle_count == 0
+        geometry = rf.body_geometry()
+        assert geometry["name"][0] == "wall_left"
+
+
+def test_domino_case(tmp_path):
+    s = run_script("domino", tmp_path)
+    assert s["all_toppled"] and s["toppled"] == s["blocks"] == 5
+    # they fall towards +x (clockwise: negative angles) and come to rest leaning on each other,
+    # the last one flat on the floor
+    assert all(a < -45.0 for a in s["final_angles_deg"])
+    assert s["final_angles_deg"][-1] == pytest.approx(-90.0, abs=1.0)
+    assert all(b > a for a, b in zip(s["tip_times"], s["tip_times"][1:], strict=False))
+    assert 0.2 < s["front_speed_over_sqrt_gh"] < 3.0 and math.isfinite(s["front_speed"])
