@@ -236,7 +236,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         xi = B.x[i]
         ri = B.core_radius[i] + B.radius[i]
         free_i = B.motion[i] == FREE  # pairs need one free body; others never meet
-        n = 0
+        n = int(0)
         if is_large[i] == 0:
             cx, cy = cell_of(xi, prm)
             for gx in range(wp.max(cx - 1, 0), wp.min(cx + 2, prm.cells_x)):
@@ -269,7 +269,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                 b -= 1
             C.nbr[base + b + 1] = v
         # history of pairs that stay listed (both lists are sorted)
-        o = 0
+        o = int(0)
         for s in range(n):
             j = C.nbr[base + s]
             key = wp.vec4i(-1, -1, -1, -1)
@@ -324,7 +324,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         old_slips = C.slip[tid]
         keys = wp.vec4i(-1, -1, -1, -1)
         slips = vec4()
-        n_hist = 0
+        n_hist = int(0)
         energy = T(0.0)
         lost = wp.vec2d(0.0, 0.0)
         if wp.length(xj - xi) < B.core_radius[i] + B.core_radius[j] + reach:
@@ -368,16 +368,16 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                         continue
                     # candidate features of the other body: its edges (0..o_count-1) when it has
                     # any, then (side 0 only) its vertices as corners
-                    n_feat = 0
+                    n_feat = int(0)
                     if o_count >= 2:
                         n_feat = o_count
-                    n_corner = 0
+                    n_corner = int(0)
                     if side == 0:
                         n_corner = o_count
                     for f in range(n_feat + n_corner):
                         N = vec2()
                         d = T(0.0)
-                        key = 0
+                        key = int(0)
                         hit = False
                         if f < n_feat:
                             A = world[o_start + f]
@@ -473,7 +473,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                 v = B.kin_v[i]
                 w = B.kin_omega[i]
         else:
-            ramp = 1.0
+            ramp = float(1.0)
             if prm.gravity_ramp > 0.0:
                 ramp = wp.min(float(t) / prm.gravity_ramp, 1.0)
             v = v + dt * (B.inv_mass[i] * B.force[i] + T(ramp) * prm.gravity)

@@ -269,7 +269,7 @@ def make_mohr_coulomb(precision: str):
         rank = wp.int32(1)
         p = vec3(s1, szz_tr, s2)
         if szz_tr >= s1:
-            rank = 0
+            rank = int(0)
             p = vec3(szz_tr, s1, s2)
         elif szz_tr <= s2:
             rank = 2
