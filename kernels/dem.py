@@ -374,7 +374,15 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                     n_corner = int(0)
                     if side == 0:
                         n_corner = o_count
-                    for f in range(n_feat + n_corner):
+                    # a vertex that went past every edge line of a polygon core (a convex core: it is
+                    # inside) still pushes out through the nearest edge, with the overlap reach − d
+                    # growing on as d turns negative: the last feature pass below (too soft a k_n,
+                    # or too fast an impact, would otherwise let a corner tunnel through)
+                    inside = o_count >= 3
+                    best_d = T(-1.0e30)
+                    best_f = int(-1)
+                    best_n = vec2()
+                    for f in range(n_feat + n_corner + 1):
                         N = vec2()
                         d = T(0.0)
                         key = int(0)
@@ -384,12 +392,23 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                             E = world[o_start + (f + 1) % o_count] - A
                             l2 = wp.dot(E, E)
                             s = wp.dot(X - A, E) / l2
-                            if s > T(0.0) and s < T(1.0):
-                                N = vec2(E[1], -E[0]) / wp.sqrt(l2)  # outward normal of a CCW edge
-                                d = wp.dot(X - A, N)
-                                if d >= T(0.0) and d < reach:
-                                    key = side * KEY_KIND + k * KEY_VERTEX + f
-                                    hit = True
+                            N = vec2(E[1], -E[0]) / wp.sqrt(l2)  # outward normal of a CCW edge
+                            d = wp.dot(X - A, N)
+                            if d >= T(0.0):
+                                inside = False
+                            elif d > best_d:
+                                best_d = d
+                                best_f = f
+                                best_n = N
+                            if s > T(0.0) and s < T(1.0) and d >= T(0.0) and d < reach:
+                                key = side * KEY_KIND + k * KEY_VERTEX + f
+                                hit = True
+                        elif f == n_feat + n_corner:
+                            if inside and best_f >= 0:
+                                N = best_n
+                                d = best_d
+                                key = side * KEY_KIND + k * KEY_VERTEX + best_f
+                                hit = True
                         else:
                             w = f - n_feat
                             W = world[o_start + w]

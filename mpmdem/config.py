@@ -98,10 +98,10 @@ class SolverConfig:
         deterministic: make GPU runs bit-identical from run to run (ordered float atomics in
             P2G and in the DEM contact sums; slower). CPU runs always are. Needed for bit-for-bit
             checkpoint restarts on GPUs.
-        dem_kappa: κ2 of the DEM time step dt = 2π κ2 sqrt(m* / k_n) (MPM-SDEM eq. 51, with m*
-            the smallest rotational effective mass of the free bodies, see mpmdem.dem); the
-            paper's 0.1 is the default. At most 1/π: above it even one body on one linear spring
-            is unstable with the explicit update.
+        dem_kappa: κ2 of the DEM time step dt = 2π κ2 sqrt(m* / k_n) (sqrt(1 + ζ²) − ζ)
+            (MPM-SDEM eq. 51, with m* the smallest rotational effective mass of the free bodies
+            and the explicit-dashpot factor, see mpmdem.dem.dem_time_step_bound); the paper's
+            0.1 is the default. At most 1/π: above it even one body on one contact is unstable.
         dem_skin: Verlet skin of the DEM neighbour lists [m]; None picks a quarter of the median
             bounding radius of the bodies. Lists are rebuilt when a body has moved (or turned)
             more than half the skin since the last build.

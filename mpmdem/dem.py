@@ -46,20 +46,25 @@ def effective_mass(body) -> float:
 
 
 def dem_time_step_bound(scene: Scene) -> float:
-    """Largest stable explicit step [s] of one free body on one contact spring, 2 sqrt(m* / k),
-    with k the larger of k_n and k_t and m* the smallest effective mass of the free bodies.
+    """Largest stable explicit step [s] of one free body on one damped contact spring,
+    2 sqrt(m* / k) (sqrt(1 + ζ²) − ζ), with k the larger of k_n and k_t, m* the smallest
+    effective mass of the free bodies and ζ the damping ratio of the contact law.
 
     MPM-SDEM eq. 51 takes 2π κ2 sqrt(m_min / k_n), κ2 = 0.1 by default (π κ2 ≈ 0.31 of this
-    bound). It counts the mass only; a polygon pressed at a corner also turns, which makes the
-    contact stiffer than m suggests (a block rocking on two corners blew up at eq. 51's step), so
-    the rotational effective mass m* (``effective_mass``) stands in for m_min. For disks m* = m.
+    bound without damping). It counts the mass and the spring only. Two things it misses made
+    runs fail at its step (bench/dem_stability.py): a polygon pressed at a corner also turns,
+    which makes the contact stiffer than m suggests (a block rocking on two corners blew up), so
+    the rotational effective mass m* (``effective_mass``) stands in for m_min (for disks m* = m);
+    and the explicit dashpot, acting on the lagged velocity, is stable only for
+    ω dt < 2 (sqrt(1 + ζ²) − ζ) (a damped pentagon pile gained energy at eq. 51's step).
     """
     law = scene.contact
     masses = [effective_mass(b) for b in scene.rigid_bodies if b.motion == "free"]
     if not masses:
         raise InputError("rigid_bodies", [b.name for b in scene.rigid_bodies], "at least one free rigid body")
     k = max(float(law.normal_stiffness), law.kt)
-    return 2.0 * math.sqrt(min(masses) / k)
+    zeta = law.damping_ratio
+    return 2.0 * math.sqrt(min(masses) / k) * (math.sqrt(1.0 + zeta * zeta) - zeta)
 
 
 class DEMSolver:
@@ -82,7 +87,7 @@ class DEMSolver:
         if config.dt is not None and config.dt > self.dt_bound and not config.allow_unstable:
             raise InputError(
                 "dt", config.dt,
-                f"at most the stable bound 2 sqrt(m*/k_n) = {self.dt_bound:.6g} s of these rigid bodies "
+                f"at most the stable bound 2 sqrt(m*/k_n) (sqrt(1+ζ²)−ζ) = {self.dt_bound:.6g} s of these bodies "
                 f"(MPM-SDEM eq. 51 with dem_kappa = {config.dem_kappa:g} gives "
                 f"{math.pi * config.dem_kappa * self.dt_bound:.6g} s); leave dt unset to use it",
             )
@@ -296,7 +301,7 @@ class DEMSolver:
     def check_status(self, t: float, dt: float, bound: float, status: np.ndarray) -> None:
         """Raise BlowUpError for non-finite or escaped bodies and overflowing lists."""
         cfg = self.config
-        cause = (f"the time step (dt = {self.dt_default:.3g} s against the bound 2 sqrt(m*/k_n) = "
+        cause = (f"the time step (dt = {self.dt_default:.3g} s against the bound 2 sqrt(m*/k_n) (sqrt(1+ζ²)−ζ) = "
                  f"{self.dt_bound:.3g} s; lower dem_kappa or dt) or a contact stiffness too low for the "
                  "loads (bodies pass through each other)")
         if status[kdem.STATUS_NONFINITE] > 0 or not math.isfinite(t):

@@ -84,7 +84,7 @@ def make_case_parser(module: ModuleType, prog: str | None = None) -> argparse.Ar
                    help="stress update: " + ", ".join(STRESS_UPDATES))
     p.add_argument("--precision", type=_choice("precision", ("f32", "f64")), default=None, help="f32 or f64")
     p.add_argument("--dem-kappa", type=_positive("--dem-kappa"), default=None,
-                   help="κ2 of the DEM time step 2π κ2 sqrt(m*/k_n) (MPM-SDEM eq. 51; m*: rotational effective mass)")
+                   help="κ2 of the DEM time step (MPM-SDEM eq. 51 with rotation and damping, see mpmdem.dem)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     if hasattr(module, "add_arguments"):
         module.add_arguments(p)

@@ -299,7 +299,7 @@ class Simulation:
     def _likely_cause(self, dt: float, bound: float) -> str:
         if self.mpm:
             return self.mpm._likely_cause(dt, bound)
-        return (f"the time step (dt = {dt:.3g} s against the bound 2 sqrt(m*/k_n) = {bound:.3g} s): "
+        return (f"the time step (dt = {dt:.3g} s against the bound {bound:.3g} s of mpmdem.dem): "
                 "lower dem_kappa or dt")
 
     # -- checkpoints -------------------------------------------------------------------------------

@@ -247,3 +247,23 @@ def test_dem_input_errors():
     no_law.add_rigid_body(sphero_disk(0.05), density=1000.0, position=(0.5, 0.5))
     with pytest.raises(InputError, match="contact"):
         Simulation(no_law, device="cpu")
+
+
+def test_corner_pressed_past_the_edge_line_still_pushes_out():
+    """A corner driven deeper than the rounding radius (a soft contact, a fast impact) is pushed back
+    out through the nearest edge instead of tunnelling through the floor."""
+    scene = Scene(domain=((0.0, 0.0), (1.0, 1.0)), gravity=(0.0, -G), contact=ContactLaw(1e5, restitution=0.5))
+    scene.add_walls(("bottom",), thickness=0.2)
+    a = 0.002
+    scene.add_rigid_body(rounded_rectangle(0.1, 0.1, radius=a), density=2500.0, position=(0.5, 0.08), angle=0.5,
+                         velocity=(0.0, -3.0))
+    sim = Simulation(scene, F64, device="cpu")
+    depth = []
+    for _ in range(60):
+        sim.run(sim.time + 0.002, frames=1, quiet=True)
+        f = body_state(sim)
+        verts = scene.rigid_bodies[1].shape.world_vertices(f["x"][1], f["angle"][1])
+        depth.append(-verts[:, 1].min())
+    assert max(depth) > a  # the corner went past the floor's edge line...
+    assert body_state(sim)["v"][1, 1] > 0.0 or body_state(sim)["x"][1, 1] > 0.0  # ...and came back out
+    assert depth[-1] < a
