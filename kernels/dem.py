@@ -85,6 +85,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         kin_v: wp.array(dtype=vec2)  # prescribed motion of kinematic bodies
         kin_omega: wp.array(dtype=T)
         kin_window: wp.array(dtype=wp.vec2d)  # [t_start, t_end) of the prescribed motion [s]
+        work: wp.array(dtype=wp.float64)  # work done on the other bodies by a kinematic one [J/m]
 
     @wp.struct
     class Contacts:
@@ -491,6 +492,8 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
             if t >= window[0] and t < window[1]:
                 v = B.kin_v[i]
                 w = B.kin_omega[i]
+            # the driven body exerts −F, −τ on the others: their power is −(F·v + τ ω)
+            B.work[i] = B.work[i] - wp.float64((wp.dot(B.force[i], v) + B.torque[i] * w) * dt)
         else:
             ramp = float(1.0)
             if prm.gravity_ramp > 0.0:
@@ -523,7 +526,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
     @kernel
     def diagnostics(B: Bodies, C: Contacts, prm: Params, out: wp.array(dtype=wp.float64)):
         """Sums of: kinetic, gravity, contact energy, momenta x, y, angular, mass (free bodies),
-        damping and friction work dissipated in contacts (all pairs)."""
+        damping and friction work dissipated in contacts (all pairs), work of kinematic bodies."""
         i = wp.tid()
         e = wp.float64(0.0)
         lost = C.body_dissipated[i]
@@ -534,6 +537,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         wp.atomic_add(out, 7, lost[0])
         wp.atomic_add(out, 8, lost[1])
         if B.motion[i] != FREE:
+            wp.atomic_add(out, 9, B.work[i])
             return
         m = wp.float64(B.mass[i])
         inertia = wp.float64(B.inertia[i])
@@ -573,4 +577,5 @@ DIAG_NAMES = (
     "mass",
     "dissipated_damping",
     "dissipated_friction",
+    "work_driven",
 )

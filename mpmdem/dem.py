@@ -34,7 +34,7 @@ MAX_LARGE = 64
 _MOTION_IDS = {"free": kdem.FREE, "fixed": kdem.FIXED, "kinematic": kdem.KINEMATIC}
 
 #: Body arrays that change during a run (what a checkpoint must hold), and the contact arrays.
-_BODY_STATE = ("x", "angle", "v", "omega", "force", "torque", "x_ref", "angle_ref")
+_BODY_STATE = ("x", "angle", "v", "omega", "force", "torque", "x_ref", "angle_ref", "work")
 _CONTACT_STATE = ("nbr", "count", "key", "slip", "energy", "dissipated", "body_dissipated")
 
 
@@ -184,6 +184,7 @@ class DEMSolver:
         B.kin_omega = arr([b.angular_velocity if b.motion == "kinematic" else 0.0 for b in bodies], None)
         window = np.array([[b.active[0], min(b.active[1], 1e300)] for b in bodies], np.float64)
         B.kin_window = wp.array(window, dtype=wp.vec2d, device=dev)
+        B.work = wp.zeros(n, dtype=wp.float64, device=dev)
         self.B = B
         self.local = wp.array(local, dtype=self._vec2, device=dev)
         self.owner = wp.array(owner, dtype=wp.int32, device=dev)
@@ -331,13 +332,14 @@ class DEMSolver:
         # works done on the bodies (<= 0: dissipated), as the MPM stage's work terms
         out["work_contact_damping"] = -vals["dissipated_damping"]
         out["work_contact_friction"] = -vals["dissipated_friction"]
+        out["work_driven"] = vals["work_driven"]  # done on the free bodies by kinematic ones
         out["list_rebuilds"] = float(self.rebuilds.numpy()[0])
         out["listed_pairs"] = float(self.C.count.numpy().sum())
         out["history_overflows"] = float(self.status.numpy()[kdem.STATUS_HISTORY_OVERFLOW])
         return out
 
     #: Diagnostics that are works done on the system (for the energy balance).
-    WORK_TERMS = ("work_contact_damping", "work_contact_friction")
+    WORK_TERMS = ("work_contact_damping", "work_contact_friction", "work_driven")
 
     def fields(self) -> dict[str, np.ndarray]:
         """Host copies of the per-body output fields, in the scene's order."""

@@ -287,8 +287,10 @@ class Simulation:
         g = math.hypot(*self.scene.gravity)
         stored = e0.get("energy_strain", 0.0) + e0.get("energy_contact", 0.0)
         scale = e0["energy_kinetic"] + stored + e0["mass"] * g * math.hypot(x1 - x0, y1 - y0)
-        scale = max(scale, 1e-30)
-        growth = d["energy_total"] - e0["energy_total"]
+        # energy put in by driven (kinematic) bodies is not growth, and sets a scale of its own
+        driven = d.get("work_driven", 0.0)
+        scale = max(scale + abs(driven), 1e-30)
+        growth = d["energy_total"] - e0["energy_total"] - driven
         if growth > self.config.blowup_energy_factor * scale:
             raise BlowUpError(
                 "energy-growth",
