@@ -7,6 +7,19 @@ from helpers import free_disk_scene, random_velocity
 from mpmdem import InputError, Simulation, SolverConfig
 
 
+def restarted(make, t1: float, t2: float, path) -> tuple[Simulation, Simulation]:
+    """(an uninterrupted run to t2, a run to t1 → checkpoint → new Simulation → run to t2)."""
+    ref = make()
+    ref.advance_to(t2)  # in one go: no frame boundary at t1
+    first = make()
+    first.advance_to(t1)
+    first.save_checkpoint(path)
+    second = make()
+    second.load_checkpoint(path)
+    second.advance_to(t2)
+    return ref, second
+
+
 def test_restart_is_bit_for_bit(tmp_path, device):
     """Verify run to t1 → checkpoint → run to t2 equals an uninterrupted run to t2, exactly."""
     def make():
@@ -15,14 +28,7 @@ def test_restart_is_bit_for_bit(tmp_path, device):
         # deterministic: ordered float atomics, so GPU runs repeat bit for bit (CPU always does)
         return Simulation(scene, SolverConfig(transfer="FLIP", update="MUSL", deterministic=True), device=device)
 
-    ref = make()
-    ref.advance_to(0.02)  # in one go: no frame boundary at t1
-    first = make()
-    first.advance_to(0.01)
-    first.save_checkpoint(tmp_path / "c.npz")
-    second = make()
-    second.load_checkpoint(tmp_path / "c.npz")
-    second.advance_to(0.02)
+    ref, second = restarted(make, 0.01, 0.02, tmp_path / "c.npz")
     a, b = ref.fields(), second.fields()
     for name in ("x", "v", "stress", "F", "volume"):
         assert np.array_equal(a[name], b[name]), name
@@ -60,24 +66,13 @@ def test_sorting_points_changes_only_round_off():
 
 def test_dem_restart_is_bit_for_bit(tmp_path, device):
     """Verify a rigid-body pile restarts bit for bit: positions, contact lists and friction history."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).parent))
     from test_dem import random_pack
 
     def make():
         return Simulation(random_pack(n_side=4, seed=7), SolverConfig(precision="f64", deterministic=True),
                           device=device)
 
-    ref = make()
-    ref.advance_to(0.06)
-    first = make()
-    first.advance_to(0.03)
-    first.save_checkpoint(tmp_path / "dem.npz")
-    second = make()
-    second.load_checkpoint(tmp_path / "dem.npz")
-    second.advance_to(0.06)
+    ref, second = restarted(make, 0.03, 0.06, tmp_path / "dem.npz")
     a, b = ref.body_fields(), second.body_fields()
     for name in ("x", "angle", "v", "omega", "force", "torque"):
         assert np.array_equal(a[name], b[name]), name
