@@ -52,8 +52,8 @@ def test_pentagon_pile_case(tmp_path):
     with RunFile(tmp_path / "pentagon_pile.h5") as rf:
         assert rf.body_count == 63 and rf.particle_count == 0
         geometry = rf.body_geometry()
-        names = geometry["name"]
-        assert geometry["motion"][names.index("wall_left")] == 1  # the side enclosures are fixed bodies
+        left = geometry["name"].index("wall_left")
+        assert geometry["motion"][left] == 1  # the side enclosures are fixed bodies
 
 
 def test_domino_case(tmp_path):
