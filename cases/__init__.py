@@ -15,6 +15,7 @@ CASES = {
     "block-on-incline": "block_on_incline",
     "pentagon-pile": "pentagon_pile",
     "domino": "domino",
+    "disconnection-1d": "disconnection_1d",
 }
 
 DEFAULT_CASE = "sulsky-disks"

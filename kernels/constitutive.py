@@ -64,3 +64,113 @@ def make_stress_update(kinds: tuple[int, ...], precision: str):
         return out
 
     return update
+
+
+#: Density control of points below their critical density ("Granular MPM" §3.2): "none" only
+#: zeroes the stress (the stress-free MPM of Dunatunga & Kamrin), "revert" also returns F to the
+#: previous step (eq. 13–15), "volumetric" removes only the volume change (eq. 18).
+DENSITY_CONTROLS = ("none", "revert", "volumetric")
+
+
+@functools.cache
+def make_point_update(kinds: tuple[int, ...], precision: str, density_control: str = "revert",
+                      critical: bool = False):
+    """``point_update(P, p, m, L, dt) -> dissipated`` [J/m, ≤ 0]: the stress update of point p.
+
+    Updates F = (I + L dt) F ("MPM notes" step 8), the volume V = V0 det F, the Cauchy stress by
+    the law of the point's material (row ``m`` of the material table), σ_zz for the plastic laws,
+    and the stored elastic energy (trapezoidal stress power minus plastic work). Returns the
+    energy dissipated this step: the plastic work σ : Δε^p V, and the stored energy released when
+    the point turns stress-free. ``critical``: some material has a critical density, so the
+    density check of "Granular MPM" §3.2 is compiled in (eq. 13 with the chosen control).
+    Only the material kinds present (``kinds``) are compiled in.
+    """
+    from .plasticity import (  # noqa: PLC0415 (plasticity imports this module's types only)
+        DRUCKER_PRAGER,
+        MOHR_COULOMB,
+        P_RHO_CRIT,
+        make_below_critical,
+        make_drucker_prager,
+        make_mohr_coulomb,
+    )
+
+    if density_control not in DENSITY_CONTROLS:
+        raise ValueError(f"density_control={density_control!r}: one of {DENSITY_CONTROLS}")
+    t = scalar_types(precision)
+    T = t.scalar
+    from .state import make_state_structs  # noqa: PLC0415
+
+    Particles = make_state_structs(precision)[0]
+    elastic = make_stress_update(kinds, precision)
+    has_mc = MOHR_COULOMB in kinds
+    has_dp = DRUCKER_PRAGER in kinds
+    plastic = has_mc or has_dp
+    rate_form = LINEAR_ELASTIC in kinds or plastic
+    mohr_coulomb = make_mohr_coulomb(precision) if has_mc else None
+    drucker_prager = make_drucker_prager(precision) if has_dp else None
+    below_critical = make_below_critical(precision)
+    revert = density_control == "revert"
+    volumetric = density_control == "volumetric"
+
+    @wp.func
+    def point_update(P: Particles, p: int, m: t.params, L: t.mat22, dt: T):
+        kind = int(m[3])
+        F_old = P.F[p]
+        F_new = (wp.identity(n=2, dtype=T) + dt * L) * F_old
+        sigma_old = t.mat22()
+        vol_old = T(0.0)
+        energy = T(0.0)
+        if wp.static(rate_form):
+            sigma_old = P.stress[p]  # only the rate-form laws need the previous state
+            vol_old = P.vol[p]
+            energy = P.strain_energy[p]
+        sigma_new = elastic(kind, F_new, sigma_old, L, dt, m[0], m[1])
+        szz_new = T(0.0)
+        w_plastic = T(0.0)
+        deps = (T(0.5) * dt) * (L + wp.transpose(L))
+        if wp.static(plastic):
+            if kind >= 2:
+                spin = (T(0.5) * dt) * (L - wp.transpose(L))
+                szz_old = P.szz[p]
+                if wp.static(has_mc):
+                    if kind == MOHR_COULOMB:
+                        sigma_new, szz_new, w_plastic = mohr_coulomb(sigma_old, szz_old, deps, spin, dt, m)
+                if wp.static(has_dp):
+                    if kind == DRUCKER_PRAGER:
+                        sigma_new, szz_new, w_plastic = drucker_prager(sigma_old, szz_old, deps, spin, dt, m)
+        vol_new = P.vol0[p] * wp.determinant(F_new)
+        dissipated = wp.float64(0.0)
+        if wp.static(rate_form):
+            if kind != NEO_HOOKEAN:
+                # stored energy: trapezoidal stress power (exact for a linear law; Δε_zz = 0 so σ_zz
+                # does no work) minus the plastic work σ : Δε^p V, which is dissipated
+                w = T(0.5) * wp.ddot(sigma_old + sigma_new, deps) * T(0.5) * (vol_old + vol_new)
+                energy = energy + w - w_plastic * vol_new
+                dissipated = -wp.float64(w_plastic * vol_new)
+        if wp.static(critical):
+            rho_cr = m[P_RHO_CRIT]
+            if below_critical(P.mass[p] / vol_new, rho_cr):
+                # "Granular MPM" eq. 13: stress-free; the stored energy it had is released (dissipated)
+                sigma_new = t.mat22()
+                szz_new = T(0.0)
+                dissipated = dissipated - wp.float64(energy)
+                energy = T(0.0)
+                if wp.static(revert):
+                    # eq. 14: F = (I + L dt)⁻¹ F_new is F of the previous step; eq. 15: V = V0 det F
+                    F_new = F_old
+                    vol_new = P.vol0[p] * wp.determinant(F_old)
+                if wp.static(volumetric):
+                    # eq. 18: F = sqrt(V_cr / V) F keeps rotation and shear, and V becomes V_cr
+                    v_cr = P.mass[p] / rho_cr
+                    F_new = wp.sqrt(v_cr / vol_new) * F_new
+                    vol_new = v_cr
+        P.F[p] = F_new
+        P.stress[p] = sigma_new
+        P.vol[p] = vol_new
+        if wp.static(plastic):
+            P.szz[p] = szz_new
+        if wp.static(rate_form):
+            P.strain_energy[p] = energy
+        return dissipated
+
+    return point_update

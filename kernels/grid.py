@@ -4,6 +4,7 @@ import functools
 
 import warp as wp
 
+from .granular import make_layer_row
 from .state import make_state_structs
 from .types import kernel, scalar_types
 
@@ -12,6 +13,7 @@ __all__ = [
     "BC_FREE",
     "BC_FRICTION",
     "BC_SLIP",
+    "WORK_PLASTIC",
     "WORK_SLOTS",
     "WORK_TERMS",
     "make_boundary",
@@ -59,6 +61,7 @@ def make_boundary_condition(precision: str):
 #: Cumulative works accumulated on the device ("Motion integration" eq. 66-68), each spread over
 #: WORK_SLOTS addresses to keep atomics uncontended; the host sums the slots at output frames.
 WORK_TERMS = ("work_boundary", "work_damping", "work_plastic")
+WORK_PLASTIC = 2
 WORK_SLOTS = 16
 
 
@@ -104,13 +107,14 @@ def make_boundary(precision: str, bilateral_only: bool = False):
 
 @functools.cache
 def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impulse: bool = False,
-                     remap: bool = False, damping: bool = False):
+                     remap: bool = False, damping: bool = False, layered: bool = False):
     """Nodal velocity V = p/m, and/or Ṽ = V + dt (f/m + g), both with the wall conditions.
 
     fused_impulse: the momentum already holds p + dt f (USL + PIC), so Ṽ = p/m + dt g.
     remap: normalise ``Grid.vm`` (MUSL re-mapped momentum) in place instead of ``Grid.mom``.
     damping: add Cundall's local damping force ("Motion integration" eq. 61-62).
     The work of wall reactions and of the damping force is accumulated into ``work``.
+    layered: granular mode, launched over every grid layer; walls act on each layer alike.
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -137,10 +141,26 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     @kernel
     def grid_update(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), work: wp.array(dtype=wp.float64)):
         i, j = wp.tid()
+        ib = i  # node column of (i, j) within its layer, for the wall conditions
+        if wp.static(layered):
+            ib = i % D.layer_rows
         dt = T(clock[1])
         if dt <= T(0.0):
             return
         m = G.mass[i, j]
+        mom = G.mom[i, j]
+        fint = t.vec2()
+        if wp.static(force):
+            fint = G.force[i, j]
+        if wp.static(layered):
+            # copies no component uses this step are skipped; used ones are read and cleared here,
+            # so the next step's P2G finds zeros without a memset of every layer
+            if G.owner[i, j] < 0:
+                return
+            G.mass[i, j] = T(0.0)
+            G.mom[i, j] = t.vec2()
+            if wp.static(force):
+                G.force[i, j] = t.vec2()
         if m <= D.mass_eps:
             if wp.static(remap):
                 G.vm[i, j] = t.vec2()
@@ -153,10 +173,10 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         if D.gravity_ramp > wp.float64(0.0):
             g = g * T(wp.min(clock[0] / D.gravity_ramp, wp.float64(1.0)))
         if wp.static(remap):
-            G.vm[i, j] = boundary(G.vm[i, j] * inv_m, D, i, j)
+            G.vm[i, j] = boundary(G.vm[i, j] * inv_m, D, ib, j)
             return
         if wp.static(fused_impulse):
-            G.vt[i, j] = constrain(G.mom[i, j] * inv_m + dt * g, m, D, i, j, work)
+            G.vt[i, j] = constrain(mom * inv_m + dt * g, m, D, ib, j, work)
             return
         v = G.v[i, j]
         if wp.static(velocity):
@@ -166,10 +186,10 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
             # height, 0.86 if not). A Coulomb wall is a unilateral contact: its impulse must reach
             # the points through Ṽ − V, or FLIP points pressed on it keep their velocity into it and
             # give the energy back when the wall lets go (+30 % on an impact), so V stays free there.
-            v = constrain_start(G.mom[i, j] * inv_m, m, D, i, j, work)  # eq. 16
+            v = constrain_start(mom * inv_m, m, D, ib, j, work)  # eq. 16
             G.v[i, j] = v
         if wp.static(force):
-            f = G.force[i, j] + m * g
+            f = fint + m * g
             if wp.static(damping):
                 # Cundall: f_damp = −D |f| ⊙ sign(V), component by component (eq. 61-62)
                 fd = t.vec2(-D.damping * wp.abs(f[0]) * wp.sign(v[0]), -D.damping * wp.abs(f[1]) * wp.sign(v[1]))
@@ -180,9 +200,13 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
                 f = f + fd
                 wp.atomic_add(work, work_slot(1, i, j), wp.float64(wp.dot(fd, v) * dt))
             # Ṽ = V + a Δt, a = f/m + g ("Motion integration" eq. 28; "MPM notes" steps 5-7)
-            G.vt[i, j] = constrain(v + dt * f * inv_m, m, D, i, j, work)
+            G.vt[i, j] = constrain(v + dt * f * inv_m, m, D, ib, j, work)
 
     return grid_update
+
+
+def _layer_row_find():
+    return make_layer_row(insert=False)
 
 
 @wp.func
@@ -222,7 +246,7 @@ def _mirror_node(i: int, j: int, lo: wp.vec2i, hi: wp.vec2i, kinds: wp.vec4i):
 
 
 @functools.cache
-def make_mirror_ghosts(precision: str):
+def make_mirror_ghosts(precision: str, layered: bool = False):
     """Ghost nodes beyond a fixed or slip wall take the mirrored velocity of the interior.
 
     Wide stencils (B-splines) reach one or two nodes past the wall. Setting those ghosts to the
@@ -230,19 +254,35 @@ def make_mirror_ghosts(precision: str):
     normal component for a slip wall) makes the interpolated velocity satisfy the wall condition
     at the wall itself, instead of clamping a whole layer of material to it. Mirror sources are
     clamped to the interior (boundary nodes included), so no thread reads a node another writes.
+    layered (granular mode): a ghost copy mirrors the interior copy of the same component
+    (``owner``), zero if that component has none there.
     """
     t = scalar_types(precision)
     T = t.scalar
     Domain = make_state_structs(precision)[2]
+    find_row = _layer_row_find()
 
     @kernel
-    def mirror_ghosts(field: wp.array2d(dtype=t.vec2), D: Domain, clock: wp.array(dtype=wp.float64)):
+    def mirror_ghosts(field: wp.array2d(dtype=t.vec2), D: Domain, clock: wp.array(dtype=wp.float64),
+                      owner: wp.array2d(dtype=wp.int32)):
         i, j = wp.tid()
         if clock[1] <= wp.float64(0.0):
             return
-        si, sj, sx, sy, mirrored = _mirror_node(i, j, D.node_lo, D.node_hi, D.bc_kind)
+        ib = i
+        if wp.static(layered):
+            ib = i % D.layer_rows
+        si, sj, sx, sy, mirrored = _mirror_node(ib, j, D.node_lo, D.node_hi, D.bc_kind)
         if mirrored:
-            v = field[si, sj]
+            src = si
+            if wp.static(layered):
+                c = owner[i, j]
+                if c < 0:
+                    return
+                src = find_row(owner, si, sj, c, D.layer_rows, D.layers)
+                if src < 0:
+                    field[i, j] = t.vec2()
+                    return
+            v = field[src, sj]
             field[i, j] = t.vec2(T(sx) * v[0], T(sy) * v[1])
 
     return mirror_ghosts
@@ -264,7 +304,7 @@ def _image(i: int, lo: int, hi: int, kind_lo: int, kind_hi: int, n: int):
 
 @functools.cache
 def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool, remap: bool = False,
-                     xpic: bool = False):
+                     xpic: bool = False, layered: bool = False):
     """Fold what points put on ghost nodes back onto their interior mirrors.
 
     This is the image-point method: a point near a fixed or slip wall has a mirror image beyond
@@ -274,11 +314,13 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
     (Exact for slip walls; for fixed walls the odd extension is exact in 1D and a close
     approximation in 2D.) Each interior node gathers its images in a fixed order (no atomics),
     so the fold is deterministic. In a domain narrower than the stencil, ghosts farther out than
-    the opposite wall have no interior mirror and are not folded.
+    the opposite wall have no interior mirror and are not folded. layered (granular mode): each
+    copy of an interior node gathers from the ghost copies of its own component (``G.owner``).
     """
     t = scalar_types(precision)
     T = t.scalar
     Particles, Grid, Domain = make_state_structs(precision)
+    find_row = _layer_row_find()
 
     @wp.func
     def sign(kind: int, normal_axis: int, axis: int) -> float:
@@ -288,52 +330,78 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
         return 1.0
 
     @wp.func
-    def fold_vec(a: wp.array2d(dtype=t.vec2), i: int, j: int, gi: int, gj: int, kx: int, ky: int):
-        v = a[i, j]
-        if gi >= 0:
-            u = a[gi, j]
+    def fold_vec(a: wp.array2d(dtype=t.vec2), r: int, j: int, rx: int, ry: int, gj: int, rxy: int,
+                 kx: int, ky: int):
+        # rows: r of the node, rx of its x-image (same column j), ry of its y-image (column gj),
+        # rxy of the corner image (column gj); −1 where there is none
+        v = a[r, j]
+        if rx >= 0:
+            u = a[rx, j]
             v = v + t.vec2(T(sign(kx, 0, 0)) * u[0], T(sign(kx, 0, 1)) * u[1])
-        if gj >= 0:
-            u = a[i, gj]
+        if ry >= 0:
+            u = a[ry, gj]
             v = v + t.vec2(T(sign(ky, 1, 0)) * u[0], T(sign(ky, 1, 1)) * u[1])
-        if gi >= 0 and gj >= 0:
-            u = a[gi, gj]
+        if rxy >= 0:
+            u = a[rxy, gj]
             v = v + t.vec2(T(sign(kx, 0, 0) * sign(ky, 1, 0)) * u[0], T(sign(kx, 0, 1) * sign(ky, 1, 1)) * u[1])
-        a[i, j] = v
+        a[r, j] = v
 
     @kernel
     def fold_ghosts(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
-        i, j = wp.tid()
+        r, j = wp.tid()
         if clock[1] <= wp.float64(0.0):
             return
+        i = r
+        if wp.static(layered):
+            i = r % D.layer_rows
         lo = D.node_lo
         hi = D.node_hi
         if i < lo[0] or i > hi[0] or j < lo[1] or j > hi[1]:
             return
-        gi, wx = _image(i, lo[0], hi[0], D.bc_kind[0], D.bc_kind[1], G.mass.shape[0])
+        gi, wx = _image(i, lo[0], hi[0], D.bc_kind[0], D.bc_kind[1], D.layer_rows)
         gj, wy = _image(j, lo[1], hi[1], D.bc_kind[2], D.bc_kind[3], G.mass.shape[1])
         if gi < 0 and gj < 0:
             return
         kx = D.bc_kind[wx]
         ky = D.bc_kind[2 + wy]
-        if wp.static(mass):
-            m = G.mass[i, j]
+        rx = int(-1)
+        ry = int(-1)
+        rxy = int(-1)
+        if wp.static(layered):
+            c = G.owner[r, j]
+            if c < 0:
+                return
             if gi >= 0:
-                m += G.mass[gi, j]
+                rx = find_row(G.owner, gi, j, c, D.layer_rows, D.layers)
             if gj >= 0:
-                m += G.mass[i, gj]
+                ry = find_row(G.owner, i, gj, c, D.layer_rows, D.layers)
             if gi >= 0 and gj >= 0:
-                m += G.mass[gi, gj]
-            G.mass[i, j] = m
+                rxy = find_row(G.owner, gi, gj, c, D.layer_rows, D.layers)
+        else:
+            if gi >= 0:
+                rx = gi
+            if gj >= 0:
+                ry = i
+            if gi >= 0 and gj >= 0:
+                rxy = gi
+        if wp.static(mass):
+            m = G.mass[r, j]
+            if rx >= 0:
+                m += G.mass[rx, j]
+            if ry >= 0:
+                m += G.mass[ry, gj]
+            if rxy >= 0:
+                m += G.mass[rxy, gj]
+            G.mass[r, j] = m
         if wp.static(momentum):
             if wp.static(remap):
-                fold_vec(G.vm, i, j, gi, gj, kx, ky)
+                fold_vec(G.vm, r, j, rx, ry, gj, rxy, kx, ky)
             else:
-                fold_vec(G.mom, i, j, gi, gj, kx, ky)
+                fold_vec(G.mom, r, j, rx, ry, gj, rxy, kx, ky)
         if wp.static(force):
-            fold_vec(G.force, i, j, gi, gj, kx, ky)
+            fold_vec(G.force, r, j, rx, ry, gj, rxy, kx, ky)
         if wp.static(xpic):
-            fold_vec(G.pk, i, j, gi, gj, kx, ky)
+            fold_vec(G.pk, r, j, rx, ry, gj, rxy, kx, ky)
 
     return fold_ghosts
 

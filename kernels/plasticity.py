@@ -29,7 +29,7 @@ import functools
 
 import warp as wp
 
-from .types import kernel, scalar_types
+from .types import MATERIAL_PARAMS, kernel, scalar_types
 
 __all__ = [
     "CRITICAL_DENSITY_TOL",
@@ -49,7 +49,7 @@ DRUCKER_PRAGER = 3
 #: model name of ``make_point_driver`` → kind id
 MODELS = {"mohr_coulomb": MOHR_COULOMB, "drucker_prager": DRUCKER_PRAGER}
 
-PARAM_LEN = 10
+PARAM_LEN = MATERIAL_PARAMS
 P_MU, P_LAMBDA, P_RHO0, P_KIND, P_RHO_CRIT = 0, 1, 2, 3, 9
 MC_SIN_PHI, MC_COS_PHI, MC_SIN_PSI, MC_COHESION, MC_BAGNOLD = 4, 5, 6, 7, 8
 DP_ALPHA_PHI, DP_K_C, DP_ALPHA_PSI, DP_TENSION = 4, 5, 6, 7
@@ -61,7 +61,7 @@ CRITICAL_DENSITY_TOL = 1.0e-6
 @functools.cache
 def param_vector(precision: str) -> type:
     """The Warp vector type of one packed parameter set (``PARAM_LEN`` scalars)."""
-    return wp.types.vector(PARAM_LEN, scalar_types(precision).scalar)
+    return scalar_types(precision).params
 
 
 @functools.cache

@@ -59,7 +59,7 @@ def make_speed_check(precision: str):
     def speed_check(
         P: Particles,
         D: Domain,
-        materials: wp.array(dtype=t.vec4),
+        materials: wp.array(dtype=t.params),
         p: int,
         max_speed: wp.array(dtype=wp.float32),
         status: wp.array(dtype=wp.int32),
@@ -93,7 +93,7 @@ def make_wave_speed(precision: str):
     def wave_speed(
         P: Particles,
         D: Domain,
-        materials: wp.array(dtype=t.vec4),
+        materials: wp.array(dtype=t.params),
         max_speed: wp.array(dtype=wp.float32),
         status: wp.array(dtype=wp.int32),
     ):
@@ -155,7 +155,7 @@ def make_diagnostics(precision: str, material_kinds: tuple = (0,)):
     has_nh = 1 in material_kinds
 
     @kernel
-    def diagnostics(P: Particles, D: Domain, materials: wp.array(dtype=t.vec4), out: wp.array(dtype=wp.float64)):
+    def diagnostics(P: Particles, D: Domain, materials: wp.array(dtype=t.params), out: wp.array(dtype=wp.float64)):
         p = wp.tid()
         m = wp.float64(P.mass[p])
         vx = wp.float64(P.v[p][0])

@@ -43,6 +43,7 @@ def make_gather_points(precision: str):
         dst.C[p] = src.C[q]
         dst.F[p] = src.F[q]
         dst.stress[p] = src.stress[q]
+        dst.szz[p] = src.szz[q]
         dst.mass[p] = src.mass[q]
         dst.vol[p] = src.vol[q]
         dst.vol0[p] = src.vol0[q]

@@ -21,6 +21,7 @@ def make_state_structs(precision: str):
         C: wp.array(dtype=t.mat22)  # affine velocity matrix / velocity gradient [1/s]
         F: wp.array(dtype=t.mat22)  # deformation gradient
         stress: wp.array(dtype=t.mat22)  # in-plane Cauchy stress [Pa]
+        szz: wp.array(dtype=t.scalar)  # out-of-plane stress σ_zz [Pa] (plastic laws; plane strain)
         mass: wp.array(dtype=t.scalar)  # [kg/m] (per unit thickness)
         vol: wp.array(dtype=t.scalar)  # current volume [m²]
         vol0: wp.array(dtype=t.scalar)  # initial volume [m²]
@@ -29,6 +30,7 @@ def make_state_structs(precision: str):
         strain_energy: wp.array(dtype=t.scalar)  # stored elastic energy [J/m]
         tmp: wp.array(dtype=t.vec2)  # XPIC scratch (G v*_k, then the displacement) [m/s or m]
         pid: wp.array(dtype=wp.int32)  # index of the point in the scene's order (outputs use it)
+        comp: wp.array(dtype=wp.int32)  # granular mode: component label (its root point) this step
 
     @wp.struct
     class Grid:
@@ -41,6 +43,7 @@ def make_state_structs(precision: str):
         vs: wp.array2d(dtype=t.vec2)  # XPIC: Σ_k (−1)^{k+1} C(m,k) v*_k [m/s]
         vk: wp.array2d(dtype=t.vec2)  # XPIC: v*_k = (P_m G)^{k−1} P_m V [m/s]
         pk: wp.array2d(dtype=t.vec2)  # XPIC: momentum accumulator of the next v*_k [kg m/s]
+        owner: wp.array2d(dtype=wp.int32)  # granular mode: component using each layer of a node (−1: free)
 
     @wp.struct
     class Domain:
@@ -57,5 +60,7 @@ def make_state_structs(precision: str):
         gravity_ramp: wp.float64  # gravity grows linearly from 0 over this time [s] (0 = at once)
         mass_eps: t.scalar  # nodes lighter than this carry no velocity [kg/m]
         damping: t.scalar  # Cundall's local damping coefficient D
+        layer_rows: int  # rows of one grid layer; layer s of node (i, j) is row s·layer_rows + i
+        layers: int  # grid layers per node (1 unless granular mode)
 
     return Particles, Grid, Domain

@@ -9,7 +9,9 @@ import functools
 
 import warp as wp
 
-from .constitutive import make_stress_update
+from .constitutive import make_point_update
+from .granular import STATUS_LAYER_OVERFLOW, make_layer_row
+from .grid import WORK_PLASTIC, work_slot
 from .reductions import make_speed_check
 from .shape_functions import CPGIMP_MAX_HALF, SUPPORT_NODES, make_weights_1d
 from .state import make_state_structs
@@ -133,13 +135,16 @@ def make_p2g(
     fused_impulse: bool = False,
     remap: bool = False,
     deterministic: bool = False,
+    layered: bool = False,
 ):
     """P2G of mass, momentum (with the affine term) and internal force.
 
     fused_impulse: add dt·f_int to the momentum (USL with a pure PIC velocity update needs only
     Ṽ, so mass and impulse go in one pass, as in MLS-MPM). remap: write momentum to ``Grid.vm``
     (MUSL's re-mapping of the updated particle velocities). deterministic: run-to-run
-    bit-identical float atomics on GPUs.
+    bit-identical float atomics on GPUs. layered: granular mode, each point writes to its
+    component's copy of every node (``kernels.granular``); the pass that moves mass claims the
+    copies, and a node without a free copy counts into ``status``.
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -149,9 +154,11 @@ def make_p2g(
     stencil, contribution, on_grid = make_stencil(shape, precision)
     point_on_grid = make_point_on_grid(shape, precision)
     has_affine = affine != "none" and momentum
+    layer_row = make_layer_row(insert=mass)
 
     @kernel(deterministic=deterministic)
-    def p2g(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
+    def p2g(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64),
+            status: wp.array(dtype=wp.int32)):
         p = wp.tid()
         dt = T(clock[1])
         if dt <= T(0.0):
@@ -171,6 +178,9 @@ def make_p2g(
             vs = -P.vol[p] * P.stress[p]
             if wp.static(fused_impulse):
                 vs = vs * dt
+        comp = int(0)
+        if wp.static(layered):
+            comp = P.comp[p]
         for k in range(wp.static(NC)):
             bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
             for i in range(wp.static(K)):
@@ -178,25 +188,31 @@ def make_p2g(
                     w, grad = contribution(wx, wy, dwx, dwy, g, i, j, D.inv_h)
                     gi = bx + i
                     gj = by + j
-                    if wp.static(mass):
-                        wp.atomic_add(G.mass, gi, gj, w * mp)
-                    mom = t.vec2()
-                    if wp.static(momentum):
-                        mom = w * mv
-                        if wp.static(has_affine):
-                            dpos = (t.vec2(T(gi), T(gj)) - c) * D.h
-                            mom = mom + w * (mC * dpos)
-                    if wp.static(force):
-                        f = vs * grad
-                        if wp.static(fused_impulse):
-                            mom = mom + f
-                        else:
-                            wp.atomic_add(G.force, gi, gj, f)
-                    if wp.static(momentum or fused_impulse):
-                        if wp.static(remap):
-                            wp.atomic_add(G.vm, gi, gj, mom)
-                        else:
-                            wp.atomic_add(G.mom, gi, gj, mom)
+                    row = gi
+                    if wp.static(layered):
+                        row = layer_row(G.owner, gi, gj, comp, D.layer_rows, D.layers)
+                        if row < 0:
+                            wp.atomic_add(status, STATUS_LAYER_OVERFLOW, 1)
+                    if row >= 0:
+                        if wp.static(mass):
+                            wp.atomic_add(G.mass, row, gj, w * mp)
+                        mom = t.vec2()
+                        if wp.static(momentum):
+                            mom = w * mv
+                            if wp.static(has_affine):
+                                dpos = (t.vec2(T(gi), T(gj)) - c) * D.h
+                                mom = mom + w * (mC * dpos)
+                        if wp.static(force):
+                            f = vs * grad
+                            if wp.static(fused_impulse):
+                                mom = mom + f
+                            else:
+                                wp.atomic_add(G.force, row, gj, f)
+                        if wp.static(momentum or fused_impulse):
+                            if wp.static(remap):
+                                wp.atomic_add(G.vm, row, gj, mom)
+                            else:
+                                wp.atomic_add(G.mom, row, gj, mom)
 
     return p2g
 
@@ -214,6 +230,9 @@ def make_g2p(
     position: bool,
     stress: str,
     stress_fraction: float = 1.0,
+    density_control: str = "revert",
+    critical: bool = False,
+    layered: bool = False,
 ):
     """G2P: particle velocity, affine matrix, position, and (optionally fused) stress update.
 
@@ -222,6 +241,9 @@ def make_g2p(
     (USF: velocities before the force update) or "vm" (MUSL: re-mapped velocities).
     The variant that moves the points (always the step's last) also does the speed check.
     stress_fraction: the share of dt this stress update covers (0.5 for each half of USAVG).
+    density_control, critical: see ``constitutive.make_point_update``; the energy the update
+    dissipates goes to the "work_plastic" term of ``work``. layered: granular mode, each point
+    reads its component's copy of every node (``kernels.granular``).
     position_mode "xpic": XPIC(m) velocity (eq. 40, from the smoothed field ``Grid.vs``) and
     position (eq. 41) updates; when velocity and position are split (MUSL) the displacement is
     kept in ``Particles.tmp`` between the two kernels.
@@ -233,7 +255,9 @@ def make_g2p(
     Particles, Grid, Domain = make_state_structs(precision)
     stencil, contribution, on_grid = make_stencil(shape, precision)
     point_on_grid = make_point_on_grid(shape, precision)
-    update_stress = make_stress_update(material_kinds, precision)
+    point_update = make_point_update(material_kinds, precision, density_control, critical)
+    dissipative = critical or any(k >= 2 for k in material_kinds)
+    layer_row = make_layer_row(insert=False)
     X = float(flip_fraction)
     X_pic = 1.0 - X
     flip = X > 0.0
@@ -248,7 +272,6 @@ def make_g2p(
     need_grad_vt = velocity and (taylor or (apic and d_const == 0.0))
     fused_grad = stress == "vt"
     has_stress = stress != "none"
-    has_le = 0 in material_kinds
     speed_check = make_speed_check(precision)
 
     @kernel
@@ -257,9 +280,10 @@ def make_g2p(
         G: Grid,
         D: Domain,
         clock: wp.array(dtype=wp.float64),
-        materials: wp.array(dtype=t.vec4),
+        materials: wp.array(dtype=t.params),
         max_speed: wp.array(dtype=wp.float32),
         status: wp.array(dtype=wp.int32),
+        work: wp.array(dtype=wp.float64),
     ):
         p = wp.tid()
         dt = T(clock[1])
@@ -275,6 +299,9 @@ def make_g2p(
         Dm = t.mat22()
         grad_vt = t.mat22()
         L = t.mat22()
+        comp = int(0)
+        if wp.static(layered):
+            comp = P.comp[p]
         for k in range(wp.static(NC)):
             bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
             for i in range(wp.static(K)):
@@ -282,13 +309,19 @@ def make_g2p(
                     w, grad = contribution(wx, wy, dwx, dwy, g, i, j, D.inv_h)
                     gi = bx + i
                     gj = by + j
-                    vt = G.vt[gi, gj]
+                    row = gi
+                    if wp.static(layered):
+                        row = wp.max(layer_row(G.owner, gi, gj, comp, D.layer_rows, D.layers), 0)
+                        if G.owner[row, gj] != comp:
+                            w = T(0.0)  # a node the point put nothing on (a layer overflow)
+                            grad = t.vec2()
+                    vt = G.vt[row, gj]
                     if wp.static(velocity or position):
                         v_pic = v_pic + w * vt  # G→P of Ṽ ("Motion integration" eq. 31)
                     if wp.static(need_v_old):
-                        v_old = v_old + w * G.v[gi, gj]
+                        v_old = v_old + w * G.v[row, gj]
                     if wp.static(velocity and xpic):
-                        v_s = v_s + w * G.vs[gi, gj]  # G of the smoothed field, eq. 39-40
+                        v_s = v_s + w * G.vs[row, gj]  # G of the smoothed field, eq. 39-40
                     if wp.static(velocity and apic):
                         dpos = (t.vec2(T(gi), T(gj)) - c) * D.h
                         B = B + w * wp.outer(vt, dpos)  # eq. 26
@@ -297,9 +330,9 @@ def make_g2p(
                     if wp.static(need_grad_vt or fused_grad):
                         grad_vt = grad_vt + wp.outer(vt, grad)  # ∇Ṽ, eq. 22/45
                     if wp.static(stress == "v"):
-                        L = L + wp.outer(G.v[gi, gj], grad)
+                        L = L + wp.outer(G.v[row, gj], grad)
                     if wp.static(stress == "vm"):
-                        L = L + wp.outer(G.vm[gi, gj], grad)
+                        L = L + wp.outer(G.vm[row, gj], grad)
         if wp.static(fused_grad):
             L = grad_vt
         x_old = P.x[p]
@@ -340,29 +373,10 @@ def make_g2p(
         if wp.static(position and xpic and not velocity):
             P.x[p] = x_old + P.tmp[p]
         if wp.static(has_stress):
-            dt = dt * T(stress_dt)
-            m = materials[P.material[p]]
-            mu = m[0]
-            lam = m[1]
-            kind = int(m[3])
-            F_new = (wp.identity(n=2, dtype=T) + dt * L) * P.F[p]  # "MPM notes" step 8
-            sigma_old = t.mat22()
-            if wp.static(has_le):
-                sigma_old = P.stress[p]  # only the rate-form law needs the previous stress
-            sigma_new = update_stress(kind, F_new, sigma_old, L, dt, mu, lam)
-            vol_old = T(0.0)
-            if wp.static(has_le):
-                vol_old = P.vol[p]
-            vol_new = P.vol0[p] * wp.determinant(F_new)
-            P.F[p] = F_new
-            P.stress[p] = sigma_new
-            P.vol[p] = vol_new
-            if wp.static(has_le):
-                if kind == 0:
-                    # Stored energy by the trapezoidal rule, exact for a linear law.
-                    deps = (T(0.5) * dt) * (L + wp.transpose(L))
-                    dw = T(0.5) * wp.ddot(sigma_old + sigma_new, deps) * T(0.5) * (vol_old + vol_new)
-                    P.strain_energy[p] = P.strain_energy[p] + dw
+            diss = point_update(P, p, materials[P.material[p]], L, dt * T(stress_dt))
+            if wp.static(dissipative):
+                if diss != wp.float64(0.0):
+                    wp.atomic_add(work, work_slot(WORK_PLASTIC, p, 0), diss)
         if wp.static(position):
             # the kernel that moves the points is the last of the step: it also gathers the
             # CFL speed for the next step and flags non-finite or escaped points

@@ -6,7 +6,10 @@ from typing import NamedTuple
 
 import warp as wp
 
-__all__ = ["KERNEL_OPTIONS", "ScalarTypes", "kernel", "scalar_types"]
+__all__ = ["KERNEL_OPTIONS", "MATERIAL_PARAMS", "ScalarTypes", "kernel", "scalar_types"]
+
+#: Floats per material in the material table (layout in ``plasticity.py``).
+MATERIAL_PARAMS = 10
 
 #: No adjoints: the solver never differentiates, and skipping them halves compile time.
 KERNEL_OPTIONS = {"enable_backward": False}
@@ -35,10 +38,12 @@ class ScalarTypes(NamedTuple):
     vec2: type
     mat22: type
     vec4: type
+    params: type  # one row of the material table (MATERIAL_PARAMS scalars)
 
 
 @functools.cache
 def scalar_types(precision: str) -> ScalarTypes:
     """Types for "f32" or "f64"."""
     t = wp.float32 if precision == "f32" else wp.float64
-    return ScalarTypes(t, wp.types.vector(2, t), wp.types.matrix((2, 2), t), wp.types.vector(4, t))
+    return ScalarTypes(t, wp.types.vector(2, t), wp.types.matrix((2, 2), t), wp.types.vector(4, t),
+                       wp.types.vector(MATERIAL_PARAMS, t))

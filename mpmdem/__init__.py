@@ -28,6 +28,7 @@ else:  # older Warp
 from .bodies import ContactLaw, RigidBody
 from .config import SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverConfig, TransferScheme
 from .errors import BlowUpError, InputError
+from .granular_materials import DruckerPrager, MohrCoulomb
 from .materials import LinearElastic, Material, NeoHookean
 from .scene import Boundary, MPMBody, Scene
 from .shapes import Shape, disk, polygon, rectangle, seed_points
@@ -50,10 +51,12 @@ __all__ = [
     "BlowUpError",
     "Boundary",
     "ContactLaw",
+    "DruckerPrager",
     "InputError",
     "LinearElastic",
     "MPMBody",
     "Material",
+    "MohrCoulomb",
     "NeoHookean",
     "RigidBody",
     "RunResult",

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from .errors import InputError
+from .kernels.constitutive import DENSITY_CONTROLS
 
 __all__ = [
     "SHAPE_FUNCTIONS",
@@ -107,6 +108,19 @@ class SolverConfig:
             more than half the skin since the last build.
         dem_max_neighbors: neighbour slots per body in the DEM Verlet lists; None picks from the
             size spread of the bodies. A list that overflows stops the run with a message.
+        granular: Granular MPM ("Granular MPM" §3.3–3.4): points interact only when their domains
+            of interaction (domains scaled to the critical volume) overlap and they share a grid
+            node; each connected group of interacting points (component) gets a grid of its own,
+            so disconnected grains never feel each other through the grid. Off (default): plain MPM.
+        density_control: what happens to a point of a material with a critical density when its
+            density falls below it: "revert" (default; σ = 0 and F back to the previous step,
+            "Granular MPM" eq. 13–15), "volumetric" (σ = 0 and only the volume change removed,
+            eq. 18) or "none" (σ = 0 only: the stress-free MPM the paper compares with).
+        granular_layers: grid copies per node in granular mode: the most components that may put
+            mass on one node in one step; None picks 4 per point per cell of the densest body,
+            at least 8. More stops the run with a message naming this setting.
+        granular_cell_capacity: points a cell can hold in the binning of the interaction search;
+            None picks 4 × the densest seeding, at least 16. Overflow stops the run with a message.
     """
 
     shape: str = "bspline2"
@@ -126,6 +140,10 @@ class SolverConfig:
     dem_kappa: float = 0.1
     dem_skin: float | None = None
     dem_max_neighbors: int | None = None
+    granular: bool = False
+    density_control: str = "revert"
+    granular_layers: int | None = None
+    granular_cell_capacity: int | None = None
 
     def __post_init__(self):
         shape = str(self.shape).lower()
@@ -167,6 +185,18 @@ class SolverConfig:
             isinstance(self.dem_max_neighbors, int) and 1 <= self.dem_max_neighbors <= 256
         ):
             raise InputError("dem_max_neighbors", self.dem_max_neighbors, "an integer in 1..256, or None (automatic)")
+
+        if not isinstance(self.granular, bool):
+            raise InputError("granular", self.granular, "True or False")
+        if self.density_control not in DENSITY_CONTROLS:
+            raise InputError("density_control", self.density_control, f"one of {', '.join(DENSITY_CONTROLS)}")
+        for name in ("granular_layers", "granular_cell_capacity"):
+            v = getattr(self, name)
+            if v is not None and not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 1024):
+                raise InputError(name, v, "an integer in 1..1024, or None (automatic)")
+        if self.granular and (self.update != "USL" or self.scheme.xpic):
+            raise InputError("update", self.update,
+                             "USL with a non-XPIC transfer in granular mode (the scheme of 'Granular MPM' §3.4)")
 
     @property
     def scheme(self) -> TransferScheme:

@@ -37,8 +37,7 @@ class _Granular(Material):
         friction_angle: φ [deg], 0 < φ < 90.
         dilatancy_angle: ψ [deg], 0 ≤ ψ ≤ φ.
         cohesion: c [Pa], ≥ 0.
-        critical_density: ρ_cr [kg/m³], 0 < ρ_cr ≤ density, or None (never stress-free). Below it
-            the point is stress-free ("Granular MPM" eq. 13).
+        critical_density: ρ_cr [kg/m³] (keyword only; see ``Material``).
     """
 
     friction_angle: float
@@ -55,19 +54,6 @@ class _Granular(Material):
         if not _finite("cohesion", self.cohesion) >= 0.0:
             raise InputError("cohesion", self.cohesion, "c >= 0 [Pa]")
 
-    def _check_critical_density(self, rho_cr: float | None) -> None:
-        if rho_cr is None:
-            return
-        _finite("critical_density", rho_cr)
-        if not 0.0 < rho_cr <= self.density:
-            raise InputError(
-                "critical_density",
-                rho_cr,
-                f"0 < rho_cr <= density = {self.density} [kg/m^3] or None; a critical density above the "
-                "initial density makes no sense: the material would start below it, i.e. stress-free "
-                "(Granular MPM eq. 13)",
-            )
-
     @property
     def sin_phi(self) -> float:
         """sin φ [-]."""
@@ -78,9 +64,10 @@ class _Granular(Material):
         """sin ψ [-]."""
         return math.sin(math.radians(self.dilatancy_angle))
 
-    def _common(self, rho_cr: float | None) -> tuple[tuple[float, ...], float]:
+    def _common(self) -> tuple[tuple[float, ...], float]:
         """(μ, λ, ρ0, kind) and ρ_cr (0 when None), the slots every packed vector shares."""
-        return (self.shear_modulus, self.lame_lambda, float(self.density), float(self.kind_id)), rho_cr or 0.0
+        base = Material.packed(self)
+        return base[:4], base[9]
 
 
 @dataclass(frozen=True)
@@ -95,11 +82,9 @@ class MohrCoulomb(_Granular):
         bagnold: η [Pa s²] ≥ 0, the coefficient of the rate term η γ̇² (γ̇ [1/s] the shear rate). The
             paper's η already lumps the grain density and size of Bagnold's law, so no grain
             diameter is needed.
-        critical_density: see ``_Granular``.
     """
 
     bagnold: float = 0.0
-    critical_density: float | None = None
     kind_id: ClassVar[int] = MOHR_COULOMB
 
     def __post_init__(self):
@@ -107,7 +92,6 @@ class MohrCoulomb(_Granular):
         self._check_granular()
         if not _finite("bagnold", self.bagnold) >= 0.0:
             raise InputError("bagnold", self.bagnold, "eta >= 0 [Pa s^2]")
-        self._check_critical_density(self.critical_density)
 
     @property
     def apex_mean_stress(self) -> float:
@@ -119,7 +103,7 @@ class MohrCoulomb(_Granular):
 
         (μ, λ, ρ0, kind=2, sin φ, cos φ, sin ψ, c, η, ρ_cr or 0).
         """
-        common, rho_cr = self._common(self.critical_density)
+        common, rho_cr = self._common()
         phi = math.radians(self.friction_angle)
         return (*common, math.sin(phi), math.cos(phi), self.sin_psi, float(self.cohesion), float(self.bagnold), rho_cr)
 
@@ -139,7 +123,6 @@ class DruckerPrager(_Granular):
 
     Attributes (after those of ``_Granular``):
         tension_cutoff: σ_t [Pa], 0 ≤ σ_t ≤ apex mean stress k_c / (3 α_φ); None → the apex.
-        critical_density: see ``_Granular``.
         match: how (α_φ, k_c) follow from (φ, c):
             "plane_strain": eq. 35 of MPM-SDEM, α_φ = tan φ / sqrt(9 + 12 tan² φ),
                 k_c = 3 c / sqrt(9 + 12 tan² φ). Plane-strain failure equals Mohr–Coulomb's exactly
@@ -151,7 +134,6 @@ class DruckerPrager(_Granular):
     """
 
     tension_cutoff: float | None = None
-    critical_density: float | None = None
     match: str = "plane_strain"
     kind_id: ClassVar[int] = DRUCKER_PRAGER
 
@@ -160,7 +142,6 @@ class DruckerPrager(_Granular):
         self._check_granular()
         if self.match not in DP_MATCHES:
             raise InputError("match", self.match, f"one of {DP_MATCHES}")
-        self._check_critical_density(self.critical_density)
         if self.tension_cutoff is not None:
             st = _finite("tension_cutoff", self.tension_cutoff)
             apex = self.apex_mean_stress
@@ -232,7 +213,7 @@ class DruckerPrager(_Granular):
 
         (μ, λ, ρ0, kind=3, α_φ, k_c, α_ψ, σ_t, 0, ρ_cr or 0).
         """
-        common, rho_cr = self._common(self.critical_density)
+        common, rho_cr = self._common()
         return (*common, self.alpha_phi, self.k_c, self.alpha_psi, self.tension_strength, 0.0, rho_cr)
 
 

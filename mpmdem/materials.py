@@ -6,7 +6,7 @@ Plane strain throughout: the out-of-plane strain is zero, so λ and μ are the 3
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import ClassVar
 
 from .errors import InputError
@@ -22,11 +22,16 @@ class Material:
         youngs_modulus: E [Pa], > 0.
         poisson_ratio: ν, in (−1, 0.5).
         density: initial mass density ρ0 [kg/m³], > 0.
+        critical_density: ρ_cr [kg/m³] (keyword only), 0 < ρ_cr ≤ density, or None (default: the
+            material is a continuum that is never stress-free). Below it a point is stress-free
+            ("Granular MPM" eq. 13) and, in granular mode, its domain of interaction is its domain
+            scaled to the critical volume m/ρ_cr (§3.3).
     """
 
     youngs_modulus: float
     poisson_ratio: float
     density: float
+    critical_density: float | None = field(default=None, kw_only=True)
     kind_id: ClassVar[int] = -1
 
     def __post_init__(self):
@@ -40,6 +45,22 @@ class Material:
             raise InputError("poisson_ratio", self.poisson_ratio, "-1 < nu < 0.5")
         if not self.density > 0.0:
             raise InputError("density", self.density, "rho > 0 [kg/m^3]")
+        rho_cr = self.critical_density
+        if rho_cr is not None:
+            if isinstance(rho_cr, bool) or not isinstance(rho_cr, (int, float)) or not math.isfinite(rho_cr):
+                raise InputError("critical_density", rho_cr, "a finite number [kg/m^3] or None")
+            if not 0.0 < rho_cr <= self.density:
+                raise InputError(
+                    "critical_density", rho_cr,
+                    f"0 < rho_cr <= density = {self.density} [kg/m^3] or None; a critical density above the "
+                    "initial density makes no sense: the material would start below it, i.e. stress-free "
+                    "(Granular MPM eq. 13)",
+                )
+
+    @property
+    def granular(self) -> bool:
+        """Whether the material has a critical density (stress-free below it, can disconnect)."""
+        return self.critical_density is not None
 
     @property
     def shear_modulus(self) -> float:
@@ -61,6 +82,12 @@ class Material:
     def wave_speed(self) -> float:
         """Dilatational wave speed c = sqrt((λ+2μ)/ρ0) [m/s], used by the CFL bound."""
         return math.sqrt(self.p_wave_modulus / self.density)
+
+    def packed(self) -> tuple[float, ...]:
+        """The ``PARAM_LEN`` floats the kernels read (``mpmdem.kernels.plasticity`` layout):
+        (μ, λ, ρ0, kind, model slots 4–8, ρ_cr or 0)."""
+        return (self.shear_modulus, self.lame_lambda, float(self.density), float(self.kind_id),
+                0.0, 0.0, 0.0, 0.0, 0.0, float(self.critical_density or 0.0))
 
     def to_dict(self) -> dict:
         """JSON-serialisable description."""

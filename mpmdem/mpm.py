@@ -14,10 +14,12 @@ import warp as wp
 
 from .config import SolverConfig
 from .errors import BlowUpError, InputError
+from .kernels import granular as kgran
 from .kernels import grid as kgrid
 from .kernels import reductions as kred
 from .kernels import sorting as ksort
 from .kernels import transfer as ktr
+from .kernels.shape_functions import SUPPORT_NODES
 from .kernels.state import make_state_structs
 from .kernels.types import scalar_types
 from .scene import Scene
@@ -25,7 +27,8 @@ from .scene import Scene
 __all__ = ["GHOST_NODES", "MPMSolver", "device_order", "initial_dt_bound"]
 
 #: Point arrays that change during a run (what a checkpoint must hold).
-_STATE_FIELDS = ("x", "v", "C", "F", "stress", "vol", "strain_energy", "mass", "vol0", "half0", "material", "pid")
+_STATE_FIELDS = ("x", "v", "C", "F", "stress", "szz", "vol", "strain_energy", "mass", "vol0", "half0", "material",
+                 "pid")
 
 #: Ghost node layers around the domain, enough for the widest stencil (4 nodes) of a point that
 #: sits on, or slightly beyond, the domain boundary.
@@ -86,6 +89,14 @@ class MPMSolver:
         if config.shape == "ugimp" and (host["half"] > 0.5 * scene.cell_size + 1e-12).any():
             raise InputError("shape", config.shape, "uGIMP needs points_per_cell >= 1 (half-lengths <= h/2)")
         self.body = host["body"]
+        ppc = max(b.points_per_cell for b in scene.bodies)
+        reach = SUPPORT_NODES[config.shape] + (1 if config.shape == "cpdi1" else 0)
+        # at most (cells reaching a node) × (points per cell) components can meet at one node
+        self.granular_layers = (min(64, max(8, reach * reach * ppc * ppc)) if config.granular_layers is None
+                                else config.granular_layers) if config.granular else 1
+        self.granular_cell_capacity = config.granular_cell_capacity or max(16, 4 * ppc * ppc)
+        mats = scene.materials()
+        self.critical = any(m.critical_density is not None for m in mats)
         self.order = device_order(host["x"], scene.domain[0], scene.cell_size)
         self._allocate({k: v[self.order] for k, v in host.items()})
         self._sort = None
@@ -113,6 +124,8 @@ class MPMSolver:
         P.C = wp.array(C0.astype(T), dtype=t.mat22, device=dev)
         P.F = wp.array(eye.astype(T), dtype=t.mat22, device=dev)
         P.stress = wp.zeros(n, dtype=t.mat22, device=dev)
+        P.szz = wp.zeros(n, dtype=t.scalar, device=dev)
+        P.comp = wp.zeros(n if self.config.granular else 1, dtype=wp.int32, device=dev)
         P.mass = wp.array(host["mass"].astype(T), dtype=t.scalar, device=dev)
         P.vol = wp.array(host["vol"].astype(T), dtype=t.scalar, device=dev)
         P.vol0 = wp.array(host["vol"].astype(T), dtype=t.scalar, device=dev)
@@ -126,9 +139,12 @@ class MPMSolver:
 
         nx, ny = scene.cell_counts
         g = GHOST_NODES
-        shape = (nx + 1 + 2 * g, ny + 1 + 2 * g)
+        rows = nx + 1 + 2 * g
+        layers = self.granular_layers
+        shape = (layers * rows, ny + 1 + 2 * g)
         self.grid_shape = shape
         G = Grid()
+        G.owner = wp.full(shape if self.config.granular else (1, 1), -1, dtype=wp.int32, device=dev)
         G.mass = wp.zeros(shape, dtype=t.scalar, device=dev)
         G.mom = wp.zeros(shape, dtype=t.vec2, device=dev)
         G.force = wp.zeros(shape, dtype=t.vec2, device=dev)
@@ -156,12 +172,20 @@ class MPMSolver:
         D.gravity_ramp = float(scene.gravity_ramp)
         D.mass_eps = t.scalar(1.0e-12 * float(host["mass"].min()))
         D.damping = t.scalar(self.config.damping)
+        D.layer_rows = rows
+        D.layers = layers
         self.D = D
+        if self.config.granular:
+            # interaction graph of Granular MPM (kernels/granular.py); cells = nodes of one layer
+            cells = rows * shape[1]
+            self.bins = wp.zeros((cells, 1 + self.granular_cell_capacity), dtype=wp.int32, device=dev)
+            self.parent = wp.zeros(n, dtype=wp.int32, device=dev)
+            self.dom_a = wp.zeros(n, dtype=t.vec2, device=dev)
+            self.dom_b = wp.zeros(n, dtype=t.vec2, device=dev)
+            self.reach = wp.zeros(n, dtype=wp.vec4i, device=dev)
+            self.granular_stats = wp.zeros(2, dtype=wp.int32, device=dev)
 
-        self.materials = wp.array(
-            np.array([[m.shear_modulus, m.lame_lambda, m.density, m.kind_id] for m in mats], T),
-            dtype=t.vec4, device=dev,
-        )
+        self.materials = wp.array(np.array([m.packed() for m in mats], T), dtype=t.params, device=dev)
         self.clock = wp.zeros(kred.CLOCK_SIZE, dtype=wp.float64, device=dev)
         clock = np.zeros(kred.CLOCK_SIZE)
         clock[4] = self.config.dt or 0.0
@@ -169,7 +193,7 @@ class MPMSolver:
         self.clock.assign(clock)
         self.steps = wp.zeros(1, dtype=wp.int64, device=dev)
         self.max_speed = wp.zeros(kred.SPEED_SLOTS, dtype=wp.float32, device=dev)
-        self.status = wp.zeros(2, dtype=wp.int32, device=dev)
+        self.status = wp.zeros(4, dtype=wp.int32, device=dev)
         self.diag = wp.zeros(len(kred.DIAG_NAMES), dtype=wp.float64, device=dev)
         self.work = wp.zeros(len(kgrid.WORK_TERMS) * kgrid.WORK_SLOTS, dtype=wp.float64, device=dev)
 
@@ -183,25 +207,26 @@ class MPMSolver:
         P, G, D, clock, mats, work = self.P, self.G, self.D, self.clock, self.materials, self.work
         # image points at walls (kernels/grid.py: fold_ghosts, mirror_ghosts)
         mirror_walls = any(b.kind != "free" for b in self.scene.boundaries.values())
-        mirror = kgrid.make_mirror_ghosts(prec)
+        layered = c.granular
+        mirror = kgrid.make_mirror_ghosts(prec, layered=layered)
 
         def fold(**flags):
             if not mirror_walls:
                 return []
-            return [_Launch(kgrid.make_fold_ghosts(prec, **flags), grid_dim, [G, D, clock])]
+            return [_Launch(kgrid.make_fold_ghosts(prec, layered=layered, **flags), grid_dim, [G, D, clock])]
 
         def mirrored(*fields):
-            return [_Launch(mirror, grid_dim, [f, D, clock]) for f in fields] if mirror_walls else []
+            return [_Launch(mirror, grid_dim, [f, D, clock, G.owner]) for f in fields] if mirror_walls else []
 
         def p2g(**flags):
-            kernel = ktr.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic, **flags)
+            kernel = ktr.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic, layered=layered, **flags)
             fused = flags.get("fused_impulse", False)
-            return [_Launch(kernel, n, [P, G, D, clock])] + fold(
+            return [_Launch(kernel, n, [P, G, D, clock, self.status])] + fold(
                 mass=flags["mass"], momentum=flags["momentum"] or fused, force=flags["force"] and not fused,
                 remap=flags.get("remap", False))
 
         def grid(**flags):
-            kernel = kgrid.make_grid_update(prec, damping=c.damping > 0.0, **flags)
+            kernel = kgrid.make_grid_update(prec, damping=c.damping > 0.0, layered=layered, **flags)
             if flags.get("remap"):
                 fields = [G.vm]
             elif flags.get("fused_impulse"):
@@ -211,8 +236,9 @@ class MPMSolver:
             return [_Launch(kernel, grid_dim, [G, D, clock, work])] + mirrored(*fields)
 
         def g2p(**flags):
-            k = ktr.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds, **flags)
-            return [_Launch(k, n, [P, G, D, clock, mats, self.max_speed, self.status])]
+            k = ktr.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds,
+                             density_control=c.density_control, critical=self.critical, layered=layered, **flags)
+            return [_Launch(k, n, [P, G, D, clock, mats, self.max_speed, self.status, work])]
 
         def xpic_smoothing():
             """Σ_k (−1)^{k+1} C(m,k) v*_k into Grid.vs ("Motion integration" eq. 39-40)."""
@@ -232,6 +258,12 @@ class MPMSolver:
 
         self.fused = c.update == "USL" and s.flip_fraction == 0.0 and not s.xpic and c.damping == 0.0
         seq: list = []
+        if c.granular:
+            # Granular MPM tasks 1-2: interaction graph and components; the copies of each node
+            # are claimed in the P2G below (kernels/granular.py)
+            seq += [("zero", self.bins), ("fill", G.owner)]
+            gin = [P, G, D, mats, self.bins, self.parent, self.dom_a, self.dom_b, self.reach, self.status]
+            seq += [_Launch(k, n, gin) for k in kgran.make_granular_kernels(c.shape, prec, self.granular_cell_capacity)]
         if c.update == "USL":
             if self.fused:
                 seq += p2g(mass=True, momentum=True, force=True, fused_impulse=True)
@@ -269,18 +301,23 @@ class MPMSolver:
         dev = self.device
         wp.launch(kred.compute_dt, 1, inputs=[self.clock, self.max_speed, float(self.scene.cell_size)], device=dev)
         G = self.G
-        G.mass.zero_()
-        G.mom.zero_()
-        if not self.fused:
-            G.force.zero_()
+        if not self.config.granular:  # granular mode: the grid update clears the copies it used
+            G.mass.zero_()
+            G.mom.zero_()
+            if not self.fused:
+                G.force.zero_()
         for item in self._sequence:
             if isinstance(item, tuple):
-                item[1].zero_()
+                if item[0] == "fill":
+                    item[1].fill_(-1)
+                else:
+                    item[1].zero_()
             else:
                 wp.launch(item.kernel, item.dim, inputs=item.inputs, device=dev)
         wp.launch(kred.advance_time, 1, inputs=[self.clock, self.steps], device=dev)
 
-    _POINT_FIELDS = ("x", "v", "C", "F", "stress", "mass", "vol", "vol0", "half0", "material", "strain_energy", "pid")
+    _POINT_FIELDS = ("x", "v", "C", "F", "stress", "szz", "mass", "vol", "vol0", "half0", "material", "strain_energy",
+                     "pid")
 
     def _reorder(self, order: wp.array | None = None) -> None:
         """Permute every per-point array by ``order`` (new[p] = old[order[p]]); None: by grid cell."""
@@ -292,6 +329,7 @@ class MPMSolver:
             for name in self._POINT_FIELDS:
                 setattr(scratch, name, wp.empty_like(getattr(self.P, name)))
             scratch.tmp = self.P.tmp
+            scratch.comp = self.P.comp
             keys = wp.empty(2 * n, dtype=wp.int32, device=dev)
             values = wp.empty(2 * n, dtype=wp.int32, device=dev)
             self._sort = (scratch, keys, values)
@@ -358,6 +396,19 @@ class MPMSolver:
                 "non-finite",
                 f"simulation blew up at t = {t:.6g} s: {int(status[0])} points have NaN/inf values. "
                 f"Likely cause: {self._likely_cause(dt, bound)}.", t)
+        if len(status) > 2 and status[2] > 0:
+            raise BlowUpError(
+                "granular-layers",
+                f"at t = {t:.6g} s more than {self.granular_layers} components met at one grid node "
+                f"({int(status[2])} point-node contributions had no grid layer left): raise "
+                "SolverConfig.granular_layers (granular mode).", t)
+        if len(status) > 3 and status[3] > 0:
+            raise BlowUpError(
+                "granular-bins",
+                f"at t = {t:.6g} s more than {self.granular_cell_capacity} points sat in one grid cell "
+                f"({int(status[3])} left out of the interaction search): raise "
+                "SolverConfig.granular_cell_capacity (granular mode), or check for a collapse of the "
+                f"material ({self._likely_cause(dt, bound)}).", t)
         if status[1] > 0:
             raise BlowUpError(
                 "left-domain",
@@ -374,6 +425,30 @@ class MPMSolver:
         works = self.work.numpy().reshape(len(kgrid.WORK_TERMS), kgrid.WORK_SLOTS).sum(axis=1)
         out.update({name: float(w) for name, w in zip(kgrid.WORK_TERMS, works, strict=True)})
         out["energy_total"] = out["energy_kinetic"] + out["energy_strain"] + out["energy_gravity"]
+        if self.config.granular:
+            out["components"], out["layers"] = (float(v) for v in self.granular_statistics())
+        return out
+
+    def granular_statistics(self) -> tuple[int, int]:
+        """(components, grid layers in use at the busiest node) of the last step (granular mode)."""
+        if not self.config.granular:
+            raise InputError("granular", False, "granular mode (SolverConfig(granular=True))")
+        self.granular_stats.zero_()
+        dim = max(self.particle_count, self.D.layer_rows * self.grid_shape[1])
+        wp.launch(kgran.make_granular_statistics(self.config.precision), dim,
+                  inputs=[self.P, self.G, self.D, self.granular_stats], device=self.device)
+        c, layers = self.granular_stats.numpy()
+        return int(c), int(layers)
+
+    def components(self) -> np.ndarray:
+        """Component label of every point in the scene's order (granular mode; −1 otherwise)."""
+        if not self.config.granular:
+            return np.full(self.particle_count, -1, np.int64)
+        comp = self.P.comp.numpy()
+        pid = self.P.pid.numpy()
+        # labels are device indices of the root points; report them as the roots' scene indices
+        out = np.empty(self.particle_count, np.int64)
+        out[pid] = pid[comp]
         return out
 
     def fields(self) -> dict[str, np.ndarray]:

@@ -1,0 +1,305 @@
+"""Granular MPM on the device: domains of interaction, the interaction graph, its connected
+components, and the per-node grid layers that keep components apart ("Granular MPM" §3.3–3.4).
+
+Per step (all kernels, no host sync, capturable in a CUDA graph):
+
+1. ``prepare``: each point computes its domain of interaction (its domain scaled to the
+   critical volume V_cr = m / ρ_cr, §3.3 and Fig. 4) as a parallelogram (centre, half-vectors
+   a, b), the range of grid nodes its shape function reaches, resets its union–find parent, and
+   drops itself into the bin of its grid cell (fixed capacity, counted overflow).
+2. ``link``: each point visits the bins around its cell. A pair interacts when the two points
+   send data to a common node (the appendix's pre-task, from the node ranges) and their domains
+   of interaction overlap (task 1, separating-axis test). Interacting pairs are merged in a
+   lock-free union–find (compare-and-swap, the larger root is hooked under the smaller), so the
+   interaction graph is never stored and the search is cell-binned, not O(N²).
+3. ``label``: every point takes its root, the smallest point index of its component, as label
+   (independent of thread order, so runs are reproducible), and roots count the components.
+4. Task 2–3: instead of one grid per component, each grid node holds ``layers`` copies. In the
+   first P2G of the step a point claims, at every node it reaches, the first copy that is free
+   or already its component's (compare-and-swap on ``Grid.owner``); later kernels look the copy
+   up. Components that share a node thus never share a copy there, and a component alone on a
+   node uses copy 0, so the usual case costs one extra read per node. This is a greedy colouring
+   per node rather than one colour per component: it needs no iterations, and uses no more
+   copies than the most components meeting at one node.
+
+Non-granular materials (no critical density) are continua: their points interact with every
+point they share a node with, so they are never split.
+"""
+
+import functools
+
+import warp as wp
+
+from .shape_functions import SUPPORT_NODES
+from .state import make_state_structs
+from .types import kernel, scalar_types
+
+__all__ = [
+    "STAT_COMPONENTS",
+    "STAT_LAYERS",
+    "STATUS_BIN_OVERFLOW",
+    "STATUS_LAYER_OVERFLOW",
+    "domains_overlap",
+    "make_domain_of_interaction",
+    "make_granular_kernels",
+    "make_granular_statistics",
+    "make_layer_row",
+]
+
+#: Status counters (after the two of ``reductions``).
+STATUS_LAYER_OVERFLOW = 2
+STATUS_BIN_OVERFLOW = 3
+
+#: Slots of the per-step statistics array.
+STAT_COMPONENTS = 0
+STAT_LAYERS = 1
+
+
+@functools.cache
+def make_layer_row(insert: bool):
+    """``layer_row(owner, i, j, comp, layer_rows, layers) -> row`` (−1 when none).
+
+    The row of the grid copy that component ``comp`` uses at node (i, j); with ``insert`` the
+    first free copy is claimed (compare-and-swap), else a missing copy gives −1.
+    """
+
+    @wp.func
+    def layer_row(owner: wp.array2d(dtype=wp.int32), i: int, j: int, comp: int, layer_rows: int, layers: int):
+        for s in range(layers):
+            r = s * layer_rows + i
+            k = owner[r, j]
+            if k == comp:
+                return r
+            if k < 0:
+                if wp.static(insert):
+                    old = wp.atomic_cas(owner, r, j, -1, comp)
+                    if old == -1 or old == comp:
+                        return r
+                else:
+                    return -1
+        return -1
+
+    return layer_row
+
+
+@functools.cache
+def _overlap(precision: str):
+    t = scalar_types(precision)
+
+    @wp.func
+    def project(a: t.vec2, b: t.vec2, n: t.vec2):
+        return wp.abs(wp.dot(a, n)) + wp.abs(wp.dot(b, n))
+
+    @wp.func
+    def separated(d: t.vec2, a1: t.vec2, b1: t.vec2, a2: t.vec2, b2: t.vec2, n: t.vec2):
+        return wp.abs(wp.dot(d, n)) >= project(a1, b1, n) + project(a2, b2, n)
+
+    @wp.func
+    def overlap(x1: t.vec2, a1: t.vec2, b1: t.vec2, x2: t.vec2, a2: t.vec2, b2: t.vec2):
+        # Separating-axis test of two parallelograms x ± a ± b: the candidate axes are the edge
+        # normals of both; touching (a zero-width overlap) counts as apart, as in Fig. 4(b).
+        d = x2 - x1
+        if separated(d, a1, b1, a2, b2, t.vec2(-a1[1], a1[0])):
+            return False
+        if separated(d, a1, b1, a2, b2, t.vec2(-b1[1], b1[0])):
+            return False
+        if separated(d, a1, b1, a2, b2, t.vec2(-a2[1], a2[0])):
+            return False
+        if separated(d, a1, b1, a2, b2, t.vec2(-b2[1], b2[0])):
+            return False
+        return True
+
+    return overlap
+
+
+def domains_overlap(precision: str):
+    """``overlap(x1, a1, b1, x2, a2, b2) -> bool``: whether parallelograms x ± a ± b intersect."""
+    return _overlap(precision)
+
+
+@functools.cache
+def make_domain_of_interaction(shape: str, precision: str):
+    """``domain(P, p, rho_cr) -> (a, b)``: half-vectors [m] of the domain of interaction of point p.
+
+    "Granular MPM" §3.3: the point's domain scaled about its centre to the critical volume
+    V_cr = m / ρ_cr. Original MPM, uGIMP and the B-splines use the initial rectangle (a constant
+    square for square seeding, Fig. 4); cpGIMP the rectangle stretched along F's columns; CPDI1 the
+    parallelogram F (l_x, 0), F (0, l_y). ρ_cr ≤ 0 (a continuum) keeps the current size.
+    """
+    t = scalar_types(precision)
+    T = t.scalar
+    Particles = make_state_structs(precision)[0]
+
+    @wp.func
+    def domain(P: Particles, p: int, rho_cr: T):
+        h0 = P.half0[p]
+        a = t.vec2(h0[0], T(0.0))
+        b = t.vec2(T(0.0), h0[1])
+        if wp.static(shape == "cpgimp"):
+            F = P.F[p]
+            a = a * wp.sqrt(F[0, 0] * F[0, 0] + F[1, 0] * F[1, 0])
+            b = b * wp.sqrt(F[0, 1] * F[0, 1] + F[1, 1] * F[1, 1])
+        if wp.static(shape == "cpdi1"):
+            F = P.F[p]
+            a = h0[0] * t.vec2(F[0, 0], F[1, 0])
+            b = h0[1] * t.vec2(F[0, 1], F[1, 1])
+        vol = T(4.0) * wp.abs(a[0] * b[1] - a[1] * b[0])
+        if rho_cr > T(0.0) and vol > T(0.0):
+            s = wp.sqrt(P.mass[p] / (rho_cr * vol))
+            a = s * a
+            b = s * b
+        return a, b
+
+    return domain
+
+
+@functools.cache
+def make_granular_kernels(shape: str, precision: str, cell_capacity: int):
+    """(prepare, link, label) kernels of the interaction graph (see the module docstring).
+
+    Launch each with dim = number of points and inputs
+    ``[P, G, D, materials, bins, parent, dom_a, dom_b, reach, status]``:
+    bins (cells × (1 + cell_capacity)) int32: a count then the points of each cell, cells indexed
+    like ``Grid.mass`` (column-major over the node lattice of one layer); parent (N,) int32;
+    dom_a, dom_b (N,) vec2; reach (N,) vec4i node range (x0, x1, y0, y1); status the solver's
+    status counters. ``bins`` must be zeroed before ``prepare``.
+    """
+    from .transfer import CORNERS, make_stencil  # noqa: PLC0415 (transfer imports this module's helpers)
+
+    t = scalar_types(precision)
+    T = t.scalar
+    K = SUPPORT_NODES[shape]
+    NC = CORNERS.get(shape, 1)
+    Particles, Grid, Domain = make_state_structs(precision)
+    stencil = make_stencil(shape, precision)[0]
+    domain = make_domain_of_interaction(shape, precision)
+    overlap = _overlap(precision)
+    CAP = int(cell_capacity)
+    # how many cells apart two points that share a node can be: K nodes per stencil, plus the
+    # spread of the four corner stencils of CPDI1 (domains up to about a cell across)
+    W = K + (1 if shape == "cpdi1" else 0)
+
+    @wp.func
+    def cell_of(P: Particles, D: Domain, p: int, rows: int):
+        c = (P.x[p] - D.origin) * D.inv_h
+        cx = wp.clamp(int(wp.floor(c[0])), 0, D.layer_rows - 1)
+        cy = wp.clamp(int(wp.floor(c[1])), 0, rows - 1)
+        return cx, cy
+
+    @wp.func
+    def find(parent: wp.array(dtype=wp.int32), x: int):
+        r = x
+        while parent[r] != r:
+            r = parent[r]
+        return r
+
+    @wp.func
+    def unite(parent: wp.array(dtype=wp.int32), p: int, q: int):
+        a = find(parent, p)
+        b = find(parent, q)
+        while a != b:
+            lo = wp.min(a, b)
+            hi = wp.max(a, b)
+            old = wp.atomic_cas(parent, hi, hi, lo)  # hook the larger root under the smaller
+            if old == hi:
+                return
+            a = find(parent, lo)
+            b = find(parent, old)
+
+    @kernel
+    def prepare(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params),
+                bins: wp.array2d(dtype=wp.int32), parent: wp.array(dtype=wp.int32),
+                dom_a: wp.array(dtype=t.vec2), dom_b: wp.array(dtype=t.vec2),
+                reach: wp.array(dtype=wp.vec4i), status: wp.array(dtype=wp.int32)):
+        p = wp.tid()
+        parent[p] = p
+        rho_cr = materials[P.material[p]][9]
+        a, b = domain(P, p, rho_cr)
+        dom_a[p] = a
+        dom_b[p] = b
+        x0 = int(1073741824)
+        y0 = int(1073741824)
+        x1 = int(-1073741824)
+        y1 = int(-1073741824)
+        for k in range(wp.static(NC)):
+            bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
+            x0 = wp.min(x0, bx)
+            y0 = wp.min(y0, by)
+            x1 = wp.max(x1, bx + K - 1)
+            y1 = wp.max(y1, by + K - 1)
+        reach[p] = wp.vec4i(x0, x1, y0, y1)
+        rows = G.mass.shape[1]
+        cx, cy = cell_of(P, D, p, rows)
+        cell = cx * rows + cy
+        slot = wp.atomic_add(bins, cell, 0, 1)
+        if slot < CAP:
+            bins[cell, 1 + slot] = p
+        else:
+            wp.atomic_add(status, STATUS_BIN_OVERFLOW, 1)
+
+    @kernel
+    def link(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params),
+             bins: wp.array2d(dtype=wp.int32), parent: wp.array(dtype=wp.int32),
+             dom_a: wp.array(dtype=t.vec2), dom_b: wp.array(dtype=t.vec2),
+             reach: wp.array(dtype=wp.vec4i), status: wp.array(dtype=wp.int32)):
+        p = wp.tid()
+        rows = G.mass.shape[1]
+        cx, cy = cell_of(P, D, p, rows)
+        rp = reach[p]
+        xp = P.x[p]
+        ap = dom_a[p]
+        bp = dom_b[p]
+        continuum_p = materials[P.material[p]][9] <= T(0.0)
+        for ix in range(wp.max(cx - W, 0), wp.min(cx + W + 1, D.layer_rows)):
+            for iy in range(wp.max(cy - W, 0), wp.min(cy + W + 1, rows)):
+                cell = ix * rows + iy
+                count = wp.min(bins[cell, 0], CAP)
+                for s in range(count):
+                    q = bins[cell, 1 + s]
+                    if q <= p:
+                        continue
+                    rq = reach[q]
+                    # pre-task: a common node (the node ranges overlap in both directions)
+                    if rq[0] > rp[1] or rp[0] > rq[1] or rq[2] > rp[3] or rp[2] > rq[3]:
+                        continue
+                    # task 1: the domains of interaction overlap (continua always interact)
+                    if continuum_p or materials[P.material[q]][9] <= T(0.0) or overlap(
+                            xp, ap, bp, P.x[q], dom_a[q], dom_b[q]):
+                        unite(parent, p, q)
+
+    @kernel
+    def label(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params),
+              bins: wp.array2d(dtype=wp.int32), parent: wp.array(dtype=wp.int32),
+              dom_a: wp.array(dtype=t.vec2), dom_b: wp.array(dtype=t.vec2),
+              reach: wp.array(dtype=wp.vec4i), status: wp.array(dtype=wp.int32)):
+        p = wp.tid()
+        P.comp[p] = find(parent, p)
+
+    return prepare, link, label
+
+
+@functools.cache
+def make_granular_statistics(precision: str):
+    """Kernel ``statistics(P, G, D, stats)`` over max(N, nodes of one layer) threads: the number
+    of components (points that are their own label) into stats[0] and the most grid layers in
+    use at one node into stats[1], for the diagnostics of an output frame (not run per step)."""
+    Particles, Grid, Domain = make_state_structs(precision)
+
+    @kernel
+    def statistics(P: Particles, G: Grid, D: Domain, stats: wp.array(dtype=wp.int32)):
+        tid = wp.tid()
+        if tid < P.comp.shape[0]:
+            if P.comp[tid] == tid:
+                wp.atomic_add(stats, STAT_COMPONENTS, 1)
+        rows = G.owner.shape[1]
+        if tid < D.layer_rows * rows:
+            i = tid // rows
+            j = tid - i * rows
+            used = int(0)
+            for s in range(D.layers):
+                if G.owner[s * D.layer_rows + i, j] >= 0:
+                    used = s + 1
+            if used > 0:
+                wp.atomic_max(stats, STAT_LAYERS, used)
+
+    return statistics
