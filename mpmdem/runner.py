@@ -17,6 +17,7 @@ from types import ModuleType
 
 from .config import SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverConfig
 from .errors import BlowUpError, InputError
+from .kernels.constitutive import DENSITY_CONTROLS
 from .scene import Scene
 
 __all__ = ["CaseSetup", "case_module", "make_case_parser", "run_case"]
@@ -85,6 +86,11 @@ def make_case_parser(module: ModuleType, prog: str | None = None) -> argparse.Ar
     p.add_argument("--precision", type=_choice("precision", ("f32", "f64")), default=None, help="f32 or f64")
     p.add_argument("--dem-kappa", type=_positive("--dem-kappa"), default=None,
                    help="κ2 of the DEM time step (MPM-SDEM eq. 51 with rotation and damping, see mpmdem.dem)")
+    p.add_argument("--granular", action=argparse.BooleanOptionalAction, default=None,
+                   help="Granular MPM (domains of interaction, a grid per component); --no-granular: plain MPM")
+    p.add_argument("--density-control", type=_choice("density control", DENSITY_CONTROLS), default=None,
+                   help="below the critical density: " + ", ".join(DENSITY_CONTROLS)
+                   + " (revert: Granular MPM eq. 14; volumetric: eq. 18; none: stress-free MPM)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     if hasattr(module, "add_arguments"):
         module.add_arguments(p)
@@ -105,7 +111,7 @@ def config_from_args(setup: CaseSetup, module: ModuleType, args) -> SolverConfig
     fields = dict(getattr(module, "DEFAULTS", {}))
     fields.update(setup.config)
     for name in ("dt", "cfl", "shape", "transfer", "flip_fraction", "xpic_order", "damping", "update", "precision",
-                 "dem_kappa"):
+                 "dem_kappa", "granular", "density_control"):
         v = getattr(args, name, None)
         if v is not None:
             fields[name] = v
