@@ -16,6 +16,8 @@ __all__ = [
     "WORK_PLASTIC",
     "WORK_SLOTS",
     "WORK_TERMS",
+    "WALLS",
+    "IMPULSE_BASE",
     "make_boundary",
     "make_boundary_condition",
     "make_fold_ghosts",
@@ -64,6 +66,14 @@ WORK_TERMS = ("work_boundary", "work_damping", "work_plastic")
 WORK_PLASTIC = 2
 WORK_SLOTS = 16
 
+#: Cumulative impulse [N s/m] that the material exerts on the obstacles (x, y), stored after the
+#: work terms in the same array: a load cell's reading is its change over a frame divided by the
+#: frame's duration. Obstacle nodes are plain fixed nodes, so the impulse of their constraint is
+#: the whole reaction. (Domain walls are not measured: their image points carry part of the
+#: reaction through the folded ghost nodes, which a nodal sum does not capture exactly.)
+WALLS = ("obstacles",)
+IMPULSE_BASE = len(WORK_TERMS)
+
 
 @wp.func
 def work_slot(term: int, i: int, j: int) -> int:
@@ -107,7 +117,7 @@ def make_boundary(precision: str, bilateral_only: bool = False):
 
 @functools.cache
 def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impulse: bool = False,
-                     remap: bool = False, damping: bool = False, layered: bool = False):
+                     remap: bool = False, damping: bool = False, layered: bool = False, obstacles: bool = False):
     """Nodal velocity V = p/m, and/or Ṽ = V + dt (f/m + g), both with the wall conditions.
 
     fused_impulse: the momentum already holds p + dt f (USL + PIC), so Ṽ = p/m + dt g.
@@ -115,6 +125,8 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     damping: add Cundall's local damping force ("Motion integration" eq. 61-62).
     The work of wall reactions and of the damping force is accumulated into ``work``.
     layered: granular mode, launched over every grid layer; walls act on each layer alike.
+    obstacles: nodes marked in ``Grid.solid`` (inside a ``Scene.add_obstacle`` shape) are fixed.
+    The reaction impulses on walls and obstacles go to the IMPULSE_BASE slots of ``work``.
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -123,20 +135,38 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     dirichlet = make_boundary(precision, bilateral_only=True)
 
     @wp.func
-    def wall_work(v: t.vec2, vb: t.vec2, m: T, i: int, j: int, work: wp.array(dtype=wp.float64)):
+    def push(work: wp.array(dtype=wp.float64), wall: int, axis: int, i: int, j: int, value: T):
+        wp.atomic_add(work, work_slot(IMPULSE_BASE + 2 * wall + axis, i, j), wp.float64(value))
+
+    @wp.func
+    def wall_work(v: t.vec2, vb: t.vec2, m: T, D: Domain, G: Grid, i: int, j: int,
+                  work: wp.array(dtype=wp.float64)):
         # Wall reaction impulse m Δv acting on the constrained velocity: dW = F·V Δt (eq. 66);
-        # zero for fixed and slip walls, negative for a sliding Coulomb wall.
+        # zero for fixed and slip walls, negative for a sliding Coulomb wall. At obstacle nodes the
+        # opposite impulse −m Δv is what the material exerts on the obstacle (a load cell's reading).
         if vb[0] != v[0] or vb[1] != v[1]:
             wp.atomic_add(work, work_slot(0, i, j), wp.float64(m * wp.dot(vb - v, vb)))
+            if wp.static(obstacles):
+                if G.solid[i, j] != 0:
+                    on_obstacle = m * (v - vb)
+                    push(work, 0, 0, i, j, on_obstacle[0])
+                    push(work, 0, 1, i, j, on_obstacle[1])
         return vb
 
     @wp.func
-    def constrain(v: t.vec2, m: T, D: Domain, i: int, j: int, work: wp.array(dtype=wp.float64)):
-        return wall_work(v, boundary(v, D, i, j), m, i, j, work)
+    def solid(vb: t.vec2, G: Grid, i: int, j: int):
+        if wp.static(obstacles):
+            if G.solid[i, j] != 0:
+                return t.vec2()
+        return vb
 
     @wp.func
-    def constrain_start(v: t.vec2, m: T, D: Domain, i: int, j: int, work: wp.array(dtype=wp.float64)):
-        return wall_work(v, dirichlet(v, D, i, j), m, i, j, work)
+    def constrain(v: t.vec2, m: T, D: Domain, G: Grid, i: int, j: int, work: wp.array(dtype=wp.float64)):
+        return wall_work(v, solid(boundary(v, D, i, j), G, i, j), m, D, G, i, j, work)
+
+    @wp.func
+    def constrain_start(v: t.vec2, m: T, D: Domain, G: Grid, i: int, j: int, work: wp.array(dtype=wp.float64)):
+        return wall_work(v, solid(dirichlet(v, D, i, j), G, i, j), m, D, G, i, j, work)
 
     @kernel
     def grid_update(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), work: wp.array(dtype=wp.float64)):
@@ -173,10 +203,10 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         if D.gravity_ramp > wp.float64(0.0):
             g = g * T(wp.min(clock[0] / D.gravity_ramp, wp.float64(1.0)))
         if wp.static(remap):
-            G.vm[i, j] = boundary(G.vm[i, j] * inv_m, D, ib, j)
+            G.vm[i, j] = solid(boundary(G.vm[i, j] * inv_m, D, ib, j), G, ib, j)
             return
         if wp.static(fused_impulse):
-            G.vt[i, j] = constrain(mom * inv_m + dt * g, m, D, ib, j, work)
+            G.vt[i, j] = constrain(mom * inv_m + dt * g, m, D, G, ib, j, work)
             return
         v = G.v[i, j]
         if wp.static(velocity):
@@ -186,7 +216,7 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
             # height, 0.86 if not). A Coulomb wall is a unilateral contact: its impulse must reach
             # the points through Ṽ − V, or FLIP points pressed on it keep their velocity into it and
             # give the energy back when the wall lets go (+30 % on an impact), so V stays free there.
-            v = constrain_start(mom * inv_m, m, D, ib, j, work)  # eq. 16
+            v = constrain_start(mom * inv_m, m, D, G, ib, j, work)  # eq. 16
             G.v[i, j] = v
         if wp.static(force):
             f = fint + m * g
@@ -200,7 +230,7 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
                 f = f + fd
                 wp.atomic_add(work, work_slot(1, i, j), wp.float64(wp.dot(fd, v) * dt))
             # Ṽ = V + a Δt, a = f/m + g ("Motion integration" eq. 28; "MPM notes" steps 5-7)
-            G.vt[i, j] = constrain(v + dt * f * inv_m, m, D, ib, j, work)
+            G.vt[i, j] = constrain(v + dt * f * inv_m, m, D, G, ib, j, work)
 
     return grid_update
 

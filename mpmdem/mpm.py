@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 import warp as wp
 
 from .config import SolverConfig
@@ -145,6 +146,7 @@ class MPMSolver:
         self.grid_shape = shape
         G = Grid()
         G.owner = wp.full(shape if self.config.granular else (1, 1), -1, dtype=wp.int32, device=dev)
+        G.solid = wp.array(self._solid_nodes(rows, shape[1]), dtype=wp.int32, device=dev)
         G.mass = wp.zeros(shape, dtype=t.scalar, device=dev)
         G.mom = wp.zeros(shape, dtype=t.vec2, device=dev)
         G.force = wp.zeros(shape, dtype=t.vec2, device=dev)
@@ -195,7 +197,9 @@ class MPMSolver:
         self.max_speed = wp.zeros(kred.SPEED_SLOTS, dtype=wp.float32, device=dev)
         self.status = wp.zeros(4, dtype=wp.int32, device=dev)
         self.diag = wp.zeros(len(kred.DIAG_NAMES), dtype=wp.float64, device=dev)
-        self.work = wp.zeros(len(kgrid.WORK_TERMS) * kgrid.WORK_SLOTS, dtype=wp.float64, device=dev)
+        self.work = wp.zeros((len(kgrid.WORK_TERMS) + 2 * len(kgrid.WALLS)) * kgrid.WORK_SLOTS, dtype=wp.float64,
+                             device=dev)
+        self._impulse_mark = (0.0, np.zeros(2 * len(kgrid.WALLS)))
 
     def _build(self) -> None:
         """Pick the kernel variants of this config and lay out the launches of one step."""
@@ -226,7 +230,8 @@ class MPMSolver:
                 remap=flags.get("remap", False))
 
         def grid(**flags):
-            kernel = kgrid.make_grid_update(prec, damping=c.damping > 0.0, layered=layered, **flags)
+            kernel = kgrid.make_grid_update(prec, damping=c.damping > 0.0, layered=layered,
+                                            obstacles=bool(self.scene.obstacles), **flags)
             if flags.get("remap"):
                 fields = [G.vm]
             elif flags.get("fused_impulse"):
@@ -294,6 +299,25 @@ class MPMSolver:
         self._diagnostics = kred.make_diagnostics(prec, self.material_kinds)
         # speeds of the initial state, for the first step's dt (later steps: inside G2P)
         wp.launch(kred.make_wave_speed(prec), n, inputs=[P, D, mats, self.max_speed, self.status], device=self.device)
+
+    def _solid_nodes(self, rows: int, cols: int) -> np.ndarray:
+        """Mask of the nodes of one layer that lie inside an obstacle (1) — (1, 1) zeros if none."""
+        if not self.scene.obstacles:
+            return np.zeros((1, 1), np.int32)
+        h = self.scene.cell_size
+        (x0, y0), _ = self.scene.domain
+        g = GHOST_NODES
+        ii, jj = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
+        xy = np.column_stack([(x0 + (ii - g) * h).ravel(), (y0 + (jj - g) * h).ravel()])
+        mask = np.zeros(rows * cols, bool)
+        for shape in self.scene.obstacles:
+            # nodes inside or on the outline are fixed
+            if shape.kind == "disk":
+                (cx, cy), r = shape._circle()
+                mask |= (xy[:, 0] - cx) ** 2 + (xy[:, 1] - cy) ** 2 <= r * r * (1.0 + 1e-12)
+            else:
+                mask |= shapely.intersects_xy(shape.polygon, xy[:, 0], xy[:, 1])
+        return mask.reshape(rows, cols).astype(np.int32)
 
     # -- stepping -------------------------------------------------------------------------------
     def step(self) -> None:
@@ -422,8 +446,19 @@ class MPMSolver:
                   device=self.device)
         vals = self.diag.numpy()
         out = {name: float(v) for name, v in zip(kred.DIAG_NAMES, vals, strict=True)}
-        works = self.work.numpy().reshape(len(kgrid.WORK_TERMS), kgrid.WORK_SLOTS).sum(axis=1)
+        sums = self.work.numpy().reshape(-1, kgrid.WORK_SLOTS).sum(axis=1)
+        works = sums[: len(kgrid.WORK_TERMS)]
         out.update({name: float(w) for name, w in zip(kgrid.WORK_TERMS, works, strict=True)})
+        # force on the obstacles [N/m]: impulse since the previous call / time since then
+        impulse = sums[kgrid.IMPULSE_BASE:]
+        t_now = float(self.clock.numpy()[0])
+        t_prev, i_prev = self._impulse_mark
+        span = t_now - t_prev
+        force = (impulse - i_prev) / span if span > 0.0 else np.zeros_like(impulse)
+        self._impulse_mark = (t_now, impulse)
+        for k, wall in enumerate(kgrid.WALLS if self.scene.obstacles else ()):
+            out[f"force_{wall}_x"] = float(force[2 * k])
+            out[f"force_{wall}_y"] = float(force[2 * k + 1])
         out["energy_total"] = out["energy_kinetic"] + out["energy_strain"] + out["energy_gravity"]
         if self.config.granular:
             out["components"], out["layers"] = (float(v) for v in self.granular_statistics())

@@ -104,6 +104,7 @@ class Scene:
     contact: ContactLaw | None = None
     bodies: list[MPMBody] = field(default_factory=list)
     rigid_bodies: list[RigidBody] = field(default_factory=list)
+    obstacles: list[Shape] = field(default_factory=list)
 
     def __post_init__(self):
         try:
@@ -265,6 +266,25 @@ class Scene:
                                            motion="fixed", friction=friction, name=f"wall_{side}"))
         return out
 
+    def add_obstacle(self, shape: Shape) -> Shape:
+        """A fixed obstacle inside the grid: every node inside or on ``shape`` has zero velocity.
+
+        For steps, ledges and bins the material flows over or into (the planes of "Granular MPM"
+        §4.2, which the paper also makes of fixed grid nodes). The force the material exerts on
+        all obstacles together is reported per frame as force_obstacles_x/y [N/m]. Points must
+        not be seeded inside an obstacle.
+        """
+        if self.cell_size is None:
+            raise InputError("cell_size", None, "a grid spacing h > 0 [m] in Scene(...) before adding obstacles")
+        if not isinstance(shape, Shape):
+            raise InputError("shape", shape, "a Shape (rectangle, disk, polygon) for the obstacle")
+        (x0, y0), (x1, y1) = self.domain
+        bx0, by0, bx1, by1 = shape.bounds
+        if bx1 < x0 or bx0 > x1 or by1 < y0 or by0 > y1:
+            raise InputError("shape", shape.to_dict(), f"an obstacle overlapping the domain {self.domain}")
+        self.obstacles.append(shape)
+        return shape
+
     def add_points(
         self,
         positions,
@@ -358,6 +378,7 @@ class Scene:
             "contact": self.contact.to_dict() if self.contact is not None else None,
             "rigid_bodies": [b.to_dict() for b in self.rigid_bodies],
             "boundaries": {s: {"kind": b.kind, "friction": b.friction} for s, b in self.boundaries.items()},
+            "obstacles": [o.to_dict() for o in self.obstacles],
             "bodies": [
                 {"name": b.name, "shape": b.shape.to_dict(), "material": b.material.to_dict(),
                  "velocity": getattr(b.velocity, "__name__", "field") if callable(b.velocity) else b.velocity,
