@@ -140,20 +140,27 @@ def make_point_update(kinds: tuple[int, ...], precision: str, density_control: s
                         sigma_new, szz_new, w_plastic = drucker_prager(sigma_old, szz_old, deps, spin, dt, m)
         vol_new = P.vol0[p] * wp.determinant(F_new)
         dissipated = wp.float64(0.0)
+        energy_old = energy
+        vol_avg = T(0.5) * (vol_old + vol_new)
         if wp.static(rate_form):
             if kind != NEO_HOOKEAN:
                 # stored energy: trapezoidal stress power (exact for a linear law; Δε_zz = 0 so σ_zz
                 # does no work) minus the plastic work σ : Δε^p V, which is dissipated
-                w = T(0.5) * wp.ddot(sigma_old + sigma_new, deps) * T(0.5) * (vol_old + vol_new)
+                w = T(0.5) * wp.ddot(sigma_old + sigma_new, deps) * vol_avg
                 energy = energy + w - w_plastic * vol_new
                 dissipated = -wp.float64(w_plastic * vol_new)
         if wp.static(critical):
             rho_cr = m[P_RHO_CRIT]
             if below_critical(P.mass[p] / vol_new, rho_cr):
-                # "Granular MPM" eq. 13: stress-free; the stored energy it had is released (dissipated)
+                # "Granular MPM" eq. 13: stress-free. The law's update of this step is discarded;
+                # the stored energy, plus the work the old stress did over the step (the forces of
+                # this step used it), is released: all of it is booked as dissipated.
                 sigma_new = t.mat22()
                 szz_new = T(0.0)
-                dissipated = dissipated - wp.float64(energy)
+                released = energy_old
+                if wp.static(rate_form):
+                    released = released + T(0.5) * wp.ddot(sigma_old, deps) * vol_avg
+                dissipated = -wp.float64(released)
                 energy = T(0.0)
                 if wp.static(revert):
                     # eq. 14: F = (I + L dt)⁻¹ F_new is F of the previous step; eq. 15: V = V0 det F

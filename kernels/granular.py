@@ -154,7 +154,7 @@ def make_domain_of_interaction(shape: str, precision: str):
 
 
 @functools.cache
-def make_granular_kernels(shape: str, precision: str, cell_capacity: int):
+def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged: bool = False):
     """(prepare, link, label) kernels of the interaction graph (see the module docstring).
 
     Launch each with dim = number of points and inputs
@@ -162,7 +162,8 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int):
     bins (cells × (1 + cell_capacity)) int32: a count then the points of each cell, cells indexed
     like ``Grid.mass`` (column-major over the node lattice of one layer); parent (N,) int32;
     dom_a, dom_b (N,) vec2; reach (N,) vec4i node range (x0, x1, y0, y1); status the solver's
-    status counters. ``bins`` must be zeroed before ``prepare``.
+    status counters. ``bins`` must be zeroed before ``prepare``. staged: points not yet released
+    (``P.release`` ahead of ``clock[0]``) stay single, unbinned components. Inputs end with ``clock``.
     """
     from .transfer import CORNERS, make_stencil  # noqa: PLC0415 (transfer imports this module's helpers)
 
@@ -210,9 +211,14 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int):
     def prepare(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params),
                 bins: wp.array2d(dtype=wp.int32), parent: wp.array(dtype=wp.int32),
                 dom_a: wp.array(dtype=t.vec2), dom_b: wp.array(dtype=t.vec2),
-                reach: wp.array(dtype=wp.vec4i), status: wp.array(dtype=wp.int32)):
+                reach: wp.array(dtype=wp.vec4i), status: wp.array(dtype=wp.int32),
+                clock: wp.array(dtype=wp.float64)):
         p = wp.tid()
         parent[p] = p
+        if wp.static(staged):
+            if clock[0] < P.release[p]:
+                reach[p] = wp.vec4i(0, -1, 0, -1)  # an empty node range: shares no node
+                return
         rho_cr = materials[P.material[p]][9]
         a, b = domain(P, p, rho_cr)
         dom_a[p] = a
@@ -241,8 +247,12 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int):
     def link(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params),
              bins: wp.array2d(dtype=wp.int32), parent: wp.array(dtype=wp.int32),
              dom_a: wp.array(dtype=t.vec2), dom_b: wp.array(dtype=t.vec2),
-             reach: wp.array(dtype=wp.vec4i), status: wp.array(dtype=wp.int32)):
+             reach: wp.array(dtype=wp.vec4i), status: wp.array(dtype=wp.int32),
+             clock: wp.array(dtype=wp.float64)):
         p = wp.tid()
+        if wp.static(staged):
+            if clock[0] < P.release[p]:
+                return
         rows = G.mass.shape[1]
         cx, cy = cell_of(P, D, p, rows)
         rp = reach[p]
@@ -258,7 +268,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int):
                     q = bins[cell, 1 + s]
                     if q <= p:
                         continue
-                    rq = reach[q]
+                    rq = reach[q]  # (an unreleased q is not in the bins)
                     # pre-task: a common node (the node ranges overlap in both directions)
                     if rq[0] > rp[1] or rp[0] > rq[1] or rq[2] > rp[3] or rp[2] > rq[3]:
                         continue
@@ -271,7 +281,8 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int):
     def label(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params),
               bins: wp.array2d(dtype=wp.int32), parent: wp.array(dtype=wp.int32),
               dom_a: wp.array(dtype=t.vec2), dom_b: wp.array(dtype=t.vec2),
-              reach: wp.array(dtype=wp.vec4i), status: wp.array(dtype=wp.int32)):
+              reach: wp.array(dtype=wp.vec4i), status: wp.array(dtype=wp.int32),
+              clock: wp.array(dtype=wp.float64)):
         p = wp.tid()
         P.comp[p] = find(parent, p)
 
@@ -279,17 +290,22 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int):
 
 
 @functools.cache
-def make_granular_statistics(precision: str):
-    """Kernel ``statistics(P, G, D, stats)`` over max(N, nodes of one layer) threads: the number
-    of components (points that are their own label) into stats[0] and the most grid layers in
-    use at one node into stats[1], for the diagnostics of an output frame (not run per step)."""
+def make_granular_statistics(precision: str, staged: bool = False):
+    """Kernel ``statistics(P, G, D, clock, stats)`` over max(N, nodes of one layer) threads: the
+    number of components (released points that are their own label) into stats[0] and the most
+    grid layers in use at one node into stats[1], for the diagnostics of an output frame."""
     Particles, Grid, Domain = make_state_structs(precision)
 
     @kernel
-    def statistics(P: Particles, G: Grid, D: Domain, stats: wp.array(dtype=wp.int32)):
+    def statistics(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64),
+                   stats: wp.array(dtype=wp.int32)):
         tid = wp.tid()
         if tid < P.comp.shape[0]:
-            if P.comp[tid] == tid:
+            counted = P.comp[tid] == tid
+            if wp.static(staged):
+                if clock[0] < P.release[tid]:
+                    counted = False
+            if counted:
                 wp.atomic_add(stats, STAT_COMPONENTS, 1)
         rows = G.owner.shape[1]
         if tid < D.layer_rows * rows:

@@ -13,6 +13,7 @@ __all__ = [
     "BC_FREE",
     "BC_FRICTION",
     "BC_SLIP",
+    "WORK_INFLOW",
     "WORK_PLASTIC",
     "WORK_SLOTS",
     "WORK_TERMS",
@@ -62,8 +63,9 @@ def make_boundary_condition(precision: str):
 
 #: Cumulative works accumulated on the device ("Motion integration" eq. 66-68), each spread over
 #: WORK_SLOTS addresses to keep atomics uncontended; the host sums the slots at output frames.
-WORK_TERMS = ("work_boundary", "work_damping", "work_plastic")
+WORK_TERMS = ("work_boundary", "work_damping", "work_plastic", "work_inflow")
 WORK_PLASTIC = 2
+WORK_INFLOW = 3  # energy (kinetic + gravity) that released points bring into the scene
 WORK_SLOTS = 16
 
 #: Cumulative impulse [N s/m] that the material exerts on the obstacles (x, y), stored after the
@@ -117,14 +119,17 @@ def make_boundary(precision: str, bilateral_only: bool = False):
 
 @functools.cache
 def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impulse: bool = False,
-                     remap: bool = False, damping: bool = False, layered: bool = False, obstacles: bool = False):
+                     remap: bool = False, damping: bool = False, layered: bool = False, obstacles: bool = False,
+                     clear: bool = False):
     """Nodal velocity V = p/m, and/or Ṽ = V + dt (f/m + g), both with the wall conditions.
 
     fused_impulse: the momentum already holds p + dt f (USL + PIC), so Ṽ = p/m + dt g.
     remap: normalise ``Grid.vm`` (MUSL re-mapped momentum) in place instead of ``Grid.mom``.
     damping: add Cundall's local damping force ("Motion integration" eq. 61-62).
     The work of wall reactions and of the damping force is accumulated into ``work``.
-    layered: granular mode, launched over every grid layer; walls act on each layer alike.
+    layered: granular mode, launched over every grid layer; walls act on each layer alike; copies
+    no component claimed are skipped. clear (layered, the step's last grid update): zero the mass,
+    momentum and force of the copies used, so the next step needs no memset of every layer.
     obstacles: nodes marked in ``Grid.solid`` (inside a ``Scene.add_obstacle`` shape) are fixed.
     The reaction impulses on walls and obstacles go to the IMPULSE_BASE slots of ``work``.
     """
@@ -183,13 +188,11 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         if wp.static(force):
             fint = G.force[i, j]
         if wp.static(layered):
-            # copies no component uses this step are skipped; used ones are read and cleared here,
-            # so the next step's P2G finds zeros without a memset of every layer
             if G.owner[i, j] < 0:
                 return
-            G.mass[i, j] = T(0.0)
-            G.mom[i, j] = t.vec2()
-            if wp.static(force):
+            if wp.static(clear):
+                G.mass[i, j] = T(0.0)
+                G.mom[i, j] = t.vec2()
                 G.force[i, j] = t.vec2()
         if m <= D.mass_eps:
             if wp.static(remap):

@@ -143,11 +143,12 @@ def advance_time(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int
 
 
 @functools.cache
-def make_diagnostics(precision: str, material_kinds: tuple = (0,)):
+def make_diagnostics(precision: str, material_kinds: tuple = (0,), staged: bool = False):
     """Sums over points of the DIAG_NAMES quantities into a float64 array.
 
     Stored energy: accumulated per point for the rate-form linear elastic law; for Neo-Hookean
     points it is a function of F alone, evaluated here (so the step never computes it).
+    staged: points not yet released (``P.release`` > t) are left out.
     """
     t = scalar_types(precision)
     Particles, Grid, Domain = make_state_structs(precision)
@@ -155,8 +156,12 @@ def make_diagnostics(precision: str, material_kinds: tuple = (0,)):
     has_nh = 1 in material_kinds
 
     @kernel
-    def diagnostics(P: Particles, D: Domain, materials: wp.array(dtype=t.params), out: wp.array(dtype=wp.float64)):
+    def diagnostics(P: Particles, D: Domain, materials: wp.array(dtype=t.params), out: wp.array(dtype=wp.float64),
+                    t_now: wp.float64):
         p = wp.tid()
+        if wp.static(staged):
+            if t_now < P.release[p]:
+                return
         m = wp.float64(P.mass[p])
         vx = wp.float64(P.v[p][0])
         vy = wp.float64(P.v[p][1])

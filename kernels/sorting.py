@@ -30,8 +30,8 @@ def make_cell_keys(precision: str):
 
 
 @functools.cache
-def make_gather_points(precision: str):
-    """dst[p] = src[order[p]] for every per-point array."""
+def make_gather_points(precision: str, staged: bool = False):
+    """dst[p] = src[order[p]] for every per-point array (and the release times when staged)."""
     Particles = make_state_structs(precision)[0]
 
     @kernel
@@ -51,5 +51,7 @@ def make_gather_points(precision: str):
         dst.material[p] = src.material[q]
         dst.strain_energy[p] = src.strain_energy[q]
         dst.pid[p] = src.pid[q]
+        if wp.static(staged):
+            dst.release[p] = src.release[q]
 
     return gather_points

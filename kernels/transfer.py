@@ -11,7 +11,7 @@ import warp as wp
 
 from .constitutive import make_point_update
 from .granular import STATUS_LAYER_OVERFLOW, make_layer_row
-from .grid import WORK_PLASTIC, work_slot
+from .grid import WORK_INFLOW, WORK_PLASTIC, work_slot
 from .reductions import make_speed_check
 from .shape_functions import CPGIMP_MAX_HALF, SUPPORT_NODES, make_weights_1d
 from .state import make_state_structs
@@ -136,6 +136,7 @@ def make_p2g(
     remap: bool = False,
     deterministic: bool = False,
     layered: bool = False,
+    staged: bool = False,
 ):
     """P2G of mass, momentum (with the affine term) and internal force.
 
@@ -144,7 +145,8 @@ def make_p2g(
     (MUSL's re-mapping of the updated particle velocities). deterministic: run-to-run
     bit-identical float atomics on GPUs. layered: granular mode, each point writes to its
     component's copy of every node (``kernels.granular``); the pass that moves mass claims the
-    copies, and a node without a free copy counts into ``status``.
+    copies, and a node without a free copy counts into ``status``. staged: points whose release
+    time (``P.release``) is still ahead take no part (``Scene.add_points(release_time=...)``).
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -163,6 +165,9 @@ def make_p2g(
         dt = T(clock[1])
         if dt <= T(0.0):
             return
+        if wp.static(staged):
+            if clock[0] < P.release[p]:
+                return
         if not point_on_grid(P, D, G, p):
             return  # escaped (or non-finite) point: skipped here, flagged by the status check
         c = (P.x[p] - D.origin) * D.inv_h
@@ -233,6 +238,7 @@ def make_g2p(
     density_control: str = "revert",
     critical: bool = False,
     layered: bool = False,
+    staged: bool = False,
 ):
     """G2P: particle velocity, affine matrix, position, and (optionally fused) stress update.
 
@@ -243,7 +249,8 @@ def make_g2p(
     stress_fraction: the share of dt this stress update covers (0.5 for each half of USAVG).
     density_control, critical: see ``constitutive.make_point_update``; the energy the update
     dissipates goes to the "work_plastic" term of ``work``. layered: granular mode, each point
-    reads its component's copy of every node (``kernels.granular``).
+    reads its component's copy of every node (``kernels.granular``). staged: points not yet
+    released stay where they are, untouched.
     position_mode "xpic": XPIC(m) velocity (eq. 40, from the smoothed field ``Grid.vs``) and
     position (eq. 41) updates; when velocity and position are split (MUSL) the displacement is
     kept in ``Particles.tmp`` between the two kernels.
@@ -289,6 +296,18 @@ def make_g2p(
         dt = T(clock[1])
         if dt <= T(0.0):
             return
+        if wp.static(staged):
+            if clock[0] < P.release[p]:
+                return
+            if wp.static(position) and P.release[p] >= wp.float64(0.0):
+                # first step in the scene: book the energy it brings (kinetic + gravity) as inflow
+                # work, then mark it as booked (release = −1); points there from t = 0 are in the
+                # initial energy already
+                if P.release[p] > wp.float64(0.0):
+                    vp = P.v[p]
+                    e = P.mass[p] * (T(0.5) * wp.dot(vp, vp) - wp.dot(D.gravity, P.x[p]))
+                    wp.atomic_add(work, work_slot(WORK_INFLOW, p, 0), wp.float64(e))
+                P.release[p] = wp.float64(-1.0)
         if not point_on_grid(P, D, G, p):
             return  # escaped (or non-finite) point: skipped here, flagged by the status check
         c = (P.x[p] - D.origin) * D.inv_h
@@ -299,6 +318,8 @@ def make_g2p(
         Dm = t.mat22()
         grad_vt = t.mat22()
         L = t.mat22()
+        gsum = t.vec2()
+        vref = t.vec2()
         comp = int(0)
         if wp.static(layered):
             comp = P.comp[p]
@@ -329,10 +350,31 @@ def make_g2p(
                             Dm = Dm + w * wp.outer(dpos, dpos)  # eq. 27
                     if wp.static(need_grad_vt or fused_grad):
                         grad_vt = grad_vt + wp.outer(vt, grad)  # ∇Ṽ, eq. 22/45
+                        if wp.static(layered):
+                            if w > T(0.0):
+                                gsum = gsum + grad
                     if wp.static(stress == "v"):
-                        L = L + wp.outer(G.v[row, gj], grad)
+                        vn = G.v[row, gj]
+                        L = L + wp.outer(vn, grad)
+                        if wp.static(layered):
+                            if w > T(0.0):
+                                gsum = gsum + grad
+                                vref = vref + w * vn
                     if wp.static(stress == "vm"):
-                        L = L + wp.outer(G.vm[row, gj], grad)
+                        vn = G.vm[row, gj]
+                        L = L + wp.outer(vn, grad)
+                        if wp.static(layered):
+                            if w > T(0.0):
+                                gsum = gsum + grad
+                                vref = vref + w * vn
+        if wp.static(layered and (need_grad_vt or fused_grad)):
+            # ∇Ṽ = Σ (v_i − v_p) ⊗ ∇N_i over the nodes the point puts mass on: equal to Σ v_i ⊗ ∇N_i
+            # when it has mass on its whole stencil (Σ ∇N_i = 0), and zero for a lone point of a
+            # component sitting on a node line, whose massless neighbour node (v = 0) would
+            # otherwise fake a strain rate −v_p/h (points alone on their grid are common here)
+            grad_vt = grad_vt - wp.outer(v_pic, gsum)
+        if wp.static(layered and (stress == "v" or stress == "vm")):
+            L = L - wp.outer(vref, gsum)  # the same for the gradient of V or of the re-mapped field
         if wp.static(fused_grad):
             L = grad_vt
         x_old = P.x[p]

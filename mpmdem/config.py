@@ -194,9 +194,9 @@ class SolverConfig:
             v = getattr(self, name)
             if v is not None and not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 1024):
                 raise InputError(name, v, "an integer in 1..1024, or None (automatic)")
-        if self.granular and (self.update != "USL" or self.scheme.xpic):
-            raise InputError("update", self.update,
-                             "USL with a non-XPIC transfer in granular mode (the scheme of 'Granular MPM' §3.4)")
+        if self.granular and self.scheme.xpic:
+            raise InputError("transfer", self.transfer, "a non-XPIC transfer in granular mode (XPIC's smoothing "
+                             "passes are not layered yet)")
 
     @property
     def scheme(self) -> TransferScheme:

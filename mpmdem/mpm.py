@@ -90,12 +90,14 @@ class MPMSolver:
         if config.shape == "ugimp" and (host["half"] > 0.5 * scene.cell_size + 1e-12).any():
             raise InputError("shape", config.shape, "uGIMP needs points_per_cell >= 1 (half-lengths <= h/2)")
         self.body = host["body"]
+        self.release_times = host["release"]  # [s], scene order
         ppc = max(b.points_per_cell for b in scene.bodies)
         reach = SUPPORT_NODES[config.shape] + (1 if config.shape == "cpdi1" else 0)
         # at most (cells reaching a node) × (points per cell) components can meet at one node
         self.granular_layers = (min(64, max(8, reach * reach * ppc * ppc)) if config.granular_layers is None
                                 else config.granular_layers) if config.granular else 1
         self.granular_cell_capacity = config.granular_cell_capacity or max(16, 4 * ppc * ppc)
+        self.staged = bool((host["release"] > 0.0).any())
         mats = scene.materials()
         self.critical = any(m.critical_density is not None for m in mats)
         self.order = device_order(host["x"], scene.domain[0], scene.cell_size)
@@ -127,6 +129,7 @@ class MPMSolver:
         P.stress = wp.zeros(n, dtype=t.mat22, device=dev)
         P.szz = wp.zeros(n, dtype=t.scalar, device=dev)
         P.comp = wp.zeros(n if self.config.granular else 1, dtype=wp.int32, device=dev)
+        P.release = wp.array(host["release"] if self.staged else np.zeros(1), dtype=wp.float64, device=dev)
         P.mass = wp.array(host["mass"].astype(T), dtype=t.scalar, device=dev)
         P.vol = wp.array(host["vol"].astype(T), dtype=t.scalar, device=dev)
         P.vol0 = wp.array(host["vol"].astype(T), dtype=t.scalar, device=dev)
@@ -212,6 +215,7 @@ class MPMSolver:
         # image points at walls (kernels/grid.py: fold_ghosts, mirror_ghosts)
         mirror_walls = any(b.kind != "free" for b in self.scene.boundaries.values())
         layered = c.granular
+        self._grid_kernels = {}
         mirror = kgrid.make_mirror_ghosts(prec, layered=layered)
 
         def fold(**flags):
@@ -223,15 +227,20 @@ class MPMSolver:
             return [_Launch(mirror, grid_dim, [f, D, clock, G.owner]) for f in fields] if mirror_walls else []
 
         def p2g(**flags):
-            kernel = ktr.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic, layered=layered, **flags)
+            kernel = ktr.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic, layered=layered,
+                                  staged=self.staged, **flags)
             fused = flags.get("fused_impulse", False)
             return [_Launch(kernel, n, [P, G, D, clock, self.status])] + fold(
                 mass=flags["mass"], momentum=flags["momentum"] or fused, force=flags["force"] and not fused,
                 remap=flags.get("remap", False))
 
         def grid(**flags):
-            kernel = kgrid.make_grid_update(prec, damping=c.damping > 0.0, layered=layered,
-                                            obstacles=bool(self.scene.obstacles), **flags)
+            def make(clear=False):
+                return kgrid.make_grid_update(prec, damping=c.damping > 0.0, layered=layered,
+                                              obstacles=bool(self.scene.obstacles), clear=clear, **flags)
+
+            kernel = make()
+            self._grid_kernels[id(kernel)] = make
             if flags.get("remap"):
                 fields = [G.vm]
             elif flags.get("fused_impulse"):
@@ -242,7 +251,8 @@ class MPMSolver:
 
         def g2p(**flags):
             k = ktr.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds,
-                             density_control=c.density_control, critical=self.critical, layered=layered, **flags)
+                             density_control=c.density_control, critical=self.critical, layered=layered,
+                             staged=self.staged, **flags)
             return [_Launch(k, n, [P, G, D, clock, mats, self.max_speed, self.status, work])]
 
         def xpic_smoothing():
@@ -267,8 +277,9 @@ class MPMSolver:
             # Granular MPM tasks 1-2: interaction graph and components; the copies of each node
             # are claimed in the P2G below (kernels/granular.py)
             seq += [("zero", self.bins), ("fill", G.owner)]
-            gin = [P, G, D, mats, self.bins, self.parent, self.dom_a, self.dom_b, self.reach, self.status]
-            seq += [_Launch(k, n, gin) for k in kgran.make_granular_kernels(c.shape, prec, self.granular_cell_capacity)]
+            gin = [P, G, D, mats, self.bins, self.parent, self.dom_a, self.dom_b, self.reach, self.status, clock]
+            kernels = kgran.make_granular_kernels(c.shape, prec, self.granular_cell_capacity, staged=self.staged)
+            seq += [_Launch(k, n, gin) for k in kernels]
         if c.update == "USL":
             if self.fused:
                 seq += p2g(mass=True, momentum=True, force=True, fused_impulse=True)
@@ -295,8 +306,14 @@ class MPMSolver:
             seq += [("zero", G.vm)] + p2g(mass=False, momentum=True, force=False, remap=True)
             seq += grid(velocity=False, force=False, remap=True)
             seq += g2p(velocity=False, position=True, stress="vm", stress_fraction=half)
+        if layered:
+            # the step's last grid update clears the copies it used (kernels/grid.py)
+            last = max(k for k, item in enumerate(seq)
+                       if isinstance(item, _Launch) and id(item.kernel) in self._grid_kernels)
+            item = seq[last]
+            seq[last] = _Launch(self._grid_kernels[id(item.kernel)](clear=True), item.dim, item.inputs)
         self._sequence = seq
-        self._diagnostics = kred.make_diagnostics(prec, self.material_kinds)
+        self._diagnostics = kred.make_diagnostics(prec, self.material_kinds, staged=self.staged)
         # speeds of the initial state, for the first step's dt (later steps: inside G2P)
         wp.launch(kred.make_wave_speed(prec), n, inputs=[P, D, mats, self.max_speed, self.status], device=self.device)
 
@@ -354,6 +371,7 @@ class MPMSolver:
                 setattr(scratch, name, wp.empty_like(getattr(self.P, name)))
             scratch.tmp = self.P.tmp
             scratch.comp = self.P.comp
+            scratch.release = wp.empty_like(self.P.release) if self.staged else self.P.release
             keys = wp.empty(2 * n, dtype=wp.int32, device=dev)
             values = wp.empty(2 * n, dtype=wp.int32, device=dev)
             self._sort = (scratch, keys, values)
@@ -364,8 +382,9 @@ class MPMSolver:
                       inputs=[self.P, self.D, rows, cols, keys, values], device=dev)
             wp.utils.radix_sort_pairs(keys, values, n)
             order = values
-        wp.launch(ksort.make_gather_points(self.config.precision), n, inputs=[self.P, scratch, order], device=dev)
-        for name in self._POINT_FIELDS:
+        wp.launch(ksort.make_gather_points(self.config.precision, self.staged), n, inputs=[self.P, scratch, order],
+                  device=dev)
+        for name in self._POINT_FIELDS + (("release",) if self.staged else ()):
             wp.copy(getattr(self.P, name), getattr(scratch, name))
 
     def sort_points(self) -> None:
@@ -391,7 +410,7 @@ class MPMSolver:
 
     def state_arrays(self) -> dict[str, wp.array]:
         """Every time-varying device array (what a checkpoint holds), by a stable name."""
-        arrays = {f"P.{name}": getattr(self.P, name) for name in _STATE_FIELDS}
+        arrays = {f"P.{name}": getattr(self.P, name) for name in _STATE_FIELDS + (("release",) if self.staged else ())}
         arrays.update(clock=self.clock, steps=self.steps, max_speed=self.max_speed, status=self.status,
                       work=self.work)
         return arrays
@@ -442,7 +461,8 @@ class MPMSolver:
     def diagnostics(self) -> dict[str, float]:
         """Energies [J/m], momenta [kg/s, kg m/s per m] and mass [kg/m] of the points."""
         self.diag.zero_()
-        wp.launch(self._diagnostics, self.particle_count, inputs=[self.P, self.D, self.materials, self.diag],
+        t_now = float(self.clock.numpy()[0])
+        wp.launch(self._diagnostics, self.particle_count, inputs=[self.P, self.D, self.materials, self.diag, t_now],
                   device=self.device)
         vals = self.diag.numpy()
         out = {name: float(v) for name, v in zip(kred.DIAG_NAMES, vals, strict=True)}
@@ -470,8 +490,8 @@ class MPMSolver:
             raise InputError("granular", False, "granular mode (SolverConfig(granular=True))")
         self.granular_stats.zero_()
         dim = max(self.particle_count, self.D.layer_rows * self.grid_shape[1])
-        wp.launch(kgran.make_granular_statistics(self.config.precision), dim,
-                  inputs=[self.P, self.G, self.D, self.granular_stats], device=self.device)
+        wp.launch(kgran.make_granular_statistics(self.config.precision, self.staged), dim,
+                  inputs=[self.P, self.G, self.D, self.clock, self.granular_stats], device=self.device)
         c, layers = self.granular_stats.numpy()
         return int(c), int(layers)
 
@@ -496,4 +516,8 @@ class MPMSolver:
             out[k] = np.empty_like(a.numpy())
             out[k][pid] = a.numpy()  # back to the scene's order
         out["body"] = self.body.copy()
+        if self.staged:
+            waiting = self.release_times > float(self.clock.numpy()[0])
+            out["x"][waiting] = np.nan  # not in the scene yet
+            out["v"][waiting] = np.nan
         return out

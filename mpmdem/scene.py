@@ -59,6 +59,7 @@ class MPMBody:
     points_per_cell: int
     angular_velocity: float = 0.0
     points: SeededPoints | None = None  # explicit points (Scene.add_points) instead of a seeded shape
+    release_times: np.ndarray | None = None  # [s] per point: when it enters the scene (add_points)
 
     def initial_velocity(self, x: np.ndarray) -> np.ndarray:
         """Velocity [m/s] of points at positions x (N, 2): the field, or the rigid motion."""
@@ -292,13 +293,17 @@ class Scene:
         *,
         size: float,
         velocity=(0.0, 0.0),
+        release_time=0.0,
         name: str | None = None,
     ) -> MPMBody:
         """Material points at given positions (N, 2) [m], each a square domain of edge ``size`` [m].
 
         For set-ups that place points one by one (the 1D disconnection example of "Granular MPM"
         §4.1). Mass = density × size² per point; GIMP half-lengths size/2. velocity: (vx, vy)
-        [m/s] for all, or an (N, 2) array of per-point velocities.
+        [m/s] for all, or an (N, 2) array of per-point velocities. release_time: when the points
+        enter the scene [s], one value or one per point (a feed, like the silo filling of
+        "Granular MPM" §4.3); until then they take no part, are left out of the diagnostics and
+        written as NaN. The energy they bring is booked as the work term ``work_inflow``.
         """
         if self.cell_size is None:
             raise InputError("cell_size", None, "a grid spacing h > 0 [m] in Scene(...) before adding MPM bodies")
@@ -319,11 +324,17 @@ class Scene:
         if (x[:, 0] < x0).any() or (x[:, 0] > x1).any() or (x[:, 1] < y0).any() or (x[:, 1] > y1).any():
             raise InputError("positions", positions, f"points inside the domain {self.domain}")
         n = len(x)
+        try:
+            rel = np.broadcast_to(np.asarray(release_time, dtype=float), (n,)).copy()
+        except (TypeError, ValueError):
+            rel = None
+        if rel is None or rel.shape != (n,) or not np.isfinite(rel).all() or (rel < 0.0).any():
+            raise InputError("release_time", release_time, f"a time >= 0 [s], or {n} of them (one per point)")
         pts = SeededPoints(x.copy(), np.full(n, size * size), np.full((n, 2), 0.5 * size))
         lo, hi = x.min(axis=0) - 0.5 * size, x.max(axis=0) + 0.5 * size
         vel = v.copy()
         body = MPMBody(name or f"body{len(self.bodies)}", rectangle(lo[0], lo[1], hi[0], hi[1]), material,
-                       lambda _x, _v=vel: _v, max(1, round(self.cell_size / size)), 0.0, pts)
+                       lambda _x, _v=vel: _v, max(1, round(self.cell_size / size)), 0.0, pts, rel.copy())
         self.bodies.append(body)
         return body
 
@@ -357,6 +368,7 @@ class Scene:
                 x=x, v=v, vol=pts.volumes, half=pts.half_sizes,
                 mass=pts.volumes * b.material.density,
                 body=np.full(n, k, np.int32),
+                release=b.release_times if b.release_times is not None else np.zeros(n),
             ))
         return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
 

@@ -287,9 +287,11 @@ class Simulation:
         g = math.hypot(*self.scene.gravity)
         stored = e0.get("energy_strain", 0.0) + e0.get("energy_contact", 0.0)
         scale = e0["energy_kinetic"] + stored + e0["mass"] * g * math.hypot(x1 - x0, y1 - y0)
-        # energy put in by driven (kinematic) bodies is not growth, and sets a scale of its own
-        driven = d.get("work_driven", 0.0)
-        scale = max(scale + abs(driven), 1e-30)
+        # energy put in by driven (kinematic) bodies or brought by released points is not growth,
+        # and sets a scale of its own (the released mass falling through the domain, at most)
+        driven = d.get("work_driven", 0.0) + d.get("work_inflow", 0.0)
+        inflow = max(d.get("mass", 0.0) - e0.get("mass", 0.0), 0.0) * g * math.hypot(x1 - x0, y1 - y0)
+        scale = max(scale + abs(driven) + inflow, 1e-30)
         growth = d["energy_total"] - e0["energy_total"] - driven
         if growth > self.config.blowup_energy_factor * scale:
             raise BlowUpError(

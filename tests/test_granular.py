@@ -121,8 +121,10 @@ def test_layers_separate_components_on_every_node(shape, seed):
     assert m.granular_statistics()[1] == max(len(s) for s in reaching.values())
 
 
-def test_separate_islands_evolve_as_if_alone():
-    """Two islands sharing grid nodes but not interacting give bit-identical results to each alone."""
+@pytest.mark.parametrize("update", ["USL", "MUSL", "USF"])
+def test_separate_islands_evolve_as_if_alone(update):
+    """Two islands sharing grid nodes but not interacting give bit-identical results to each alone
+    (for every stress-update order: each pass finds the copy its component claimed)."""
     left = np.array([[0.0525 + 0.005 * i, 0.1025 + 0.005 * j] for i in range(4) for j in range(4)])
     right = left + np.array([0.0275, 0.0])  # 7.5 mm gap: shared nodes, no overlap of the domains
     vel_l = np.tile([0.3, 0.1], (len(left), 1)) + np.linspace(0, 0.05, len(left))[:, None]
@@ -134,8 +136,8 @@ def test_separate_islands_evolve_as_if_alone():
         mat = MohrCoulomb(1.0e5, 0.3, 1500.0, 30.0, critical_density=1400.0)
         for x, v in parts:
             scene.add_points(x, mat, size=0.5 * H, velocity=v)
-        sim = Simulation(scene, SolverConfig(granular=True, shape="linear", precision="f64", dt=2.0e-5),
-                         device="cpu")
+        sim = Simulation(scene, SolverConfig(granular=True, shape="linear", precision="f64", dt=2.0e-5,
+                                             update=update), device="cpu")
         sim.mpm.set_stop_time(2.0e-3)
         for _ in range(100):
             sim.mpm.step()
@@ -192,14 +194,15 @@ def test_density_control_dissipates_the_released_energy():
     _, _, sim = _stretched_block("revert", elastic=True)
     d = sim.mpm.diagnostics()
     assert d["work_plastic"] < 0.0
-    assert d["energy_strain"] == pytest.approx(0.0, abs=1e-3 * -d["work_plastic"])
+    # points held at ρ_cr by the control store at most one step's strain energy again: small
+    # against what was released (the block was stretched 4 % past the 0.7 % of ρ_cr)
+    assert 0.0 <= d["energy_strain"] < 0.01 * -d["work_plastic"]
 
 
 @pytest.mark.parametrize(
     "change, name",
     [
-        ({"granular": True, "update": "MUSL"}, "update"),
-        ({"granular": True, "transfer": "XPIC"}, "update"),
+        ({"granular": True, "transfer": "XPIC"}, "transfer"),
         ({"density_control": "freeze"}, "density_control"),
         ({"granular_layers": 0}, "granular_layers"),
         ({"granular_cell_capacity": 2.5}, "granular_cell_capacity"),
@@ -258,3 +261,23 @@ def test_obstacle_load_cell_reads_the_weight(granular):
     # 0.1 % leaves room for the residual oscillation of the damped block
     assert result.diagnostics["force_obstacles_y"][-1] == pytest.approx(-weight, rel=1e-3)
     assert abs(result.diagnostics["force_obstacles_x"][-1]) < 1e-3 * weight
+
+
+def test_released_points_enter_on_time_and_bring_their_mass():
+    """Points fed in over time (silo filling, §4.3): out of the scene (NaN, no mass) until their
+    release time, then counted; the energy they bring is booked as work_inflow."""
+    scene = Scene(domain=((0.0, 0.0), (0.3, 0.3)), cell_size=0.02, gravity=(0.0, -9.81))
+    mat = MohrCoulomb(1.0e6, 0.3, 2000.0, 30.0, critical_density=1980.0)
+    pos = np.array([[0.15, 0.25]] * 3)
+    scene.add_points(pos, mat, size=0.01, release_time=[0.0, 0.01, 0.02])
+    sim = Simulation(scene, SolverConfig(granular=True, shape="linear", precision="f64", dt=1.0e-4), device="cpu")
+    result = sim.run(end_time=0.03, frames=3, quiet=True)
+    m_point = 2000.0 * 0.01 ** 2
+    np.testing.assert_allclose(result.diagnostics["mass"], m_point * np.array([1, 2, 3, 3]), rtol=1e-12)
+    assert result.diagnostics["work_inflow"][-1] == pytest.approx(2 * m_point * 9.81 * 0.25, rel=1e-12)
+    # the energy balance closes: the inflow explains the energy that appeared (without it the
+    # residual would be the whole inflow); what is left is the transfer's loss as the later points
+    # land on the first within a cell, well under 1 % of it
+    assert abs(result.diagnostics["work_numerical"][-1]) < 1e-2 * result.diagnostics["work_inflow"][-1]
+    with pytest.raises(InputError, match="release_time"):
+        scene.add_points(pos, mat, size=0.01, release_time=[0.0, 1.0])
