@@ -16,6 +16,11 @@ CASES = {
     "pentagon-pile": "pentagon_pile",
     "domino": "domino",
     "disconnection-1d": "disconnection_1d",
+    "slope-flow": "slope_flow",
+    "avalanche": "avalanche",
+    "silo-filling": "silo_filling",
+    "toyoura-flume": "toyoura_flume",
+    "column-collapse": "column_collapse",
 }
 
 DEFAULT_CASE = "sulsky-disks"

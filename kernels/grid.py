@@ -127,8 +127,8 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     remap: normalise ``Grid.vm`` (MUSL re-mapped momentum) in place instead of ``Grid.mom``.
     damping: add Cundall's local damping force ("Motion integration" eq. 61-62).
     The work of wall reactions and of the damping force is accumulated into ``work``.
-    layered: granular mode, launched over every grid layer; walls act on each layer alike; copies
-    no component claimed are skipped. clear (layered, the step's last grid update): zero the mass,
+    layered: granular mode, launched over the nodes of one layer; each thread updates the copies
+    of its node that components claimed (a prefix of the layers). clear (layered, the step's last grid update): zero the mass,
     momentum and force of the copies used, so the next step needs no memset of every layer.
     obstacles: nodes marked in ``Grid.solid`` (inside a ``Scene.add_obstacle`` shape) are fixed.
     The reaction impulses on walls and obstacles go to the IMPULSE_BASE slots of ``work``.
@@ -173,23 +173,17 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     def constrain_start(v: t.vec2, m: T, D: Domain, G: Grid, i: int, j: int, work: wp.array(dtype=wp.float64)):
         return wall_work(v, solid(dirichlet(v, D, i, j), G, i, j), m, D, G, i, j, work)
 
-    @kernel
-    def grid_update(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), work: wp.array(dtype=wp.float64)):
-        i, j = wp.tid()
-        ib = i  # node column of (i, j) within its layer, for the wall conditions
-        if wp.static(layered):
-            ib = i % D.layer_rows
+    @wp.func
+    def update_node(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), work: wp.array(dtype=wp.float64),
+                    i: int, ib: int, j: int):
+        # node (ib, j) of the grid, stored in row i (its copy's row in granular mode)
         dt = T(clock[1])
-        if dt <= T(0.0):
-            return
         m = G.mass[i, j]
         mom = G.mom[i, j]
         fint = t.vec2()
         if wp.static(force):
             fint = G.force[i, j]
         if wp.static(layered):
-            if G.owner[i, j] < 0:
-                return
             if wp.static(clear):
                 G.mass[i, j] = T(0.0)
                 G.mom[i, j] = t.vec2()
@@ -234,6 +228,21 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
                 wp.atomic_add(work, work_slot(1, i, j), wp.float64(wp.dot(fd, v) * dt))
             # Ṽ = V + a Δt, a = f/m + g ("Motion integration" eq. 28; "MPM notes" steps 5-7)
             G.vt[i, j] = constrain(v + dt * f * inv_m, m, D, G, ib, j, work)
+
+    @kernel
+    def grid_update(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), work: wp.array(dtype=wp.float64)):
+        i, j = wp.tid()
+        if clock[1] <= wp.float64(0.0):
+            return
+        if wp.static(layered):
+            # launched over one layer: the copies in use at a node are a prefix (claimed first-fit)
+            for s in range(D.layers):
+                r = s * D.layer_rows + i
+                if G.owner[r, j] < 0:
+                    break
+                update_node(G, D, clock, work, r, i, j)
+        else:
+            update_node(G, D, clock, work, i, i, j)
 
     return grid_update
 
@@ -298,24 +307,25 @@ def make_mirror_ghosts(precision: str, layered: bool = False):
     @kernel
     def mirror_ghosts(field: wp.array2d(dtype=t.vec2), D: Domain, clock: wp.array(dtype=wp.float64),
                       owner: wp.array2d(dtype=wp.int32)):
-        i, j = wp.tid()
+        i, j = wp.tid()  # a node of one layer
         if clock[1] <= wp.float64(0.0):
             return
-        ib = i
+        si, sj, sx, sy, mirrored = _mirror_node(i, j, D.node_lo, D.node_hi, D.bc_kind)
+        if not mirrored:
+            return
         if wp.static(layered):
-            ib = i % D.layer_rows
-        si, sj, sx, sy, mirrored = _mirror_node(ib, j, D.node_lo, D.node_hi, D.bc_kind)
-        if mirrored:
-            src = si
-            if wp.static(layered):
-                c = owner[i, j]
+            for s in range(D.layers):
+                r = s * D.layer_rows + i
+                c = owner[r, j]
                 if c < 0:
-                    return
+                    break
                 src = find_row(owner, si, sj, c, D.layer_rows, D.layers)
-                if src < 0:
-                    field[i, j] = t.vec2()
-                    return
-            v = field[src, sj]
+                v = t.vec2()
+                if src >= 0:
+                    v = field[src, sj]
+                field[r, j] = t.vec2(T(sx) * v[0], T(sy) * v[1])
+        else:
+            v = field[si, sj]
             field[i, j] = t.vec2(T(sx) * v[0], T(sy) * v[1])
 
     return mirror_ghosts
@@ -347,8 +357,9 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
     (Exact for slip walls; for fixed walls the odd extension is exact in 1D and a close
     approximation in 2D.) Each interior node gathers its images in a fixed order (no atomics),
     so the fold is deterministic. In a domain narrower than the stencil, ghosts farther out than
-    the opposite wall have no interior mirror and are not folded. layered (granular mode): each
-    copy of an interior node gathers from the ghost copies of its own component (``G.owner``).
+    the opposite wall have no interior mirror and are not folded. layered (granular mode): launched
+    over one layer; each copy in use of an interior node gathers from the ghost copies of its own
+    component (``G.owner``).
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -379,14 +390,9 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
             v = v + t.vec2(T(sign(kx, 0, 0) * sign(ky, 1, 0)) * u[0], T(sign(kx, 0, 1) * sign(ky, 1, 1)) * u[1])
         a[r, j] = v
 
-    @kernel
-    def fold_ghosts(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
-        r, j = wp.tid()
-        if clock[1] <= wp.float64(0.0):
-            return
-        i = r
-        if wp.static(layered):
-            i = r % D.layer_rows
+    @wp.func
+    def fold_node(G: Grid, D: Domain, r: int, i: int, j: int):
+        # node (i, j) of the grid, stored in row r (its copy's row in granular mode)
         lo = D.node_lo
         hi = D.node_hi
         if i < lo[0] or i > hi[0] or j < lo[1] or j > hi[1]:
@@ -402,8 +408,6 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
         rxy = int(-1)
         if wp.static(layered):
             c = G.owner[r, j]
-            if c < 0:
-                return
             if gi >= 0:
                 rx = find_row(G.owner, gi, j, c, D.layer_rows, D.layers)
             if gj >= 0:
@@ -435,6 +439,20 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
             fold_vec(G.force, r, j, rx, ry, gj, rxy, kx, ky)
         if wp.static(xpic):
             fold_vec(G.pk, r, j, rx, ry, gj, rxy, kx, ky)
+
+    @kernel
+    def fold_ghosts(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
+        i, j = wp.tid()  # a node of one layer
+        if clock[1] <= wp.float64(0.0):
+            return
+        if wp.static(layered):
+            for s in range(D.layers):
+                r = s * D.layer_rows + i
+                if G.owner[r, j] < 0:
+                    break
+                fold_node(G, D, r, i, j)
+        else:
+            fold_node(G, D, i, i, j)
 
     return fold_ghosts
 

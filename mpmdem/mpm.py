@@ -210,7 +210,8 @@ class MPMSolver:
         s = c.scheme
         prec = c.precision
         n = self.particle_count
-        grid_dim = self.grid_shape
+        # grid kernels run over the nodes of one layer (in granular mode they loop over the copies)
+        grid_dim = (self.D.layer_rows, self.grid_shape[1])
         P, G, D, clock, mats, work = self.P, self.G, self.D, self.clock, self.materials, self.work
         # image points at walls (kernels/grid.py: fold_ghosts, mirror_ghosts)
         mirror_walls = any(b.kind != "free" for b in self.scene.boundaries.values())
