@@ -9,11 +9,10 @@ import math
 import sys
 
 import numpy as np
+from mpmdem.cases._variants import VARIANTS, plot_variants, run_variant
 
 from mpmdem import MohrCoulomb, Scene, rectangle
 from mpmdem.runner import CaseSetup
-
-from mpmdem.cases._variants import VARIANTS, plot_variants, run_variant
 
 NAME = "slope-flow"
 DESCRIPTION = "a granular block flows down a 30° slope: mean density in original, stress-free and Granular MPM"

@@ -128,8 +128,9 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     damping: add Cundall's local damping force ("Motion integration" eq. 61-62).
     The work of wall reactions and of the damping force is accumulated into ``work``.
     layered: granular mode, launched over the nodes of one layer; each thread updates the copies
-    of its node that components claimed (a prefix of the layers). clear (layered, the step's last grid update): zero the mass,
-    momentum and force of the copies used, so the next step needs no memset of every layer.
+    of its node that components claimed (a prefix of the layers). clear (layered, the step's last
+    grid update): zero the mass, momentum and force of the copies used, so the next step needs no
+    memset of every layer.
     obstacles: nodes marked in ``Grid.solid`` (inside a ``Scene.add_obstacle`` shape) are fixed.
     The reaction impulses on walls and obstacles go to the IMPULSE_BASE slots of ``work``.
     """
