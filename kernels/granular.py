@@ -162,7 +162,8 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     bins (cells × (1 + cell_capacity)) int32: a count then the points of each cell, cells indexed
     like ``Grid.mass`` (column-major over the node lattice of one layer); parent (N,) int32;
     dom_a, dom_b (N,) vec2; reach (N,) vec4i node range (x0, x1, y0, y1); status the solver's
-    status counters. ``bins`` must be zeroed before ``prepare``. staged: points not yet released
+    status counters; clock; ext_max (2,) float32, the largest half-extent of a domain of interaction
+    in cells (x, y). ``bins`` and ``ext_max`` must be zeroed before ``prepare``. staged: points not yet released
     (``P.release`` ahead of ``clock[0]``) stay single, unbinned components. Inputs end with ``clock``.
     """
     from .transfer import CORNERS, make_stencil  # noqa: PLC0415 (transfer imports this module's helpers)
@@ -212,7 +213,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                 bins: wp.array2d(dtype=wp.int32), parent: wp.array(dtype=wp.int32),
                 dom_a: wp.array(dtype=t.vec2), dom_b: wp.array(dtype=t.vec2),
                 reach: wp.array(dtype=wp.vec4i), status: wp.array(dtype=wp.int32),
-                clock: wp.array(dtype=wp.float64)):
+                clock: wp.array(dtype=wp.float64), ext_max: wp.array(dtype=wp.float32)):
         p = wp.tid()
         parent[p] = p
         if wp.static(staged):
@@ -223,6 +224,15 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         a, b = domain(P, p, rho_cr)
         dom_a[p] = a
         dom_b[p] = b
+        # half-extents of the domain of interaction in cells (a continuum reaches its whole stencil),
+        # whose maximum bounds how far the search must look
+        ex = wp.float32((wp.abs(a[0]) + wp.abs(b[0])) * D.inv_h)
+        ey = wp.float32((wp.abs(a[1]) + wp.abs(b[1])) * D.inv_h)
+        if rho_cr <= T(0.0):
+            ex = wp.float32(W)
+            ey = wp.float32(W)
+        wp.atomic_max(ext_max, 0, ex)
+        wp.atomic_max(ext_max, 1, ey)
         x0 = int(1073741824)
         y0 = int(1073741824)
         x1 = int(-1073741824)
@@ -248,7 +258,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
              bins: wp.array2d(dtype=wp.int32), parent: wp.array(dtype=wp.int32),
              dom_a: wp.array(dtype=t.vec2), dom_b: wp.array(dtype=t.vec2),
              reach: wp.array(dtype=wp.vec4i), status: wp.array(dtype=wp.int32),
-             clock: wp.array(dtype=wp.float64)):
+             clock: wp.array(dtype=wp.float64), ext_max: wp.array(dtype=wp.float32)):
         p = wp.tid()
         if wp.static(staged):
             if clock[0] < P.release[p]:
@@ -260,13 +270,28 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         ap = dom_a[p]
         bp = dom_b[p]
         continuum_p = materials[P.material[p]][9] <= T(0.0)
-        for ix in range(wp.max(cx - W, 0), wp.min(cx + W + 1, D.layer_rows)):
-            for iy in range(wp.max(cy - W, 0), wp.min(cy + W + 1, rows)):
+        # two domains overlap only if the centres are closer than the sum of their half-extents, so
+        # the cells beyond (own extent + largest extent) need no visit, nor those beyond the stencil
+        wx = W
+        wy = W
+        if not continuum_p:
+            ap_ = wp.abs(ap[0]) + wp.abs(bp[0])
+            bp_ = wp.abs(ap[1]) + wp.abs(bp[1])
+            wx = wp.min(W, int(wp.float32(ap_ * D.inv_h) + ext_max[0]) + 1)
+            wy = wp.min(W, int(wp.float32(bp_ * D.inv_h) + ext_max[1]) + 1)
+        # half the neighbourhood: cells after this one (column-major), and in this cell the points
+        # after p; the windows are symmetric, so every pair is met once, from its first cell
+        for ix in range(cx, wp.min(cx + wx + 1, D.layer_rows)):
+            iy0 = wp.max(cy - wy, 0)
+            if ix == cx:
+                iy0 = cy
+            for iy in range(iy0, wp.min(cy + wy + 1, rows)):
                 cell = ix * rows + iy
+                same = ix == cx and iy == cy
                 count = wp.min(bins[cell, 0], CAP)
                 for s in range(count):
                     q = bins[cell, 1 + s]
-                    if q <= p:
+                    if same and q <= p:
                         continue
                     rq = reach[q]  # (an unreleased q is not in the bins)
                     # pre-task: a common node (the node ranges overlap in both directions)
@@ -282,7 +307,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
               bins: wp.array2d(dtype=wp.int32), parent: wp.array(dtype=wp.int32),
               dom_a: wp.array(dtype=t.vec2), dom_b: wp.array(dtype=t.vec2),
               reach: wp.array(dtype=wp.vec4i), status: wp.array(dtype=wp.int32),
-              clock: wp.array(dtype=wp.float64)):
+              clock: wp.array(dtype=wp.float64), ext_max: wp.array(dtype=wp.float32)):
         p = wp.tid()
         P.comp[p] = find(parent, p)
 

@@ -189,6 +189,7 @@ class MPMSolver:
             self.dom_b = wp.zeros(n, dtype=t.vec2, device=dev)
             self.reach = wp.zeros(n, dtype=wp.vec4i, device=dev)
             self.granular_stats = wp.zeros(2, dtype=wp.int32, device=dev)
+            self.ext_max = wp.zeros(2, dtype=wp.float32, device=dev)
 
         self.materials = wp.array(np.array([m.packed() for m in mats], T), dtype=t.params, device=dev)
         self.clock = wp.zeros(kred.CLOCK_SIZE, dtype=wp.float64, device=dev)
@@ -277,8 +278,9 @@ class MPMSolver:
         if c.granular:
             # Granular MPM tasks 1-2: interaction graph and components; the copies of each node
             # are claimed in the P2G below (kernels/granular.py)
-            seq += [("zero", self.bins), ("fill", G.owner)]
-            gin = [P, G, D, mats, self.bins, self.parent, self.dom_a, self.dom_b, self.reach, self.status, clock]
+            seq += [("zero", self.bins), ("zero", self.ext_max), ("fill", G.owner)]
+            gin = [P, G, D, mats, self.bins, self.parent, self.dom_a, self.dom_b, self.reach, self.status, clock,
+                   self.ext_max]
             kernels = kgran.make_granular_kernels(c.shape, prec, self.granular_cell_capacity, staged=self.staged)
             seq += [_Launch(k, n, gin) for k in kernels]
         if c.update == "USL":
