@@ -281,3 +281,32 @@ def test_released_points_enter_on_time_and_bring_their_mass():
     assert abs(result.diagnostics["work_numerical"][-1]) < 1e-2 * result.diagnostics["work_inflow"][-1]
     with pytest.raises(InputError, match="release_time"):
         scene.add_points(pos, mat, size=0.01, release_time=[0.0, 1.0])
+
+
+@pytest.mark.parametrize("law", ["mohr_coulomb", "drucker_prager"])
+def test_vertical_cut_stands_or_fails_around_its_critical_height(law):
+    """A vertical cut of height H in a c–φ soil stands if H is well below the critical height
+    H_c ≈ (4c/γ) tan(45° + φ/2) (Rankine; limit analysis brackets the true value between 3.83 and
+    3.94 c/γ for φ = 0 and the same factor for φ > 0) and collapses if well above it. H = 0.2 m,
+    φ = 30°, γ = ρ g: c = 2 kPa gives H_c ≈ 0.7 m (3.5 H), c = 0.1 kPa gives H_c ≈ 0.035 m
+    (H/6); the factor-of-3 margins cover the bracket and the MPM discretisation."""
+    from mpmdem import Boundary, DruckerPrager
+
+    def settlement(cohesion):
+        scene = Scene(domain=((0.0, 0.0), (0.6, 0.3)), cell_size=0.02, gravity=(0.0, -9.81), gravity_ramp=0.1,
+                      boundaries={"left": "slip", "bottom": Boundary("friction", friction=0.6), "right": "slip",
+                                  "top": "free"})
+        args = (2.0e7, 0.3, 2000.0, 30.0, 0.0, cohesion)
+        mat = (MohrCoulomb(*args, critical_density=1990.0) if law == "mohr_coulomb"
+               else DruckerPrager(*args, critical_density=1990.0, match="plane_strain_nonassociated"))
+        scene.add_body(rectangle(0.0, 0.0, 0.2, 0.2), mat, points_per_cell=2)
+        sim = Simulation(scene, SolverConfig(granular=True, shape="bspline2", transfer="APIC", update="USL",
+                                             precision="f64", damping=0.05), device="cpu")
+        x0 = sim.mpm.fields()["x"]
+        sim.run(end_time=0.35, frames=1, quiet=True)
+        x1 = sim.mpm.fields()["x"]
+        corner = np.argmax(x0[:, 0] + x0[:, 1])  # the top of the free face
+        return x0[corner, 1] - x1[corner, 1]
+
+    assert settlement(2.0e3) < 0.01 * 0.2  # stands: elastic settlement only (γH/E ~ 2e-4 of H)
+    assert settlement(1.0e2) > 0.1 * 0.2  # fails: the face slumps
