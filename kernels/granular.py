@@ -158,13 +158,14 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     """(prepare, link, label) kernels of the interaction graph (see the module docstring).
 
     Launch each with dim = number of points and inputs
-    ``[P, G, D, materials, bins, parent, dom_a, dom_b, reach, status]``:
+    ``[P, G, D, materials, bins, parent, dom_a, dom_b, reach, status, clock, ext_max]``:
     bins (cells × (1 + cell_capacity)) int32: a count then the points of each cell, cells indexed
     like ``Grid.mass`` (column-major over the node lattice of one layer); parent (N,) int32;
     dom_a, dom_b (N,) vec2; reach (N,) vec4i node range (x0, x1, y0, y1); status the solver's
-    status counters; clock; ext_max (2,) float32, the largest half-extent of a domain of interaction
-    in cells (x, y). ``bins`` and ``ext_max`` must be zeroed before ``prepare``. staged: points not yet released
-    (``P.release`` ahead of ``clock[0]``) stay single, unbinned components. Inputs end with ``clock``.
+    status counters; clock; ext_max (2,) float32, the largest half-extent of a domain of
+    interaction in cells (x, y). ``ext_max`` must be zeroed before ``prepare``; ``bins`` starts
+    zeroed and ``label`` empties the bins it used. staged: points not yet released (``P.release``
+    ahead of ``clock[0]``) stay single, unbinned components.
     """
     from .transfer import CORNERS, make_stencil  # noqa: PLC0415 (transfer imports this module's helpers)
 
@@ -310,6 +311,14 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
               clock: wp.array(dtype=wp.float64), ext_max: wp.array(dtype=wp.float32)):
         p = wp.tid()
         P.comp[p] = find(parent, p)
+        # empty this point's bin for the next step (every binned point of a cell writes the same
+        # zero; cells without points were never filled), which spares a memset of every bin
+        if wp.static(staged):
+            if clock[0] < P.release[p]:
+                return
+        rows = G.mass.shape[1]
+        cx, cy = cell_of(P, D, p, rows)
+        bins[cx * rows + cy, 0] = 0
 
     return prepare, link, label
 

@@ -278,7 +278,7 @@ class MPMSolver:
         if c.granular:
             # Granular MPM tasks 1-2: interaction graph and components; the copies of each node
             # are claimed in the P2G below (kernels/granular.py)
-            seq += [("zero", self.bins), ("zero", self.ext_max), ("fill", G.owner)]
+            seq += [("zero", self.ext_max), ("fill", G.owner)]
             gin = [P, G, D, mats, self.bins, self.parent, self.dom_a, self.dom_b, self.reach, self.status, clock,
                    self.ext_max]
             kernels = kgran.make_granular_kernels(c.shape, prec, self.granular_cell_capacity, staged=self.staged)
