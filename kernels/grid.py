@@ -131,7 +131,8 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     of its node that components claimed (a prefix of the layers). clear (layered, the step's last
     grid update): zero the mass, momentum and force of the copies used, so the next step needs no
     memset of every layer.
-    obstacles: nodes marked in ``Grid.solid`` (inside a ``Scene.add_obstacle`` shape) are fixed.
+    obstacles: nodes marked in ``Grid.solid`` (inside a ``Scene.add_obstacle`` shape) are fixed
+    (1) or slip along the obstacle's surface (2: no velocity along ``Grid.solid_normal``).
     The reaction impulses on walls and obstacles go to the IMPULSE_BASE slots of ``work``.
     """
     t = scalar_types(precision)
@@ -162,8 +163,12 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     @wp.func
     def solid(vb: t.vec2, G: Grid, i: int, j: int):
         if wp.static(obstacles):
-            if G.solid[i, j] != 0:
+            kind = G.solid[i, j]
+            if kind == 1:
                 return t.vec2()
+            if kind == 2:
+                n = G.solid_normal[i, j]  # a roller: no motion through the surface, either way
+                return vb - wp.dot(vb, n) * n
         return vb
 
     @wp.func

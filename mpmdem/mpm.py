@@ -149,7 +149,9 @@ class MPMSolver:
         self.grid_shape = shape
         G = Grid()
         G.owner = wp.full(shape if self.config.granular else (1, 1), -1, dtype=wp.int32, device=dev)
-        G.solid = wp.array(self._solid_nodes(rows, shape[1]), dtype=wp.int32, device=dev)
+        solid, normal = self._solid_nodes(rows, shape[1])
+        G.solid = wp.array(solid, dtype=wp.int32, device=dev)
+        G.solid_normal = wp.array(normal.astype(T), dtype=t.vec2, device=dev)
         G.mass = wp.zeros(shape, dtype=t.scalar, device=dev)
         G.mom = wp.zeros(shape, dtype=t.vec2, device=dev)
         G.force = wp.zeros(shape, dtype=t.vec2, device=dev)
@@ -320,24 +322,39 @@ class MPMSolver:
         # speeds of the initial state, for the first step's dt (later steps: inside G2P)
         wp.launch(kred.make_wave_speed(prec), n, inputs=[P, D, mats, self.max_speed, self.status], device=self.device)
 
-    def _solid_nodes(self, rows: int, cols: int) -> np.ndarray:
-        """Mask of the nodes of one layer that lie inside an obstacle (1) — (1, 1) zeros if none."""
+    def _solid_nodes(self, rows: int, cols: int) -> tuple[np.ndarray, np.ndarray]:
+        """Obstacle nodes of one layer: kind (0 none, 1 fixed, 2 slip) and, for slip nodes, the
+        outward normal of the nearest edge of the obstacle (rows, cols, 2). (1, 1) arrays if none."""
         if not self.scene.obstacles:
-            return np.zeros((1, 1), np.int32)
+            return np.zeros((1, 1), np.int32), np.zeros((1, 1, 2))
         h = self.scene.cell_size
         (x0, y0), _ = self.scene.domain
         g = GHOST_NODES
         ii, jj = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
         xy = np.column_stack([(x0 + (ii - g) * h).ravel(), (y0 + (jj - g) * h).ravel()])
-        mask = np.zeros(rows * cols, bool)
-        for shape in self.scene.obstacles:
-            # nodes inside or on the outline are fixed
+        kind = np.zeros(rows * cols, np.int32)
+        normal = np.zeros((rows * cols, 2))
+        for obstacle in self.scene.obstacles:
+            shape = obstacle.shape
             if shape.kind == "disk":
                 (cx, cy), r = shape._circle()
-                mask |= (xy[:, 0] - cx) ** 2 + (xy[:, 1] - cy) ** 2 <= r * r * (1.0 + 1e-12)
+                d = xy - np.array([cx, cy])
+                inside = (d ** 2).sum(axis=1) <= r * r * (1.0 + 1e-12)
+                n = d / np.maximum(np.linalg.norm(d, axis=1), 1e-300)[:, None]
             else:
-                mask |= shapely.intersects_xy(shape.polygon, xy[:, 0], xy[:, 1])
-        return mask.reshape(rows, cols).astype(np.int32)
+                # nodes inside or on the outline; normal of the nearest edge of the (CCW) outline
+                inside = shapely.intersects_xy(shape.polygon, xy[:, 0], xy[:, 1])
+                ring = np.asarray(shapely.geometry.polygon.orient(shape.polygon, 1.0).exterior.coords)
+                a, b = ring[:-1], ring[1:]
+                e = b - a
+                length = np.linalg.norm(e, axis=1)
+                tpar = np.clip(((xy[:, None, :] - a[None]) * e[None]).sum(-1) / (length ** 2)[None], 0.0, 1.0)
+                dist = np.linalg.norm(xy[:, None, :] - (a[None] + tpar[..., None] * e[None]), axis=-1)
+                nearest = np.argmin(dist, axis=1)
+                n = np.column_stack([e[nearest, 1], -e[nearest, 0]]) / length[nearest][:, None]
+            kind[inside] = 1 if obstacle.kind == "fixed" else 2
+            normal[inside] = n[inside]
+        return kind.reshape(rows, cols), normal.reshape(rows, cols, 2)
 
     # -- stepping -------------------------------------------------------------------------------
     def step(self) -> None:

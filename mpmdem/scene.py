@@ -18,7 +18,7 @@ from .materials import Material
 from .shapes import SeededPoints, Shape, rectangle, seed_points
 from .spheropolygons import Spheropolygon, rounded_rectangle
 
-__all__ = ["SIDES", "Boundary", "MPMBody", "Scene"]
+__all__ = ["SIDES", "Boundary", "MPMBody", "Obstacle", "Scene"]
 
 SIDES = ("left", "right", "bottom", "top")
 BOUNDARY_KINDS = ("fixed", "slip", "friction", "free")
@@ -46,6 +46,14 @@ class Boundary:
     @property
     def kind_id(self) -> int:
         return BOUNDARY_KINDS.index(self.kind)
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """A rigid region of fixed ("fixed") or roller ("slip") grid nodes (Scene.add_obstacle)."""
+
+    shape: Shape
+    kind: str = "fixed"
 
 
 @dataclass(frozen=True)
@@ -105,7 +113,7 @@ class Scene:
     contact: ContactLaw | None = None
     bodies: list[MPMBody] = field(default_factory=list)
     rigid_bodies: list[RigidBody] = field(default_factory=list)
-    obstacles: list[Shape] = field(default_factory=list)
+    obstacles: list[Obstacle] = field(default_factory=list)
 
     def __post_init__(self):
         try:
@@ -267,14 +275,18 @@ class Scene:
                                            motion="fixed", friction=friction, name=f"wall_{side}"))
         return out
 
-    def add_obstacle(self, shape: Shape) -> Shape:
-        """A fixed obstacle inside the grid: every node inside or on ``shape`` has zero velocity.
+    def add_obstacle(self, shape: Shape, kind: str = "fixed") -> Obstacle:
+        """A rigid obstacle inside the grid, made of the grid nodes inside or on ``shape``.
 
         For steps, ledges and bins the material flows over or into (the planes of "Granular MPM"
-        §4.2, which the paper also makes of fixed grid nodes). The force the material exerts on
-        all obstacles together is reported per frame as force_obstacles_x/y [N/m]. Points must
-        not be seeded inside an obstacle.
+        §4.2, which the paper also makes of grid boundary conditions). kind: "fixed" (the nodes
+        do not move: no slip) or "slip" (a roller: no motion through the surface, free along it;
+        the normal is that of the nearest edge). The force the material exerts on all obstacles
+        together is reported per frame as force_obstacles_x/y [N/m]. Points must not be seeded
+        inside an obstacle.
         """
+        if kind not in ("fixed", "slip"):
+            raise InputError("kind", kind, "'fixed' or 'slip'")
         if self.cell_size is None:
             raise InputError("cell_size", None, "a grid spacing h > 0 [m] in Scene(...) before adding obstacles")
         if not isinstance(shape, Shape):
@@ -283,8 +295,9 @@ class Scene:
         bx0, by0, bx1, by1 = shape.bounds
         if bx1 < x0 or bx0 > x1 or by1 < y0 or by0 > y1:
             raise InputError("shape", shape.to_dict(), f"an obstacle overlapping the domain {self.domain}")
-        self.obstacles.append(shape)
-        return shape
+        obstacle = Obstacle(shape, kind)
+        self.obstacles.append(obstacle)
+        return obstacle
 
     def add_points(
         self,
@@ -390,7 +403,7 @@ class Scene:
             "contact": self.contact.to_dict() if self.contact is not None else None,
             "rigid_bodies": [b.to_dict() for b in self.rigid_bodies],
             "boundaries": {s: {"kind": b.kind, "friction": b.friction} for s, b in self.boundaries.items()},
-            "obstacles": [o.to_dict() for o in self.obstacles],
+            "obstacles": [{"kind": o.kind, "shape": o.shape.to_dict()} for o in self.obstacles],
             "bodies": [
                 {"name": b.name, "shape": b.shape.to_dict(), "material": b.material.to_dict(),
                  "velocity": getattr(b.velocity, "__name__", "field") if callable(b.velocity) else b.velocity,

@@ -310,3 +310,27 @@ def test_vertical_cut_stands_or_fails_around_its_critical_height(law):
 
     assert settlement(2.0e3) < 0.01 * 0.2  # stands: elastic settlement only (γH/E ~ 2e-4 of H)
     assert settlement(1.0e2) > 0.1 * 0.2  # fails: the face slumps
+
+
+@pytest.mark.parametrize("kind", ["slip", "fixed"])
+def test_block_on_a_slip_ledge_slides_at_g_sin_theta(kind):
+    """A block on a roller obstacle, gravity tilted by θ: frictionless sliding, a = g sin θ (rigid
+    body, exact up to the elastic transient); on a fixed obstacle its base does not slide."""
+    th = math.radians(20.0)
+    scene = Scene(domain=((0.0, 0.0), (1.0, 0.4)), cell_size=0.02, gravity=(9.81 * math.sin(th), -9.81 * math.cos(th)),
+                  boundaries={"bottom": "free", "left": "slip", "right": "slip", "top": "free"})
+    scene.add_obstacle(rectangle(-0.1, -0.1, 1.1, 0.1), kind=kind)
+    scene.add_body(rectangle(0.1, 0.1, 0.3, 0.2), LinearElastic(1.0e6, 0.3, 1000.0), points_per_cell=2)
+    sim = Simulation(scene, SolverConfig(precision="f64", shape="bspline2", transfer="APIC"), device="cpu")
+    x0 = sim.mpm.fields()["x"]
+    t = 0.2
+    sim.run(end_time=t, frames=1, quiet=True)
+    f = sim.mpm.fields()
+    base = x0[:, 1] < 0.11
+    travel = float(np.mean(f["x"][base, 0] - x0[base, 0]))
+    if kind == "slip":
+        # ½ g sin θ t² = 0.0671 m; 2 % covers the elastic wave and the step that crosses t
+        assert travel == pytest.approx(0.5 * 9.81 * math.sin(th) * t * t, rel=0.02)
+        assert abs(float(np.mean(f["x"][base, 1] - x0[base, 1]))) < 1e-3  # it stays on the surface
+    else:
+        assert abs(travel) < 1e-3
