@@ -207,7 +207,7 @@ def summarize(sim, result, args) -> dict:
         "final_force_N_times_width": final * FLUME_WIDTH,
         "peak_over_final": peak / final if final > 0 else None,
         "down_slope_weight_N_per_m": down_slope_weight,
-        "static_wall_force_least_N_per_m": least,
+        "static_load_cell_force_least_N_per_m": least,
         "final_max_speed_m_s": float(speed.max()),
         "final_mean_speed_m_s": float(speed.mean()),
         "deposit_stations_m_from_wall": [float(s) for s in xw - stations],
