@@ -191,9 +191,17 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
 
     @wp.func
     def find(parent: wp.array(dtype=wp.int32), x: int):
+        # root of x with path halving: each visited node is re-pointed to its grandparent, so the
+        # trees stay shallow even when one component holds every point (a dense body); racing
+        # writers only ever point a node at one of its ancestors, which keeps the forest valid
         r = x
-        while parent[r] != r:
-            r = parent[r]
+        p = parent[r]
+        while p != r:
+            g = parent[p]
+            if g != p:
+                parent[r] = g
+            r = p
+            p = g
         return r
 
     @wp.func
