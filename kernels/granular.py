@@ -35,6 +35,8 @@ from .state import make_state_structs
 from .types import kernel, scalar_types
 
 __all__ = [
+    "DEFORMING_DOMAINS",
+    "EXT_SLOTS",
     "STAT_COMPONENTS",
     "STAT_LAYERS",
     "STATUS_BIN_OVERFLOW",
@@ -43,12 +45,20 @@ __all__ = [
     "make_domain_of_interaction",
     "make_granular_kernels",
     "make_granular_statistics",
+    "make_reset_copies",
     "make_layer_row",
 ]
 
 #: Status counters (after the two of ``reductions``).
 STATUS_LAYER_OVERFLOW = 2
 STATUS_BIN_OVERFLOW = 3
+
+#: Shapes whose domain of interaction follows F; for the others it is fixed from the start, and
+#: its largest extent is computed once on the host (``static_extent``).
+DEFORMING_DOMAINS = ("cpgimp", "cpdi1")
+#: The largest extent of deforming domains is reduced into this many (x, y) slots (point p uses
+#: slot p % EXT_SLOTS, and only when it beats the slot): no million atomics on one address.
+EXT_SLOTS = 32
 
 #: Slots of the per-step statistics array.
 STAT_COMPONENTS = 0
@@ -162,8 +172,9 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     bins (cells × (1 + cell_capacity)) int32: a count then the points of each cell, cells indexed
     like ``Grid.mass`` (column-major over the node lattice of one layer); parent (N,) int32;
     dom_a, dom_b (N,) vec2; reach (N,) vec4i node range (x0, x1, y0, y1); status the solver's
-    status counters; clock; ext_max (2,) float32, the largest half-extent of a domain of
-    interaction in cells (x, y). ``ext_max`` must be zeroed before ``prepare``; ``bins`` starts
+    status counters; clock; ext_max (2 EXT_SLOTS,) float32, the largest half-extent of a domain of
+    interaction in cells (x, y) in slots: for shapes outside DEFORMING_DOMAINS it is a constant set
+    by the host in slot 0, else ``reset_copies`` zeroes it and ``prepare`` fills it. ``bins`` starts
     zeroed and ``label`` empties the bins it used. staged: points not yet released (``P.release``
     ahead of ``clock[0]``) stay single, unbinned components.
     """
@@ -181,6 +192,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     # how many cells apart two points that share a node can be: K nodes per stencil, plus the
     # spread of the four corner stencils of CPDI1 (domains up to about a cell across)
     W = K + (1 if shape == "cpdi1" else 0)
+    deforming = shape in DEFORMING_DOMAINS
 
     @wp.func
     def cell_of(P: Particles, D: Domain, p: int, rows: int):
@@ -240,8 +252,12 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         if rho_cr <= T(0.0):
             ex = wp.float32(W)
             ey = wp.float32(W)
-        wp.atomic_max(ext_max, 0, ex)
-        wp.atomic_max(ext_max, 1, ey)
+        if wp.static(deforming):
+            slot = 2 * (p % EXT_SLOTS)
+            if ex > ext_max[slot]:  # most points are not the largest: skip the atomic
+                wp.atomic_max(ext_max, slot, ex)
+            if ey > ext_max[slot + 1]:
+                wp.atomic_max(ext_max, slot + 1, ey)
         x0 = int(1073741824)
         y0 = int(1073741824)
         x1 = int(-1073741824)
@@ -286,8 +302,14 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         if not continuum_p:
             ap_ = wp.abs(ap[0]) + wp.abs(bp[0])
             bp_ = wp.abs(ap[1]) + wp.abs(bp[1])
-            wx = wp.min(W, int(wp.float32(ap_ * D.inv_h) + ext_max[0]) + 1)
-            wy = wp.min(W, int(wp.float32(bp_ * D.inv_h) + ext_max[1]) + 1)
+            emx = ext_max[0]
+            emy = ext_max[1]
+            if wp.static(deforming):
+                for k in range(1, EXT_SLOTS):
+                    emx = wp.max(emx, ext_max[2 * k])
+                    emy = wp.max(emy, ext_max[2 * k + 1])
+            wx = wp.min(W, int(wp.float32(ap_ * D.inv_h) + emx) + 1)
+            wy = wp.min(W, int(wp.float32(bp_ * D.inv_h) + emy) + 1)
         # half the neighbourhood: cells after this one (column-major), and in this cell the points
         # after p; the windows are symmetric, so every pair is met once, from its first cell
         for ix in range(cx, wp.min(cx + wx + 1, D.layer_rows)):
@@ -329,6 +351,30 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         bins[cx * rows + cy, 0] = 0
 
     return prepare, link, label
+
+
+@functools.cache
+def make_reset_copies(precision: str, deforming: bool):
+    """Kernel ``reset_copies(G, D, ext_max)`` over the nodes of one layer, run first in a step:
+    frees the copies the previous step claimed (a prefix at each node, so a node without claims
+    costs one read instead of a memset of every layer) and, for deforming domains, zeroes
+    ``ext_max``."""
+    Particles, Grid, Domain = make_state_structs(precision)
+
+    @kernel
+    def reset_copies(G: Grid, D: Domain, ext_max: wp.array(dtype=wp.float32)):
+        i, j = wp.tid()
+        if wp.static(deforming):
+            k = i * G.owner.shape[1] + j
+            if k < 2 * EXT_SLOTS:
+                ext_max[k] = wp.float32(0.0)
+        for s in range(D.layers):
+            r = s * D.layer_rows + i
+            if G.owner[r, j] < 0:
+                break
+            G.owner[r, j] = -1
+
+    return reset_copies
 
 
 @functools.cache

@@ -114,6 +114,7 @@ class MPMSolver:
         n = self.particle_count
         mats = scene.materials()
         mat_index = np.array([mats.index(b.material) for b in scene.bodies], np.int32)[host["body"]]
+        host = {**host, "material_index": mat_index}
         self.material_kinds = tuple(sorted({m.kind_id for m in mats}))
         Particles, Grid, Domain = make_state_structs(self.config.precision)
         eye = np.tile(np.eye(2), (n, 1, 1))
@@ -191,7 +192,7 @@ class MPMSolver:
             self.dom_b = wp.zeros(n, dtype=t.vec2, device=dev)
             self.reach = wp.zeros(n, dtype=wp.vec4i, device=dev)
             self.granular_stats = wp.zeros(2, dtype=wp.int32, device=dev)
-            self.ext_max = wp.zeros(2, dtype=wp.float32, device=dev)
+            self.ext_max = wp.array(self._static_extent(host, mats), dtype=wp.float32, device=dev)
 
         self.materials = wp.array(np.array([m.packed() for m in mats], T), dtype=t.params, device=dev)
         self.clock = wp.zeros(kred.CLOCK_SIZE, dtype=wp.float64, device=dev)
@@ -280,7 +281,8 @@ class MPMSolver:
         if c.granular:
             # Granular MPM tasks 1-2: interaction graph and components; the copies of each node
             # are claimed in the P2G below (kernels/granular.py)
-            seq += [("zero", self.ext_max), ("fill", G.owner)]
+            deforming = c.shape in kgran.DEFORMING_DOMAINS
+            seq += [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim, [G, D, self.ext_max])]
             gin = [P, G, D, mats, self.bins, self.parent, self.dom_a, self.dom_b, self.reach, self.status, clock,
                    self.ext_max]
             kernels = kgran.make_granular_kernels(c.shape, prec, self.granular_cell_capacity, staged=self.staged)
@@ -321,6 +323,24 @@ class MPMSolver:
         self._diagnostics = kred.make_diagnostics(prec, self.material_kinds, staged=self.staged)
         # speeds of the initial state, for the first step's dt (later steps: inside G2P)
         wp.launch(kred.make_wave_speed(prec), n, inputs=[P, D, mats, self.max_speed, self.status], device=self.device)
+
+    def _static_extent(self, host: dict, mats: list) -> np.ndarray:
+        """Slots of the largest half-extent of a domain of interaction [cells] (kernels/granular.py):
+        for shapes whose domains do not follow F it is fixed, so it is computed here once."""
+        out = np.zeros(2 * kgran.EXT_SLOTS, np.float32)
+        if self.config.shape in kgran.DEFORMING_DOMAINS:
+            return out
+        h = self.scene.cell_size
+        rho_cr = np.array([m.critical_density or 0.0 for m in mats])[host["material_index"]]
+        half = host["half"]
+        granular = rho_cr > 0.0
+        scale = np.ones(len(half))
+        scale[granular] = np.sqrt(host["mass"][granular] / (rho_cr[granular] * 4.0 * half[granular].prod(axis=1)))
+        ext = half * scale[:, None] / h
+        if (~granular).any():  # a continuum reaches its whole stencil
+            ext[~granular] = SUPPORT_NODES[self.config.shape] + 1
+        out[:2] = ext.max(axis=0)
+        return out
 
     def _solid_nodes(self, rows: int, cols: int) -> tuple[np.ndarray, np.ndarray]:
         """Obstacle nodes of one layer: kind (0 none, 1 fixed, 2 slip) and, for slip nodes, the
