@@ -45,6 +45,7 @@ __all__ = [
     "make_domain_of_interaction",
     "make_granular_kernels",
     "make_granular_statistics",
+    "make_interaction_struct",
     "make_reset_copies",
     "make_layer_row",
 ]
@@ -164,17 +165,34 @@ def make_domain_of_interaction(shape: str, precision: str):
 
 
 @functools.cache
+def make_interaction_struct(precision: str):
+    """The arrays of the interaction graph, bundled for the kernels: bins (cells × (1 + capacity))
+    int32, a count then the points of each cell; parent (N,) int32 union–find links; dom_a, dom_b
+    (N,) vec2 half-vectors of the domains of interaction [m]; reach (N,) vec4i node range
+    (x0, x1, y0, y1); ext_max (2 EXT_SLOTS,) float32 largest half-extent [cells], x and y."""
+    t = scalar_types(precision)
+
+    @wp.struct
+    class Interaction:
+        bins: wp.array2d(dtype=wp.int32)
+        parent: wp.array(dtype=wp.int32)
+        dom_a: wp.array(dtype=t.vec2)
+        dom_b: wp.array(dtype=t.vec2)
+        reach: wp.array(dtype=wp.vec4i)
+        ext_max: wp.array(dtype=wp.float32)
+
+    return Interaction
+
+
+@functools.cache
 def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged: bool = False):
     """(prepare, link, label) kernels of the interaction graph (see the module docstring).
 
-    Launch each with dim = number of points and inputs
-    ``[P, G, D, materials, bins, parent, dom_a, dom_b, reach, status, clock, ext_max]``:
-    bins (cells × (1 + cell_capacity)) int32: a count then the points of each cell, cells indexed
-    like ``Grid.mass`` (column-major over the node lattice of one layer); parent (N,) int32;
-    dom_a, dom_b (N,) vec2; reach (N,) vec4i node range (x0, x1, y0, y1); status the solver's
-    status counters; clock; ext_max (2 EXT_SLOTS,) float32, the largest half-extent of a domain of
-    interaction in cells (x, y) in slots: for shapes outside DEFORMING_DOMAINS it is a constant set
-    by the host in slot 0, else ``reset_copies`` zeroes it and ``prepare`` fills it. ``bins`` starts
+    Launch each with dim = number of points and inputs ``[P, G, D, materials, S, status, clock]``,
+    S an ``Interaction`` (``make_interaction_struct``): cells of ``S.bins`` are indexed like
+    ``Grid.mass`` (column-major over the node lattice of one layer); ``S.ext_max`` holds for shapes
+    outside DEFORMING_DOMAINS a constant set by the host in slot 0, else ``reset_copies`` zeroes it
+    and ``prepare`` fills it. ``bins`` starts
     zeroed and ``label`` empties the bins it used. staged: points not yet released (``P.release``
     ahead of ``clock[0]``) stay single, unbinned components.
     """
@@ -185,6 +203,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     K = SUPPORT_NODES[shape]
     NC = CORNERS.get(shape, 1)
     Particles, Grid, Domain = make_state_structs(precision)
+    Interaction = make_interaction_struct(precision)
     stencil = make_stencil(shape, precision)[0]
     domain = make_domain_of_interaction(shape, precision)
     overlap = _overlap(precision)
@@ -230,21 +249,18 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             b = find(parent, old)
 
     @kernel
-    def prepare(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params),
-                bins: wp.array2d(dtype=wp.int32), parent: wp.array(dtype=wp.int32),
-                dom_a: wp.array(dtype=t.vec2), dom_b: wp.array(dtype=t.vec2),
-                reach: wp.array(dtype=wp.vec4i), status: wp.array(dtype=wp.int32),
-                clock: wp.array(dtype=wp.float64), ext_max: wp.array(dtype=wp.float32)):
+    def prepare(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
+                status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
         p = wp.tid()
-        parent[p] = p
+        S.parent[p] = p
         if wp.static(staged):
             if clock[0] < P.release[p]:
-                reach[p] = wp.vec4i(0, -1, 0, -1)  # an empty node range: shares no node
+                S.reach[p] = wp.vec4i(0, -1, 0, -1)  # an empty node range: shares no node
                 return
         rho_cr = materials[P.material[p]][9]
         a, b = domain(P, p, rho_cr)
-        dom_a[p] = a
-        dom_b[p] = b
+        S.dom_a[p] = a
+        S.dom_b[p] = b
         # half-extents of the domain of interaction in cells (a continuum reaches its whole stencil),
         # whose maximum bounds how far the search must look
         ex = wp.float32((wp.abs(a[0]) + wp.abs(b[0])) * D.inv_h)
@@ -254,10 +270,10 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             ey = wp.float32(W)
         if wp.static(deforming):
             slot = 2 * (p % EXT_SLOTS)
-            if ex > ext_max[slot]:  # most points are not the largest: skip the atomic
-                wp.atomic_max(ext_max, slot, ex)
-            if ey > ext_max[slot + 1]:
-                wp.atomic_max(ext_max, slot + 1, ey)
+            if ex > S.ext_max[slot]:  # most points are not the largest: skip the atomic
+                wp.atomic_max(S.ext_max, slot, ex)
+            if ey > S.ext_max[slot + 1]:
+                wp.atomic_max(S.ext_max, slot + 1, ey)
         x0 = int(1073741824)
         y0 = int(1073741824)
         x1 = int(-1073741824)
@@ -268,32 +284,29 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             y0 = wp.min(y0, by)
             x1 = wp.max(x1, bx + K - 1)
             y1 = wp.max(y1, by + K - 1)
-        reach[p] = wp.vec4i(x0, x1, y0, y1)
+        S.reach[p] = wp.vec4i(x0, x1, y0, y1)
         rows = G.mass.shape[1]
         cx, cy = cell_of(P, D, p, rows)
         cell = cx * rows + cy
-        slot = wp.atomic_add(bins, cell, 0, 1)
+        slot = wp.atomic_add(S.bins, cell, 0, 1)
         if slot < CAP:
-            bins[cell, 1 + slot] = p
+            S.bins[cell, 1 + slot] = p
         else:
             wp.atomic_add(status, STATUS_BIN_OVERFLOW, 1)
 
     @kernel
-    def link(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params),
-             bins: wp.array2d(dtype=wp.int32), parent: wp.array(dtype=wp.int32),
-             dom_a: wp.array(dtype=t.vec2), dom_b: wp.array(dtype=t.vec2),
-             reach: wp.array(dtype=wp.vec4i), status: wp.array(dtype=wp.int32),
-             clock: wp.array(dtype=wp.float64), ext_max: wp.array(dtype=wp.float32)):
+    def link(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
+                status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
         p = wp.tid()
         if wp.static(staged):
             if clock[0] < P.release[p]:
                 return
         rows = G.mass.shape[1]
         cx, cy = cell_of(P, D, p, rows)
-        rp = reach[p]
+        rp = S.reach[p]
         xp = P.x[p]
-        ap = dom_a[p]
-        bp = dom_b[p]
+        ap = S.dom_a[p]
+        bp = S.dom_b[p]
         continuum_p = materials[P.material[p]][9] <= T(0.0)
         # two domains overlap only if the centres are closer than the sum of their half-extents, so
         # the cells beyond (own extent + largest extent) need no visit, nor those beyond the stencil
@@ -302,12 +315,12 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         if not continuum_p:
             ap_ = wp.abs(ap[0]) + wp.abs(bp[0])
             bp_ = wp.abs(ap[1]) + wp.abs(bp[1])
-            emx = ext_max[0]
-            emy = ext_max[1]
+            emx = S.ext_max[0]
+            emy = S.ext_max[1]
             if wp.static(deforming):
                 for k in range(1, EXT_SLOTS):
-                    emx = wp.max(emx, ext_max[2 * k])
-                    emy = wp.max(emy, ext_max[2 * k + 1])
+                    emx = wp.max(emx, S.ext_max[2 * k])
+                    emy = wp.max(emy, S.ext_max[2 * k + 1])
             wx = wp.min(W, int(wp.float32(ap_ * D.inv_h) + emx) + 1)
             wy = wp.min(W, int(wp.float32(bp_ * D.inv_h) + emy) + 1)
         # half the neighbourhood: cells after this one (column-major), and in this cell the points
@@ -319,28 +332,25 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             for iy in range(iy0, wp.min(cy + wy + 1, rows)):
                 cell = ix * rows + iy
                 same = ix == cx and iy == cy
-                count = wp.min(bins[cell, 0], CAP)
+                count = wp.min(S.bins[cell, 0], CAP)
                 for s in range(count):
-                    q = bins[cell, 1 + s]
+                    q = S.bins[cell, 1 + s]
                     if same and q <= p:
                         continue
-                    rq = reach[q]  # (an unreleased q is not in the bins)
+                    rq = S.reach[q]  # (an unreleased q is not in the bins)
                     # pre-task: a common node (the node ranges overlap in both directions)
                     if rq[0] > rp[1] or rp[0] > rq[1] or rq[2] > rp[3] or rp[2] > rq[3]:
                         continue
                     # task 1: the domains of interaction overlap (continua always interact)
                     if continuum_p or materials[P.material[q]][9] <= T(0.0) or overlap(
-                            xp, ap, bp, P.x[q], dom_a[q], dom_b[q]):
-                        unite(parent, p, q)
+                            xp, ap, bp, P.x[q], S.dom_a[q], S.dom_b[q]):
+                        unite(S.parent, p, q)
 
     @kernel
-    def label(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params),
-              bins: wp.array2d(dtype=wp.int32), parent: wp.array(dtype=wp.int32),
-              dom_a: wp.array(dtype=t.vec2), dom_b: wp.array(dtype=t.vec2),
-              reach: wp.array(dtype=wp.vec4i), status: wp.array(dtype=wp.int32),
-              clock: wp.array(dtype=wp.float64), ext_max: wp.array(dtype=wp.float32)):
+    def label(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
+                status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
         p = wp.tid()
-        P.comp[p] = find(parent, p)
+        P.comp[p] = find(S.parent, p)
         # empty this point's bin for the next step (every binned point of a cell writes the same
         # zero; cells without points were never filled), which spares a memset of every bin
         if wp.static(staged):
@@ -348,7 +358,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                 return
         rows = G.mass.shape[1]
         cx, cy = cell_of(P, D, p, rows)
-        bins[cx * rows + cy, 0] = 0
+        S.bins[cx * rows + cy, 0] = 0
 
     return prepare, link, label
 

@@ -186,13 +186,15 @@ class MPMSolver:
         if self.config.granular:
             # interaction graph of Granular MPM (kernels/granular.py); cells = nodes of one layer
             cells = rows * shape[1]
-            self.bins = wp.zeros((cells, 1 + self.granular_cell_capacity), dtype=wp.int32, device=dev)
-            self.parent = wp.zeros(n, dtype=wp.int32, device=dev)
-            self.dom_a = wp.zeros(n, dtype=t.vec2, device=dev)
-            self.dom_b = wp.zeros(n, dtype=t.vec2, device=dev)
-            self.reach = wp.zeros(n, dtype=wp.vec4i, device=dev)
+            S = kgran.make_interaction_struct(self.config.precision)()
+            S.bins = wp.zeros((cells, 1 + self.granular_cell_capacity), dtype=wp.int32, device=dev)
+            S.parent = wp.zeros(n, dtype=wp.int32, device=dev)
+            S.dom_a = wp.zeros(n, dtype=t.vec2, device=dev)
+            S.dom_b = wp.zeros(n, dtype=t.vec2, device=dev)
+            S.reach = wp.zeros(n, dtype=wp.vec4i, device=dev)
+            S.ext_max = wp.array(self._static_extent(host, mats), dtype=wp.float32, device=dev)
+            self.interaction = S
             self.granular_stats = wp.zeros(2, dtype=wp.int32, device=dev)
-            self.ext_max = wp.array(self._static_extent(host, mats), dtype=wp.float32, device=dev)
 
         self.materials = wp.array(np.array([m.packed() for m in mats], T), dtype=t.params, device=dev)
         self.clock = wp.zeros(kred.CLOCK_SIZE, dtype=wp.float64, device=dev)
@@ -282,9 +284,9 @@ class MPMSolver:
             # Granular MPM tasks 1-2: interaction graph and components; the copies of each node
             # are claimed in the P2G below (kernels/granular.py)
             deforming = c.shape in kgran.DEFORMING_DOMAINS
-            seq += [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim, [G, D, self.ext_max])]
-            gin = [P, G, D, mats, self.bins, self.parent, self.dom_a, self.dom_b, self.reach, self.status, clock,
-                   self.ext_max]
+            S = self.interaction
+            seq += [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim, [G, D, S.ext_max])]
+            gin = [P, G, D, mats, S, self.status, clock]
             kernels = kgran.make_granular_kernels(c.shape, prec, self.granular_cell_capacity, staged=self.staged)
             seq += [_Launch(k, n, gin) for k in kernels]
         if c.update == "USL":

@@ -74,7 +74,8 @@ def test_components_match_brute_force_graph(shape, seed):
     m.set_stop_time(1.0)
     m.step()
     comp = m.P.comp.numpy()
-    expected = _brute_force_components(x0, m.dom_a.numpy(), m.dom_b.numpy(), m.reach.numpy())
+    S = m.interaction
+    expected = _brute_force_components(x0, S.dom_a.numpy(), S.dom_b.numpy(), S.reach.numpy())
     np.testing.assert_array_equal(comp, expected)
     n_comp = len(np.unique(comp))
     assert 1 < n_comp < len(comp)  # the layouts really mix touching and separate islands
@@ -87,7 +88,7 @@ def test_domain_of_interaction_is_scaled_to_critical_volume():
     m = sim.mpm
     m.set_stop_time(1.0)
     m.step()
-    a, b = m.dom_a.numpy()[0], m.dom_b.numpy()[0]
+    a, b = m.interaction.dom_a.numpy()[0], m.interaction.dom_b.numpy()[0]
     area = 4.0 * abs(a[0] * b[1] - a[1] * b[0])
     v_cr = 1500.0 * (0.5 * H) ** 2 / 1400.0
     assert area == pytest.approx(v_cr, rel=1e-12)
@@ -103,7 +104,7 @@ def test_layers_separate_components_on_every_node(shape, seed):
     m.set_stop_time(1.0)
     m.step()
     comp = m.P.comp.numpy()
-    reach = m.reach.numpy()
+    reach = m.interaction.reach.numpy()
     owner = m.G.owner.numpy()
     rows, layers = m.D.layer_rows, m.D.layers
     reaching: dict[tuple[int, int], set] = {}
