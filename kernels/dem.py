@@ -558,6 +558,8 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         check_displacement=check_displacement, clear_cells=clear_cells, bin_bodies=bin_bodies,
         build_lists=build_lists, finish_rebuild=finish_rebuild, contact_forces=contact_forces,
         integrate=integrate, dem_dt=dem_dt, diagnostics=diagnostics,
+        # geometry shared with the MPM-DEM coupling (kernels/coupling.py)
+        rotate=rotate, cross=cross, spin=spin, in_corner=in_corner, polygon_distance=polygon_distance,
     )
 
 

@@ -19,6 +19,7 @@ __all__ = [
     "STATUS_NONFINITE",
     "STATUS_OUTSIDE",
     "advance_time",
+    "cap_dt",
     "compute_dt",
     "make_diagnostics",
     "make_speed_check",
@@ -183,3 +184,13 @@ def make_diagnostics(precision: str, material_kinds: tuple = (0,), staged: bool 
         wp.atomic_add(out, 6, m)
 
     return diagnostics
+
+
+@kernel
+def cap_dt(clock: wp.array(dtype=wp.float64), cap: wp.float64, bound: wp.float64):
+    """dt = min(dt, cap) unless dt was fixed by the user (coupled scenes: MPM-SDEM eq. 51 takes the
+    smallest of the MPM, DEM and contact terms); ``bound`` [s], the stable step of the contacts,
+    lowers the reported bound."""
+    if clock[4] <= wp.float64(0.0) and clock[1] > cap:
+        clock[1] = cap
+    clock[3] = wp.min(clock[3], bound)

@@ -32,6 +32,7 @@ def make_state_structs(precision: str):
         pid: wp.array(dtype=wp.int32)  # index of the point in the scene's order (outputs use it)
         comp: wp.array(dtype=wp.int32)  # granular mode: component label (its root point) this step
         release: wp.array(dtype=wp.float64)  # time a point enters the scene [s] (staged scenes only)
+        fcont: wp.array(dtype=t.vec2)  # contact force from rigid bodies this step [N/m] (coupled scenes)
 
     @wp.struct
     class Grid:

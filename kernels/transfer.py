@@ -137,6 +137,7 @@ def make_p2g(
     deterministic: bool = False,
     layered: bool = False,
     staged: bool = False,
+    contact: bool = False,
 ):
     """P2G of mass, momentum (with the affine term) and internal force.
 
@@ -147,6 +148,8 @@ def make_p2g(
     component's copy of every node (``kernels.granular``); the pass that moves mass claims the
     copies, and a node without a free copy counts into ``status``. staged: points whose release
     time (``P.release``) is still ahead take no part (``Scene.add_points(release_time=...)``).
+    contact: the force pass also spreads the point's contact force from rigid bodies,
+    f_I += N_I(x_p) f_p^cont (MPM-SDEM eq. 47-48; ``kernels.coupling``).
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -155,6 +158,7 @@ def make_p2g(
     Particles, Grid, Domain = make_state_structs(precision)
     stencil, contribution, on_grid = make_stencil(shape, precision)
     point_on_grid = make_point_on_grid(shape, precision)
+    with_contact = contact and (force or fused_impulse)
     has_affine = affine != "none" and momentum
     layer_row = make_layer_row(insert=mass)
 
@@ -183,6 +187,11 @@ def make_p2g(
             vs = -P.vol[p] * P.stress[p]
             if wp.static(fused_impulse):
                 vs = vs * dt
+        fc = t.vec2()
+        if wp.static(with_contact):
+            fc = P.fcont[p]
+            if wp.static(fused_impulse):
+                fc = fc * dt
         comp = int(0)
         if wp.static(layered):
             comp = P.comp[p]
@@ -209,6 +218,8 @@ def make_p2g(
                                 mom = mom + w * (mC * dpos)
                         if wp.static(force):
                             f = vs * grad
+                            if wp.static(with_contact):
+                                f = f + w * fc  # eq. 47
                             if wp.static(fused_impulse):
                                 mom = mom + f
                             else:

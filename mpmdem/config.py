@@ -13,8 +13,10 @@ from typing import Literal
 
 from .errors import InputError
 from .kernels.constitutive import DENSITY_CONTROLS
+from .kernels.coupling import COUPLING_SCHEMES
 
 __all__ = [
+    "COUPLING_SCHEMES",
     "SHAPE_FUNCTIONS",
     "STRESS_UPDATES",
     "TRANSFER_SCHEMES",
@@ -121,6 +123,17 @@ class SolverConfig:
             at least 8. More stops the run with a message naming this setting.
         granular_cell_capacity: points a cell can hold in the binning of the interaction search;
             None picks 4 × the densest seeding, at least 16. Overflow stops the run with a message.
+        coupling: how the contact force between a material point and a rigid body reaches the
+            grid (scenes with both; MPM-SDEM §5.4): "imp" (default, the paper's: at the point,
+            with its shape function, eq. 47), "grid" (the same force at the nodes of the cell
+            around the contact point) or "liu" (no contact force: each rigid body is carried by
+            a few material points that share the grid's velocity field, Liu et al.'s momentum
+            exchange).
+        imp_skin: Verlet skin of the point–body lists [m]; None picks h/2. Lists are rebuilt when
+            a point or body moved more than half of it since the last build.
+        imp_max_bodies: rigid bodies one point may list at once (overflow stops the run).
+        imp_cell_capacity: points per grid cell in the binning of the point–body search; None
+            picks 4 × the densest seeding, at least 16.
     """
 
     shape: str = "bspline2"
@@ -144,6 +157,10 @@ class SolverConfig:
     density_control: str = "revert"
     granular_layers: int | None = None
     granular_cell_capacity: int | None = None
+    coupling: str = "imp"
+    imp_skin: float | None = None
+    imp_max_bodies: int = 4
+    imp_cell_capacity: int | None = None
 
     def __post_init__(self):
         shape = str(self.shape).lower()
@@ -194,6 +211,19 @@ class SolverConfig:
             v = getattr(self, name)
             if v is not None and not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 1024):
                 raise InputError(name, v, "an integer in 1..1024, or None (automatic)")
+        if self.coupling not in COUPLING_SCHEMES:
+            raise InputError("coupling", self.coupling, f"one of {', '.join(COUPLING_SCHEMES)}")
+        if self.imp_skin is not None and not (math.isfinite(float(self.imp_skin)) and float(self.imp_skin) > 0.0):
+            raise InputError("imp_skin", self.imp_skin, "a Verlet skin > 0 [m], or None for h/2")
+        if not (isinstance(self.imp_max_bodies, int) and not isinstance(self.imp_max_bodies, bool)
+                and 1 <= self.imp_max_bodies <= 64):
+            raise InputError("imp_max_bodies", self.imp_max_bodies, "an integer in 1..64")
+        v = self.imp_cell_capacity
+        if v is not None and not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 1024):
+            raise InputError("imp_cell_capacity", v, "an integer in 1..1024, or None (automatic)")
+        if self.granular and self.coupling != "imp":
+            raise InputError("coupling", self.coupling, "\"imp\" in granular mode (the other schemes write to "
+                             "nodes a point's component may not own)")
         if self.granular and self.scheme.xpic:
             raise InputError("transfer", self.transfer, "a non-XPIC transfer in granular mode (XPIC's smoothing "
                              "passes are not layered yet)")

@@ -61,6 +61,8 @@ def dem_time_step_bound(scene: Scene) -> float:
     law = scene.contact
     masses = [effective_mass(b) for b in scene.rigid_bodies if b.motion == "free"]
     if not masses:
+        if scene.has_mpm:  # fixed or driven bodies under material points: no DEM bound
+            return math.inf
         raise InputError("rigid_bodies", [b.name for b in scene.rigid_bodies], "at least one free rigid body")
     k = max(float(law.normal_stiffness), law.kt)
     zeta = law.damping_ratio
@@ -103,6 +105,8 @@ class DEMSolver:
         pos = np.array([b.position for b in bodies], float).reshape(-1, 2)
         bound = np.array([b.shape.bounding_radius for b in bodies])
         ref = bound[motion == kdem.FREE]
+        if not len(ref):  # only fixed or driven bodies (under material points)
+            ref = bound
         median = float(np.median(ref))
         big = np.flatnonzero(bound > LARGE_FACTOR * median)
         big = big[np.argsort(-bound[big])][:MAX_LARGE]
@@ -267,9 +271,17 @@ class DEMSolver:
     # -- stepping -------------------------------------------------------------------------------
     def step(self, own_clock: bool = True) -> None:
         """Launch one DEM step (contacts, then the rigid-body update) on the device clock."""
-        k, B, C, P, dev = self.k, self.B, self.C, self.P, self.device
         if own_clock:
-            wp.launch(k.dem_dt, 1, inputs=[self.clock], device=dev)
+            wp.launch(self.k.dem_dt, 1, inputs=[self.clock], device=self.device)
+        self.contact_stage()
+        self.body_update()
+        if own_clock:
+            wp.launch(kred.advance_time, 1, inputs=[self.clock, self.steps], device=self.device)
+
+    def contact_stage(self) -> None:
+        """World vertices, Verlet lists (rebuilt only when flagged on the device) and the
+        body–body contact forces of this step into ``B.force``, ``B.torque``."""
+        k, B, C, P, dev = self.k, self.B, self.C, self.P, self.device
         if self.moving_vertices:
             wp.launch(k.world_vertices, self.moving_vertices, inputs=[B, self.local, self.owner, self.world],
                       device=dev)
@@ -286,9 +298,12 @@ class DEMSolver:
         B.torque.zero_()
         wp.launch(k.contact_forces, self.body_count * self.slots,
                   inputs=[B, C, P, self.world, self.clock, self.status], device=dev)
-        wp.launch(k.integrate, self.moving, inputs=[B, P, self.clock, self.status], device=dev)
-        if own_clock:
-            wp.launch(kred.advance_time, 1, inputs=[self.clock, self.steps], device=dev)
+
+    def body_update(self) -> None:
+        """Rigid-body update of the free and kinematic bodies (fixed bodies are not integrated)."""
+        if self.moving:
+            wp.launch(self.k.integrate, self.moving, inputs=[self.B, self.P, self.clock, self.status],
+                      device=self.device)
 
     def set_stop_time(self, t_stop: float) -> None:
         """Steps run until the clock reaches t_stop [s]; later steps do nothing."""

@@ -98,6 +98,8 @@ class MPMSolver:
                                 else config.granular_layers) if config.granular else 1
         self.granular_cell_capacity = config.granular_cell_capacity or max(16, 4 * ppc * ppc)
         self.staged = bool((host["release"] > 0.0).any())
+        #: rigid bodies push on the points through contact forces (MPM-SDEM §4; mpmdem.coupling)
+        self.coupled = scene.has_dem
         mats = scene.materials()
         self.critical = any(m.critical_density is not None for m in mats)
         self.order = device_order(host["x"], scene.domain[0], scene.cell_size)
@@ -115,6 +117,7 @@ class MPMSolver:
         mats = scene.materials()
         mat_index = np.array([mats.index(b.material) for b in scene.bodies], np.int32)[host["body"]]
         host = {**host, "material_index": mat_index}
+        self.point_contact_radius = host["contact_radius"]  # device order [m]
         self.material_kinds = tuple(sorted({m.kind_id for m in mats}))
         Particles, Grid, Domain = make_state_structs(self.config.precision)
         eye = np.tile(np.eye(2), (n, 1, 1))
@@ -140,6 +143,7 @@ class MPMSolver:
         xpic = self.config.scheme.xpic
         P.tmp = wp.zeros(n if xpic else 1, dtype=t.vec2, device=dev)
         P.pid = wp.array(self.order.astype(np.int32), dtype=wp.int32, device=dev)
+        P.fcont = wp.zeros(n if self.coupled else 1, dtype=t.vec2, device=dev)
         self.P = P
 
         nx, ny = scene.cell_counts
@@ -235,7 +239,7 @@ class MPMSolver:
 
         def p2g(**flags):
             kernel = ktr.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic, layered=layered,
-                                  staged=self.staged, **flags)
+                                  staged=self.staged, contact=self.coupled and c.coupling == "imp", **flags)
             fused = flags.get("fused_impulse", False)
             return [_Launch(kernel, n, [P, G, D, clock, self.status])] + fold(
                 mass=flags["mass"], momentum=flags["momentum"] or fused, force=flags["force"] and not fused,
@@ -381,8 +385,18 @@ class MPMSolver:
     # -- stepping -------------------------------------------------------------------------------
     def step(self) -> None:
         """Launch one explicit step (dt from the device clock; a no-op once t reaches t_stop)."""
+        self.begin_step()
+        self.run_sequence()
+        self.end_step()
+
+    def begin_step(self) -> None:
+        """dt of this step from the CFL speeds (or the fixed dt) onto the device clock."""
+        wp.launch(kred.compute_dt, 1, inputs=[self.clock, self.max_speed, float(self.scene.cell_size)],
+                  device=self.device)
+
+    def run_sequence(self) -> None:
+        """P2G, grid update and G2P of the chosen stress-update order (the MPM stage of a step)."""
         dev = self.device
-        wp.launch(kred.compute_dt, 1, inputs=[self.clock, self.max_speed, float(self.scene.cell_size)], device=dev)
         G = self.G
         if not self.config.granular:  # granular mode: the grid update clears the copies it used
             G.mass.zero_()
@@ -397,7 +411,10 @@ class MPMSolver:
                     item[1].zero_()
             else:
                 wp.launch(item.kernel, item.dim, inputs=item.inputs, device=dev)
-        wp.launch(kred.advance_time, 1, inputs=[self.clock, self.steps], device=dev)
+
+    def end_step(self) -> None:
+        """t += dt on the device clock."""
+        wp.launch(kred.advance_time, 1, inputs=[self.clock, self.steps], device=self.device)
 
     _POINT_FIELDS = ("x", "v", "C", "F", "stress", "szz", "mass", "vol", "vol0", "half0", "material", "strain_energy",
                      "pid")
@@ -413,6 +430,7 @@ class MPMSolver:
                 setattr(scratch, name, wp.empty_like(getattr(self.P, name)))
             scratch.tmp = self.P.tmp
             scratch.comp = self.P.comp
+            scratch.fcont = self.P.fcont
             scratch.release = wp.empty_like(self.P.release) if self.staged else self.P.release
             keys = wp.empty(2 * n, dtype=wp.int32, device=dev)
             values = wp.empty(2 * n, dtype=wp.int32, device=dev)
@@ -558,6 +576,9 @@ class MPMSolver:
             out[k] = np.empty_like(a.numpy())
             out[k][pid] = a.numpy()  # back to the scene's order
         out["body"] = self.body.copy()
+        if self.coupled:
+            out["contact_force"] = np.empty_like(P.fcont.numpy())
+            out["contact_force"][pid] = P.fcont.numpy()
         if self.staged:
             waiting = self.release_times > float(self.clock.numpy()[0])
             out["x"][waiting] = np.nan  # not in the scene yet

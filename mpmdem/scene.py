@@ -5,6 +5,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -68,6 +69,7 @@ class MPMBody:
     angular_velocity: float = 0.0
     points: SeededPoints | None = None  # explicit points (Scene.add_points) instead of a seeded shape
     release_times: np.ndarray | None = None  # [s] per point: when it enters the scene (add_points)
+    contact_radius: float | None = None  # r_p of its points against rigid bodies [m] (MPM-SDEM eq. 45)
 
     def initial_velocity(self, x: np.ndarray) -> np.ndarray:
         """Velocity [m/s] of points at positions x (N, 2): the field, or the rigid motion."""
@@ -103,6 +105,8 @@ class Scene:
         gravity_ramp: gravity grows linearly from zero to its value over this time [s]
             (quasi-static loading; 0 applies it at once).
         contact: the DEM contact law (needed once there are rigid bodies).
+        coupling_contact: the contact law between material points and rigid bodies (MPM-SDEM
+            eq. 44-46); None uses ``contact``, as the paper does.
     """
 
     domain: tuple[tuple[float, float], tuple[float, float]]
@@ -111,9 +115,12 @@ class Scene:
     boundaries: dict = field(default_factory=dict)
     gravity_ramp: float = 0.0
     contact: ContactLaw | None = None
+    coupling_contact: ContactLaw | None = None
     bodies: list[MPMBody] = field(default_factory=list)
     rigid_bodies: list[RigidBody] = field(default_factory=list)
     obstacles: list[Obstacle] = field(default_factory=list)
+    #: (material, rigid body name) → Coulomb μ of material points against that body
+    coupling_friction: dict = field(default_factory=dict)
 
     def __post_init__(self):
         try:
@@ -131,8 +138,10 @@ class Scene:
             if h > min(x1 - x0, y1 - y0):
                 raise InputError("cell_size", h, f"at most the smaller domain side, {min(x1 - x0, y1 - y0)} m")
             self.cell_size = float(h)
-        if self.contact is not None and not isinstance(self.contact, ContactLaw):
-            raise InputError("contact", self.contact, "a ContactLaw(normal_stiffness, ...) or None")
+        for name in ("contact", "coupling_contact"):
+            law = getattr(self, name)
+            if law is not None and not isinstance(law, ContactLaw):
+                raise InputError(name, law, "a ContactLaw(normal_stiffness, ...) or None")
         g = tuple(float(v) for v in np.asarray(self.gravity, dtype=float).ravel())
         if len(g) != 2 or not all(math.isfinite(v) for v in g):
             raise InputError("gravity", self.gravity, "a finite (gx, gy) [m/s^2]")
@@ -160,13 +169,16 @@ class Scene:
         velocity: tuple[float, float] | Callable[[np.ndarray], np.ndarray] = (0.0, 0.0),
         angular_velocity: float = 0.0,
         points_per_cell: int = 2,
+        contact_radius: float | None = None,
         name: str | None = None,
     ) -> MPMBody:
         """Fill ``shape`` with points_per_cell² points per cell of ``material``.
 
         velocity [m/s] and angular_velocity [rad/s, about the body's centroid] set the initial
         rigid motion of the body; velocity may instead be a function of the positions (N, 2)
-        returning the velocities (N, 2), for an initial velocity field.
+        returning the velocities (N, 2), for an initial velocity field. contact_radius: r_p [m]
+        of the body's points against rigid bodies, inside h sqrt(1/n) < r_p < h (MPM-SDEM
+        eq. 45, n points per cell); None picks the geometric middle h n^(-1/4).
         """
         if self.cell_size is None:
             raise InputError("cell_size", None, "a grid spacing h > 0 [m] in Scene(...) before adding MPM bodies")
@@ -185,6 +197,7 @@ class Scene:
         name = name or f"body{len(self.bodies)}"
         body = MPMBody(name, shape, material, vel, points_per_cell, float(angular_velocity))
         pts = self._seed(body)
+        body = self._with_contact_radius(body, contact_radius, pts.volumes)
         (x0, y0), (x1, y1) = self.domain
         x = pts.positions
         if callable(vel):
@@ -307,6 +320,7 @@ class Scene:
         size: float,
         velocity=(0.0, 0.0),
         release_time=0.0,
+        contact_radius: float | None = None,
         name: str | None = None,
     ) -> MPMBody:
         """Material points at given positions (N, 2) [m], each a square domain of edge ``size`` [m].
@@ -317,6 +331,7 @@ class Scene:
         enter the scene [s], one value or one per point (a feed, like the silo filling of
         "Granular MPM" §4.3); until then they take no part, are left out of the diagnostics and
         written as NaN. The energy they bring is booked as the work term ``work_inflow``.
+        contact_radius: r_p against rigid bodies, as in ``add_body``.
         """
         if self.cell_size is None:
             raise InputError("cell_size", None, "a grid spacing h > 0 [m] in Scene(...) before adding MPM bodies")
@@ -348,8 +363,46 @@ class Scene:
         vel = v.copy()
         body = MPMBody(name or f"body{len(self.bodies)}", rectangle(lo[0], lo[1], hi[0], hi[1]), material,
                        lambda _x, _v=vel: _v, max(1, round(self.cell_size / size)), 0.0, pts, rel.copy())
+        body = self._with_contact_radius(body, contact_radius, pts.volumes)
         self.bodies.append(body)
         return body
+
+    def contact_radius_interval(self, volumes: np.ndarray) -> tuple[float, float]:
+        """(h sqrt(1/n), h) [m]: MPM-SDEM eq. 45's open interval for the contact radius r_p of
+        points of these volumes [m²], with n = h² / mean volume the points per cell."""
+        h = self.cell_size
+        n = h * h / float(np.mean(volumes))
+        return h / math.sqrt(n), h
+
+    def _with_contact_radius(self, body: MPMBody, r_p, volumes: np.ndarray) -> MPMBody:
+        lo, hi = self.contact_radius_interval(volumes)
+        if r_p is None:
+            return dataclasses.replace(body, contact_radius=math.sqrt(lo * hi))
+        try:
+            r = float(r_p)
+        except (TypeError, ValueError):
+            r = math.nan
+        if not (lo < r < hi):
+            raise InputError("contact_radius", r_p, f"a radius in the open interval ({lo:.6g}, {hi:.6g}) m, "
+                             "h sqrt(1/n) < r_p < h (MPM-SDEM eq. 45, h the cell size, n points per cell)")
+        return dataclasses.replace(body, contact_radius=r)
+
+    def set_coupling_friction(self, material: Material, rigid_body: RigidBody | str, friction: float) -> None:
+        """Coulomb μ between the points of ``material`` and one rigid body (default: the body's
+        own ``friction``)."""
+        if not isinstance(material, Material):
+            raise InputError("material", material, "a material of this scene's MPM bodies")
+        name = rigid_body if isinstance(rigid_body, str) else getattr(rigid_body, "name", None)
+        names = [b.name for b in self.rigid_bodies]
+        if name not in names:
+            raise InputError("rigid_body", rigid_body, f"one of this scene's rigid bodies {names}")
+        try:
+            mu = float(friction)
+        except (TypeError, ValueError):
+            mu = math.nan
+        if not (math.isfinite(mu) and mu >= 0.0):
+            raise InputError("friction", friction, "a Coulomb coefficient >= 0")
+        self.coupling_friction[(material, name)] = mu
 
     def _seed(self, body: MPMBody):
         if body.points is not None:
@@ -382,6 +435,7 @@ class Scene:
                 mass=pts.volumes * b.material.density,
                 body=np.full(n, k, np.int32),
                 release=b.release_times if b.release_times is not None else np.zeros(n),
+                contact_radius=np.full(n, b.contact_radius if b.contact_radius is not None else 0.0),
             ))
         return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
 
@@ -401,6 +455,8 @@ class Scene:
             "gravity": self.gravity,
             "gravity_ramp": self.gravity_ramp,
             "contact": self.contact.to_dict() if self.contact is not None else None,
+            "coupling_contact": self.coupling_contact.to_dict() if self.coupling_contact is not None else None,
+            "coupling_friction": [[m.to_dict(), name, mu] for (m, name), mu in self.coupling_friction.items()],
             "rigid_bodies": [b.to_dict() for b in self.rigid_bodies],
             "boundaries": {s: {"kind": b.kind, "friction": b.friction} for s, b in self.boundaries.items()},
             "obstacles": [{"kind": o.kind, "shape": o.shape.to_dict()} for o in self.obstacles],
@@ -408,7 +464,7 @@ class Scene:
                 {"name": b.name, "shape": b.shape.to_dict(), "material": b.material.to_dict(),
                  "velocity": getattr(b.velocity, "__name__", "field") if callable(b.velocity) else b.velocity,
                  "angular_velocity": b.angular_velocity,
-                 "points_per_cell": b.points_per_cell}
+                 "points_per_cell": b.points_per_cell, "contact_radius": b.contact_radius}
                 for b in self.bodies
             ],
         }

@@ -1,9 +1,9 @@
 """Simulation: the coordinator that advances a Scene in explicit steps and writes its results.
 
 A scene runs only the stages it uses: the MPM stage (material points on a grid; dt from the CFL
-bound on the device) and the DEM stage (rigid spheropolygons; dt from MPM-SDEM eq. 51's DEM
-term). Coupling the two (identified material points) is not built yet: a scene with both kinds
-of body is refused with a clear error.
+bound on the device), the DEM stage (rigid spheropolygons; dt from MPM-SDEM eq. 51's DEM term),
+or both, coupled through identified material points (``mpmdem.coupling``: DEM contacts and
+point–body forces → MPM → rigid-body update in each step, one dt from eq. 51).
 """
 
 from __future__ import annotations
@@ -78,13 +78,15 @@ class Simulation:
         self.device = str(wp.get_device(device))
         if not (scene.has_mpm or scene.has_dem):
             raise InputError("bodies", [], "at least one body (Scene.add_body or Scene.add_rigid_body)")
-        if scene.has_mpm and scene.has_dem:
-            raise InputError("rigid_bodies", [b.name for b in scene.rigid_bodies],
-                             "none in a scene with material points: MPM-DEM coupling is not available yet")
         self.mpm = MPMSolver(scene, self.config, self.device) if scene.has_mpm else None
         self.dem = DEMSolver(scene, self.config, self.device) if scene.has_dem else None
-        #: the stage that owns the clock
-        self.stage = self.mpm or self.dem
+        self.coupling = None
+        if self.mpm and self.dem:
+            from .coupling import CoupledStage
+
+            self.coupling = CoupledStage(scene, self.config, self.device, self.mpm, self.dem)
+        #: what one step runs, and who owns the clock
+        self.stage = self.coupling or self.mpm or self.dem
         self._graph = None
         self.sort_interval = self.config.sort_interval or 0
         self._steps_since_sort = 0
@@ -184,8 +186,13 @@ class Simulation:
                 "scene": self.scene.to_dict(), "config": self.config.to_dict(), "end_time": end_time,
                 **(attrs or {}),
             }
+            specs = None
+            if self.coupling is not None:
+                from .io import default_field_specs
+
+                specs = {**default_field_specs(), "contact_force": ((2,), "float")}
             writer = FrameWriter(path, particle_count=self.particle_count, attrs=meta, csv_path=out / "energy.csv",
-                                 body_count=self.body_count,
+                                 body_count=self.body_count, field_specs=specs,
                                  body_geometry=self.dem.scene_geometry() if self.dem else None)
 
         history: dict[str, list] = {}
@@ -247,7 +254,11 @@ class Simulation:
             t_start, dt, bound, steps, _ = self.stage.read_clock()
             if t_start >= end_time:
                 raise InputError("end_time", end_time, f"a time after the current time {t_start:g} s")
-            if self.mpm:
+            if self.coupling:
+                bound = min(self.mpm.dt_bound0, self.coupling.dt_bound)
+                record(t_start, steps, self.config.dt or min(self.config.cfl * self.mpm.dt_bound0,
+                                                             self.coupling.dt_cap), bound)
+            elif self.mpm:
                 record(t_start, steps, self.config.dt or self.config.cfl * self.mpm.dt_bound0, self.mpm.dt_bound0)
             else:
                 record(t_start, steps, self.dem.dt_default, self.dem.dt_bound)
@@ -301,6 +312,9 @@ class Simulation:
                 f"Likely cause: {self._likely_cause(dt, bound)}.", t)
 
     def _likely_cause(self, dt: float, bound: float) -> str:
+        if self.coupling:
+            return (self.mpm._likely_cause(dt, bound) + f"; the contact stiffness against the point masses (dt = "
+                    f"{dt:.3g} s, contact bound {self.coupling.contact_bound:.3g} s): lower dem_kappa or dt")
         if self.mpm:
             return self.mpm._likely_cause(dt, bound)
         return (f"the time step (dt = {dt:.3g} s against the bound {bound:.3g} s of mpmdem.dem): "

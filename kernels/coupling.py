@@ -1,0 +1,419 @@
+"""Device code of the MPM–DEM coupling by identified material points (MPM-SDEM §4).
+
+A material point within the Verlet distance of a rigid spheropolygon is an *identified material
+point* (IMP): for the contact it is a disk of radius r_p centred on the point (MPM-SDEM Fig. 4–5).
+Per step (all kernels, no host sync, capturable in a CUDA graph):
+
+1. ``check_points`` / ``check_bodies``: flag a rebuild of the point–body lists when a point or a
+   moving body has moved (or turned) more than half the skin since the last build, or a staged
+   point has entered the scene — the DEM's Verlet rule.
+2. On a flagged step only: points are binned in cells of the MPM grid; each body visits the cells
+   its bounding circle, grown by the largest r_p and the skin, covers (``tile`` threads per body
+   share its cells, so a long wall is not one thread's work) and lists the points within
+   a_i + r_p + skin of its core outline (eq. 44's gap plus the skin). Each point then sorts its
+   bodies (sums in a fixed order) and carries the tangential history of pairs that stay listed.
+3. ``forces``: every point against its listed bodies, as a disk of radius r_p against each edge
+   and vertex (the DEM's Voronoi rule: one contact per touching spot on a convex core): overlap
+   ξ = a_i + r_p − d (eq. 44), normal spring–dashpot, tangential spring with history and the
+   Coulomb cap (eq. 43), summed over bodies into the point's contact force f_p (eq. 46), which
+   the P2G spreads with the point's own shape function (eq. 47–48). The opposite force and its
+   torque go to the body (eq. 49–50).
+
+Torque lever: the grid receives f_p at x_p (eq. 47: Σ_I N_I(x_p) x_I = x_p), so the body's
+reaction torque is taken about the same line of action, (x_p − c_i) × (−f_p). Eq. 50 writes the
+lever to the contact point p(x_p, E_i); with friction that adds a couple f_t (r_p − ξ/2) per
+contact that nothing balances, and total angular momentum drifts. The ``grid`` scheme, which puts
+the force at the nodes around the contact point, uses the contact point's lever instead.
+"""
+
+import functools
+
+import warp as wp
+
+from .dem import FIXED, make_dem_kernels
+from .state import make_state_structs
+from .types import kernel, scalar_types
+
+__all__ = [
+    "COUPLING_SCHEMES",
+    "IMP_DIAG_NAMES",
+    "IMP_HISTORY",
+    "STATUS_CELL_OVERFLOW",
+    "STATUS_SIZE",
+    "STATUS_SLOT_OVERFLOW",
+    "make_coupling_kernels",
+]
+
+#: How the contact force reaches the grid: at the point (the paper's), at the nodes around the
+#: contact point, or not at all (Liu et al.'s momentum exchange through shared nodes).
+COUPLING_SCHEMES = ("imp", "grid", "liu")
+
+#: Features of one body a point may touch at once (two edges in a concave corner); the kernels
+#: spell the vectors of this length out.
+IMP_HISTORY = 2
+
+STATUS_SLOT_OVERFLOW = 0
+STATUS_CELL_OVERFLOW = 1
+STATUS_SIZE = 2
+
+#: Order of the sums written by the diagnostics kernel.
+IMP_DIAG_NAMES = ("energy_imp", "dissipated_imp_damping", "dissipated_imp_friction", "imp_pairs", "imp_contacts")
+
+#: Position of a point not listed yet (a staged point before its release).
+_UNLISTED = 1.0e30
+
+
+@functools.cache
+def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool = False, deterministic: bool = False):
+    """Structs and kernels of the IMP coupling for one precision and coupling scheme.
+
+    scheme "imp" and "liu" take the body's torque about x_p, "grid" about the contact point.
+    staged: points whose release time is still ahead take no part.
+    """
+    t = scalar_types(precision)
+    T = t.scalar
+    vec2 = t.vec2
+    Particles, Grid, Domain = make_state_structs(precision)
+    kd = make_dem_kernels(precision, deterministic)
+    Bodies = kd.Bodies
+    cross = kd.cross
+    spin = kd.spin
+    in_corner = kd.in_corner
+    polygon_distance = kd.polygon_distance
+    lever_at_contact = scheme == "grid"
+    vec2h = wp.types.vector(IMP_HISTORY, T)
+    veci = wp.types.vector(IMP_HISTORY, wp.int32)
+
+    @wp.struct
+    class Links:
+        body: wp.array(dtype=wp.int32)  # (points * slots) listed body of each slot, −1 empty
+        count: wp.array(dtype=wp.int32)  # (points) bodies listed
+        key: wp.array(dtype=veci)  # (points * slots) feature keys of the tangential history
+        slip: wp.array(dtype=vec2h)  # (points * slots) tangential spring stretch δ_t [m]
+        old_body: wp.array(dtype=wp.int32)
+        old_key: wp.array(dtype=veci)
+        old_slip: wp.array(dtype=vec2h)
+        x_ref: wp.array(dtype=vec2)  # (points) position at the last build [m]
+        body_x_ref: wp.array(dtype=vec2)  # (bodies) centroid and angle at the last build
+        body_angle_ref: wp.array(dtype=T)
+        radius: wp.array(dtype=T)  # (points) contact radius r_p [m] (MPM-SDEM eq. 45)
+        energy: wp.array(dtype=T)  # (points) elastic energy of the point's contacts [J/m]
+        dissipated: wp.array(dtype=wp.vec2d)  # (points) damping, friction work since the start [J/m]
+        contact_at: wp.array(dtype=vec2)  # (points) where the force acts ("grid" scheme) [m]
+        active: wp.array(dtype=wp.int32)  # (points) contacts touching this step
+        slots: int
+
+    @wp.struct
+    class Params:
+        kn: T  # normal stiffness [N/m per m]
+        kt: T  # tangential stiffness
+        zeta: T  # damping ratio from the restitution coefficient
+        skin: T  # Verlet skin [m]
+        r_max: T  # largest contact radius [m]
+        cell_origin: vec2  # point bins (the MPM grid's cells)
+        inv_cell: T
+        cells_x: int
+        cells_y: int
+        cell_cap: int
+        bodies: int
+        moving: int  # bodies [0, moving) can move
+        tile: int  # threads per body in the list build
+        friction: wp.array(dtype=T)  # (materials * bodies) Coulomb μ of each (material, body) pair
+
+    @wp.func
+    def released(P: Particles, clock: wp.array(dtype=wp.float64), p: int):
+        ok = True
+        if wp.static(staged):
+            ok = clock[0] >= P.release[p]
+        return ok
+
+    # -- list maintenance ---------------------------------------------------------------------
+    @kernel
+    def check_points(P: Particles, L: Links, prm: Params, clock: wp.array(dtype=wp.float64),
+                     flags: wp.array(dtype=wp.int32)):
+        """Flag a rebuild when a point moved more than half the skin (or was just released)."""
+        p = wp.tid()
+        if not released(P, clock, p):
+            return
+        moved = wp.length(P.x[p] - L.x_ref[p])
+        if moved > T(0.5) * prm.skin or not wp.isfinite(moved):
+            flags[0] = 1
+
+    @kernel
+    def check_bodies(B: Bodies, L: Links, prm: Params, flags: wp.array(dtype=wp.int32)):
+        """Flag a rebuild when a moving body moved or turned more than half the skin."""
+        i = wp.tid()
+        moved = wp.length(B.x[i] - L.body_x_ref[i]) + B.core_radius[i] * wp.abs(B.angle[i] - L.body_angle_ref[i])
+        if moved > T(0.5) * prm.skin or not wp.isfinite(moved):
+            flags[0] = 1
+
+    @wp.func
+    def cell_of(x: vec2, prm: Params):
+        cx = wp.clamp(int(wp.floor((x[0] - prm.cell_origin[0]) * prm.inv_cell)), 0, prm.cells_x - 1)
+        cy = wp.clamp(int(wp.floor((x[1] - prm.cell_origin[1]) * prm.inv_cell)), 0, prm.cells_y - 1)
+        return cx, cy
+
+    @kernel
+    def clear_cells(flags: wp.array(dtype=wp.int32), cell_count: wp.array(dtype=wp.int32)):
+        if flags[0] == 0:
+            return
+        cell_count[wp.tid()] = 0
+
+    @kernel
+    def bin_points(P: Particles, L: Links, prm: Params, clock: wp.array(dtype=wp.float64),
+                   flags: wp.array(dtype=wp.int32), cell_count: wp.array(dtype=wp.int32),
+                   cell_items: wp.array(dtype=wp.int32), status: wp.array(dtype=wp.int32)):
+        """Point p into its cell's bin; keep its old list for the history hand-over."""
+        if flags[0] == 0:
+            return
+        p = wp.tid()
+        S = L.slots
+        base = p * S
+        for s in range(S):
+            L.old_body[base + s] = L.body[base + s]
+            L.old_key[base + s] = L.key[base + s]
+            L.old_slip[base + s] = L.slip[base + s]
+            L.body[base + s] = -1
+        L.count[p] = 0
+        if not released(P, clock, p):
+            L.x_ref[p] = vec2(T(_UNLISTED), T(_UNLISTED))
+            return
+        x = P.x[p]
+        L.x_ref[p] = x
+        cx, cy = cell_of(x, prm)
+        c = cx * prm.cells_y + cy
+        s = wp.atomic_add(cell_count, c, 1)
+        if s < prm.cell_cap:
+            cell_items[c * prm.cell_cap + s] = p
+        else:
+            wp.atomic_add(status, STATUS_CELL_OVERFLOW, 1)
+
+    @kernel
+    def build_lists(P: Particles, B: Bodies, L: Links, prm: Params, world: wp.array(dtype=vec2),
+                    flags: wp.array(dtype=wp.int32), cell_count: wp.array(dtype=wp.int32),
+                    cell_items: wp.array(dtype=wp.int32), status: wp.array(dtype=wp.int32)):
+        """Body b (with ``tile`` lanes) lists the points within a_b + r_p + skin of its outline."""
+        if flags[0] == 0:
+            return
+        tid = wp.tid()
+        b = tid // prm.tile
+        lane = tid - b * prm.tile
+        xb = B.x[b]
+        a = B.radius[b]
+        reach = B.core_radius[b] + a + prm.r_max + prm.skin
+        lo_x, lo_y = cell_of(xb - vec2(reach, reach), prm)
+        hi_x, hi_y = cell_of(xb + vec2(reach, reach), prm)
+        nx = hi_x - lo_x + 1
+        ny = hi_y - lo_y + 1
+        if lane == 0:
+            L.body_x_ref[b] = xb
+            L.body_angle_ref[b] = B.angle[b]
+        start = B.vstart[b]
+        count = B.vcount[b]
+        S = L.slots
+        for c in range(lane, nx * ny, prm.tile):
+            gx = lo_x + c // ny
+            gy = lo_y + c - (c // ny) * ny
+            cell = gx * prm.cells_y + gy
+            for s in range(wp.min(cell_count[cell], prm.cell_cap)):
+                p = cell_items[cell * prm.cell_cap + s]
+                x = P.x[p]
+                if wp.length(x - xb) < reach:
+                    if polygon_distance(x, world, start, count) < a + L.radius[p] + prm.skin:
+                        k = wp.atomic_add(L.count, p, 1)
+                        if k < S:
+                            L.body[p * S + k] = b
+                        else:
+                            wp.atomic_add(status, STATUS_SLOT_OVERFLOW, 1)
+
+    @kernel
+    def finish_lists(L: Links, flags: wp.array(dtype=wp.int32)):
+        """Sort each point's bodies (a fixed summation order) and carry the history of pairs
+        that stay listed."""
+        if flags[0] == 0:
+            return
+        p = wp.tid()
+        S = L.slots
+        base = p * S
+        n = wp.min(L.count[p], S)
+        L.count[p] = n
+        for a in range(1, n):
+            v = L.body[base + a]
+            k = a - 1
+            while k >= 0 and L.body[base + k] > v:
+                L.body[base + k + 1] = L.body[base + k]
+                k -= 1
+            L.body[base + k + 1] = v
+        for s in range(S):
+            key = veci(-1, -1)
+            slip = vec2h()
+            if s < n:
+                b = L.body[base + s]
+                for o in range(S):
+                    if L.old_body[base + o] == b:
+                        key = L.old_key[base + o]
+                        slip = L.old_slip[base + o]
+            L.key[base + s] = key
+            L.slip[base + s] = slip
+
+    # -- forces (MPM-SDEM eq. 43-46, 49-50) -----------------------------------------------------
+    @wp.func
+    def find_slip(keys: veci, slips: vec2h, key: int):
+        out = T(0.0)
+        for h in range(wp.static(IMP_HISTORY)):
+            if keys[h] == key:
+                out = slips[h]
+        return out
+
+    @kernel(deterministic=deterministic)
+    def forces(P: Particles, B: Bodies, L: Links, prm: Params, world: wp.array(dtype=vec2),
+               clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
+        """Contact force f_p on point p from its listed bodies (eq. 44-46); reactions on the bodies."""
+        p = wp.tid()
+        fc = vec2()
+        dt = T(clock[1])
+        S = L.slots
+        base = p * S
+        n = L.count[p]
+        X = P.x[p]
+        vp = P.v[p]
+        rp = L.radius[p]
+        inv_mp = T(1.0) / P.mass[p]
+        mat = P.material[p]
+        energy = T(0.0)
+        lost = wp.vec2d(0.0, 0.0)
+        app = vec2()
+        app_w = T(0.0)
+        touching = int(0)
+        if dt <= T(0.0) or not released(P, clock, p):
+            n = 0
+        for s in range(n):
+            b = L.body[base + s]
+            old_keys = L.key[base + s]
+            old_slips = L.slip[base + s]
+            keys = veci(-1, -1)
+            slips = vec2h()
+            n_hist = int(0)
+            xb = B.x[b]
+            reach = B.radius[b] + rp
+            if wp.length(X - xb) < B.core_radius[b] + reach:
+                start = B.vstart[b]
+                count = B.vcount[b]
+                vb = B.v[b]
+                wb = B.omega[b]
+                inv_mb = B.inv_mass[b]
+                inv_ib = B.inv_inertia[b]
+                mu = prm.friction[mat * prm.bodies + b]
+                n_edges = int(0)
+                if count >= 2:
+                    n_edges = count
+                # a point past every edge line of a polygon core (inside a convex core) is pushed
+                # out through the nearest edge, the overlap growing as d turns negative
+                inside = count >= 3
+                best_d = T(-1.0e30)
+                best_f = int(-1)
+                best_n = vec2()
+                for f in range(n_edges + count + 1):
+                    N = vec2()
+                    d = T(0.0)
+                    key = f
+                    hit = False
+                    if f < n_edges:
+                        A = world[start + f]
+                        E = world[start + (f + 1) % count] - A
+                        l2 = wp.dot(E, E)
+                        u = wp.dot(X - A, E) / l2
+                        N = vec2(E[1], -E[0]) / wp.sqrt(l2)  # outward normal of a CCW edge
+                        d = wp.dot(X - A, N)
+                        if d >= T(0.0):
+                            inside = False
+                        elif d > best_d:
+                            best_d = d
+                            best_f = f
+                            best_n = N
+                        hit = u > T(0.0) and u < T(1.0) and d >= T(0.0) and d < reach
+                    elif f < n_edges + count:
+                        w = f - n_edges
+                        D = X - world[start + w]
+                        d = wp.length(D)
+                        if d < reach and d > T(1.0e-12) * reach and in_corner(X, world, start, count, w):
+                            N = D / d
+                            hit = True
+                    elif inside and best_f >= 0:
+                        N = best_n
+                        d = best_d
+                        key = best_f
+                        hit = True
+                    if hit:
+                        # overlap eq. 44; contact point in the middle of the overlap (eq. 41);
+                        # N points from the body to the point
+                        delta = reach - d
+                        pc = X - (rp - T(0.5) * delta) * N
+                        arm = X - xb
+                        if wp.static(lever_at_contact):
+                            arm = pc - xb
+                        vel = vp - (vb + spin(wb, pc - xb))
+                        vn = wp.dot(vel, N)
+                        tan = vec2(-N[1], N[0])
+                        lever = cross(arm, N)
+                        # dashpot c_n = 2ζ sqrt(m_eff k_n), m_eff of the point and the body (with its
+                        # rotation) at the contact, as for two DEM bodies
+                        inv_eff = inv_mp + inv_mb + inv_ib * lever * lever
+                        c_n = T(2.0) * prm.zeta * wp.sqrt(prm.kn / inv_eff)
+                        fn = prm.kn * delta - c_n * vn
+                        # tangential spring with history and Coulomb cap k_t δ_t <= μ k_n ξ (eq. 43)
+                        slip = find_slip(old_keys, old_slips, key) + wp.dot(vel, tan) * dt
+                        ft = -prm.kt * slip
+                        cap = mu * prm.kn * delta
+                        if wp.abs(ft) > cap:
+                            slip_new = wp.sign(slip) * cap / wp.max(prm.kt, T(1.0e-30))
+                            lost[1] = lost[1] + wp.float64(cap * wp.abs(slip - slip_new))
+                            slip = slip_new
+                            ft = -wp.sign(slip) * cap
+                        # dashpot work at the mid-step normal velocity (as kernels/dem.py)
+                        lost[0] = lost[0] + wp.float64(c_n * vn * (vn + T(0.5) * dt * fn * inv_eff) * dt)
+                        energy += T(0.5) * (prm.kn * delta * delta + prm.kt * slip * slip)
+                        if n_hist < wp.static(IMP_HISTORY):
+                            keys[n_hist] = key
+                            slips[n_hist] = slip
+                            n_hist += 1
+                        F = fn * N + ft * tan  # on the point (eq. 46)
+                        fc += F
+                        wF = wp.length(F)
+                        app += wF * pc
+                        app_w += wF
+                        touching += 1
+                        # reaction on the body (eq. 49-50); fixed bodies keep it as their load
+                        wp.atomic_add(B.force, b, -F)
+                        wp.atomic_add(B.torque, b, -cross(arm, F))
+            L.key[base + s] = keys
+            L.slip[base + s] = slips
+        P.fcont[p] = fc
+        if app_w > T(0.0):
+            L.contact_at[p] = app / app_w
+        else:
+            L.contact_at[p] = X
+        L.energy[p] = energy
+        L.active[p] = touching
+        L.dissipated[p] = L.dissipated[p] + lost
+
+    @kernel
+    def diagnostics(L: Links, out: wp.array(dtype=wp.float64)):
+        """Sums of IMP_DIAG_NAMES over the points."""
+        p = wp.tid()
+        lost = L.dissipated[p]
+        wp.atomic_add(out, 0, wp.float64(L.energy[p]))
+        wp.atomic_add(out, 1, lost[0])
+        wp.atomic_add(out, 2, lost[1])
+        wp.atomic_add(out, 3, wp.float64(L.count[p]))
+        wp.atomic_add(out, 4, wp.float64(L.active[p]))
+
+    return _Namespace(Links=Links, Params=Params, check_points=check_points, check_bodies=check_bodies,
+                      clear_cells=clear_cells, bin_points=bin_points, build_lists=build_lists,
+                      finish_lists=finish_lists, forces=forces, diagnostics=diagnostics,
+                      finish_rebuild=kd.finish_rebuild, FIXED=FIXED)
+
+
+class _Namespace:
+    def __init__(self, **kw):
+        self.__dict__.update(kw)

@@ -1,0 +1,260 @@
+"""The coupled stage: material points and rigid spheropolygons in one explicit step (MPM-SDEM §4).
+
+No physics here (that is ``mpmdem.kernels.coupling``): this module sizes the point–body lists and
+bins, builds the friction table of (material, body) pairs, sets the coupled time step, and
+launches one step in the order of MPM-SDEM §4.2:
+
+1. DEM contacts: body–body forces (``DEMSolver.contact_stage``), then the identified material
+   points: list check and (flagged) rebuild, IMP forces f_p on the points and their reactions on
+   the bodies (eq. 44–46, 49–50);
+2. MPM: P2G (the contact forces enter the nodal forces, eq. 47–48), grid update, G2P;
+3. rigid-body update of the free and kinematic bodies (``DEMSolver.body_update``).
+
+One dt for all stages (eq. 51): min(κ1 h / c_max, the DEM term, the contact term), where the
+contact term is the DEM bound of a point of the smallest mass on one contact spring (see
+``contact_time_step_bound``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import warp as wp
+
+from .config import SolverConfig
+from .dem import DEMSolver
+from .errors import BlowUpError, InputError
+from .kernels import coupling as kcp
+from .kernels import reductions as kred
+from .mpm import MPMSolver
+from .scene import Scene
+
+__all__ = ["CoupledStage", "contact_time_step_bound"]
+
+#: Threads per body in the point–body list build (they share the cells the body covers).
+BUILD_TILE = 32
+
+
+def contact_time_step_bound(scene: Scene, point_mass: float) -> float:
+    """Largest stable step [s] of a material point of mass ``point_mass`` [kg/m] on one contact
+    spring of the coupling law, 2 sqrt(m_p / k) (sqrt(1 + ζ²) − ζ), k = max(k_n, k_t): the bound
+    ``mpmdem.dem.dem_time_step_bound`` gives a rigid body, with the point as the body.
+
+    Eq. 51 counts the DEM bodies' mass only. A point's contact force is spread over nodes that
+    carry more mass than the point, so this bound is on the safe side; bench/coupling_stability.py
+    maps how far past it runs stay stable.
+    """
+    law = scene.coupling_contact or scene.contact
+    k = max(float(law.normal_stiffness), law.kt)
+    zeta = law.damping_ratio
+    return 2.0 * math.sqrt(point_mass / k) * (math.sqrt(1.0 + zeta * zeta) - zeta)
+
+
+class CoupledStage:
+    """One explicit step of a scene with material points and rigid bodies.
+
+    Args:
+        scene, config, device: as for ``Simulation``.
+        mpm, dem: the two stages, built for this scene; they share the MPM stage's clock.
+    """
+
+    def __init__(self, scene: Scene, config: SolverConfig, device: str, mpm: MPMSolver, dem: DEMSolver):
+        if config.sort_interval:
+            raise InputError("sort_interval", config.sort_interval,
+                             "0 or None in a scene with rigid bodies and points (the point–body lists follow the "
+                             "points' memory order)")
+        if config.coupling == "liu":
+            raise InputError("coupling", config.coupling, "\"imp\" or \"grid\" (Liu et al.'s scheme is not built yet)")
+        self.scene, self.config, self.mpm, self.dem = scene, config, mpm, dem
+        self.device = wp.get_device(device)
+        # one clock for both stages
+        dem.clock = mpm.clock
+        dem.steps = mpm.steps
+        self.clock, self.steps = mpm.clock, mpm.steps
+        law = scene.coupling_contact or scene.contact
+        self.law = law
+        host_mass = mpm.P.mass.numpy()
+        self.contact_bound = contact_time_step_bound(scene, float(host_mass.min()))
+        self.dt_bound = min(self.contact_bound, dem.dt_bound)
+        kappa = math.pi * config.dem_kappa
+        self.dt_cap = kappa * self.dt_bound
+        if config.dt is not None and config.dt > self.dt_bound and not config.allow_unstable:
+            raise InputError(
+                "dt", config.dt,
+                f"at most the stable bound {self.dt_bound:.6g} s of the contacts (a point of the smallest mass "
+                f"on k_n: {self.contact_bound:.6g} s; the rigid bodies: {dem.dt_bound:.6g} s); MPM-SDEM eq. 51 "
+                f"with dem_kappa = {config.dem_kappa:g} gives {self.dt_cap:.6g} s; leave dt unset to use it")
+        self.k = kcp.make_coupling_kernels(config.precision, config.coupling, staged=mpm.staged,
+                                           deterministic=config.deterministic)
+        self._allocate()
+
+    # -- set-up -------------------------------------------------------------------------------
+    def _allocate(self) -> None:
+        k, mpm, dem, cfg, dev = self.k, self.mpm, self.dem, self.config, self.device
+        scene = self.scene
+        n = mpm.particle_count
+        S = cfg.imp_max_bodies
+        T = np.float32 if cfg.precision == "f32" else np.float64
+        t = mpm.types
+        h = scene.cell_size
+        veci = wp.types.vector(kcp.IMP_HISTORY, wp.int32)
+        vech = wp.types.vector(kcp.IMP_HISTORY, t.scalar)
+
+        L = k.Links()
+        L.slots = S
+        L.body = wp.full(n * S, -1, dtype=wp.int32, device=dev)
+        L.count = wp.zeros(n, dtype=wp.int32, device=dev)
+        L.key = wp.full(n * S, veci(-1, -1), dtype=veci, device=dev)
+        L.slip = wp.zeros(n * S, dtype=vech, device=dev)
+        L.old_body = wp.full(n * S, -1, dtype=wp.int32, device=dev)
+        L.old_key = wp.full(n * S, veci(-1, -1), dtype=veci, device=dev)
+        L.old_slip = wp.zeros(n * S, dtype=vech, device=dev)
+        L.x_ref = wp.full(n, t.vec2(1.0e30, 1.0e30), dtype=t.vec2, device=dev)
+        nb = dem.body_count
+        L.body_x_ref = wp.clone(dem.B.x)
+        L.body_angle_ref = wp.clone(dem.B.angle)
+        radius = mpm.point_contact_radius.astype(T)
+        L.radius = wp.array(radius, dtype=t.scalar, device=dev)
+        L.energy = wp.zeros(n, dtype=t.scalar, device=dev)
+        L.dissipated = wp.zeros(n, dtype=wp.vec2d, device=dev)
+        L.contact_at = wp.zeros(n, dtype=t.vec2, device=dev)
+        L.active = wp.zeros(n, dtype=wp.int32, device=dev)
+        self.L = L
+
+        mats = scene.materials()
+        bodies = [scene.rigid_bodies[i] for i in dem.order]
+        mu = np.array([[scene.coupling_friction.get((m, b.name), b.friction) for b in bodies] for m in mats], T)
+        vols = mpm.P.vol.numpy()
+        per_cell = h * h / float(vols.min())
+        self.skin = float(cfg.imp_skin) if cfg.imp_skin is not None else 0.5 * h
+        self.cell_cap = cfg.imp_cell_capacity or int(max(16, math.ceil(4.0 * per_cell)))
+        rows, cols = mpm.D.layer_rows, mpm.grid_shape[1]
+        self.cells = (rows - 1, cols - 1)
+
+        P = k.Params()
+        P.kn = float(self.law.normal_stiffness)
+        P.kt = self.law.kt
+        P.zeta = self.law.damping_ratio
+        P.skin = self.skin
+        P.r_max = float(radius.max())
+        P.cell_origin = mpm.D.origin
+        P.inv_cell = 1.0 / h
+        P.cells_x, P.cells_y = self.cells
+        P.cell_cap = self.cell_cap
+        P.bodies = nb
+        P.moving = dem.moving
+        P.tile = BUILD_TILE
+        P.friction = wp.array(mu.ravel(), dtype=t.scalar, device=dev)
+        self.P = P
+
+        ncell = self.cells[0] * self.cells[1]
+        self.cell_count = wp.zeros(ncell, dtype=wp.int32, device=dev)
+        self.cell_items = wp.zeros(ncell * self.cell_cap, dtype=wp.int32, device=dev)
+        self.flags = wp.ones(1, dtype=wp.int32, device=dev)  # build in the first step
+        self.rebuilds = wp.zeros(1, dtype=wp.int64, device=dev)
+        self.status = wp.zeros(kcp.STATUS_SIZE, dtype=wp.int32, device=dev)
+        self.diag = wp.zeros(len(kcp.IMP_DIAG_NAMES), dtype=wp.float64, device=dev)
+
+    # -- stepping -------------------------------------------------------------------------------
+    def step(self) -> None:
+        """One coupled explicit step (MPM-SDEM §4.2)."""
+        mpm, dem = self.mpm, self.dem
+        mpm.begin_step()
+        wp.launch(kred.cap_dt, 1, inputs=[self.clock, self.dt_cap, self.dt_bound], device=self.device)
+        dem.contact_stage()
+        self.contact_forces()
+        mpm.run_sequence()
+        dem.body_update()
+        mpm.end_step()
+
+    def contact_forces(self) -> None:
+        """Point–body lists (rebuilt when flagged) and the IMP forces of this step."""
+        k, L, P, dev = self.k, self.L, self.P, self.device
+        mp, B = self.mpm.P, self.dem.B
+        n = self.mpm.particle_count
+        clock, flags = self.clock, self.flags
+        wp.launch(k.check_points, n, inputs=[mp, L, P, clock, flags], device=dev)
+        if self.dem.moving:
+            wp.launch(k.check_bodies, self.dem.moving, inputs=[B, L, P, flags], device=dev)
+        wp.launch(k.clear_cells, len(self.cell_count), inputs=[flags, self.cell_count], device=dev)
+        wp.launch(k.bin_points, n, inputs=[mp, L, P, clock, flags, self.cell_count, self.cell_items, self.status],
+                  device=dev)
+        wp.launch(k.build_lists, self.dem.body_count * BUILD_TILE,
+                  inputs=[mp, B, L, P, self.dem.world, flags, self.cell_count, self.cell_items, self.status],
+                  device=dev)
+        wp.launch(k.finish_lists, n, inputs=[L, flags], device=dev)
+        wp.launch(k.finish_rebuild, 1, inputs=[flags, self.rebuilds], device=dev)
+        wp.launch(k.forces, n, inputs=[mp, B, L, P, self.dem.world, clock, self.status], device=dev)
+
+    def set_stop_time(self, t_stop: float) -> None:
+        """Steps run until the clock reaches t_stop [s]; later steps do nothing."""
+        self.mpm.set_stop_time(t_stop)
+
+    def read_clock(self) -> tuple[float, float, float, int, np.ndarray]:
+        """(t, dt, dt_bound, steps, status counts of both stages and the coupling) — one host sync."""
+        t, dt, bound, steps, status = self.mpm.read_clock()
+        return t, dt, bound, steps, np.concatenate([status, self.dem.status.numpy(), self.status.numpy()])
+
+    def check_status(self, t: float, dt: float, bound: float, status: np.ndarray) -> None:
+        """The MPM and DEM checks, then overflowing point–body lists or bins."""
+        nm = len(self.mpm.status)
+        nd = len(self.dem.status)
+        self.mpm.check_status(t, dt, bound, status[:nm])
+        self.dem.check_status(t, dt, bound, status[nm:nm + nd])
+        own = status[nm + nd:]
+        if own[kcp.STATUS_SLOT_OVERFLOW] > 0:
+            raise BlowUpError("imp-overflow", f"at t = {t:.6g} s a material point was near more than "
+                              f"{self.config.imp_max_bodies} rigid bodies: raise SolverConfig(imp_max_bodies=...) "
+                              "or lower imp_skin.", t)
+        if own[kcp.STATUS_CELL_OVERFLOW] > 0:
+            raise BlowUpError("imp-cell-overflow", f"at t = {t:.6g} s more than {self.cell_cap} points sat in one "
+                              "grid cell in the point–body search: raise SolverConfig(imp_cell_capacity=...), or "
+                              f"the points collapsed ({self.mpm._likely_cause(dt, bound)}).", t)
+
+    # -- output ---------------------------------------------------------------------------------
+    #: Works done on the system (for the energy balance): the MPM stage's, the DEM stage's, and
+    #: the damping and friction of the point–body contacts.
+    WORK_TERMS = MPMSolver.WORK_TERMS + DEMSolver.WORK_TERMS + ("work_imp_damping", "work_imp_friction")
+
+    _SUMMED = ("energy_kinetic", "energy_gravity", "momentum_x", "momentum_y", "momentum_angular", "mass")
+
+    def diagnostics(self) -> dict[str, float]:
+        """Energies [J/m], momenta and mass of points and bodies together, each stage's share
+        (``points_*``, ``bodies_*``), contact energies and works, list rebuilds."""
+        m = self.mpm.diagnostics()
+        d = self.dem.diagnostics()
+        self.diag.zero_()
+        wp.launch(self.k.diagnostics, self.mpm.particle_count, inputs=[self.L, self.diag], device=self.device)
+        imp = dict(zip(kcp.IMP_DIAG_NAMES, (float(v) for v in self.diag.numpy()), strict=True))
+        out = dict(m)
+        for name in self._SUMMED:
+            out[f"points_{name}"] = m[name]
+            out[f"bodies_{name}"] = d[name]
+            out[name] = m[name] + d[name]
+        out["energy_contact_bodies"] = d["energy_contact"]
+        out["energy_contact_points"] = imp["energy_imp"]
+        out["energy_contact"] = d["energy_contact"] + imp["energy_imp"]
+        out["energy_total"] = out["energy_kinetic"] + out["energy_gravity"] + out["energy_strain"] + out[
+            "energy_contact"]
+        for name in DEMSolver.WORK_TERMS:
+            out[name] = d[name]
+        out["work_imp_damping"] = -imp["dissipated_imp_damping"]
+        out["work_imp_friction"] = -imp["dissipated_imp_friction"]
+        out["list_rebuilds"] = d["list_rebuilds"]
+        out["imp_rebuilds"] = float(self.rebuilds.numpy()[0])
+        out["imp_pairs"] = imp["imp_pairs"]
+        out["imp_contacts"] = imp["imp_contacts"]
+        return out
+
+    def state_arrays(self) -> dict[str, wp.array]:
+        """Every time-varying device array of both stages and the point–body lists."""
+        arrays = {f"mpm.{k}": a for k, a in self.mpm.state_arrays().items()}
+        arrays.update({f"dem.{k}": a for k, a in self.dem.state_arrays().items() if k not in ("clock", "steps")})
+        L = self.L
+        for name in ("body", "count", "key", "slip", "x_ref", "body_x_ref", "body_angle_ref", "energy",
+                     "dissipated"):
+            arrays[f"imp.{name}"] = getattr(L, name)
+        arrays.update({"imp.flags": self.flags, "imp.rebuilds": self.rebuilds, "imp.status": self.status,
+                       "imp.fcont": self.mpm.P.fcont})
+        return arrays
