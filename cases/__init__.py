@@ -21,6 +21,11 @@ CASES = {
     "silo-filling": "silo_filling",
     "toyoura-flume": "toyoura_flume",
     "column-collapse": "column_collapse",
+    "momentum-exchange": "momentum_exchange",
+    "disk-drop": "disk_drop",
+    "normal-force": "normal_force",
+    "friction-force": "friction_force",
+    "rod-collision": "rod_collision",
 }
 
 DEFAULT_CASE = "sulsky-disks"
