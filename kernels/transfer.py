@@ -488,3 +488,47 @@ def make_xpic_scatter(shape: str, precision: str, *, deterministic: bool = False
                     wp.atomic_add(G.pk, bx + i, by + j, w * mv)
 
     return xpic_scatter
+
+
+@functools.cache
+def make_contact_scatter(precision: str, *, fused_impulse: bool, deterministic: bool = False):
+    """The "grid" coupling scheme (MPM-SDEM §5.4, MPM-GRID): each point's contact force f_p goes to
+    the four nodes of the cell around its contact point q with the bilinear weights N_I(q), not
+    with the point's own shape function (eq. 47). fused_impulse: add dt f to the momentum."""
+    t = scalar_types(precision)
+    T = t.scalar
+    Particles, Grid, Domain = make_state_structs(precision)
+
+    @kernel(deterministic=deterministic)
+    def contact_scatter(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64),
+                        contact_at: wp.array(dtype=t.vec2)):
+        p = wp.tid()
+        dt = T(clock[1])
+        f = P.fcont[p]
+        if dt <= T(0.0) or (f[0] == T(0.0) and f[1] == T(0.0)):
+            return
+        if wp.static(fused_impulse):
+            f = f * dt
+        c = (contact_at[p] - D.origin) * D.inv_h
+        bx = int(wp.floor(c[0]))
+        by = int(wp.floor(c[1]))
+        fx = c[0] - T(bx)
+        fy = c[1] - T(by)
+        rows = D.layer_rows
+        cols = G.mass.shape[1]
+        for i in range(2):
+            for j in range(2):
+                wx = T(1.0) - fx
+                if i == 1:
+                    wx = fx
+                wy = T(1.0) - fy
+                if j == 1:
+                    wy = fy
+                gi = wp.clamp(bx + i, 0, rows - 1)
+                gj = wp.clamp(by + j, 0, cols - 1)
+                if wp.static(fused_impulse):
+                    wp.atomic_add(G.mom, gi, gj, wx * wy * f)
+                else:
+                    wp.atomic_add(G.force, gi, gj, wx * wy * f)
+
+    return contact_scatter

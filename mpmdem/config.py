@@ -221,6 +221,9 @@ class SolverConfig:
         v = self.imp_cell_capacity
         if v is not None and not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 1024):
             raise InputError("imp_cell_capacity", v, "an integer in 1..1024, or None (automatic)")
+        if self.coupling == "liu" and self.update != "USL":
+            raise InputError("update", self.update, "USL with coupling=\"liu\" (the exchange corrects the "
+                             "updated nodal velocities of USL)")
         if self.granular and self.coupling != "imp":
             raise InputError("coupling", self.coupling, "\"imp\" in granular mode (the other schemes write to "
                              "nodes a point's component may not own)")

@@ -64,8 +64,6 @@ class CoupledStage:
             raise InputError("sort_interval", config.sort_interval,
                              "0 or None in a scene with rigid bodies and points (the point–body lists follow the "
                              "points' memory order)")
-        if config.coupling == "liu":
-            raise InputError("coupling", config.coupling, "\"imp\" or \"grid\" (Liu et al.'s scheme is not built yet)")
         self.scene, self.config, self.mpm, self.dem = scene, config, mpm, dem
         self.device = wp.get_device(device)
         # one clock for both stages
@@ -88,6 +86,10 @@ class CoupledStage:
         self.k = kcp.make_coupling_kernels(config.precision, config.coupling, staged=mpm.staged,
                                            deterministic=config.deterministic)
         self._allocate()
+        self.liu = None
+        if config.coupling == "liu":
+            self._allocate_liu()
+            mpm.hooks["after_force_update"] = [self._liu_exchange]
 
     # -- set-up -------------------------------------------------------------------------------
     def _allocate(self) -> None:
@@ -118,7 +120,7 @@ class CoupledStage:
         L.radius = wp.array(radius, dtype=t.scalar, device=dev)
         L.energy = wp.zeros(n, dtype=t.scalar, device=dev)
         L.dissipated = wp.zeros(n, dtype=wp.vec2d, device=dev)
-        L.contact_at = wp.zeros(n, dtype=t.vec2, device=dev)
+        L.contact_at = mpm.contact_at
         L.active = wp.zeros(n, dtype=wp.int32, device=dev)
         self.L = L
 
@@ -156,6 +158,50 @@ class CoupledStage:
         self.status = wp.zeros(kcp.STATUS_SIZE, dtype=wp.int32, device=dev)
         self.diag = wp.zeros(len(kcp.IMP_DIAG_NAMES), dtype=wp.float64, device=dev)
 
+    def _allocate_liu(self) -> None:
+        """Carrier points of each body (core vertices, edge midpoints, centroid; a disk: its centre
+        and four points at half its radius) and the bodies' own grid."""
+        dem, mpm, dev = self.dem, self.mpm, self.device
+        t = mpm.types
+        local, owner, share = [], [], []
+        for j, i in enumerate(dem.order):
+            shape = self.scene.rigid_bodies[i].shape
+            v = np.asarray(shape.vertices, float)
+            if len(v) == 1:
+                a = 0.5 * shape.radius
+                pts = np.vstack([v, v + [[a, 0.0], [0.0, a], [-a, 0.0], [0.0, -a]]])
+            elif len(v) == 2:
+                pts = np.vstack([v, v.mean(axis=0, keepdims=True)])
+            else:
+                pts = np.vstack([v, 0.5 * (v + np.roll(v, -1, axis=0)), [[0.0, 0.0]]])
+            local.append(pts)
+            owner += [j] * len(pts)
+            share += [1.0 / len(pts)] * len(pts)
+        k = kcp.make_liu_kernels(self.config.precision)
+        T = np.float32 if self.config.precision == "f32" else np.float64
+        shape = (mpm.D.layer_rows, mpm.grid_shape[1])
+        BG = k.BodyGrid()
+        BG.mass = wp.zeros(shape, dtype=t.scalar, device=dev)
+        BG.mom = wp.zeros(shape, dtype=t.vec2, device=dev)
+        BG.grad = wp.zeros(shape, dtype=t.vec2, device=dev)
+        BG.owner = wp.zeros(shape, dtype=wp.int32, device=dev)
+        BG.local = wp.array(np.vstack(local).astype(T), dtype=t.vec2, device=dev)
+        BG.body = wp.array(np.array(owner, np.int32), dtype=wp.int32, device=dev)
+        BG.share = wp.array(np.array(share, T), dtype=t.scalar, device=dev)
+        self.liu = (k, BG, len(owner))
+
+    def _liu_carriers(self) -> None:
+        k, BG, n = self.liu
+        BG.mass.zero_()
+        BG.mom.zero_()
+        BG.grad.zero_()
+        wp.launch(k.carriers_to_grid, n, inputs=[self.dem.B, BG, self.mpm.D, self.clock], device=self.device)
+
+    def _liu_exchange(self) -> None:
+        k, BG, _ = self.liu
+        wp.launch(k.exchange, BG.mass.shape, inputs=[self.mpm.G, self.mpm.D, BG, self.dem.B, self.clock],
+                  device=self.device)
+
     # -- stepping -------------------------------------------------------------------------------
     def step(self) -> None:
         """One coupled explicit step (MPM-SDEM §4.2)."""
@@ -163,7 +209,10 @@ class CoupledStage:
         mpm.begin_step()
         wp.launch(kred.cap_dt, 1, inputs=[self.clock, self.dt_cap, self.dt_bound], device=self.device)
         dem.contact_stage()
-        self.contact_forces()
+        if self.liu is None:
+            self.contact_forces()
+        else:
+            self._liu_carriers()
         mpm.run_sequence()
         dem.body_update()
         mpm.end_step()

@@ -105,6 +105,8 @@ class MPMSolver:
         self.order = device_order(host["x"], scene.domain[0], scene.cell_size)
         self._allocate({k: v[self.order] for k, v in host.items()})
         self._sort = None
+        #: launches another stage puts into the step (name of the place → callables)
+        self.hooks: dict[str, list] = {}
         self._build()
 
     # -- set-up -------------------------------------------------------------------------------
@@ -144,6 +146,8 @@ class MPMSolver:
         P.tmp = wp.zeros(n if xpic else 1, dtype=t.vec2, device=dev)
         P.pid = wp.array(self.order.astype(np.int32), dtype=wp.int32, device=dev)
         P.fcont = wp.zeros(n if self.coupled else 1, dtype=t.vec2, device=dev)
+        # where each point's contact force acts (the "grid" coupling scheme spreads it from there)
+        self.contact_at = wp.zeros(n if self.coupled else 1, dtype=t.vec2, device=dev)
         self.P = P
 
         nx, ny = scene.cell_counts
@@ -241,7 +245,11 @@ class MPMSolver:
             kernel = ktr.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic, layered=layered,
                                   staged=self.staged, contact=self.coupled and c.coupling == "imp", **flags)
             fused = flags.get("fused_impulse", False)
-            return [_Launch(kernel, n, [P, G, D, clock, self.status])] + fold(
+            extra = []
+            if self.coupled and c.coupling == "grid" and (flags["force"] or fused):
+                scatter = ktr.make_contact_scatter(prec, fused_impulse=fused, deterministic=c.deterministic)
+                extra = [_Launch(scatter, n, [P, G, D, clock, self.contact_at])]
+            return [_Launch(kernel, n, [P, G, D, clock, self.status])] + extra + fold(
                 mass=flags["mass"], momentum=flags["momentum"] or fused, force=flags["force"] and not fused,
                 remap=flags.get("remap", False))
 
@@ -299,6 +307,8 @@ class MPMSolver:
                 seq += grid(velocity=False, force=False, fused_impulse=True)
             else:
                 seq += p2g(mass=True, momentum=True, force=True) + grid(velocity=True, force=True)
+            if self.coupled and c.coupling == "liu":
+                seq += [("hook", "after_force_update")]  # mpmdem.coupling: Liu et al.'s exchange
             seq += xpic_smoothing() + g2p(velocity=True, position=True, stress="vt")
         elif c.update == "USF":
             seq += p2g(mass=True, momentum=True, force=False) + grid(velocity=True, force=False)
@@ -405,7 +415,10 @@ class MPMSolver:
                 G.force.zero_()
         for item in self._sequence:
             if isinstance(item, tuple):
-                if item[0] == "fill":
+                if item[0] == "hook":
+                    for fn in self.hooks.get(item[1], ()):
+                        fn()
+                elif item[0] == "fill":
                     item[1].fill_(-1)
                 else:
                     item[1].zero_()
