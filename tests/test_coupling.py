@@ -97,7 +97,8 @@ def test_point_resting_on_a_body_gets_kn_overlap(where):
 @pytest.mark.parametrize("scheme", ["imp", "grid", "liu"])
 def test_frictional_oblique_collision_conserves_momenta(scheme):
     """Action = reaction, in each coupling scheme (forces at the point; at the nodes around the
-    contact point with the body's lever taken there; Liu et al.'s nodal momentum exchange): an elastic MPM disk hits a free, tilted rigid square off-centre with
+    contact point with the body's lever taken there; Liu et al.'s nodal momentum exchange): an
+    elastic MPM disk hits a free, tilted rigid square off-centre with
     friction (no gravity, no walls). Linear momentum of points + body and the total angular
     momentum (points' x × m v plus APIC's spin m (h²/4)(C_yx − C_xy) for quadratic B-splines, plus
     the body's m x × v + I ω) are conserved to round-off (f64)."""
