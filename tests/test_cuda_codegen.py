@@ -45,3 +45,24 @@ def test_dem_step_compiles_for_sm90(tmp_path):
     dem = M.Simulation(scene, M.SolverConfig(deterministic=True), device="cpu").dem
     kernels = [v for v in vars(dem.k).values() if isinstance(v, wp.Kernel)]
     assert _compile(kernels, tmp_path) >= 5
+
+
+def test_coupled_step_compiles_for_sm90(tmp_path):
+    """The point–body lists, IMP forces, the grid scheme's scatter and Liu's exchange."""
+    from mpmdem.spheropolygons import rounded_rectangle
+
+    done = 0
+    for scheme in ("imp", "grid", "liu"):
+        scene = M.Scene(domain=((0, 0), (0.3, 0.3)), cell_size=0.02, gravity=(0, -9.81),
+                        contact=M.ContactLaw(1e6, restitution=0.5))
+        scene.add_body(M.disk(center=(0.15, 0.2), radius=0.04), M.LinearElastic(1e5, 0.3, 1000.0))
+        scene.add_rigid_body(rounded_rectangle(0.25, 0.04, 0.005), density=1000.0, position=(0.15, 0.1),
+                             motion="fixed")
+        sim = M.Simulation(scene, M.SolverConfig(coupling=scheme, transfer="PIC", deterministic=True), device="cpu")
+        cp = sim.coupling
+        kernels = [v for v in vars(cp.k).values() if isinstance(v, wp.Kernel)]
+        kernels += [item.kernel for item in sim.mpm._sequence if not isinstance(item, tuple)]
+        if cp.liu is not None:
+            kernels += [v for v in vars(cp.liu[0]).values() if isinstance(v, wp.Kernel)]
+        done += _compile(kernels, tmp_path)
+    assert done >= 20
