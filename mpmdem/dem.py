@@ -317,7 +317,7 @@ class DEMSolver:
     def check_status(self, t: float, dt: float, bound: float, status: np.ndarray) -> None:
         """Raise BlowUpError for non-finite or escaped bodies and overflowing lists."""
         cfg = self.config
-        cause = (f"the time step (dt = {self.dt_default:.3g} s against the bound 2 sqrt(m*/k_n) (sqrt(1+ζ²)−ζ) = "
+        cause = (f"the time step (dt = {dt:.3g} s against the bound 2 sqrt(m*/k_n) (sqrt(1+ζ²)−ζ) = "
                  f"{self.dt_bound:.3g} s; lower dem_kappa or dt) or a contact stiffness too low for the "
                  "loads (bodies pass through each other)")
         if status[kdem.STATUS_NONFINITE] > 0 or not math.isfinite(t):

@@ -95,7 +95,7 @@ def test_point_resting_on_a_body_gets_kn_overlap(where):
 
 
 @pytest.mark.parametrize("scheme", ["imp", "grid", "liu"])
-def test_frictional_oblique_collision_conserves_momenta(scheme):
+def test_frictional_oblique_collision_conserves_momenta(scheme, device):
     """Action = reaction, in each coupling scheme (forces at the point; at the nodes around the
     contact point with the body's lever taken there; Liu et al.'s nodal momentum exchange): an
     elastic MPM disk hits a free, tilted rigid square off-centre with
@@ -110,7 +110,7 @@ def test_frictional_oblique_collision_conserves_momenta(scheme):
     scene.add_rigid_body(rounded_rectangle(0.12, 0.12, 0.01), density=1000.0, position=(0.55, 0.55), angle=0.3,
                          friction=0.5)
     config = m.SolverConfig(transfer="APIC", shape="bspline2", precision="f64", coupling=scheme)
-    sim = m.Simulation(scene, config, device="cpu")
+    sim = m.Simulation(scene, config, device=device)
     P, B = sim.mpm.P, sim.dem.B
 
     def momenta():
