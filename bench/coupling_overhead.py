@@ -2,8 +2,9 @@
 
 Scene (``bed``): a sand column W × W (Mohr–Coulomb, 2 × 2 points per cell) resting on a bed of
 fixed rounded square blocks (edge 4h, gaps 2h) that covers the floor, with a row of free blocks of
-the same size lying on top of the column. So about 1/3 of the column's bottom row and its whole
-top row are identified material points, and the free blocks are integrated. The "plain" run is
+the same size lying on top of the column; both rows of blocks start just touching the points
+(overlap 0.1 % of a + r_p). So about 2/3 of the column's bottom row and its whole top row are in
+contact, and the free blocks are integrated. The "plain" run is
 the same points, material and fixed dt with no rigid bodies (the MPM floor holds the column
 instead). Reported: seconds per step of both, ``overhead`` = coupled / plain, the point–body pairs
 listed and in contact, and the list rebuilds over the timed steps.
@@ -55,17 +56,20 @@ def build(particles: int, coupled: bool) -> tuple[Scene, int]:
     scene = Scene(domain=((0.0, 0.0), (width, height)), cell_size=h, gravity=(0.0, -9.81), contact=LAW,
                   boundaries={"bottom": "fixed", "left": "slip", "right": "slip", "top": "slip"})
     x0 = cells * h
-    y0 = bed + 0.5 * h
-    scene.add_body(rectangle(x0, y0, x0 + cells * h, y0 + cells * h), MATERIAL, points_per_cell=2)
+    y0 = (BLOCK + 1) * h  # on a cell line: the points' rows sit at y0 + (k + 1/4) h, (k + 3/4) h
+    body = scene.add_body(rectangle(x0, y0, x0 + cells * h, y0 + cells * h), MATERIAL, points_per_cell=2)
     n = 0
     if coupled:
-        block = rounded_rectangle(bed, bed, 0.1 * bed)
+        a = 0.1 * bed
+        block = rounded_rectangle(bed, bed, a)
         pitch = (BLOCK + GAP) * h
+        touch = (a + body.contact_radius) * (1.0 - 1.0e-3)  # centre-to-core distance of a touching point
+        half_core = 0.5 * bed - a
         for k in range(int(width / pitch)):
-            scene.add_rigid_body(block, density=2500.0, position=((k + 0.5) * pitch, 0.5 * bed), motion="fixed",
-                                 friction=0.5)
+            y = y0 + 0.25 * h - touch - half_core
+            scene.add_rigid_body(block, density=2500.0, position=((k + 0.5) * pitch, y), motion="fixed", friction=0.5)
             n += 1
-        top = y0 + cells * h + 0.5 * bed + 0.6 * h
+        top = y0 + cells * h - 0.25 * h + touch + half_core
         for k in range(int(cells * h / pitch)):
             scene.add_rigid_body(block, density=2500.0, position=(x0 + (k + 0.5) * pitch, top), friction=0.5)
             n += 1

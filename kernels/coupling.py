@@ -398,7 +398,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         L.active[p] = touching
         L.dissipated[p] = L.dissipated[p] + lost
 
-    @kernel
+    @kernel(deterministic=deterministic)
     def diagnostics(L: Links, out: wp.array(dtype=wp.float64)):
         """Sums of IMP_DIAG_NAMES over the points."""
         p = wp.tid()
