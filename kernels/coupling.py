@@ -286,7 +286,9 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         app = vec2()
         app_w = T(0.0)
         touching = int(0)
-        if dt <= T(0.0) or not released(P, clock, p):
+        # a step with dt = 0 (the clock at its stop time) recomputes the same forces: the
+        # outputs keep the loads of the last real step, and nothing slips or dissipates
+        if not released(P, clock, p):
             n = 0
         for s in range(n):
             b = L.body[base + s]
@@ -498,7 +500,11 @@ def make_liu_kernels(precision: str):
         xi = D.origin + vec2(T(i), T(j)) * D.h
         n = xi - B.x[b]
         if wp.length(grad) > T(1.0e-12) * m2 * D.inv_h:
-            n = -grad  # outward normal of the body
+            # Σ m_c ∂N_I/∂x_c points away from the carriers; between two carriers (inside the body)
+            # that can be inwards, so it is turned to point away from the centroid (convex bodies)
+            n = grad
+            if wp.dot(n, xi - B.x[b]) < T(0.0):
+                n = -n
         n = wp.normalize(n)
         vcm = v2  # a fixed or driven body does not give way
         if B.inv_mass[b] > T(0.0):
