@@ -14,6 +14,7 @@ from mpmdem import ContactLaw, InputError, LinearElastic, Scene, Simulation, Sol
 from mpmdem.runner import CaseSetup
 
 NAME = "rod-collision"
+OWN_COUPLING_FLAG = True  # --scheme picks SolverConfig.coupling (and the set-up that goes with it)
 DESCRIPTION = "elastic MPM rod hits an equal-mass rigid rod end-on: v² (kinetic energy) error per coupling scheme"
 DEFAULTS = {"shape": "bspline2", "transfer": "APIC", "precision": "f64"}
 
@@ -61,8 +62,8 @@ SCHEMES = ("imp", "grid", "liu")
 
 def add_arguments(parser):
     parser.add_argument("--scheme", choices=SCHEMES, default="imp",
-                        help="coupling scheme: imp (force at the point), grid (at the nodes around the contact "
-                             "point), liu (rigid body carried by material points)")
+                        help="coupling scheme: imp (force at the point), grid (at the grid node nearest the "
+                             "contact point), liu (rigid body carried by material points)")
     parser.add_argument("--grid-size", type=float, default=None,
                         help="grid size dg [cm], 0.1 ... 1.0 in the paper (default 0.5; 1.0 with --quick: L/dg = 1)")
     parser.add_argument("--points", type=int, default=POINTS, help=f"material points of the MPM rod (default {POINTS})")

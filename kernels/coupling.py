@@ -23,7 +23,8 @@ Torque lever: the grid receives f_p at x_p (eq. 47: Σ_I N_I(x_p) x_I = x_p), so
 reaction torque is taken about the same line of action, (x_p − c_i) × (−f_p). Eq. 50 writes the
 lever to the contact point p(x_p, E_i); with friction that adds a couple f_t (r_p − ξ/2) per
 contact that nothing balances, and total angular momentum drifts. The ``grid`` scheme, which puts
-the force at the nodes around the contact point, uses the contact point's lever instead.
+the force on the grid node nearest the contact point, takes the contact point's lever (the node
+is within a cell of it: angular momentum then drifts by that much, see tests/test_coupling.py).
 """
 
 import functools
@@ -45,7 +46,7 @@ __all__ = [
     "make_liu_kernels",
 ]
 
-#: How the contact force reaches the grid: at the point (the paper's), at the nodes around the
+#: How the contact force reaches the grid: at the point (the paper's), at the node nearest the
 #: contact point, or not at all (Liu et al.'s momentum exchange through shared nodes).
 COUPLING_SCHEMES = ("imp", "grid", "liu")
 

@@ -125,8 +125,8 @@ class SolverConfig:
             None picks 4 × the densest seeding, at least 16. Overflow stops the run with a message.
         coupling: how the contact force between a material point and a rigid body reaches the
             grid (scenes with both; MPM-SDEM §5.4): "imp" (default, the paper's: at the point,
-            with its shape function, eq. 47), "grid" (the same force at the nodes of the cell
-            around the contact point) or "liu" (no contact force: each rigid body is carried by
+            with its shape function, eq. 47), "grid" (the same force at the grid node nearest
+            the contact point, MPM-SDEM Fig. 17b) or "liu" (no contact force: each rigid body is carried by
             a few material points that share the grid's velocity field, Liu et al.'s momentum
             exchange).
         imp_skin: Verlet skin of the point–body lists [m]; None picks h/2. Lists are rebuilt when

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
 
-from .config import SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverConfig
+from .config import COUPLING_SCHEMES, SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverConfig
 from .errors import BlowUpError, InputError
 from .kernels.constitutive import DENSITY_CONTROLS
 from .scene import Scene
@@ -91,6 +91,10 @@ def make_case_parser(module: ModuleType, prog: str | None = None) -> argparse.Ar
     p.add_argument("--density-control", type=_choice("density control", DENSITY_CONTROLS), default=None,
                    help="below the critical density: " + ", ".join(DENSITY_CONTROLS)
                    + " (revert: Granular MPM eq. 14; volumetric: eq. 18; none: stress-free MPM)")
+    if not getattr(module, "OWN_COUPLING_FLAG", False):  # a case with its own --scheme flag
+        p.add_argument("--coupling", type=_choice("coupling", COUPLING_SCHEMES), default=None,
+                       help="points against rigid bodies: " + ", ".join(COUPLING_SCHEMES)
+                       + " (imp: MPM-SDEM's identified material points)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     if hasattr(module, "add_arguments"):
         module.add_arguments(p)
@@ -111,7 +115,7 @@ def config_from_args(setup: CaseSetup, module: ModuleType, args) -> SolverConfig
     fields = dict(getattr(module, "DEFAULTS", {}))
     fields.update(setup.config)
     for name in ("dt", "cfl", "shape", "transfer", "flip_fraction", "xpic_order", "damping", "update", "precision",
-                 "dem_kappa", "granular", "density_control"):
+                 "dem_kappa", "granular", "density_control", "coupling"):
         v = getattr(args, name, None)
         if v is not None:
             fields[name] = v

@@ -30,10 +30,10 @@ def _run(scheme: str, grid_size_cm: float) -> dict:
 @pytest.mark.parametrize("other", ["grid", "liu"])
 def test_imp_scheme_beats_the_others_at_l_over_dg_1(other):
     """Fig. 18 at L/dg = 1: the paper's scheme (force at the material point, spread by its shape
-    function) conserves Σ m v² better than the force put on the nodes around the contact point
-    ("grid") and than Liu et al.'s momentum exchange ("liu"). Measured (mean of offsets 1/8 ... 7/8
-    of a cell): imp 2.47e-4, grid 3.22e-4 (ratio 0.77; single offsets 2.4e-4 ... 3.8e-4, so one
-    offset alone could go either way — hence the mean), liu 0.43. The factor 0.9 leaves room for
+    function) conserves Σ m v² better than the force put on the grid node nearest the contact
+    point ("grid") and than Liu et al.'s momentum
+    exchange ("liu"). Measured (mean of offsets 1/8 ... 7/8 of a cell): imp 2.47e-4, grid 5.7e-2,
+    liu 0.50 (the rods stick: a hard nodal contact with no spring). The factor 0.9 leaves room for
     small library changes while still asking for a clear win."""
     imp, rival = _mean_error("imp"), _mean_error(other)
     assert imp < 0.9 * rival, (imp, rival)
@@ -81,4 +81,4 @@ def test_script_writes_the_summary(tmp_path):
         assert key in s
     # the pair run in-process on the same scene gives the same numbers (CPU runs are deterministic)
     assert s["error_v2"] == pytest.approx(_run("grid", COARSE)["error_v2"], rel=1e-9)
-    assert s["error_v2"] < 1e-3
+    assert s["error_v2"] < 0.3  # measured 0.059 at this offset (grid's nearest-node force)
