@@ -272,11 +272,22 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
         """Contact force f_p on point p from its listed bodies (eq. 44-46); reactions on the bodies."""
         p = wp.tid()
+        n = L.count[p]
+        # a step with dt = 0 (the clock at its stop time) recomputes the same forces: the
+        # outputs keep the loads of the last real step, and nothing slips or dissipates
+        if not released(P, clock, p):
+            n = 0
+        if n == 0:
+            # most points are far from every body: two reads, and writes only when a contact ended
+            if L.active[p] != 0:
+                P.fcont[p] = vec2()
+                L.energy[p] = T(0.0)
+                L.active[p] = 0
+            return
         fc = vec2()
         dt = T(clock[1])
         S = L.slots
         base = p * S
-        n = L.count[p]
         X = P.x[p]
         vp = P.v[p]
         rp = L.radius[p]
@@ -287,10 +298,6 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         app = vec2()
         app_w = T(0.0)
         touching = int(0)
-        # a step with dt = 0 (the clock at its stop time) recomputes the same forces: the
-        # outputs keep the loads of the last real step, and nothing slips or dissipates
-        if not released(P, clock, p):
-            n = 0
         for s in range(n):
             b = L.body[base + s]
             old_keys = L.key[base + s]

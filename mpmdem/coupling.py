@@ -302,7 +302,7 @@ class CoupledStage:
         arrays.update({f"dem.{k}": a for k, a in self.dem.state_arrays().items() if k not in ("clock", "steps")})
         L = self.L
         for name in ("body", "count", "key", "slip", "x_ref", "body_x_ref", "body_angle_ref", "energy",
-                     "dissipated"):
+                     "dissipated", "active"):
             arrays[f"imp.{name}"] = getattr(L, name)
         arrays.update({"imp.flags": self.flags, "imp.rebuilds": self.rebuilds, "imp.status": self.status,
                        "imp.fcont": self.mpm.P.fcont})
