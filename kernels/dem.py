@@ -99,6 +99,8 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         old_nbr: wp.array(dtype=wp.int32)
         old_key: wp.array(dtype=wp.vec4i)
         old_slip: wp.array(dtype=vec4)
+        pairs: wp.array(dtype=wp.int32)  # listed slots packed at the front (non-deterministic mode)
+        total: wp.array(dtype=wp.int32)  # (1) listed pairs
         slots: int  # K
 
     @wp.struct
@@ -260,6 +262,13 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                         n = add_pair(C, i, j, n, status)
         n = wp.min(n, K)
         C.count[i] = n
+        if wp.static(not deterministic):
+            # pack the listed slots at the front of C.pairs, so the force pass runs on full warps
+            # (a body lists ~3 of its K slots); the order of the bodies there follows the atomics,
+            # which deterministic mode cannot have: it runs one thread per slot instead
+            off = wp.atomic_add(C.total, 0, n)
+            for s in range(n):
+                C.pairs[off + s] = base + s
         # insertion sort by partner: the pair order (and so the force sums) do not depend on the
         # order in which threads filled the cells
         for a in range(1, n):
@@ -291,6 +300,11 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         B.angle_ref[i] = B.angle[i]
 
     @kernel
+    def reset_total(flags: wp.array(dtype=wp.int32), C: Contacts):
+        if flags[0] != 0:
+            C.total[0] = 0
+
+    @kernel
     def finish_rebuild(flags: wp.array(dtype=wp.int32), rebuilds: wp.array(dtype=wp.int64)):
         if flags[0] != 0:
             rebuilds[0] = rebuilds[0] + wp.int64(1)
@@ -310,6 +324,10 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                        clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
         """Forces and torques of one listed pair, added to both bodies (eq. 39-40)."""
         tid = wp.tid()
+        if wp.static(not deterministic):
+            if tid >= C.total[0]:
+                return
+            tid = C.pairs[tid]
         K = C.slots
         i = tid // K
         if tid - i * K >= C.count[i]:
@@ -556,7 +574,8 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
     return _Namespace(
         Bodies=Bodies, Contacts=Contacts, Params=Params, world_vertices=world_vertices,
         check_displacement=check_displacement, clear_cells=clear_cells, bin_bodies=bin_bodies,
-        build_lists=build_lists, finish_rebuild=finish_rebuild, contact_forces=contact_forces,
+        build_lists=build_lists, finish_rebuild=finish_rebuild, reset_total=reset_total,
+        contact_forces=contact_forces,
         integrate=integrate, dem_dt=dem_dt, diagnostics=diagnostics,
         # geometry shared with the MPM-DEM coupling (kernels/coupling.py)
         rotate=rotate, cross=cross, spin=spin, in_corner=in_corner, polygon_distance=polygon_distance,

@@ -35,7 +35,7 @@ _MOTION_IDS = {"free": kdem.FREE, "fixed": kdem.FIXED, "kinematic": kdem.KINEMAT
 
 #: Body arrays that change during a run (what a checkpoint must hold), and the contact arrays.
 _BODY_STATE = ("x", "angle", "v", "omega", "force", "torque", "x_ref", "angle_ref", "work")
-_CONTACT_STATE = ("nbr", "count", "key", "slip", "energy", "dissipated", "body_dissipated")
+_CONTACT_STATE = ("nbr", "count", "key", "slip", "energy", "dissipated", "body_dissipated", "pairs", "total")
 
 
 def effective_mass(body) -> float:
@@ -207,6 +207,8 @@ class DEMSolver:
         C.old_nbr = wp.full(n * K, -1, dtype=wp.int32, device=dev)
         C.old_key = wp.full(n * K, wp.vec4i(-1, -1, -1, -1), dtype=wp.vec4i, device=dev)
         C.old_slip = wp.zeros(n * K, dtype=self._vec4, device=dev)
+        C.pairs = wp.zeros(n * K, dtype=wp.int32, device=dev)
+        C.total = wp.zeros(1, dtype=wp.int32, device=dev)
         self.C = C
 
         law = self.scene.contact
@@ -290,6 +292,7 @@ class DEMSolver:
         if len(self.small):
             wp.launch(k.bin_bodies, len(self.small),
                       inputs=[B, P, self.small, self.flags, self.cell_count, self.cell_items, self.status], device=dev)
+        wp.launch(k.reset_total, 1, inputs=[self.flags, C], device=dev)
         wp.launch(k.build_lists, self.body_count,
                   inputs=[B, C, P, self.world, self.is_large_arr, self.large_ids, len(self.large), self.flags,
                           self.cell_count, self.cell_items, self.status], device=dev)
