@@ -296,12 +296,17 @@ class Simulation:
                               f"Likely cause: {self._likely_cause(dt, bound)}.", t)
         (x0, y0), (x1, y1) = self.scene.domain
         g = math.hypot(*self.scene.gravity)
+        fall = g * math.hypot(x1 - x0, y1 - y0)  # [J/kg] the most a mass can fall in the domain
         stored = e0.get("energy_strain", 0.0) + e0.get("energy_contact", 0.0)
-        scale = e0["energy_kinetic"] + stored + e0["mass"] * g * math.hypot(x1 - x0, y1 - y0)
+        # the energy in play: the initial kinetic and stored energy, the potential energy released
+        # so far, and a floor of 5 % of a fall through the domain (a scene at rest starts with
+        # none); the whole fall would hide a gain of many impact energies of a short drop
+        released = max(e0["energy_gravity"] - d["energy_gravity"], 0.0)
+        scale = e0["energy_kinetic"] + stored + released + 0.05 * e0["mass"] * fall
         # energy put in by driven (kinematic) bodies or brought by released points is not growth,
         # and sets a scale of its own (the released mass falling through the domain, at most)
         driven = d.get("work_driven", 0.0) + d.get("work_inflow", 0.0)
-        inflow = max(d.get("mass", 0.0) - e0.get("mass", 0.0), 0.0) * g * math.hypot(x1 - x0, y1 - y0)
+        inflow = max(d.get("mass", 0.0) - e0.get("mass", 0.0), 0.0) * fall
         scale = max(scale + abs(driven) + inflow, 1e-30)
         growth = d["energy_total"] - e0["energy_total"] - driven
         if growth > self.config.blowup_energy_factor * scale:
