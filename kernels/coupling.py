@@ -82,6 +82,8 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
     spin = kd.spin
     in_corner = kd.in_corner
     polygon_distance = kd.polygon_distance
+    body_moved = kd.body_moved
+    cell_in = kd.cell_in
     lever_at_contact = scheme == "grid"
     vec2h = wp.types.vector(IMP_HISTORY, T)
     veci = wp.types.vector(IMP_HISTORY, wp.int32)
@@ -145,21 +147,13 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
     def check_bodies(B: Bodies, L: Links, prm: Params, flags: wp.array(dtype=wp.int32)):
         """Flag a rebuild when a moving body moved or turned more than half the skin."""
         i = wp.tid()
-        moved = wp.length(B.x[i] - L.body_x_ref[i]) + B.core_radius[i] * wp.abs(B.angle[i] - L.body_angle_ref[i])
+        moved = body_moved(B, i, L.body_x_ref, L.body_angle_ref)
         if moved > T(0.5) * prm.skin or not wp.isfinite(moved):
             flags[0] = 1
 
     @wp.func
     def cell_of(x: vec2, prm: Params):
-        cx = wp.clamp(int(wp.floor((x[0] - prm.cell_origin[0]) * prm.inv_cell)), 0, prm.cells_x - 1)
-        cy = wp.clamp(int(wp.floor((x[1] - prm.cell_origin[1]) * prm.inv_cell)), 0, prm.cells_y - 1)
-        return cx, cy
-
-    @kernel
-    def clear_cells(flags: wp.array(dtype=wp.int32), cell_count: wp.array(dtype=wp.int32)):
-        if flags[0] == 0:
-            return
-        cell_count[wp.tid()] = 0
+        return cell_in(x, prm.cell_origin, prm.inv_cell, prm.cells_x, prm.cells_y)
 
     @kernel
     def bin_points(P: Particles, L: Links, prm: Params, clock: wp.array(dtype=wp.float64),
@@ -420,7 +414,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         wp.atomic_add(out, 4, wp.float64(L.active[p]))
 
     return _Namespace(Links=Links, Params=Params, check_points=check_points, check_bodies=check_bodies,
-                      clear_cells=clear_cells, bin_points=bin_points, build_lists=build_lists,
+                      clear_cells=kd.clear_cells, bin_points=bin_points, build_lists=build_lists,
                       finish_lists=finish_lists, forces=forces, diagnostics=diagnostics,
                       finish_rebuild=kd.finish_rebuild, FIXED=FIXED)
 

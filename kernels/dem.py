@@ -163,6 +163,19 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
             d = wp.min(d, segment_distance(p, world[start + e], world[start + (e + 1) % count]))
         return d
 
+    @wp.func
+    def body_moved(B: Bodies, i: int, x_ref: wp.array(dtype=vec2), angle_ref: wp.array(dtype=T)):
+        """Largest displacement [m] of body i's outline since (x_ref, angle_ref): centroid shift plus
+        the arc its farthest vertex turned through."""
+        return wp.length(B.x[i] - x_ref[i]) + B.core_radius[i] * wp.abs(B.angle[i] - angle_ref[i])
+
+    @wp.func
+    def cell_in(x: vec2, origin: vec2, inv_cell: T, nx: int, ny: int):
+        """Cell (cx, cy) of a uniform binning holding x, clamped to the nx × ny cells."""
+        cx = wp.clamp(int(wp.floor((x[0] - origin[0]) * inv_cell)), 0, nx - 1)
+        cy = wp.clamp(int(wp.floor((x[1] - origin[1]) * inv_cell)), 0, ny - 1)
+        return cx, cy
+
     # -- per-step kernels -----------------------------------------------------------------------
     @kernel
     def world_vertices(B: Bodies, local: wp.array(dtype=vec2), owner: wp.array(dtype=wp.int32),
@@ -175,15 +188,13 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
     def check_displacement(B: Bodies, prm: Params, flags: wp.array(dtype=wp.int32)):
         """Flag a rebuild when a body moved or turned more than half the skin since the last build."""
         i = wp.tid()
-        moved = wp.length(B.x[i] - B.x_ref[i]) + B.core_radius[i] * wp.abs(B.angle[i] - B.angle_ref[i])
+        moved = body_moved(B, i, B.x_ref, B.angle_ref)
         if moved > T(0.5) * prm.skin or not wp.isfinite(moved):
             flags[0] = 1
 
     @wp.func
     def cell_of(x: vec2, prm: Params):
-        cx = wp.clamp(int(wp.floor((x[0] - prm.cell_origin[0]) * prm.inv_cell)), 0, prm.cells_x - 1)
-        cy = wp.clamp(int(wp.floor((x[1] - prm.cell_origin[1]) * prm.inv_cell)), 0, prm.cells_y - 1)
-        return cx, cy
+        return cell_in(x, prm.cell_origin, prm.inv_cell, prm.cells_x, prm.cells_y)
 
     @kernel
     def clear_cells(flags: wp.array(dtype=wp.int32), cell_count: wp.array(dtype=wp.int32)):
@@ -579,6 +590,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         integrate=integrate, dem_dt=dem_dt, diagnostics=diagnostics,
         # geometry shared with the MPM-DEM coupling (kernels/coupling.py)
         rotate=rotate, cross=cross, spin=spin, in_corner=in_corner, polygon_distance=polygon_distance,
+        body_moved=body_moved, cell_in=cell_in,
     )
 
 
