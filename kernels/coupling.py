@@ -83,6 +83,8 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
     in_corner = kd.in_corner
     polygon_distance = kd.polygon_distance
     body_moved = kd.body_moved
+    spring_dashpot = kd.spring_dashpot
+    edge_contact = kd.edge_contact
     cell_in = kd.cell_in
     lever_at_contact = scheme == "grid"
     vec2h = wp.types.vector(IMP_HISTORY, T)
@@ -324,19 +326,13 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                     key = f
                     hit = False
                     if f < n_edges:
-                        A = world[start + f]
-                        E = world[start + (f + 1) % count] - A
-                        l2 = wp.dot(E, E)
-                        u = wp.dot(X - A, E) / l2
-                        N = vec2(E[1], -E[0]) / wp.sqrt(l2)  # outward normal of a CCW edge
-                        d = wp.dot(X - A, N)
+                        hit, N, d = edge_contact(X, world, start, count, f, reach)
                         if d >= T(0.0):
                             inside = False
                         elif d > best_d:
                             best_d = d
                             best_f = f
                             best_n = N
-                        hit = u > T(0.0) and u < T(1.0) and d >= T(0.0) and d < reach
                     elif f < n_edges + count:
                         w = f - n_edges
                         D = X - world[start + w]
@@ -358,32 +354,20 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                         if wp.static(lever_at_contact):
                             arm = pc - xb
                         vel = vp - (vb + spin(wb, pc - xb))
-                        vn = wp.dot(vel, N)
-                        tan = vec2(-N[1], N[0])
                         lever = cross(arm, N)
-                        # dashpot c_n = 2ζ sqrt(m_eff k_n), m_eff of the point and the body (with its
-                        # rotation) at the contact, as for two DEM bodies
+                        # the dashpot sees the point and the body (with its rotation) at the contact,
+                        # as two DEM bodies do
                         inv_eff = inv_mp + inv_mb + inv_ib * lever * lever
-                        c_n = T(2.0) * prm.zeta * wp.sqrt(prm.kn / inv_eff)
-                        fn = prm.kn * delta - c_n * vn
-                        # tangential spring with history and Coulomb cap k_t δ_t <= μ k_n ξ (eq. 43)
-                        slip = find_slip(old_keys, old_slips, key) + wp.dot(vel, tan) * dt
-                        ft = -prm.kt * slip
-                        cap = mu * prm.kn * delta
-                        if wp.abs(ft) > cap:
-                            slip_new = wp.sign(slip) * cap / wp.max(prm.kt, T(1.0e-30))
-                            lost[1] = lost[1] + wp.float64(cap * wp.abs(slip - slip_new))
-                            slip = slip_new
-                            ft = -wp.sign(slip) * cap
-                        # dashpot work at the mid-step normal velocity (as kernels/dem.py)
-                        lost[0] = lost[0] + wp.float64(c_n * vn * (vn + T(0.5) * dt * fn * inv_eff) * dt)
-                        energy += T(0.5) * (prm.kn * delta * delta + prm.kt * slip * slip)
+                        F, slip, e_contact, lost_contact = spring_dashpot(
+                            prm.kn, prm.kt, prm.zeta, mu, delta, vel, N, inv_eff,
+                            find_slip(old_keys, old_slips, key), dt)
+                        lost = lost + lost_contact
+                        energy += e_contact
                         if n_hist < wp.static(IMP_HISTORY):
                             keys[n_hist] = key
                             slips[n_hist] = slip
                             n_hist += 1
-                        F = fn * N + ft * tan  # on the point (eq. 46)
-                        fc += F
+                        fc += F  # on the point (eq. 46)
                         wF = wp.length(F)
                         app += wF * pc
                         app_w += wF

@@ -156,6 +156,18 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         return wp.dot(p - w, nxt - w) <= T(0.0) and wp.dot(p - w, prv - w) <= T(0.0)
 
     @wp.func
+    def edge_contact(X: vec2, world: wp.array(dtype=vec2), start: int, count: int, f: int, reach: T):
+        """X against edge f of a CCW core: (touching, outward normal N, signed distance d [m]).
+        It touches when its projection falls strictly inside the edge and 0 <= d < reach."""
+        A = world[start + f]
+        E = world[start + (f + 1) % count] - A
+        l2 = wp.dot(E, E)
+        u = wp.dot(X - A, E) / l2
+        N = vec2(E[1], -E[0]) / wp.sqrt(l2)
+        d = wp.dot(X - A, N)
+        return u > T(0.0) and u < T(1.0) and d >= T(0.0) and d < reach, N, d
+
+    @wp.func
     def polygon_distance(p: vec2, world: wp.array(dtype=vec2), start: int, count: int):
         """Distance [m] from p to the core polygon outline (a point for one vertex)."""
         d = wp.length(p - world[start])
@@ -323,6 +335,32 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
 
     # -- contact forces (MPM-SDEM eq. 38-43) ------------------------------------------------------
     @wp.func
+    def spring_dashpot(kn: T, kt: T, zeta: T, mu: T, delta: T, vel: vec2, N: vec2, inv_eff: T, slip0: T, dt: T):
+        """One contact of overlap δ (eq. 38/44) with relative velocity ``vel`` along the normal N:
+        force k_n δ − c_n v_n along N, c_n = 2ζ sqrt(k_n m_eff), m_eff = 1/inv_eff; tangential
+        spring δ_t = slip0 + v_t dt with the Coulomb cap k_t δ_t ≤ μ k_n δ (eq. 43).
+        Returns (force, δ_t, stored energy, (dashpot work, friction work) dissipated this step)."""
+        vn = wp.dot(vel, N)
+        tan = vec2(-N[1], N[0])
+        c_n = T(2.0) * zeta * wp.sqrt(kn / inv_eff)
+        fn = kn * delta - c_n * vn
+        slip = slip0 + wp.dot(vel, tan) * dt
+        ft = -kt * slip
+        cap = mu * kn * delta
+        lost_friction = wp.float64(0.0)
+        if wp.abs(ft) > cap:
+            slip_new = wp.sign(slip) * cap / wp.max(kt, T(1.0e-30))
+            lost_friction = wp.float64(cap * wp.abs(slip - slip_new))
+            slip = slip_new
+            ft = -wp.sign(slip) * cap
+        # dashpot work over the step, c_n vn v̄n dt, with v̄n ≈ vn + ½ dt fn/m_eff the normal velocity at
+        # the middle of the step (the dashpot acts on the lagged half-step velocity vn; vn² dt alone
+        # errs by O(ω dt), this by O((ω dt)²))
+        lost_damping = wp.float64(c_n * vn * (vn + T(0.5) * dt * fn * inv_eff) * dt)
+        energy = T(0.5) * (kn * delta * delta + kt * slip * slip)
+        return fn * N + ft * tan, slip, energy, wp.vec2d(lost_damping, lost_friction)
+
+    @wp.func
     def find_slip(keys: wp.vec4i, slips: vec4, key: int):
         out = T(0.0)
         for h in range(wp.static(HISTORY_SLOTS)):
@@ -418,21 +456,15 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                         key = int(0)
                         hit = False
                         if f < n_feat:
-                            A = world[o_start + f]
-                            E = world[o_start + (f + 1) % o_count] - A
-                            l2 = wp.dot(E, E)
-                            s = wp.dot(X - A, E) / l2
-                            N = vec2(E[1], -E[0]) / wp.sqrt(l2)  # outward normal of a CCW edge
-                            d = wp.dot(X - A, N)
+                            hit, N, d = edge_contact(X, world, o_start, o_count, f, reach)
                             if d >= T(0.0):
                                 inside = False
                             elif d > best_d:
                                 best_d = d
                                 best_f = f
                                 best_n = N
-                            if s > T(0.0) and s < T(1.0) and d >= T(0.0) and d < reach:
+                            if hit:
                                 key = side * KEY_KIND + k * KEY_VERTEX + f
-                                hit = True
                         elif f == n_feat + n_corner:
                             if inside and best_f >= 0:
                                 N = best_n
@@ -458,37 +490,23 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                             vel = (vi + spin(wi, p - xi)) - (vj + spin(wj, p - xj))
                             if side == 1:
                                 vel = -vel
-                            vn = wp.dot(vel, N)
-                            tan = vec2(-N[1], N[0])
-                            # normal dashpot c_n = 2ζ sqrt(m_eff k_n) with the effective mass of the
-                            # two bodies at p along N, rotation included (1/m + (r×N)²/I each), so
-                            # that ζ, and so e, hold for off-centre impacts too
+                            # normal dashpot with the effective mass of the two bodies at p along N,
+                            # rotation included (1/m + (r×N)²/I each), so that ζ, and so e, hold for
+                            # off-centre impacts too
                             lever_i = cross(p - xi, N)
                             lever_j = cross(p - xj, N)
                             inv_eff = inv_mi + inv_ii * lever_i * lever_i + inv_mj + inv_ij * lever_j * lever_j
-                            c_n = T(2.0) * prm.zeta * wp.sqrt(prm.kn / inv_eff)
-                            fn = prm.kn * delta - c_n * vn
-                            # tangential spring with history, Coulomb cap k_t δ_t ≤ μ k_n δ_n (eq. 43)
-                            slip = find_slip(old_keys, old_slips, key) + wp.dot(vel, tan) * dt
-                            ft = -prm.kt * slip
-                            cap = mu * prm.kn * delta
-                            if wp.abs(ft) > cap:
-                                slip_new = wp.sign(slip) * cap / prm.kt
-                                lost[1] = lost[1] + wp.float64(cap * wp.abs(slip - slip_new))
-                                slip = slip_new
-                                ft = -wp.sign(slip) * cap
-                            # dashpot work over the step, c_n vn v̄n dt, with v̄n ≈ vn + ½ dt fn/m_eff the
-                            # normal velocity at the middle of the step (the dashpot acts on the lagged
-                            # half-step velocity vn; vn² dt alone errs by O(ω dt), this by O((ω dt)²))
-                            lost[0] = lost[0] + wp.float64(c_n * vn * (vn + T(0.5) * dt * fn * inv_eff) * dt)
-                            energy += T(0.5) * (prm.kn * delta * delta + prm.kt * slip * slip)
+                            F, slip, e_pair, lost_pair = spring_dashpot(
+                                prm.kn, prm.kt, prm.zeta, mu, delta, vel, N, inv_eff,
+                                find_slip(old_keys, old_slips, key), dt)
+                            lost = lost + lost_pair
+                            energy += e_pair
                             if n_hist < wp.static(HISTORY_SLOTS):
                                 keys[n_hist] = key
                                 slips[n_hist] = slip
                                 n_hist += 1
                             else:
                                 wp.atomic_add(status, STATUS_HISTORY_OVERFLOW, 1)
-                            F = fn * N + ft * tan
                             if side == 1:
                                 F = -F  # force on i
                             fi += F
@@ -590,7 +608,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         integrate=integrate, dem_dt=dem_dt, diagnostics=diagnostics,
         # geometry shared with the MPM-DEM coupling (kernels/coupling.py)
         rotate=rotate, cross=cross, spin=spin, in_corner=in_corner, polygon_distance=polygon_distance,
-        body_moved=body_moved, cell_in=cell_in,
+        body_moved=body_moved, cell_in=cell_in, spring_dashpot=spring_dashpot, edge_contact=edge_contact,
     )
 
 
