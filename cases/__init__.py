@@ -26,6 +26,7 @@ CASES = {
     "normal-force": "normal_force",
     "friction-force": "friction_force",
     "rod-collision": "rod_collision",
+    "sand-blocks": "sand_blocks",
 }
 
 DEFAULT_CASE = "sulsky-disks"
