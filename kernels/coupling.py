@@ -85,6 +85,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
     body_moved = kd.body_moved
     spring_dashpot = kd.spring_dashpot
     edge_contact = kd.edge_contact
+    sort_ids = kd.sort_ids
     cell_in = kd.cell_in
     lever_at_contact = scheme == "grid"
     vec2h = wp.types.vector(IMP_HISTORY, T)
@@ -235,13 +236,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         base = p * S
         n = wp.min(L.count[p], S)
         L.count[p] = n
-        for a in range(1, n):
-            v = L.body[base + a]
-            k = a - 1
-            while k >= 0 and L.body[base + k] > v:
-                L.body[base + k + 1] = L.body[base + k]
-                k -= 1
-            L.body[base + k + 1] = v
+        sort_ids(L.body, base, n)
         for s in range(S):
             key = veci(-1, -1)
             slip = vec2h()

@@ -156,6 +156,17 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         return wp.dot(p - w, nxt - w) <= T(0.0) and wp.dot(p - w, prv - w) <= T(0.0)
 
     @wp.func
+    def sort_ids(ids: wp.array(dtype=wp.int32), base: int, n: int):
+        """Insertion sort of ids[base : base + n] (short lists of neighbour indices)."""
+        for a in range(1, n):
+            v = ids[base + a]
+            b = a - 1
+            while b >= 0 and ids[base + b] > v:
+                ids[base + b + 1] = ids[base + b]
+                b -= 1
+            ids[base + b + 1] = v
+
+    @wp.func
     def edge_contact(X: vec2, world: wp.array(dtype=vec2), start: int, count: int, f: int, reach: T):
         """X against edge f of a CCW core: (touching, outward normal N, signed distance d [m]).
         It touches when its projection falls strictly inside the edge and 0 <= d < reach."""
@@ -294,13 +305,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                 C.pairs[off + s] = base + s
         # insertion sort by partner: the pair order (and so the force sums) do not depend on the
         # order in which threads filled the cells
-        for a in range(1, n):
-            v = C.nbr[base + a]
-            b = a - 1
-            while b >= 0 and C.nbr[base + b] > v:
-                C.nbr[base + b + 1] = C.nbr[base + b]
-                b -= 1
-            C.nbr[base + b + 1] = v
+        sort_ids(C.nbr, base, n)
         # history of pairs that stay listed (both lists are sorted)
         o = int(0)
         for s in range(n):
@@ -609,6 +614,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         # geometry shared with the MPM-DEM coupling (kernels/coupling.py)
         rotate=rotate, cross=cross, spin=spin, in_corner=in_corner, polygon_distance=polygon_distance,
         body_moved=body_moved, cell_in=cell_in, spring_dashpot=spring_dashpot, edge_contact=edge_contact,
+        sort_ids=sort_ids,
     )
 
 
