@@ -53,12 +53,14 @@ import argparse
 import gc
 import json
 import math
+import re
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import warp as wp
+from mpmdem.kernels import granular as kgran
 
 from mpmdem import MohrCoulomb, Scene, Simulation, SolverConfig, rectangle
 from mpmdem.mpm import initial_dt_bound
@@ -124,7 +126,27 @@ BUILDERS = {"dense-column": dense_column, "dispersed-cloud": dispersed_cloud}
 
 
 # -- timing ---------------------------------------------------------------------------------------
-def time_mode(scene: Scene, config: SolverConfig, steps: int, device) -> dict:
+def _rebuilds(mpm) -> int:
+    """Interaction-graph rebuilds so far (granular mode; kernels/granular.py reuses the labels)."""
+    if not mpm.config.granular:
+        return 0
+    return int(mpm.interaction.flags.numpy()[kgran.FLAG_COUNT])
+
+
+def kernel_split(mpm, steps: int) -> dict[str, float]:
+    """Device time per step [µs] of each kernel, over ``steps`` steps launched one by one (no CUDA
+    graph, CUDA activity timing): where a step's time goes. Names are Warp's kernel keys."""
+    totals: dict[str, float] = {}
+    with wp.ScopedTimer("kernels", print=False, synchronize=True, cuda_filter=wp.TIMING_KERNEL) as timer:
+        for _ in range(steps):
+            mpm.step()
+    for r in timer.timing_results:
+        name = re.sub(r"(_[0-9a-f]{7,})+$", "", r.name.split("__locals__")[-1])  # drop Warp's hashes
+        totals[name] = totals.get(name, 0.0) + r.elapsed * 1.0e3 / steps  # ms -> µs per step
+    return dict(sorted(totals.items(), key=lambda kv: -kv[1]))
+
+
+def time_mode(scene: Scene, config: SolverConfig, steps: int, device, kernel_steps: int = 0) -> dict:
     """Warm up, then time ``steps`` steps of one Simulation; the fields of its JSON line."""
     sim = Simulation(scene, config, device=str(device))
     mpm = sim.mpm
@@ -133,6 +155,7 @@ def time_mode(scene: Scene, config: SolverConfig, steps: int, device) -> dict:
     sim.advance(WARMUP_STEPS)
     wp.synchronize_device(device)
     components_start = mpm.granular_statistics()[0] if config.granular else None
+    rebuilds_before = _rebuilds(mpm)
     steps_before = mpm.read_clock()[3]
     start = time.perf_counter()
     sim.advance(steps)
@@ -149,13 +172,16 @@ def time_mode(scene: Scene, config: SolverConfig, steps: int, device) -> dict:
         out["components"], out["layers"] = mpm.granular_statistics()
         out["components_start"] = components_start
         out["cell_capacity"] = mpm.granular_cell_capacity
+        out["rebuilds"] = _rebuilds(mpm) - rebuilds_before
+    if kernel_steps and str(device).startswith("cuda"):
+        out["kernels_us_per_step"] = kernel_split(mpm, kernel_steps)
     del sim, mpm
     gc.collect()
     return out
 
 
 def measure(case: str, particles: int, config: SolverConfig, steps: int, device,
-            cloud_speed: float = CLOUD_SPEED) -> list[dict]:
+            cloud_speed: float = CLOUD_SPEED, kernel_steps: int = 0) -> list[dict]:
     """Plain, then granular, on one scene; their two rows (the granular one with ``overhead``)."""
     scene = dense_column(particles) if case == "dense-column" else dispersed_cloud(particles, speed=cloud_speed)
     count = len(scene.particles()["mass"])
@@ -164,14 +190,17 @@ def measure(case: str, particles: int, config: SolverConfig, steps: int, device,
     rows = []
     for granular in (False, True):
         cfg = config.replace(granular=granular, dt=dt)
-        r = time_mode(scene, cfg, steps, device)
+        r = time_mode(scene, cfg, steps, device, kernel_steps)
         row = dict(case=case, mode="granular" if granular else "plain", device=str(device),
                    device_name=wp.get_device(device).name, particles=count, requested=particles, steps=steps,
                    seconds=r["seconds"], seconds_per_step=r["seconds_per_step"], pups=count * steps / r["seconds"])
         if granular:
             row.update(components=r["components"], components_start=r["components_start"], layers=r["layers"],
                        overhead=r["seconds_per_step"] / rows[0]["seconds_per_step"],
-                       target=TARGETS[case], grid_layers=r["grid_layers"], cell_capacity=r["cell_capacity"])
+                       target=TARGETS[case], grid_layers=r["grid_layers"], cell_capacity=r["cell_capacity"],
+                       rebuilds=r["rebuilds"])
+        if "kernels_us_per_step" in r:
+            row["kernels_us_per_step"] = r["kernels_us_per_step"]
         row.update(shape=cfg.shape, transfer=cfg.transfer, update=cfg.update, precision=cfg.precision,
                    density_control=cfg.density_control, dt=dt, cell_size=scene.cell_size, grid=[nx, ny],
                    cuda_graph=r["cuda_graph"], finite=r["finite"], warmup_steps=WARMUP_STEPS, seed=SEED,
@@ -199,6 +228,8 @@ def main(argv=None) -> int:
     parser.add_argument("--check", action="store_true",
                         help=f"smoke test: {CHECK_SIZE} points, {CHECK_STEPS} steps (overrides --sizes, --steps)")
     parser.add_argument("--out", type=Path, default=None, help="also append the JSON lines to this .jsonl file")
+    parser.add_argument("--kernel-steps", type=int, default=0,
+                        help="on cuda, also time each kernel over this many steps launched without the graph")
     args = parser.parse_args(argv)
 
     wp.init()
@@ -220,7 +251,7 @@ def main(argv=None) -> int:
     with wp.ScopedDevice(device):
         for case in scenes:
             for particles in sizes:
-                for row in measure(case, particles, config, steps, device, args.cloud_speed):
+                for row in measure(case, particles, config, steps, device, args.cloud_speed, args.kernel_steps):
                     line = json.dumps(row)
                     print(line, flush=True)
                     if args.out is not None:

@@ -8,7 +8,7 @@ Per step (all kernels, no host sync, capturable in a CUDA graph):
    moving body has moved (or turned) more than half the skin since the last build, or a staged
    point has entered the scene — the DEM's Verlet rule.
 2. On a flagged step only: points are binned in cells of the MPM grid; each body visits the cells
-   its bounding circle, grown by the largest r_p and the skin, covers (``tile`` threads per body
+   its core's bounding box, grown by a, the largest r_p and the skin, covers (``tile`` threads per body
    share its cells, so a long wall is not one thread's work) and lists the points within
    a_i + r_p + skin of its core outline (eq. 44's gap plus the skin). Each point then sorts its
    bodies (sums in a fixed order) and carries the tangential history of pairs that stay listed.
@@ -199,16 +199,25 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         lane = tid - b * prm.tile
         xb = B.x[b]
         a = B.radius[b]
-        reach = B.core_radius[b] + a + prm.r_max + prm.skin
-        lo_x, lo_y = cell_of(xb - vec2(reach, reach), prm)
-        hi_x, hi_y = cell_of(xb + vec2(reach, reach), prm)
+        grow = a + prm.r_max + prm.skin
+        reach = B.core_radius[b] + grow
+        start = B.vstart[b]
+        count = B.vcount[b]
+        # the cells of the core's box grown by the reach (not of the bounding circle: a long thin
+        # wall's circle covers the whole domain)
+        lo = world[start]
+        hi = lo
+        for k in range(1, count):
+            w = world[start + k]
+            lo = wp.min(lo, w)
+            hi = wp.max(hi, w)
+        lo_x, lo_y = cell_of(lo - vec2(grow, grow), prm)
+        hi_x, hi_y = cell_of(hi + vec2(grow, grow), prm)
         nx = hi_x - lo_x + 1
         ny = hi_y - lo_y + 1
         if lane == 0:
             L.body_x_ref[b] = xb
             L.body_angle_ref[b] = B.angle[b]
-        start = B.vstart[b]
-        count = B.vcount[b]
         S = L.slots
         for c in range(lane, nx * ny, prm.tile):
             gx = lo_x + c // ny

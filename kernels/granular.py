@@ -22,6 +22,16 @@ Per step (all kernels, no host sync, capturable in a CUDA graph):
    per node rather than one colour per component: it needs no iterations, and uses no more
    copies than the most components meeting at one node.
 
+Reuse of the labels (a Verlet-style skip, exact): the graph depends on each point's node range
+(pre-task) and, for two granular points of a non-deforming domain, on their distance (task 1).
+At a rebuild every point records its position and its node range, and the search records the
+margin: the smallest change of a pair's offset (max-norm) that would flip any overlap test it
+made, or let a pair the cell window pruned overlap (``S.slack``, a global minimum: the rebuild
+decision is global anyway). ``check`` then rebuilds only when some point's node range changed or
+it moved by half the margin or more (less a round-off allowance), so the skipped steps get exactly
+the labels a rebuild would give, and keep the grid copies they claimed. Deforming domains (cpGIMP,
+CPDI) rebuild every step.
+
 Non-granular materials (no critical density) are continua: their points interact with every
 point they share a node with, so they are never split.
 """
@@ -37,6 +47,11 @@ from .types import kernel, scalar_types
 __all__ = [
     "DEFORMING_DOMAINS",
     "EXT_SLOTS",
+    "FLAG_COUNT",
+    "FLAG_FORCED",
+    "FLAG_REBUILD",
+    "FLAG_SLOTS",
+    "NO_MARGIN",
     "STAT_COMPONENTS",
     "STAT_LAYERS",
     "STATUS_BIN_OVERFLOW",
@@ -45,6 +60,7 @@ __all__ = [
     "make_domain_of_interaction",
     "make_granular_kernels",
     "make_granular_statistics",
+    "make_rebuild_decision",
     "make_interaction_struct",
     "make_reset_copies",
     "make_layer_row",
@@ -60,6 +76,17 @@ DEFORMING_DOMAINS = ("cpgimp", "cpdi1")
 #: The largest extent of deforming domains is reduced into this many (x, y) slots (point p uses
 #: slot p % EXT_SLOTS, and only when it beats the slot): no million atomics on one address.
 EXT_SLOTS = 32
+
+#: Slots of ``Interaction.flags``: a rebuild asked by the host (first step, after a reorder or a
+#: checkpoint), the decision of this step, and the number of rebuilds so far.
+FLAG_FORCED = 0
+FLAG_REBUILD = 1
+FLAG_COUNT = 2
+FLAG_SLOTS = 3
+#: A margin that nothing limits (no pair, no pruned window), in quanta (``Interaction.quantum``):
+#: margins are reduced as integers, whose atomic minimum is native (a float one is a CAS loop, slow
+#: when a million threads meet on a few slots).
+NO_MARGIN = 2147483647
 
 #: Slots of the per-step statistics array.
 STAT_COMPONENTS = 0
@@ -169,7 +196,11 @@ def make_interaction_struct(precision: str):
     """The arrays of the interaction graph, bundled for the kernels: bins (cells × (1 + capacity))
     int32, a count then the points of each cell; parent (N,) int32 union–find links; dom_a, dom_b
     (N,) vec2 half-vectors of the domains of interaction [m]; reach (N,) vec4i node range
-    (x0, x1, y0, y1); ext_max (2 EXT_SLOTS,) float32 largest half-extent [cells], x and y."""
+    (x0, x1, y0, y1); ext_max (2 EXT_SLOTS,) float32 largest half-extent [cells], x and y; x_ref
+    (N,) vec2 positions at the last rebuild [m]; slack (EXT_SLOTS,) int32: the margin of the last
+    rebuild's pair tests and pruned windows in whole quanta (rounded down), reduced in slots; flags
+    (FLAG_SLOTS,) int32; quantum: the unit of ``slack`` [m]; roundoff: the round-off allowance [m]
+    of a point's share of the margin."""
     t = scalar_types(precision)
 
     @wp.struct
@@ -180,15 +211,22 @@ def make_interaction_struct(precision: str):
         dom_b: wp.array(dtype=t.vec2)
         reach: wp.array(dtype=wp.vec4i)
         ext_max: wp.array(dtype=wp.float32)
+        x_ref: wp.array(dtype=t.vec2)
+        slack: wp.array(dtype=wp.int32)
+        quantum: t.scalar
+        flags: wp.array(dtype=wp.int32)
+        roundoff: t.scalar
 
     return Interaction
 
 
 @functools.cache
 def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged: bool = False):
-    """(prepare, link, label) kernels of the interaction graph (see the module docstring).
+    """(check, prepare, link, label) kernels of the interaction graph (see the module docstring).
 
     Launch each with dim = number of points and inputs ``[P, G, D, materials, S, status, clock]``,
+    after ``make_rebuild_decision``; ``check`` (None for deforming domains, which rebuild every
+    step) decides whether the other three run this step,
     S an ``Interaction`` (``make_interaction_struct``): cells of ``S.bins`` are indexed like
     ``Grid.mass`` (column-major over the node lattice of one layer); ``S.ext_max`` holds for shapes
     outside DEFORMING_DOMAINS a constant set by the host in slot 0, else ``reset_copies`` zeroes it
@@ -221,6 +259,57 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         return cx, cy
 
     @wp.func
+    def node_reach(P: Particles, D: Domain, p: int):
+        # the node range (x0, x1, y0, y1) of point p's stencil (all corners for CPDI)
+        x0 = int(1073741824)
+        y0 = int(1073741824)
+        x1 = int(-1073741824)
+        y1 = int(-1073741824)
+        for k in range(wp.static(NC)):
+            bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
+            x0 = wp.min(x0, bx)
+            y0 = wp.min(y0, by)
+            x1 = wp.max(x1, bx + K - 1)
+            y1 = wp.max(y1, by + K - 1)
+        return wp.vec4i(x0, x1, y0, y1)
+
+    @wp.func
+    def search_window(ext_x: T, ext_y: T, S: Interaction, D: Domain):
+        # cells to search on each side for partners of a point of half-extents ext [m]: two domains
+        # overlap only if the centres are closer than the sum of their half-extents, so the cells
+        # beyond (own extent + largest extent) need no visit, nor those beyond the stencil (W);
+        # also the least slack [m] of a pruned window (how far a pair it leaves out stays apart)
+        emx = S.ext_max[0]
+        emy = S.ext_max[1]
+        if wp.static(deforming):
+            for k in range(1, EXT_SLOTS):
+                emx = wp.max(emx, S.ext_max[2 * k])
+                emy = wp.max(emy, S.ext_max[2 * k + 1])
+        ex = wp.float32(ext_x * D.inv_h) + emx
+        ey = wp.float32(ext_y * D.inv_h) + emy
+        wx = wp.min(W, int(ex) + 1)
+        wy = wp.min(W, int(ey) + 1)
+        slack = T(1.0e30)
+        if wx < W:
+            slack = wp.min(slack, T(wp.float32(wx) - ex) / D.inv_h)
+        if wy < W:
+            slack = wp.min(slack, T(wp.float32(wy) - ey) / D.inv_h)
+        return wx, wy, slack
+
+    @wp.func
+    def quanta(length: T, S: Interaction):
+        # a margin [m] in whole quanta, rounded down (so never more than it is), capped
+        return int(wp.min(wp.floor(length / S.quantum), T(NO_MARGIN - 1)))
+
+    @wp.func
+    def overlap_margin(d: t.vec2, ap: t.vec2, bp: t.vec2, aq: t.vec2, bq: t.vec2):
+        # axis-aligned domains (non-deforming shapes): the overlap test flips only once the centres'
+        # offset d changes by more than |s| in max-norm, s = least (sum of half-extents − |d|)
+        sx = wp.abs(ap[0]) + wp.abs(bp[0]) + wp.abs(aq[0]) + wp.abs(bq[0]) - wp.abs(d[0])
+        sy = wp.abs(ap[1]) + wp.abs(bp[1]) + wp.abs(aq[1]) + wp.abs(bq[1]) - wp.abs(d[1])
+        return wp.abs(wp.min(sx, sy))
+
+    @wp.func
     def find(parent: wp.array(dtype=wp.int32), x: int):
         # root of x with path halving: each visited node is re-pointed to its grandparent, so the
         # trees stay shallow even when one component holds every point (a dense body); racing
@@ -251,6 +340,8 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     @kernel
     def prepare(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                 status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
+        if S.flags[FLAG_REBUILD] == 0:
+            return
         p = wp.tid()
         S.parent[p] = p
         if wp.static(staged):
@@ -274,17 +365,15 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                 wp.atomic_max(S.ext_max, slot, ex)
             if ey > S.ext_max[slot + 1]:
                 wp.atomic_max(S.ext_max, slot + 1, ey)
-        x0 = int(1073741824)
-        y0 = int(1073741824)
-        x1 = int(-1073741824)
-        y1 = int(-1073741824)
-        for k in range(wp.static(NC)):
-            bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
-            x0 = wp.min(x0, bx)
-            y0 = wp.min(y0, by)
-            x1 = wp.max(x1, bx + K - 1)
-            y1 = wp.max(y1, by + K - 1)
-        S.reach[p] = wp.vec4i(x0, x1, y0, y1)
+        else:
+            S.x_ref[p] = P.x[p]
+            if rho_cr > T(0.0):
+                wx, wy, slack = search_window(wp.abs(a[0]) + wp.abs(b[0]), wp.abs(a[1]) + wp.abs(b[1]), S, D)
+                slot = p % EXT_SLOTS
+                q = quanta(slack, S)
+                if q < S.slack[slot]:  # most points do not beat their slot: no atomic
+                    wp.atomic_min(S.slack, slot, q)
+        S.reach[p] = node_reach(P, D, p)
         rows = G.mass.shape[1]
         cx, cy = cell_of(P, D, p, rows)
         cell = cx * rows + cy
@@ -297,6 +386,8 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     @kernel
     def link(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                 status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
+        if S.flags[FLAG_REBUILD] == 0:
+            return
         p = wp.tid()
         if wp.static(staged):
             if clock[0] < P.release[p]:
@@ -308,21 +399,11 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         ap = S.dom_a[p]
         bp = S.dom_b[p]
         continuum_p = materials[P.material[p]][9] <= T(0.0)
-        # two domains overlap only if the centres are closer than the sum of their half-extents, so
-        # the cells beyond (own extent + largest extent) need no visit, nor those beyond the stencil
         wx = W
         wy = W
         if not continuum_p:
-            ap_ = wp.abs(ap[0]) + wp.abs(bp[0])
-            bp_ = wp.abs(ap[1]) + wp.abs(bp[1])
-            emx = S.ext_max[0]
-            emy = S.ext_max[1]
-            if wp.static(deforming):
-                for k in range(1, EXT_SLOTS):
-                    emx = wp.max(emx, S.ext_max[2 * k])
-                    emy = wp.max(emy, S.ext_max[2 * k + 1])
-            wx = wp.min(W, int(wp.float32(ap_ * D.inv_h) + emx) + 1)
-            wy = wp.min(W, int(wp.float32(bp_ * D.inv_h) + emy) + 1)
+            wx, wy, slack = search_window(wp.abs(ap[0]) + wp.abs(bp[0]), wp.abs(ap[1]) + wp.abs(bp[1]), S, D)
+        margin_p = T(1.0e30)
         # half the neighbourhood: cells after this one (column-major), and in this cell the points
         # after p; the windows are symmetric, so every pair is met once, from its first cell
         for ix in range(cx, wp.min(cx + wx + 1, D.layer_rows)):
@@ -342,14 +423,30 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                     if rq[0] > rp[1] or rp[0] > rq[1] or rq[2] > rp[3] or rp[2] > rq[3]:
                         continue
                     # task 1: the domains of interaction overlap (continua always interact)
-                    if continuum_p or materials[P.material[q]][9] <= T(0.0) or overlap(
-                            xp, ap, bp, P.x[q], S.dom_a[q], S.dom_b[q]):
+                    if continuum_p or materials[P.material[q]][9] <= T(0.0):
                         unite(S.parent, p, q)
+                        continue
+                    xq = P.x[q]
+                    aq = S.dom_a[q]
+                    bq = S.dom_b[q]
+                    if overlap(xp, ap, bp, xq, aq, bq):
+                        unite(S.parent, p, q)
+                    if wp.static(not deforming):
+                        margin_p = wp.min(margin_p, overlap_margin(xq - xp, ap, bp, aq, bq))
+        if wp.static(not deforming):
+            slot = p % EXT_SLOTS
+            q = quanta(margin_p, S)
+            if q < S.slack[slot]:
+                wp.atomic_min(S.slack, slot, q)
 
     @kernel
     def label(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                 status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
+        if S.flags[FLAG_REBUILD] == 0:
+            return
         p = wp.tid()
+        if p == 0:
+            S.flags[FLAG_COUNT] = S.flags[FLAG_COUNT] + 1
         P.comp[p] = find(S.parent, p)
         # empty this point's bin for the next step (every binned point of a cell writes the same
         # zero; cells without points were never filled), which spares a memset of every bin
@@ -360,24 +457,75 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         cx, cy = cell_of(P, D, p, rows)
         S.bins[cx * rows + cy, 0] = 0
 
-    return prepare, link, label
+    @kernel
+    def check(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
+              status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
+        # whether this step needs a rebuild (see the module docstring): a new node range, or a move
+        # of half the margin (less the round-off allowance) since the last rebuild
+        if S.flags[FLAG_REBUILD] != 0:
+            return
+        p = wp.tid()
+        reach = wp.vec4i(0, -1, 0, -1)
+        released = True
+        if wp.static(staged):
+            released = clock[0] >= P.release[p]
+        if released:
+            reach = node_reach(P, D, p)
+        old = S.reach[p]
+        if reach[0] != old[0] or reach[1] != old[1] or reach[2] != old[2] or reach[3] != old[3]:
+            S.flags[FLAG_REBUILD] = 1
+            return
+        if released and materials[P.material[p]][9] > T(0.0):
+            least = S.slack[0]
+            for k in range(1, EXT_SLOTS):
+                least = wp.min(least, S.slack[k])
+            limit = T(0.5) * T(least) * S.quantum - S.roundoff
+            d = P.x[p] - S.x_ref[p]
+            if wp.max(wp.abs(d[0]), wp.abs(d[1])) >= limit:
+                S.flags[FLAG_REBUILD] = 1
+
+    if deforming:
+        check = None
+    return check, prepare, link, label
+
+
+@functools.cache
+def make_rebuild_decision(deforming: bool):
+    """Kernel ``decide(flags)``, one thread, first in a step: this step rebuilds the interaction
+    graph if the host asked for it (or always, for deforming domains); ``check`` may add to that."""
+
+    @kernel
+    def decide(flags: wp.array(dtype=wp.int32)):
+        flags[FLAG_REBUILD] = flags[FLAG_FORCED]
+        if wp.static(deforming):
+            flags[FLAG_REBUILD] = 1
+        flags[FLAG_FORCED] = 0
+
+    return decide
 
 
 @functools.cache
 def make_reset_copies(precision: str, deforming: bool):
-    """Kernel ``reset_copies(G, D, ext_max)`` over the nodes of one layer, run first in a step:
+    """Kernel ``reset_copies(G, D, ext_max, slack, flags)`` over the nodes of one layer, on rebuild steps:
     frees the copies the previous step claimed (a prefix at each node, so a node without claims
-    costs one read instead of a memset of every layer) and, for deforming domains, zeroes
-    ``ext_max``."""
+    costs one read instead of a memset of every layer) and resets ``ext_max`` (deforming domains)
+    or ``slack`` (the others)."""
     Particles, Grid, Domain = make_state_structs(precision)
 
     @kernel
-    def reset_copies(G: Grid, D: Domain, ext_max: wp.array(dtype=wp.float32)):
+    def reset_copies(G: Grid, D: Domain, ext_max: wp.array(dtype=wp.float32), slack: wp.array(dtype=wp.int32),
+                     flags: wp.array(dtype=wp.int32)):
+        # on a step that reuses the labels every point keeps its node range, so the copies claimed
+        # at the last rebuild are the ones this step claims again: they stay
+        if flags[FLAG_REBUILD] == 0:
+            return
         i, j = wp.tid()
+        k = i * G.owner.shape[1] + j
         if wp.static(deforming):
-            k = i * G.owner.shape[1] + j
             if k < 2 * EXT_SLOTS:
                 ext_max[k] = wp.float32(0.0)
+        elif k < EXT_SLOTS:
+            slack[k] = NO_MARGIN
         for s in range(D.layers):
             r = s * D.layer_rows + i
             if G.owner[r, j] < 0:

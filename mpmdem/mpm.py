@@ -201,6 +201,20 @@ class MPMSolver:
             S.dom_b = wp.zeros(n, dtype=t.vec2, device=dev)
             S.reach = wp.zeros(n, dtype=wp.vec4i, device=dev)
             S.ext_max = wp.array(self._static_extent(host, mats), dtype=wp.float32, device=dev)
+            # reuse of the labels between rebuilds (kernels/granular.py): a rebuild on the first step
+            S.x_ref = wp.zeros(n, dtype=t.vec2, device=dev)
+            S.slack = wp.full(kgran.EXT_SLOTS, kgran.NO_MARGIN, dtype=wp.int32, device=dev)
+            S.quantum = t.scalar(self.scene.cell_size * 2.0**-20)
+            flags = np.zeros(kgran.FLAG_SLOTS, np.int32)
+            flags[kgran.FLAG_FORCED] = 1
+            S.flags = wp.array(flags, dtype=wp.int32, device=dev)
+            # round-off: an offset of two points is rounded once (half an ulp of the largest
+            # coordinate X), so the margin and the two overlap tests it separates carry 1.5 ulp
+            # and the two displacements 1 ulp; a point's share, with room: 2 eps X (+ ulps of h)
+            (x0, y0), (x1, y1) = self.scene.domain
+            reach = max(abs(x0), abs(y0), abs(x1), abs(y1)) + 8.0 * self.scene.cell_size
+            eps = float(np.finfo(T).eps)
+            S.roundoff = t.scalar(2.0 * eps * reach + 8.0 * eps * self.scene.cell_size)
             self.interaction = S
             self.granular_stats = wp.zeros(2, dtype=wp.int32, device=dev)
 
@@ -297,10 +311,13 @@ class MPMSolver:
             # are claimed in the P2G below (kernels/granular.py)
             deforming = c.shape in kgran.DEFORMING_DOMAINS
             S = self.interaction
-            seq += [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim, [G, D, S.ext_max])]
             gin = [P, G, D, mats, S, self.status, clock]
-            kernels = kgran.make_granular_kernels(c.shape, prec, self.granular_cell_capacity, staged=self.staged)
-            seq += [_Launch(k, n, gin) for k in kernels]
+            check, *build = kgran.make_granular_kernels(c.shape, prec, self.granular_cell_capacity,
+                                                        staged=self.staged)
+            seq += [_Launch(kgran.make_rebuild_decision(deforming), 1, [S.flags])]
+            seq += [_Launch(check, n, gin)] if check is not None else []
+            seq += [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim, [G, D, S.ext_max, S.slack, S.flags])]
+            seq += [_Launch(k, n, gin) for k in build]
         if c.update == "USL":
             if self.fused:
                 seq += p2g(mass=True, momentum=True, force=True, fused_impulse=True)
@@ -459,6 +476,14 @@ class MPMSolver:
                   device=dev)
         for name in self._POINT_FIELDS + (("release",) if self.staged else ()):
             wp.copy(getattr(self.P, name), getattr(scratch, name))
+        self.invalidate_interactions()
+
+    def invalidate_interactions(self) -> None:
+        """Granular mode: the next step rebuilds the interaction graph (after the points were
+        reordered or overwritten from the host, e.g. a checkpoint); a no-op otherwise."""
+        if self.config.granular:
+            flag = wp.array([1], dtype=wp.int32, device="cpu")
+            wp.copy(self.interaction.flags, flag, dest_offset=kgran.FLAG_FORCED, count=1)
 
     def sort_points(self) -> None:
         """Reorder the points by grid cell (radix sort on the device); outputs keep the scene's order."""
@@ -555,6 +580,7 @@ class MPMSolver:
         out["energy_total"] = out["energy_kinetic"] + out["energy_strain"] + out["energy_gravity"]
         if self.config.granular:
             out["components"], out["layers"] = (float(v) for v in self.granular_statistics())
+            out["granular_rebuilds"] = float(self.interaction.flags.numpy()[kgran.FLAG_COUNT])
         return out
 
     def granular_statistics(self) -> tuple[int, int]:
