@@ -199,8 +199,9 @@ def make_interaction_struct(precision: str):
     (x0, x1, y0, y1); ext_max (2 EXT_SLOTS,) float32 largest half-extent [cells], x and y; x_ref
     (N,) vec2 positions at the last rebuild [m]; slack (EXT_SLOTS,) int32: the margin of the last
     rebuild's pair tests and pruned windows in whole quanta (rounded down), reduced in slots; flags
-    (FLAG_SLOTS,) int32; quantum: the unit of ``slack`` [m]; roundoff: the round-off allowance [m]
-    of a point's share of the margin."""
+    (FLAG_SLOTS,) int32; limit (1,) scalar: how far [m] a point may move before a rebuild, from
+    ``slack`` once per step; quantum: the unit of ``slack`` [m]; roundoff: the round-off allowance
+    [m] of a point's share of the margin."""
     t = scalar_types(precision)
 
     @wp.struct
@@ -213,6 +214,7 @@ def make_interaction_struct(precision: str):
         ext_max: wp.array(dtype=wp.float32)
         x_ref: wp.array(dtype=t.vec2)
         slack: wp.array(dtype=wp.int32)
+        limit: wp.array(dtype=t.scalar)
         quantum: t.scalar
         flags: wp.array(dtype=wp.int32)
         roundoff: t.scalar
@@ -476,12 +478,8 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             S.flags[FLAG_REBUILD] = 1
             return
         if released and materials[P.material[p]][9] > T(0.0):
-            least = S.slack[0]
-            for k in range(1, EXT_SLOTS):
-                least = wp.min(least, S.slack[k])
-            limit = T(0.5) * T(least) * S.quantum - S.roundoff
             d = P.x[p] - S.x_ref[p]
-            if wp.max(wp.abs(d[0]), wp.abs(d[1])) >= limit:
+            if wp.max(wp.abs(d[0]), wp.abs(d[1])) >= S.limit[0]:
                 S.flags[FLAG_REBUILD] = 1
 
     if deforming:
@@ -490,16 +488,24 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
 
 
 @functools.cache
-def make_rebuild_decision(deforming: bool):
-    """Kernel ``decide(flags)``, one thread, first in a step: this step rebuilds the interaction
-    graph if the host asked for it (or always, for deforming domains); ``check`` may add to that."""
+def make_rebuild_decision(precision: str, deforming: bool):
+    """Kernel ``decide(S)``, one thread, first in a step: this step rebuilds the interaction graph
+    if the host asked for it (or always, for deforming domains); ``check`` may add to that, moving
+    points against ``S.limit``, half the last rebuild's margin less the round-off allowance."""
+    Interaction = make_interaction_struct(precision)
+    T = scalar_types(precision).scalar
 
     @kernel
-    def decide(flags: wp.array(dtype=wp.int32)):
-        flags[FLAG_REBUILD] = flags[FLAG_FORCED]
+    def decide(S: Interaction):
+        S.flags[FLAG_REBUILD] = S.flags[FLAG_FORCED]
         if wp.static(deforming):
-            flags[FLAG_REBUILD] = 1
-        flags[FLAG_FORCED] = 0
+            S.flags[FLAG_REBUILD] = 1
+        else:
+            least = S.slack[0]
+            for k in range(1, EXT_SLOTS):
+                least = wp.min(least, S.slack[k])
+            S.limit[0] = T(0.5) * T(least) * S.quantum - S.roundoff
+        S.flags[FLAG_FORCED] = 0
 
     return decide
 

@@ -205,6 +205,7 @@ class MPMSolver:
             S.x_ref = wp.zeros(n, dtype=t.vec2, device=dev)
             S.slack = wp.full(kgran.EXT_SLOTS, kgran.NO_MARGIN, dtype=wp.int32, device=dev)
             S.quantum = t.scalar(self.scene.cell_size * 2.0**-20)
+            S.limit = wp.zeros(1, dtype=t.scalar, device=dev)
             flags = np.zeros(kgran.FLAG_SLOTS, np.int32)
             flags[kgran.FLAG_FORCED] = 1
             S.flags = wp.array(flags, dtype=wp.int32, device=dev)
@@ -314,7 +315,7 @@ class MPMSolver:
             gin = [P, G, D, mats, S, self.status, clock]
             check, *build = kgran.make_granular_kernels(c.shape, prec, self.granular_cell_capacity,
                                                         staged=self.staged)
-            seq += [_Launch(kgran.make_rebuild_decision(deforming), 1, [S.flags])]
+            seq += [_Launch(kgran.make_rebuild_decision(prec, deforming), 1, [S])]
             seq += [_Launch(check, n, gin)] if check is not None else []
             seq += [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim, [G, D, S.ext_max, S.slack, S.flags])]
             seq += [_Launch(k, n, gin) for k in build]

@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
+import shapely
+from shapely.geometry import LineString, Point, Polygon
 
 from .bodies import ContactLaw, RigidBody, make_rigid_body
 from .errors import InputError
@@ -80,6 +82,13 @@ class MPMBody:
             r = x - x.mean(axis=0)
             v = v + self.angular_velocity * np.stack([-r[:, 1], r[:, 0]], 1)
         return v
+
+
+def _core_geometry(body: RigidBody):
+    """Shapely core of a rigid body at its initial position and angle (world frame) [m]: a point,
+    a segment or a polygon, as ``Spheropolygon.to_shapely`` builds it before dilating."""
+    v = body.world_vertices()
+    return Point(v[0]) if len(v) == 1 else LineString(v) if len(v) == 2 else Polygon(v)
 
 
 def _as_boundary(side: str, b) -> Boundary:
@@ -239,6 +248,12 @@ class Scene:
             motion: "free", "fixed" (never integrated: costs nothing per step) or "kinematic".
             friction: Coulomb μ >= 0 (a pair uses the smaller of its two values).
             active: (t_start, t_end) [s] during which a kinematic body moves.
+
+        A free body must have its centroid inside the domain and must not be larger than it: its
+        bounding box at the initial angle (core polygon + sphero radius) may be at most as wide
+        and as tall as the domain. Fixed and kinematic bodies may extend past the domain (the
+        walls of ``add_walls`` reach past its corners by their thickness, a floor may run under
+        the whole domain, a peg may sit outside it), so they have no size limit.
         """
         name = name or f"rigid{len(self.rigid_bodies)}"
         body = make_rigid_body(shape, density=density, position=position, angle=angle, velocity=velocity,
@@ -249,6 +264,13 @@ class Scene:
             x, y = body.position
             if not (x0 <= x <= x1 and y0 <= y <= y1):
                 raise InputError("position", body.position, f"a centroid inside the domain {self.domain}")
+            v = body.world_vertices()
+            bw, bh = np.ptp(v, axis=0) + 2.0 * body.shape.radius
+            dw, dh = x1 - x0, y1 - y0
+            if bw > dw * (1.0 + 1e-9) or bh > dh * (1.0 + 1e-9):
+                raise InputError(f"rigid body {name!r} size", (float(f"{bw:.6g}"), float(f"{bh:.6g}")),
+                                 f"a free body no larger than the domain, {dw:g} x {dh:g} m (the size is the "
+                                 "bounding box width x height of the rounded body at its initial angle)")
         self.rigid_bodies.append(body)
         return body
 
@@ -366,6 +388,66 @@ class Scene:
         body = self._with_contact_radius(body, contact_radius, pts.volumes)
         self.bodies.append(body)
         return body
+
+    def validate(self) -> None:
+        """Checks that need the whole scene (bodies may be added in any order); ``Simulation``
+        runs them before any kernel. Raises InputError.
+
+        Material points must not start inside a rigid body (free, fixed, kinematic or a wall):
+        a point is inside when its centre lies strictly inside the rounded body (core polygon
+        dilated by the sphero radius a), deeper than a round-off tolerance of 1e-9 × the domain
+        size. A point may touch a body or overlap it with its contact radius r_p (a point
+        resting on a body does), but not sit in it. Points released later (``add_points``'
+        release_time > 0) are checked against the fixed bodies only: the others will have moved.
+        The error names the first rigid body (scene order) with points inside, how many, and
+        the total.
+        """
+        if not (self.bodies and self.rigid_bodies):
+            return
+        seeded = [self._seed(b).positions for b in self.bodies]
+        x = np.concatenate(seeded)
+        owner = np.repeat(np.arange(len(seeded)), [len(p) for p in seeded])
+        released = np.concatenate([b.release_times if b.release_times is not None else np.zeros(len(p))
+                                   for b, p in zip(self.bodies, seeded, strict=True)]) > 0.0
+        cores = np.array([_core_geometry(b) for b in self.rigid_bodies], dtype=object)
+        radius = np.array([b.shape.radius for b in self.rigid_bodies])
+        points = shapely.points(x)
+        # candidates: points within a of the core (closed); the exact depth below decides
+        j, i = shapely.STRtree(points).query(cores, predicate="dwithin", distance=radius)
+        if len(j) == 0:
+            return
+        fixed = np.array([b.motion == "fixed" for b in self.rigid_bodies])
+        keep = ~released[i] | fixed[j]
+        j, i = j[keep], i[keep]
+        # depth of the centre inside the rounded body: a − distance to the core outside the core,
+        # a + distance to the core's outline inside a polygon core
+        dist = shapely.distance(cores[j], points[i])
+        polygon = shapely.get_type_id(cores[j]) == shapely.GeometryType.POLYGON
+        inner = np.zeros(len(j))
+        sel = polygon & (dist == 0.0)
+        inner[sel] = shapely.distance(shapely.boundary(cores[j[sel]]), points[i[sel]])
+        depth = radius[j] + np.where(dist > 0.0, -dist, inner)
+        (x0, y0), (x1, y1) = self.domain
+        inside = depth > 1e-9 * max(x1 - x0, y1 - y0)
+        if not inside.any():
+            return
+        j, i = j[inside], i[inside]
+        per_body = np.bincount(j, minlength=len(self.rigid_bodies))
+        first = int(np.flatnonzero(per_body)[0])
+        body = self.rigid_bodies[first]
+        owners = np.unique(owner[i[j == first]])
+        mpm = ("MPM body " if len(owners) == 1 else "MPM bodies ") + ", ".join(
+            repr(self.bodies[k].name) for k in owners)
+        count, total, hit = int(per_body[first]), len(np.unique(i)), int(np.count_nonzero(per_body))
+
+        def n_points(n: int) -> str:
+            return f"{n} point{'' if n == 1 else 's'}"
+
+        raise InputError(f"rigid body {body.name!r}", body.position,
+                         f"a body with no material point starting inside it; {n_points(count)} of {mpm} start "
+                         f"inside it ({n_points(total)} start inside {hit} rigid bod{'y' if hit == 1 else 'ies'} in "
+                         "all). Move the points or the bodies apart: points may touch a body (overlap it by up to "
+                         "their contact radius), not start inside it")
 
     def contact_radius_interval(self, volumes: np.ndarray) -> tuple[float, float]:
         """(h sqrt(1/n), h) [m]: MPM-SDEM eq. 45's open interval for the contact radius r_p of

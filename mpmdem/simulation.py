@@ -78,6 +78,7 @@ class Simulation:
         self.device = str(wp.get_device(device))
         if not (scene.has_mpm or scene.has_dem):
             raise InputError("bodies", [], "at least one body (Scene.add_body or Scene.add_rigid_body)")
+        scene.validate()  # whole-scene input checks (points starting inside rigid bodies), before any kernel
         self.mpm = MPMSolver(scene, self.config, self.device) if scene.has_mpm else None
         self.dem = DEMSolver(scene, self.config, self.device) if scene.has_dem else None
         self.coupling = None
@@ -347,6 +348,8 @@ class Simulation:
                 raise InputError("checkpoint", str(path), "a checkpoint of this same scene and config")
             for name, a in self.stage.state_arrays().items():
                 a.assign(data[name])
+        if self.mpm is not None:
+            self.mpm.invalidate_interactions()
 
     # -- state access -----------------------------------------------------------------------------
     def fields(self) -> dict[str, np.ndarray]:

@@ -22,9 +22,12 @@ def _outline(world, start, count):
     return shapely.LinearRing(pts)
 
 
-def test_imp_lists_equal_brute_force():
+def test_imp_lists_equal_brute_force(monkeypatch):
     """The cell-binned, body-driven list build finds exactly the (point, body) pairs within
     a_i + r_p + skin of the core outline (eq. 44's gap plus the Verlet skin) of an all-pairs search."""
+    # points are scattered through the bodies on purpose (points that have sunk into a body must be
+    # listed too): skip the input check that refuses points starting inside a rigid body
+    monkeypatch.setattr(m.Scene, "validate", lambda self: None)
     rng = np.random.default_rng(3)
     h = 0.02
     scene = m.Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=h, contact=m.ContactLaw(1.0e5), boundaries=FREE)
@@ -214,3 +217,53 @@ def test_kinematic_paddle_pushes_points_and_keeps_its_motion():
     # measured); no energy appeared from nowhere (0.5 %: the issue's no-gain bound)
     assert d["work_imp_damping"][-1] < 0.0
     assert d["work_numerical"][-1] < 0.005 * d["work_driven"][-1]
+
+
+def test_points_inside_bodies_and_oversized_bodies_are_refused():
+    """Bad scenes are refused before any kernel runs: material points starting inside a rigid body
+    (the error names the body and counts the points; added in either order, walls included in the
+    check), and a free rigid body larger than the domain. Points touching a body, fixed bodies and
+    walls longer than the domain are accepted."""
+    h = 0.02
+    mat = m.LinearElastic(youngs_modulus=1.0e5, poisson_ratio=0.3, density=1000.0)
+
+    def scene():
+        s = m.Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=h, contact=m.ContactLaw(1.0e6))
+        s.add_walls(("left", "right", "bottom", "top"))
+        return s
+
+    # 2 x 2 points per cell: rows at y = 0.305, 0.315, ...; the floor's rounded top is y = 0.35, its
+    # sides x = 0.4, 0.6: 5 rows x 20 columns of the block's points are inside it (corners included)
+    s = scene()
+    s.add_rigid_body(rounded_rectangle(0.2, 0.1, 0.01), density=1000.0, position=(0.5, 0.3), motion="fixed",
+                     name="floor")
+    s.add_rigid_body(m.sphero_disk(0.03), density=1000.0, position=(0.5, 0.8), name="ball")
+    s.add_body(m.rectangle(0.3, 0.3, 0.7, 0.5), mat, name="block")
+    with pytest.raises(m.InputError, match=r"rigid body 'floor'.*100 points of MPM body 'block' start inside it "
+                                           r"\(100 points start inside 1 rigid body in all\)"):
+        m.Simulation(s, device="cpu")
+    # the other order, a free body: the first body with points inside is named, the total counts all
+    s = scene()
+    s.add_points([[0.1, 0.1], [0.5, 0.8], [0.51, 0.8], [0.5, 0.5]], mat, size=0.5 * h, name="grains")
+    s.add_rigid_body(m.sphero_disk(0.03), density=1000.0, position=(0.5, 0.8), name="ball")
+    s.add_rigid_body(m.rod(0.2, 0.01), density=1000.0, position=(0.5, 0.5), motion="kinematic", name="paddle")
+    with pytest.raises(m.InputError, match=r"rigid body 'ball'.*2 points of MPM body 'grains' start inside it "
+                                           r"\(3 points start inside 2 rigid bodies in all\)"):
+        s.validate()
+    # points touching a body (centre at a + r_p (1 - 1e-3) from the core) or on the walls' faces are fine
+    s = scene()
+    s.add_rigid_body(m.sphero_disk(0.03), density=1000.0, position=(0.5, 0.5), name="ball")
+    touch = (0.03 + 0.012) * (1.0 - 1.0e-3)
+    s.add_points([[0.5, 0.5 + touch], [0.5 + touch, 0.5], [0.0, 0.2], [1.0, 1.0]], mat, size=0.5 * h,
+                 contact_radius=0.012)
+    m.Simulation(s, device="cpu")
+    # a free body larger than the domain (bounding box of the rounded body) is refused; fixed ones may be
+    s = scene()
+    with pytest.raises(m.InputError, match=r"rigid body 'beam' size=\(1\.22, 0\.02\).*no larger than the domain, "
+                                           r"1 x 1 m"):
+        s.add_rigid_body(m.rod(1.2, 0.01), density=1000.0, position=(0.5, 0.9), name="beam")
+    with pytest.raises(m.InputError, match=r"rigid body 'slab' size"):
+        s.add_rigid_body(rounded_rectangle(0.5, 1.1, 0.01), density=1000.0, position=(0.5, 0.5), name="slab")
+    s.add_rigid_body(m.rod(1.2, 0.01), density=1000.0, position=(0.5, 0.5), angle=math.pi / 4, name="beam")
+    s.add_rigid_body(m.rod(1.5, 0.01), density=1000.0, position=(0.5, 0.95), motion="fixed", name="bar")
+    assert [b.name for b in s.rigid_bodies] == ["wall_left", "wall_right", "wall_bottom", "wall_top", "beam", "bar"]
