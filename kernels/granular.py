@@ -24,13 +24,16 @@ Per step (all kernels, no host sync, capturable in a CUDA graph):
 
 Reuse of the labels (a Verlet-style skip, exact): the graph depends on each point's node range
 (pre-task) and, for two granular points of a non-deforming domain, on their distance (task 1).
-At a rebuild every point records its position and its node range, and the search records the
-margin: the smallest change of a pair's offset (max-norm) that would flip any overlap test it
-made, or let a pair the cell window pruned overlap (``S.slack``, a global minimum: the rebuild
-decision is global anyway). ``check`` then rebuilds only when some point's node range changed or
-it moved by half the margin or more (less a round-off allowance), so the skipped steps get exactly
-the labels a rebuild would give, and keep the grid copies they claimed. Deforming domains (cpGIMP,
-CPDI) rebuild every step.
+At a rebuild every point records its position and its node range, each cell one of its points
+as reference, and the search records the margin M: the smallest change of a pair's offset
+(max-norm) that would flip any overlap test it made, or let a pair the cell window pruned overlap
+(``S.slack``, a global minimum: the rebuild decision is global anyway). A step then rebuilds only
+when some point's node range changed, or when neither bound on how much any pair's offset d_pq
+changed since is below M (less a round-off allowance): 2 max|Δx_p| (absolute moves), or
+2 max|Δx_p − Δx_ref(p)| + max|Δx_ref(c) − Δx_ref(c')| over cells c, c' within the search reach
+(moves relative to the references: a body that translates, falls or flows as a whole keeps
+its labels). Skipped steps get exactly the labels a rebuild would give and keep the grid copies
+they claimed. Deforming domains (cpGIMP, CPDI) rebuild every step.
 
 Non-granular materials (no critical density) are continua: their points interact with every
 point they share a node with, so they are never split.
@@ -48,6 +51,9 @@ __all__ = [
     "DEFORMING_DOMAINS",
     "EXT_SLOTS",
     "FLAG_COUNT",
+    "MOVE_ABSOLUTE",
+    "MOVE_CELLS",
+    "MOVE_RELATIVE",
     "FLAG_FORCED",
     "FLAG_REBUILD",
     "FLAG_SLOTS",
@@ -76,6 +82,12 @@ DEFORMING_DOMAINS = ("cpgimp", "cpdi1")
 #: The largest extent of deforming domains is reduced into this many (x, y) slots (point p uses
 #: slot p % EXT_SLOTS, and only when it beats the slot): no million atomics on one address.
 EXT_SLOTS = 32
+
+#: Slots of ``Interaction.motion`` (each reduced over EXT_SLOTS slots): max |Δx_p|, max
+#: |Δx_p − Δx_ref(p)| and max |Δx_ref(c) − Δx_ref(c')| since the last rebuild, in quanta (rounded up).
+MOVE_ABSOLUTE = 0
+MOVE_RELATIVE = 1
+MOVE_CELLS = 2
 
 #: Slots of ``Interaction.flags``: a rebuild asked by the host (first step, after a reorder or a
 #: checkpoint), the decision of this step, and the number of rebuilds so far.
@@ -199,9 +211,10 @@ def make_interaction_struct(precision: str):
     (x0, x1, y0, y1); ext_max (2 EXT_SLOTS,) float32 largest half-extent [cells], x and y; x_ref
     (N,) vec2 positions at the last rebuild [m]; slack (EXT_SLOTS,) int32: the margin of the last
     rebuild's pair tests and pruned windows in whole quanta (rounded down), reduced in slots; flags
-    (FLAG_SLOTS,) int32; limit (1,) scalar: how far [m] a point may move before a rebuild, from
-    ``slack`` once per step; quantum: the unit of ``slack`` [m]; roundoff: the round-off allowance
-    [m] of a point's share of the margin."""
+    (FLAG_SLOTS,) int32; limit (1,) scalar: the margin [m] of the last rebuild, from ``slack`` once
+    per step; motion (3 EXT_SLOTS,) int32 (``MOVE_*``); cell_ref (cells,) int32: each cell's
+    reference point at the last rebuild, −1 for none; quantum: the unit of ``slack`` and
+    ``motion`` [m]; roundoff: the round-off allowance [m] of one displacement or margin."""
     t = scalar_types(precision)
 
     @wp.struct
@@ -214,6 +227,8 @@ def make_interaction_struct(precision: str):
         ext_max: wp.array(dtype=wp.float32)
         x_ref: wp.array(dtype=t.vec2)
         slack: wp.array(dtype=wp.int32)
+        motion: wp.array(dtype=wp.int32)
+        cell_ref: wp.array(dtype=wp.int32)
         limit: wp.array(dtype=t.scalar)
         quantum: t.scalar
         flags: wp.array(dtype=wp.int32)
@@ -226,14 +241,14 @@ def make_interaction_struct(precision: str):
 def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged: bool = False):
     """(check, prepare, link, label) kernels of the interaction graph (see the module docstring).
 
-    Launch each with dim = number of points and inputs ``[P, G, D, materials, S, status, clock]``,
-    after ``make_rebuild_decision``; ``check`` (None for deforming domains, which rebuild every
-    step) decides whether the other three run this step,
-    S an ``Interaction`` (``make_interaction_struct``): cells of ``S.bins`` are indexed like
-    ``Grid.mass`` (column-major over the node lattice of one layer); ``S.ext_max`` holds for shapes
-    outside DEFORMING_DOMAINS a constant set by the host in slot 0, else ``reset_copies`` zeroes it
-    and ``prepare`` fills it. ``bins`` starts
-    zeroed and ``label`` empties the bins it used. staged: points not yet released (``P.release``
+    Launch each with dim = number of points and inputs ``[P, G, D, materials, S, status, clock]``:
+    ``decide`` (``make_rebuild_decision``), ``check``, ``judge``, ``reset_copies``, then the other
+    three, which run only when ``check`` and ``judge`` asked for a rebuild (``check`` is None for
+    deforming domains, which rebuild every step). S is an ``Interaction``
+    (``make_interaction_struct``): cells of ``S.bins`` are indexed like ``Grid.mass`` (column-major
+    over the node lattice of one layer); ``S.ext_max`` holds for shapes outside DEFORMING_DOMAINS a
+    constant set by the host in slot 0, else ``reset_copies`` zeroes it and ``prepare`` fills it.
+    ``bins`` starts zeroed and ``label`` empties the bins it used. staged: points not yet released (``P.release``
     ahead of ``clock[0]``) stay single, unbinned components.
     """
     from .transfer import CORNERS, make_stencil  # noqa: PLC0415 (transfer imports this module's helpers)
@@ -254,8 +269,8 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     deforming = shape in DEFORMING_DOMAINS
 
     @wp.func
-    def cell_of(P: Particles, D: Domain, p: int, rows: int):
-        c = (P.x[p] - D.origin) * D.inv_h
+    def cell_at(x: t.vec2, D: Domain, rows: int):
+        c = (x - D.origin) * D.inv_h
         cx = wp.clamp(int(wp.floor(c[0])), 0, D.layer_rows - 1)
         cy = wp.clamp(int(wp.floor(c[1])), 0, rows - 1)
         return cx, cy
@@ -299,9 +314,34 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         return wx, wy, slack
 
     @wp.func
+    def cell_of(P: Particles, D: Domain, p: int, rows: int):
+        return cell_at(P.x[p], D, rows)
+
+    @wp.func
+    def quanta_up(length: T, S: Interaction):
+        # a displacement [m] in whole quanta, rounded up (so never less than it is), capped
+        v = wp.ceil(length / S.quantum)
+        if v >= T(2.0e9):  # (2^31 - 1 is not a float32: compare below it)
+            return NO_MARGIN
+        return int(v)
+
+    @wp.func
+    def reduce_max(slots: wp.array(dtype=wp.int32), base: int, p: int, value: int):
+        slot = base + p % EXT_SLOTS
+        if value > slots[slot]:  # most values do not beat their slot: no atomic
+            wp.atomic_max(slots, slot, value)
+
+    @wp.func
+    def moved(P: Particles, S: Interaction, p: int):
+        return P.x[p] - S.x_ref[p]
+
+    @wp.func
     def quanta(length: T, S: Interaction):
         # a margin [m] in whole quanta, rounded down (so never more than it is), capped
-        return int(wp.min(wp.floor(length / S.quantum), T(NO_MARGIN - 1)))
+        v = wp.floor(length / S.quantum)
+        if v >= T(2.0e9):  # (2^31 - 1 is not a float32: compare below it)
+            return NO_MARGIN
+        return int(v)
 
     @wp.func
     def overlap_margin(d: t.vec2, ap: t.vec2, bp: t.vec2, aq: t.vec2, bq: t.vec2):
@@ -457,13 +497,17 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                 return
         rows = G.mass.shape[1]
         cx, cy = cell_of(P, D, p, rows)
-        S.bins[cx * rows + cy, 0] = 0
+        cell = cx * rows + cy
+        if wp.static(not deforming):
+            S.cell_ref[cell] = S.bins[cell, 1]  # the cell's reference: any of its points, the same for all
+        S.bins[cell, 0] = 0
 
     @kernel
     def check(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
               status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
-        # whether this step needs a rebuild (see the module docstring): a new node range, or a move
-        # of half the margin (less the round-off allowance) since the last rebuild
+        # whether this step needs a rebuild (see the module docstring): a new node range rebuilds;
+        # the moves since the last rebuild, absolute and relative to the cell's reference point,
+        # go to S.motion for ``judge``
         if S.flags[FLAG_REBUILD] != 0:
             return
         p = wp.tid()
@@ -477,10 +521,28 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         if reach[0] != old[0] or reach[1] != old[1] or reach[2] != old[2] or reach[3] != old[3]:
             S.flags[FLAG_REBUILD] = 1
             return
-        if released and materials[P.material[p]][9] > T(0.0):
-            d = P.x[p] - S.x_ref[p]
-            if wp.max(wp.abs(d[0]), wp.abs(d[1])) >= S.limit[0]:
-                S.flags[FLAG_REBUILD] = 1
+        if released:
+            d = moved(P, S, p)
+            reduce_max(S.motion, MOVE_ABSOLUTE * EXT_SLOTS, p, quanta_up(wp.max(wp.abs(d[0]), wp.abs(d[1])), S))
+            rows = G.mass.shape[1]
+            cx, cy = cell_at(S.x_ref[p], D, rows)
+            ref = S.cell_ref[cx * rows + cy]
+            e = d - moved(P, S, ref)
+            reduce_max(S.motion, MOVE_RELATIVE * EXT_SLOTS, p, quanta_up(wp.max(wp.abs(e[0]), wp.abs(e[1])), S))
+            if ref == p:
+                # a cell's reference point: how much the references of the cells within the search
+                # reach (W cells: every pair that shares a node) moved relative to it
+                most = T(0.0)
+                for ix in range(cx, wp.min(cx + W + 1, D.layer_rows)):
+                    iy0 = wp.max(cy - W, 0)
+                    if ix == cx:
+                        iy0 = cy + 1
+                    for iy in range(iy0, wp.min(cy + W + 1, rows)):
+                        other = S.cell_ref[ix * rows + iy]
+                        if other >= 0:
+                            f = d - moved(P, S, other)
+                            most = wp.max(most, wp.max(wp.abs(f[0]), wp.abs(f[1])))
+                reduce_max(S.motion, MOVE_CELLS * EXT_SLOTS, p, quanta_up(most, S))
 
     if deforming:
         check = None
@@ -489,9 +551,11 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
 
 @functools.cache
 def make_rebuild_decision(precision: str, deforming: bool):
-    """Kernel ``decide(S)``, one thread, first in a step: this step rebuilds the interaction graph
-    if the host asked for it (or always, for deforming domains); ``check`` may add to that, moving
-    points against ``S.limit``, half the last rebuild's margin less the round-off allowance."""
+    """Kernels ``decide(S)`` and ``judge(S)``, one thread each. ``decide``, first in a step: this
+    step rebuilds the interaction graph if the host asked for it (or always, for deforming
+    domains); it also clears ``S.motion`` and puts the last rebuild's margin into ``S.limit``.
+    ``judge``, after ``check``: a rebuild unless one of the two bounds on the
+    change of the pairs' offsets is below the margin (module docstring)."""
     Interaction = make_interaction_struct(precision)
     T = scalar_types(precision).scalar
 
@@ -504,23 +568,45 @@ def make_rebuild_decision(precision: str, deforming: bool):
             least = S.slack[0]
             for k in range(1, EXT_SLOTS):
                 least = wp.min(least, S.slack[k])
-            S.limit[0] = T(0.5) * T(least) * S.quantum - S.roundoff
+            S.limit[0] = T(least) * S.quantum
+            for k in range(3 * EXT_SLOTS):
+                S.motion[k] = 0
         S.flags[FLAG_FORCED] = 0
 
-    return decide
+    @kernel
+    def judge(S: Interaction):
+        # after ``check``: keep the labels if either bound on the change of every pair's offset is
+        # below the margin, with the round-off of the displacements (2 or 4) and of the margin
+        if S.flags[FLAG_REBUILD] != 0:
+            return
+        absolute = int(0)
+        relative = int(0)
+        cells = int(0)
+        for k in range(EXT_SLOTS):
+            absolute = wp.max(absolute, S.motion[MOVE_ABSOLUTE * EXT_SLOTS + k])
+            relative = wp.max(relative, S.motion[MOVE_RELATIVE * EXT_SLOTS + k])
+            cells = wp.max(cells, S.motion[MOVE_CELLS * EXT_SLOTS + k])
+        q = S.quantum
+        margin = S.limit[0]
+        keep_absolute = T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < margin
+        keep_relative = (T(2.0) * T(relative) + T(cells)) * q + T(7.0) * S.roundoff < margin
+        if not (keep_absolute or keep_relative):
+            S.flags[FLAG_REBUILD] = 1
+
+    return decide, judge
 
 
 @functools.cache
 def make_reset_copies(precision: str, deforming: bool):
-    """Kernel ``reset_copies(G, D, ext_max, slack, flags)`` over the nodes of one layer, on rebuild steps:
+    """Kernel ``reset_copies(G, D, ext_max, slack, cell_ref, flags)`` over the nodes of one layer, on rebuild steps:
     frees the copies the previous step claimed (a prefix at each node, so a node without claims
     costs one read instead of a memset of every layer) and resets ``ext_max`` (deforming domains)
-    or ``slack`` (the others)."""
+    or ``slack`` and ``cell_ref`` (the others)."""
     Particles, Grid, Domain = make_state_structs(precision)
 
     @kernel
     def reset_copies(G: Grid, D: Domain, ext_max: wp.array(dtype=wp.float32), slack: wp.array(dtype=wp.int32),
-                     flags: wp.array(dtype=wp.int32)):
+                     cell_ref: wp.array(dtype=wp.int32), flags: wp.array(dtype=wp.int32)):
         # on a step that reuses the labels every point keeps its node range, so the copies claimed
         # at the last rebuild are the ones this step claims again: they stay
         if flags[FLAG_REBUILD] == 0:
@@ -530,8 +616,10 @@ def make_reset_copies(precision: str, deforming: bool):
         if wp.static(deforming):
             if k < 2 * EXT_SLOTS:
                 ext_max[k] = wp.float32(0.0)
-        elif k < EXT_SLOTS:
-            slack[k] = NO_MARGIN
+        else:
+            if k < EXT_SLOTS:
+                slack[k] = NO_MARGIN
+            cell_ref[k] = -1
         for s in range(D.layers):
             r = s * D.layer_rows + i
             if G.owner[r, j] < 0:

@@ -206,16 +206,18 @@ class MPMSolver:
             S.slack = wp.full(kgran.EXT_SLOTS, kgran.NO_MARGIN, dtype=wp.int32, device=dev)
             S.quantum = t.scalar(self.scene.cell_size * 2.0**-20)
             S.limit = wp.zeros(1, dtype=t.scalar, device=dev)
+            S.motion = wp.zeros(3 * kgran.EXT_SLOTS, dtype=wp.int32, device=dev)
+            S.cell_ref = wp.full(cells, -1, dtype=wp.int32, device=dev)
             flags = np.zeros(kgran.FLAG_SLOTS, np.int32)
             flags[kgran.FLAG_FORCED] = 1
             S.flags = wp.array(flags, dtype=wp.int32, device=dev)
-            # round-off: an offset of two points is rounded once (half an ulp of the largest
-            # coordinate X), so the margin and the two overlap tests it separates carry 1.5 ulp
-            # and the two displacements 1 ulp; a point's share, with room: 2 eps X (+ ulps of h)
-            (x0, y0), (x1, y1) = self.scene.domain
-            reach = max(abs(x0), abs(y0), abs(x1), abs(y1)) + 8.0 * self.scene.cell_size
+            # round-off of one displacement, offset or margin: every one is a difference of two
+            # nearby coordinates (exact when they are within a factor 2 of each other, Sterbenz;
+            # else rounded to half an ulp of the small result) followed by a few operations on
+            # lengths of a few cells, so each carries a few ulps of ~4h whatever the coordinates:
+            # 32 eps h leaves room
             eps = float(np.finfo(T).eps)
-            S.roundoff = t.scalar(2.0 * eps * reach + 8.0 * eps * self.scene.cell_size)
+            S.roundoff = t.scalar(32.0 * eps * self.scene.cell_size)
             self.interaction = S
             self.granular_stats = wp.zeros(2, dtype=wp.int32, device=dev)
 
@@ -315,9 +317,12 @@ class MPMSolver:
             gin = [P, G, D, mats, S, self.status, clock]
             check, *build = kgran.make_granular_kernels(c.shape, prec, self.granular_cell_capacity,
                                                         staged=self.staged)
-            seq += [_Launch(kgran.make_rebuild_decision(prec, deforming), 1, [S])]
-            seq += [_Launch(check, n, gin)] if check is not None else []
-            seq += [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim, [G, D, S.ext_max, S.slack, S.flags])]
+            decide, judge = kgran.make_rebuild_decision(prec, deforming)
+            seq += [_Launch(decide, 1, [S])]
+            if check is not None:
+                seq += [_Launch(check, n, gin), _Launch(judge, 1, [S])]
+            seq += [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim,
+                            [G, D, S.ext_max, S.slack, S.cell_ref, S.flags])]
             seq += [_Launch(k, n, gin) for k in build]
         if c.update == "USL":
             if self.fused:

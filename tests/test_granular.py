@@ -152,22 +152,19 @@ def test_separate_islands_evolve_as_if_alone(update):
     np.testing.assert_array_equal(both[len(left):], alone_r)
 
 
-@pytest.mark.parametrize("shape", ["linear", "ugimp"])
-def test_reused_labels_equal_a_rebuild_every_step(shape):
-    """The Verlet-style reuse of the labels (kernels/granular.py) is exact: a run that rebuilds the
-    interaction graph only when a node range changes or a point moves half its margin gives, step by
-    step, the same components and bit-identical positions as a run forced to rebuild every step.
-    The scene makes the graph change: two blocks meet head-on and a third rests nearby, so it can
-    only pass if the check catches every merge; and it must skip steps, or there is nothing to test."""
-    block = np.array([[0.0025 + 0.005 * i, 0.0025 + 0.005 * j] for i in range(4) for j in range(4)])
-    # gaps of 1 mm between the domains of interaction (edge 5.18 mm): the blocks meet in ~20 steps
-    left, right, still = block + [0.0605, 0.08], block + [0.0822, 0.0812], block + [0.06, 0.105]
+BLOCK = np.array([[0.0025 + 0.005 * i, 0.0025 + 0.005 * j] for i in range(4) for j in range(4)])
+
+
+def _reuse_against_rebuild(parts, shape: str, gravity: float, steps: int) -> tuple[int, int]:
+    """Step two copies of a granular scene, one reusing its labels (kernels/granular.py) and one
+    forced to rebuild the interaction graph every step; they must agree on the components at every
+    step and end with bit-identical positions. Returns (rebuilds of the first, distinct labellings)."""
 
     def make():
-        scene = Scene(domain=((0.0, 0.0), (0.2, 0.2)), cell_size=H, gravity=(0.0, -1.0),
+        scene = Scene(domain=((0.0, 0.0), (0.2, 0.2)), cell_size=H, gravity=(0.0, gravity),
                       boundaries={s: "free" for s in ("left", "right", "bottom", "top")})
         mat = LinearElastic(1.0e5, 0.3, 1500.0, critical_density=1400.0)
-        for x, v in ((left, (0.5, 0.0)), (right, (-0.5, 0.0)), (still, (0.0, 0.0))):
+        for x, v in parts:
             scene.add_points(x, mat, size=0.5 * H, velocity=v)
         sim = Simulation(scene, SolverConfig(granular=True, shape=shape, precision="f64", dt=2.0e-5), device="cpu")
         sim.mpm.set_stop_time(1.0)
@@ -175,7 +172,6 @@ def test_reused_labels_equal_a_rebuild_every_step(shape):
 
     reuse, rebuild = make(), make()
     labels_seen = set()
-    steps = 150
     for _ in range(steps):
         reuse.step()
         rebuild.invalidate_interactions()
@@ -183,10 +179,34 @@ def test_reused_labels_equal_a_rebuild_every_step(shape):
         np.testing.assert_array_equal(reuse.components(), rebuild.components())
         labels_seen.add(tuple(reuse.components()))
     np.testing.assert_array_equal(reuse.fields()["x"], rebuild.fields()["x"])
-    rebuilds = reuse.interaction.flags.numpy()[2]
     assert rebuild.interaction.flags.numpy()[2] == steps
-    assert 1 < rebuilds < steps / 2  # it reused the labels on most steps, and still rebuilt
-    assert len(labels_seen) >= 2  # the components changed during the run
+    return int(reuse.interaction.flags.numpy()[2]), len(labels_seen)
+
+
+@pytest.mark.parametrize("shape", ["linear", "ugimp"])
+def test_reused_labels_equal_a_rebuild_every_step(shape):
+    """The Verlet-style reuse of the labels is exact: the same components at every step and
+    bit-identical positions as a run that rebuilds every step. Two blocks meet head-on and a third
+    rests nearby, so it can only pass if the check catches the merge (dropping the cell term of the
+    relative bound, or using the whole margin per point, makes it fail); and it must skip steps."""
+    # gaps of 1 mm between the domains of interaction (edge 5.18 mm): the blocks meet in ~20 steps
+    parts = [(BLOCK + [0.0605, 0.08], (0.5, 0.0)), (BLOCK + [0.0822, 0.0812], (-0.5, 0.0)),
+             (BLOCK + [0.06, 0.105], (0.0, 0.0))]
+    rebuilds, labellings = _reuse_against_rebuild(parts, shape, -1.0, 150)
+    assert 1 < rebuilds < 150 / 2  # it reused the labels on most steps, and still rebuilt
+    assert labellings >= 2  # the components changed during the run
+
+
+def test_reused_labels_follow_a_body_that_moves_as_a_whole():
+    """A falling block and a separate grain drifting with it: the points move ~2.5 mm, 50 times the
+    margin of the block's barely overlapping domains (0.18 mm), but not relative to each other, so
+    the relative bound keeps the labels; rebuilds come only from node ranges crossing cell lines
+    (a point 1/4 cell from a line crosses it after 2.5 mm). Still exact."""
+    grain = np.array([[0.105, 0.1175]])  # 1.5 mm from the block's domains: apart
+    parts = [(BLOCK + [0.08, 0.1], (0.0, -1.0)), (grain, (0.0, -1.0))]
+    rebuilds, labellings = _reuse_against_rebuild(parts, "linear", -9.81, 120)
+    assert rebuilds <= 8  # the absolute bound alone would rebuild about every 5 steps
+    assert labellings == 1
 
 
 def test_layer_overflow_stops_with_a_message():
