@@ -318,14 +318,6 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         return cell_at(P.x[p], D, rows)
 
     @wp.func
-    def quanta_up(length: T, S: Interaction):
-        # a displacement [m] in whole quanta, rounded up (so never less than it is), capped
-        v = wp.ceil(length / S.quantum)
-        if v >= T(2.0e9):  # (2^31 - 1 is not a float32: compare below it)
-            return NO_MARGIN
-        return int(v)
-
-    @wp.func
     def reduce_max(slots: wp.array(dtype=wp.int32), base: int, p: int, value: int):
         slot = base + p % EXT_SLOTS
         if value > slots[slot]:  # most values do not beat their slot: no atomic
@@ -336,9 +328,14 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         return P.x[p] - S.x_ref[p]
 
     @wp.func
-    def quanta(length: T, S: Interaction):
-        # a margin [m] in whole quanta, rounded down (so never more than it is), capped
-        v = wp.floor(length / S.quantum)
+    def quanta(length: T, S: Interaction, up: bool):
+        # a length [m] in whole quanta, capped: a displacement rounded up (never less than it is),
+        # a margin rounded down (never more)
+        v = length / S.quantum
+        if up:
+            v = wp.ceil(v)
+        else:
+            v = wp.floor(v)
         if v >= T(2.0e9):  # (2^31 - 1 is not a float32: compare below it)
             return NO_MARGIN
         return int(v)
@@ -412,7 +409,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             if rho_cr > T(0.0):
                 wx, wy, slack = search_window(wp.abs(a[0]) + wp.abs(b[0]), wp.abs(a[1]) + wp.abs(b[1]), S, D)
                 slot = p % EXT_SLOTS
-                q = quanta(slack, S)
+                q = quanta(slack, S, False)
                 if q < S.slack[slot]:  # most points do not beat their slot: no atomic
                     wp.atomic_min(S.slack, slot, q)
         S.reach[p] = node_reach(P, D, p)
@@ -477,7 +474,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                         margin_p = wp.min(margin_p, overlap_margin(xq - xp, ap, bp, aq, bq))
         if wp.static(not deforming):
             slot = p % EXT_SLOTS
-            q = quanta(margin_p, S)
+            q = quanta(margin_p, S, False)
             if q < S.slack[slot]:
                 wp.atomic_min(S.slack, slot, q)
 
@@ -523,12 +520,12 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             return
         if released:
             d = moved(P, S, p)
-            reduce_max(S.motion, MOVE_ABSOLUTE * EXT_SLOTS, p, quanta_up(wp.max(wp.abs(d[0]), wp.abs(d[1])), S))
+            reduce_max(S.motion, MOVE_ABSOLUTE * EXT_SLOTS, p, quanta(wp.max(wp.abs(d[0]), wp.abs(d[1])), S, True))
             rows = G.mass.shape[1]
             cx, cy = cell_at(S.x_ref[p], D, rows)
             ref = S.cell_ref[cx * rows + cy]
             e = d - moved(P, S, ref)
-            reduce_max(S.motion, MOVE_RELATIVE * EXT_SLOTS, p, quanta_up(wp.max(wp.abs(e[0]), wp.abs(e[1])), S))
+            reduce_max(S.motion, MOVE_RELATIVE * EXT_SLOTS, p, quanta(wp.max(wp.abs(e[0]), wp.abs(e[1])), S, True))
             if ref == p:
                 # a cell's reference point: how much the references of the cells within the search
                 # reach (W cells: every pair that shares a node) moved relative to it
@@ -542,7 +539,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                         if other >= 0:
                             f = d - moved(P, S, other)
                             most = wp.max(most, wp.max(wp.abs(f[0]), wp.abs(f[1])))
-                reduce_max(S.motion, MOVE_CELLS * EXT_SLOTS, p, quanta_up(most, S))
+                reduce_max(S.motion, MOVE_CELLS * EXT_SLOTS, p, quanta(most, S, True))
 
     if deforming:
         check = None
