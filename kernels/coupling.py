@@ -82,7 +82,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
     spin = kd.spin
     in_corner = kd.in_corner
     polygon_distance = kd.polygon_distance
-    body_moved = kd.body_moved
+    needs_rebuild = kd.needs_rebuild
     spring_dashpot = kd.spring_dashpot
     edge_contact = kd.edge_contact
     sort_ids = kd.sort_ids
@@ -149,9 +149,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
     @kernel
     def check_bodies(B: Bodies, L: Links, prm: Params, flags: wp.array(dtype=wp.int32)):
         """Flag a rebuild when a moving body moved or turned more than half the skin."""
-        i = wp.tid()
-        moved = body_moved(B, i, L.body_x_ref, L.body_angle_ref)
-        if moved > T(0.5) * prm.skin or not wp.isfinite(moved):
+        if needs_rebuild(B, wp.tid(), L.body_x_ref, L.body_angle_ref, prm.skin):
             flags[0] = 1
 
     @wp.func

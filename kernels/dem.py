@@ -193,6 +193,13 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         return wp.length(B.x[i] - x_ref[i]) + B.core_radius[i] * wp.abs(B.angle[i] - angle_ref[i])
 
     @wp.func
+    def needs_rebuild(B: Bodies, i: int, x_ref: wp.array(dtype=vec2), angle_ref: wp.array(dtype=T), skin: T):
+        """Whether body i moved or turned more than half the skin since (x_ref, angle_ref), or went
+        non-finite: the Verlet rule of the body–body and the point–body lists."""
+        moved = body_moved(B, i, x_ref, angle_ref)
+        return moved > T(0.5) * skin or not wp.isfinite(moved)
+
+    @wp.func
     def cell_in(x: vec2, origin: vec2, inv_cell: T, nx: int, ny: int):
         """Cell (cx, cy) of a uniform binning holding x, clamped to the nx × ny cells."""
         cx = wp.clamp(int(wp.floor((x[0] - origin[0]) * inv_cell)), 0, nx - 1)
@@ -210,9 +217,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
     @kernel
     def check_displacement(B: Bodies, prm: Params, flags: wp.array(dtype=wp.int32)):
         """Flag a rebuild when a body moved or turned more than half the skin since the last build."""
-        i = wp.tid()
-        moved = body_moved(B, i, B.x_ref, B.angle_ref)
-        if moved > T(0.5) * prm.skin or not wp.isfinite(moved):
+        if needs_rebuild(B, wp.tid(), B.x_ref, B.angle_ref, prm.skin):
             flags[0] = 1
 
     @wp.func
@@ -613,7 +618,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         integrate=integrate, dem_dt=dem_dt, diagnostics=diagnostics,
         # geometry shared with the MPM-DEM coupling (kernels/coupling.py)
         rotate=rotate, cross=cross, spin=spin, in_corner=in_corner, polygon_distance=polygon_distance,
-        body_moved=body_moved, cell_in=cell_in, spring_dashpot=spring_dashpot, edge_contact=edge_contact,
+        needs_rebuild=needs_rebuild, cell_in=cell_in, spring_dashpot=spring_dashpot, edge_contact=edge_contact,
         sort_ids=sort_ids,
     )
 
