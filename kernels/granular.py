@@ -1,15 +1,19 @@
 """Granular MPM on the device: domains of interaction, the interaction graph, its connected
 components, and the per-node grid layers that keep components apart ("Granular MPM" §3.3–3.4).
 
-Per step (all kernels, no host sync, capturable in a CUDA graph):
+Per step (all kernels, no host sync, capturable in a CUDA graph; on a step that keeps its labels
+the rebuild kernels sit in a conditional graph node and are not launched at all):
 
 1. ``prepare``: each point computes its domain of interaction (its domain scaled to the
    critical volume V_cr = m / ρ_cr, §3.3 and Fig. 4) as a parallelogram (centre, half-vectors
    a, b), the range of grid nodes its shape function reaches, resets its union–find parent, and
-   drops itself into the bin of its grid cell (fixed capacity, counted overflow).
+   drops itself into the bin of its grid cell (fixed capacity, counted overflow). For the shapes
+   whose domains stay axis-aligned rectangles it keeps one 16-byte record instead (position and
+   half-extents, ``Interaction.box``), so the search reads one record per candidate.
 2. ``link``: each point visits the bins around its cell. A pair interacts when the two points
    send data to a common node (the appendix's pre-task, from the node ranges) and their domains
-   of interaction overlap (task 1, separating-axis test). Interacting pairs are merged in a
+   of interaction overlap (task 1, separating-axis test; for axis-aligned rectangles the two
+   half-extent sums, and the node ranges are read only for pairs that overlap). Interacting pairs are merged in a
    lock-free union–find (compare-and-swap, the larger root is hooked under the smaller), so the
    interaction graph is never stored and the search is cell-binned, not O(N²).
 3. ``label``: every point takes its root, the smallest point index of its component, as label
@@ -55,6 +59,7 @@ __all__ = [
     "MOVE_CELLS",
     "MOVE_RELATIVE",
     "FLAG_FORCED",
+    "FLAG_RANGE",
     "FLAG_REBUILD",
     "FLAG_SLOTS",
     "NO_MARGIN",
@@ -90,11 +95,13 @@ MOVE_RELATIVE = 1
 MOVE_CELLS = 2
 
 #: Slots of ``Interaction.flags``: a rebuild asked by the host (first step, after a reorder or a
-#: checkpoint), the decision of this step, and the number of rebuilds so far.
+#: checkpoint), the decision of this step, the number of rebuilds so far, and a node range that
+#: ``check`` found changed this step.
 FLAG_FORCED = 0
 FLAG_REBUILD = 1
 FLAG_COUNT = 2
-FLAG_SLOTS = 3
+FLAG_RANGE = 3
+FLAG_SLOTS = 4
 #: A margin that nothing limits (no pair, no pruned window), in quanta (``Interaction.quantum``):
 #: margins are reduced as integers, whose atomic minimum is native (a float one is a CAS loop, slow
 #: when a million threads meet on a few slots).
@@ -207,14 +214,16 @@ def make_domain_of_interaction(shape: str, precision: str):
 def make_interaction_struct(precision: str):
     """The arrays of the interaction graph, bundled for the kernels: bins (cells × (1 + capacity))
     int32, a count then the points of each cell; parent (N,) int32 union–find links; dom_a, dom_b
-    (N,) vec2 half-vectors of the domains of interaction [m]; reach (N,) vec4i node range
-    (x0, x1, y0, y1); ext_max (2 EXT_SLOTS,) float32 largest half-extent [cells], x and y; x_ref
-    (N,) vec2 positions at the last rebuild [m]; slack (EXT_SLOTS,) int32: the margin of the last
-    rebuild's pair tests and pruned windows in whole quanta (rounded down), reduced in slots; flags
-    (FLAG_SLOTS,) int32; limit (1,) scalar: the margin [m] of the last rebuild, from ``slack`` once
-    per step; motion (3 EXT_SLOTS,) int32 (``MOVE_*``); cell_ref (cells,) int32: each cell's
-    reference point at the last rebuild, −1 for none; quantum: the unit of ``slack`` and
-    ``motion`` [m]; roundoff: the round-off allowance [m] of one displacement or margin."""
+    (N,) vec2 half-vectors of the domains of interaction [m] (deforming domains; one entry else);
+    box (N,) vec4 (non-deforming domains; one entry else): the position at the last rebuild [m] and
+    the half-extents of the axis-aligned domain of interaction [m], −1 for a continuum point, read
+    by the search as one 16-byte record; reach (N,) vec4i node range (x0, x1, y0, y1); ext_max
+    (2 EXT_SLOTS,) float32 largest half-extent [cells], x and y; slack (EXT_SLOTS,) int32: the
+    margin of the last rebuild's pair tests and pruned windows in whole quanta (rounded down),
+    reduced in slots; flags (FLAG_SLOTS,) int32; motion (3 EXT_SLOTS,) int32 (``MOVE_*``);
+    cell_ref (cells,) int32: each cell's reference point at the last rebuild, −1 for none;
+    quantum: the unit of ``slack`` and ``motion`` [m]; roundoff: the round-off allowance [m] of one
+    displacement or margin."""
     t = scalar_types(precision)
 
     @wp.struct
@@ -223,13 +232,12 @@ def make_interaction_struct(precision: str):
         parent: wp.array(dtype=wp.int32)
         dom_a: wp.array(dtype=t.vec2)
         dom_b: wp.array(dtype=t.vec2)
+        box: wp.array(dtype=t.vec4)
         reach: wp.array(dtype=wp.vec4i)
         ext_max: wp.array(dtype=wp.float32)
-        x_ref: wp.array(dtype=t.vec2)
         slack: wp.array(dtype=wp.int32)
         motion: wp.array(dtype=wp.int32)
         cell_ref: wp.array(dtype=wp.int32)
-        limit: wp.array(dtype=t.scalar)
         quantum: t.scalar
         flags: wp.array(dtype=wp.int32)
         roundoff: t.scalar
@@ -242,9 +250,9 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     """(check, prepare, link, label) kernels of the interaction graph (see the module docstring).
 
     Launch each with dim = number of points and inputs ``[P, G, D, materials, S, status, clock]``:
-    ``decide`` (``make_rebuild_decision``), ``check``, ``judge``, ``reset_copies``, then the other
-    three, which run only when ``check`` and ``judge`` asked for a rebuild (``check`` is None for
-    deforming domains, which rebuild every step). S is an ``Interaction``
+    ``check``, ``judge`` (``make_rebuild_decision``), ``reset_copies``, then the other three, which
+    run only when ``judge`` asked for a rebuild (``check`` is None for deforming domains, which
+    rebuild every step and have no ``judge``). S is an ``Interaction``
     (``make_interaction_struct``): cells of ``S.bins`` are indexed like ``Grid.mass`` (column-major
     over the node lattice of one layer); ``S.ext_max`` holds for shapes outside DEFORMING_DOMAINS a
     constant set by the host in slot 0, else ``reset_copies`` zeroes it and ``prepare`` fills it.
@@ -324,8 +332,13 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             wp.atomic_max(slots, slot, value)
 
     @wp.func
+    def reference(S: Interaction, p: int):
+        b = S.box[p]  # (position at the last rebuild, half-extents)
+        return t.vec2(b[0], b[1])
+
+    @wp.func
     def moved(P: Particles, S: Interaction, p: int):
-        return P.x[p] - S.x_ref[p]
+        return P.x[p] - reference(S, p)
 
     @wp.func
     def quanta(length: T, S: Interaction, up: bool):
@@ -339,14 +352,6 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         if v >= T(2.0e9):  # (2^31 - 1 is not a float32: compare below it)
             return NO_MARGIN
         return int(v)
-
-    @wp.func
-    def overlap_margin(d: t.vec2, ap: t.vec2, bp: t.vec2, aq: t.vec2, bq: t.vec2):
-        # axis-aligned domains (non-deforming shapes): the overlap test flips only once the centres'
-        # offset d changes by more than |s| in max-norm, s = least (sum of half-extents − |d|)
-        sx = wp.abs(ap[0]) + wp.abs(bp[0]) + wp.abs(aq[0]) + wp.abs(bq[0]) - wp.abs(d[0])
-        sy = wp.abs(ap[1]) + wp.abs(bp[1]) + wp.abs(aq[1]) + wp.abs(bq[1]) - wp.abs(d[1])
-        return wp.abs(wp.min(sx, sy))
 
     @wp.func
     def find(parent: wp.array(dtype=wp.int32), x: int):
@@ -365,6 +370,8 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
 
     @wp.func
     def unite(parent: wp.array(dtype=wp.int32), p: int, q: int):
+        # p may be any ancestor of the point (a root it had): roots are only ever hooked under
+        # others, so its root is still found from there; returns such an ancestor for the next call
         a = find(parent, p)
         b = find(parent, q)
         while a != b:
@@ -372,15 +379,17 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             hi = wp.max(a, b)
             old = wp.atomic_cas(parent, hi, hi, lo)  # hook the larger root under the smaller
             if old == hi:
-                return
+                return lo
             a = find(parent, lo)
             b = find(parent, old)
+        return a
 
     @kernel
     def prepare(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                 status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
-        if S.flags[FLAG_REBUILD] == 0:
-            return
+        if wp.static(not deforming):
+            if S.flags[FLAG_REBUILD] == 0:
+                return
         p = wp.tid()
         S.parent[p] = p
         if wp.static(staged):
@@ -389,8 +398,9 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                 return
         rho_cr = materials[P.material[p]][9]
         a, b = domain(P, p, rho_cr)
-        S.dom_a[p] = a
-        S.dom_b[p] = b
+        if wp.static(deforming):
+            S.dom_a[p] = a
+            S.dom_b[p] = b
         # half-extents of the domain of interaction in cells (a continuum reaches its whole stencil),
         # whose maximum bounds how far the search must look
         ex = wp.float32((wp.abs(a[0]) + wp.abs(b[0])) * D.inv_h)
@@ -405,13 +415,16 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             if ey > S.ext_max[slot + 1]:
                 wp.atomic_max(S.ext_max, slot + 1, ey)
         else:
-            S.x_ref[p] = P.x[p]
+            xp = P.x[p]
             if rho_cr > T(0.0):
+                S.box[p] = t.vec4(xp[0], xp[1], wp.abs(a[0]) + wp.abs(b[0]), wp.abs(a[1]) + wp.abs(b[1]))
                 wx, wy, slack = search_window(wp.abs(a[0]) + wp.abs(b[0]), wp.abs(a[1]) + wp.abs(b[1]), S, D)
                 slot = p % EXT_SLOTS
                 q = quanta(slack, S, False)
                 if q < S.slack[slot]:  # most points do not beat their slot: no atomic
                     wp.atomic_min(S.slack, slot, q)
+            else:
+                S.box[p] = t.vec4(xp[0], xp[1], T(-1.0), T(-1.0))  # a continuum: interacts through its nodes
         S.reach[p] = node_reach(P, D, p)
         rows = G.mass.shape[1]
         cx, cy = cell_of(P, D, p, rows)
@@ -425,8 +438,9 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     @kernel
     def link(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                 status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
-        if S.flags[FLAG_REBUILD] == 0:
-            return
+        if wp.static(not deforming):
+            if S.flags[FLAG_REBUILD] == 0:
+                return
         p = wp.tid()
         if wp.static(staged):
             if clock[0] < P.release[p]:
@@ -435,14 +449,25 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         cx, cy = cell_of(P, D, p, rows)
         rp = S.reach[p]
         xp = P.x[p]
-        ap = S.dom_a[p]
-        bp = S.dom_b[p]
-        continuum_p = materials[P.material[p]][9] <= T(0.0)
+        ap = t.vec2()
+        bp = t.vec2()
+        ep = t.vec2()
+        continuum_p = False
+        if wp.static(deforming):
+            ap = S.dom_a[p]
+            bp = S.dom_b[p]
+            ep = t.vec2(wp.abs(ap[0]) + wp.abs(bp[0]), wp.abs(ap[1]) + wp.abs(bp[1]))
+            continuum_p = materials[P.material[p]][9] <= T(0.0)
+        else:
+            box_p = S.box[p]
+            ep = t.vec2(box_p[2], box_p[3])
+            continuum_p = box_p[2] < T(0.0)
         wx = W
         wy = W
         if not continuum_p:
-            wx, wy, slack = search_window(wp.abs(ap[0]) + wp.abs(bp[0]), wp.abs(ap[1]) + wp.abs(bp[1]), S, D)
+            wx, wy, slack = search_window(ep[0], ep[1], S, D)
         margin_p = T(1.0e30)
+        root = p  # an ancestor of p in the union-find forest: saves walking up from p on each merge
         # half the neighbourhood: cells after this one (column-major), and in this cell the points
         # after p; the windows are symmetric, so every pair is met once, from its first cell
         for ix in range(cx, wp.min(cx + wx + 1, D.layer_rows)):
@@ -457,21 +482,35 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                     q = S.bins[cell, 1 + s]
                     if same and q <= p:
                         continue
-                    rq = S.reach[q]  # (an unreleased q is not in the bins)
-                    # pre-task: a common node (the node ranges overlap in both directions)
-                    if rq[0] > rp[1] or rp[0] > rq[1] or rq[2] > rp[3] or rp[2] > rq[3]:
-                        continue
-                    # task 1: the domains of interaction overlap (continua always interact)
-                    if continuum_p or materials[P.material[q]][9] <= T(0.0):
-                        unite(S.parent, p, q)
-                        continue
-                    xq = P.x[q]
-                    aq = S.dom_a[q]
-                    bq = S.dom_b[q]
-                    if overlap(xp, ap, bp, xq, aq, bq):
-                        unite(S.parent, p, q)
-                    if wp.static(not deforming):
-                        margin_p = wp.min(margin_p, overlap_margin(xq - xp, ap, bp, aq, bq))
+                    if wp.static(deforming):
+                        rq = S.reach[q]  # (an unreleased q is not in the bins)
+                        # pre-task: a common node (the node ranges overlap in both directions)
+                        if rq[0] > rp[1] or rp[0] > rq[1] or rq[2] > rp[3] or rp[2] > rq[3]:
+                            continue
+                        # task 1: the domains of interaction overlap (continua always interact)
+                        if continuum_p or materials[P.material[q]][9] <= T(0.0):
+                            root = unite(S.parent, root, q)
+                            continue
+                        if overlap(xp, ap, bp, P.x[q], S.dom_a[q], S.dom_b[q]):
+                            root = unite(S.parent, root, q)
+                    else:
+                        # axis-aligned domains: the record of q alone decides task 1, the node
+                        # ranges (the pre-task) are read only for pairs that pass it or a continuum
+                        box_q = S.box[q]
+                        joined = False
+                        if continuum_p or box_q[2] < T(0.0):
+                            joined = True  # continua interact with every point they share a node with
+                        else:
+                            # the overlap test flips only once the offset d changes by more than
+                            # |s| in max-norm, s = least (sum of half-extents − |d|); touching is apart
+                            sx = ep[0] + box_q[2] - wp.abs(box_q[0] - xp[0])
+                            sy = ep[1] + box_q[3] - wp.abs(box_q[1] - xp[1])
+                            margin_p = wp.min(margin_p, wp.abs(wp.min(sx, sy)))
+                            joined = sx > T(0.0) and sy > T(0.0)
+                        if joined:
+                            rq = S.reach[q]
+                            if rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]:
+                                root = unite(S.parent, root, q)
         if wp.static(not deforming):
             slot = p % EXT_SLOTS
             q = quanta(margin_p, S, False)
@@ -481,8 +520,9 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     @kernel
     def label(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                 status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
-        if S.flags[FLAG_REBUILD] == 0:
-            return
+        if wp.static(not deforming):
+            if S.flags[FLAG_REBUILD] == 0:
+                return
         p = wp.tid()
         if p == 0:
             S.flags[FLAG_COUNT] = S.flags[FLAG_COUNT] + 1
@@ -505,8 +545,8 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         # whether this step needs a rebuild (see the module docstring): a new node range rebuilds;
         # the moves since the last rebuild, absolute and relative to the cell's reference point,
         # go to S.motion for ``judge``
-        if S.flags[FLAG_REBUILD] != 0:
-            return
+        if S.flags[FLAG_FORCED] != 0 or S.flags[FLAG_RANGE] != 0:
+            return  # a rebuild anyway
         p = wp.tid()
         reach = wp.vec4i(0, -1, 0, -1)
         released = True
@@ -516,13 +556,13 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             reach = node_reach(P, D, p)
         old = S.reach[p]
         if reach[0] != old[0] or reach[1] != old[1] or reach[2] != old[2] or reach[3] != old[3]:
-            S.flags[FLAG_REBUILD] = 1
+            S.flags[FLAG_RANGE] = 1
             return
         if released:
             d = moved(P, S, p)
             reduce_max(S.motion, MOVE_ABSOLUTE * EXT_SLOTS, p, quanta(wp.max(wp.abs(d[0]), wp.abs(d[1])), S, True))
             rows = G.mass.shape[1]
-            cx, cy = cell_at(S.x_ref[p], D, rows)
+            cx, cy = cell_at(reference(S, p), D, rows)
             ref = S.cell_ref[cx * rows + cy]
             e = d - moved(P, S, ref)
             reduce_max(S.motion, MOVE_RELATIVE * EXT_SLOTS, p, quanta(wp.max(wp.abs(e[0]), wp.abs(e[1])), S, True))
@@ -547,55 +587,48 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
 
 
 @functools.cache
-def make_rebuild_decision(precision: str, deforming: bool):
-    """Kernels ``decide(S)`` and ``judge(S)``, one thread each. ``decide``, first in a step: this
-    step rebuilds the interaction graph if the host asked for it (or always, for deforming
-    domains); it also clears ``S.motion`` and puts the last rebuild's margin into ``S.limit``.
-    ``judge``, after ``check``: a rebuild unless one of the two bounds on the
-    change of the pairs' offsets is below the margin (module docstring)."""
+def make_rebuild_decision(precision: str):
+    """Kernel ``judge(S)``, one thread, after ``check`` (non-deforming domains; deforming ones rebuild
+    every step): this step rebuilds the interaction graph if the host asked for it, if ``check``
+    found a changed node range, or unless one of the two bounds on the change of the pairs' offsets
+    is below the margin of the last rebuild (module docstring). It then clears what ``check``
+    gathers, for the next step."""
     Interaction = make_interaction_struct(precision)
     T = scalar_types(precision).scalar
 
     @kernel
-    def decide(S: Interaction):
-        S.flags[FLAG_REBUILD] = S.flags[FLAG_FORCED]
-        if wp.static(deforming):
-            S.flags[FLAG_REBUILD] = 1
-        else:
-            least = S.slack[0]
-            for k in range(1, EXT_SLOTS):
-                least = wp.min(least, S.slack[k])
-            S.limit[0] = T(least) * S.quantum
-            for k in range(3 * EXT_SLOTS):
-                S.motion[k] = 0
-        S.flags[FLAG_FORCED] = 0
-
-    @kernel
     def judge(S: Interaction):
-        # after ``check``: keep the labels if either bound on the change of every pair's offset is
-        # below the margin, with the round-off of the displacements (2 or 4) and of the margin
-        if S.flags[FLAG_REBUILD] != 0:
-            return
+        # keep the labels if either bound on the change of every pair's offset is below the margin,
+        # with the round-off of the displacements (2 or 4) and of the margin
         absolute = int(0)
         relative = int(0)
         cells = int(0)
+        least = NO_MARGIN
         for k in range(EXT_SLOTS):
             absolute = wp.max(absolute, S.motion[MOVE_ABSOLUTE * EXT_SLOTS + k])
             relative = wp.max(relative, S.motion[MOVE_RELATIVE * EXT_SLOTS + k])
             cells = wp.max(cells, S.motion[MOVE_CELLS * EXT_SLOTS + k])
+            least = wp.min(least, S.slack[k])
         q = S.quantum
-        margin = S.limit[0]
+        margin = T(least) * q
         keep_absolute = T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < margin
         keep_relative = (T(2.0) * T(relative) + T(cells)) * q + T(7.0) * S.roundoff < margin
-        if not (keep_absolute or keep_relative):
+        rebuild = S.flags[FLAG_FORCED] != 0 or S.flags[FLAG_RANGE] != 0 or not (keep_absolute or keep_relative)
+        S.flags[FLAG_REBUILD] = 0
+        if rebuild:
             S.flags[FLAG_REBUILD] = 1
+        S.flags[FLAG_FORCED] = 0
+        S.flags[FLAG_RANGE] = 0
+        for k in range(3 * EXT_SLOTS):
+            S.motion[k] = 0
 
-    return decide, judge
+    return judge
 
 
 @functools.cache
 def make_reset_copies(precision: str, deforming: bool):
-    """Kernel ``reset_copies(G, D, ext_max, slack, cell_ref, flags)`` over the nodes of one layer, on rebuild steps:
+    """Kernel ``reset_copies(G, D, ext_max, slack, cell_ref, flags)`` over the nodes of one layer, on rebuild steps
+    (every step for deforming domains):
     frees the copies the previous step claimed (a prefix at each node, so a node without claims
     costs one read instead of a memset of every layer) and resets ``ext_max`` (deforming domains)
     or ``slack`` and ``cell_ref`` (the others)."""
@@ -606,8 +639,9 @@ def make_reset_copies(precision: str, deforming: bool):
                      cell_ref: wp.array(dtype=wp.int32), flags: wp.array(dtype=wp.int32)):
         # on a step that reuses the labels every point keeps its node range, so the copies claimed
         # at the last rebuild are the ones this step claims again: they stay
-        if flags[FLAG_REBUILD] == 0:
-            return
+        if wp.static(not deforming):
+            if flags[FLAG_REBUILD] == 0:
+                return
         i, j = wp.tid()
         k = i * G.owner.shape[1] + j
         if wp.static(deforming):

@@ -397,18 +397,9 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
         a[r, j] = v
 
     @wp.func
-    def fold_node(G: Grid, D: Domain, r: int, i: int, j: int):
-        # node (i, j) of the grid, stored in row r (its copy's row in granular mode)
-        lo = D.node_lo
-        hi = D.node_hi
-        if i < lo[0] or i > hi[0] or j < lo[1] or j > hi[1]:
-            return
-        gi, wx = _image(i, lo[0], hi[0], D.bc_kind[0], D.bc_kind[1], D.layer_rows)
-        gj, wy = _image(j, lo[1], hi[1], D.bc_kind[2], D.bc_kind[3], G.mass.shape[1])
-        if gi < 0 and gj < 0:
-            return
-        kx = D.bc_kind[wx]
-        ky = D.bc_kind[2 + wy]
+    def fold_copy(G: Grid, D: Domain, r: int, i: int, j: int, gi: int, gj: int, kx: int, ky: int):
+        # node (i, j) of the grid, stored in row r (its copy's row in granular mode), gathers from
+        # its images: gi (same column), gj (same row), both (−1: none); kx, ky the walls' kinds
         rx = int(-1)
         ry = int(-1)
         rxy = int(-1)
@@ -451,14 +442,24 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
         i, j = wp.tid()  # a node of one layer
         if clock[1] <= wp.float64(0.0):
             return
+        lo = D.node_lo
+        hi = D.node_hi
+        if i < lo[0] or i > hi[0] or j < lo[1] or j > hi[1]:
+            return
+        gi, wx = _image(i, lo[0], hi[0], D.bc_kind[0], D.bc_kind[1], D.layer_rows)
+        gj, wy = _image(j, lo[1], hi[1], D.bc_kind[2], D.bc_kind[3], G.mass.shape[1])
+        if gi < 0 and gj < 0:
+            return  # (most nodes: no ghost mirrors them)
+        kx = D.bc_kind[wx]
+        ky = D.bc_kind[2 + wy]
         if wp.static(layered):
             for s in range(D.layers):
                 r = s * D.layer_rows + i
                 if G.owner[r, j] < 0:
                     break
-                fold_node(G, D, r, i, j)
+                fold_copy(G, D, r, i, j, gi, gj, kx, ky)
         else:
-            fold_node(G, D, i, i, j)
+            fold_copy(G, D, i, i, j, gi, gj, kx, ky)
 
     return fold_ghosts
 

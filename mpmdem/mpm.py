@@ -197,15 +197,15 @@ class MPMSolver:
             S = kgran.make_interaction_struct(self.config.precision)()
             S.bins = wp.zeros((cells, 1 + self.granular_cell_capacity), dtype=wp.int32, device=dev)
             S.parent = wp.zeros(n, dtype=wp.int32, device=dev)
-            S.dom_a = wp.zeros(n, dtype=t.vec2, device=dev)
-            S.dom_b = wp.zeros(n, dtype=t.vec2, device=dev)
+            deforming = self.config.shape in kgran.DEFORMING_DOMAINS
+            S.dom_a = wp.zeros(n if deforming else 1, dtype=t.vec2, device=dev)
+            S.dom_b = wp.zeros(n if deforming else 1, dtype=t.vec2, device=dev)
+            # reuse of the labels between rebuilds (kernels/granular.py): a rebuild on the first step
+            S.box = wp.zeros(1 if deforming else n, dtype=t.vec4, device=dev)
             S.reach = wp.zeros(n, dtype=wp.vec4i, device=dev)
             S.ext_max = wp.array(self._static_extent(host, mats), dtype=wp.float32, device=dev)
-            # reuse of the labels between rebuilds (kernels/granular.py): a rebuild on the first step
-            S.x_ref = wp.zeros(n, dtype=t.vec2, device=dev)
             S.slack = wp.full(kgran.EXT_SLOTS, kgran.NO_MARGIN, dtype=wp.int32, device=dev)
             S.quantum = t.scalar(self.scene.cell_size * 2.0**-20)
-            S.limit = wp.zeros(1, dtype=t.scalar, device=dev)
             S.motion = wp.zeros(3 * kgran.EXT_SLOTS, dtype=wp.int32, device=dev)
             S.cell_ref = wp.full(cells, -1, dtype=wp.int32, device=dev)
             flags = np.zeros(kgran.FLAG_SLOTS, np.int32)
@@ -317,13 +317,16 @@ class MPMSolver:
             gin = [P, G, D, mats, S, self.status, clock]
             check, *build = kgran.make_granular_kernels(c.shape, prec, self.granular_cell_capacity,
                                                         staged=self.staged)
-            decide, judge = kgran.make_rebuild_decision(prec, deforming)
-            seq += [_Launch(decide, 1, [S])]
+            rebuild = [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim,
+                               [G, D, S.ext_max, S.slack, S.cell_ref, S.flags])]
+            rebuild += [_Launch(k, n, gin) for k in build]
             if check is not None:
-                seq += [_Launch(check, n, gin), _Launch(judge, 1, [S])]
-            seq += [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim,
-                            [G, D, S.ext_max, S.slack, S.cell_ref, S.flags])]
-            seq += [_Launch(k, n, gin) for k in build]
+                seq += [_Launch(check, n, gin), _Launch(kgran.make_rebuild_decision(prec), 1, [S])]
+                # the rebuild runs only when judge asks for it: inside a CUDA graph a conditional
+                # node skips its launches; elsewhere each kernel reads the flag and returns at once
+                seq += [("if", S.flags[kgran.FLAG_REBUILD:], rebuild)]
+            else:
+                seq += rebuild
         if c.update == "USL":
             if self.fused:
                 seq += p2g(mass=True, momentum=True, force=True, fused_impulse=True)
@@ -429,16 +432,36 @@ class MPMSolver:
 
     def run_sequence(self) -> None:
         """P2G, grid update and G2P of the chosen stress-update order (the MPM stage of a step)."""
-        dev = self.device
         G = self.G
         if not self.config.granular:  # granular mode: the grid update clears the copies it used
             G.mass.zero_()
             G.mom.zero_()
             if not self.fused:
                 G.force.zero_()
-        for item in self._sequence:
+        self._run(self._sequence)
+
+    def step_kernels(self) -> list:
+        """Every kernel the MPM stage of a step may launch (those of conditional parts included)."""
+        def walk(sequence):
+            for item in sequence:
+                if isinstance(item, _Launch):
+                    yield item.kernel
+                elif item[0] == "if":
+                    yield from walk(item[2])
+
+        return list(walk(self._sequence))
+
+    def _run(self, sequence: list) -> None:
+        dev = self.device
+        for item in sequence:
             if isinstance(item, tuple):
-                if item[0] == "hook":
+                if item[0] == "if":
+                    device = wp.get_device(dev)
+                    if device.is_cuda and device.is_capturing and wp.is_conditional_graph_supported():
+                        wp.capture_if(item[1], on_true=lambda body=item[2]: self._run(body))
+                    else:
+                        self._run(item[2])
+                elif item[0] == "hook":
                     for fn in self.hooks.get(item[1], ()):
                         fn()
                 elif item[0] == "fill":
@@ -610,6 +633,19 @@ class MPMSolver:
         out = np.empty(self.particle_count, np.int64)
         out[pid] = pid[comp]
         return out
+
+    def interaction_domains(self) -> tuple[np.ndarray, np.ndarray]:
+        """Half-vectors a, b [m] of each point's domain of interaction at the last rebuild of the
+        interaction graph, in device order (granular mode): the parallelogram x ± a ± b. A continuum
+        point of a non-deforming shape (no critical density) gets zeros: it interacts through its nodes."""
+        if not self.config.granular:
+            raise InputError("granular", False, "granular mode (SolverConfig(granular=True))")
+        S = self.interaction
+        if self.config.shape in kgran.DEFORMING_DOMAINS:
+            return S.dom_a.numpy().copy(), S.dom_b.numpy().copy()
+        ext = np.maximum(S.box.numpy()[:, 2:], 0.0)  # the search's axis-aligned records
+        zero = np.zeros(len(ext))
+        return np.column_stack([ext[:, 0], zero]), np.column_stack([zero, ext[:, 1]])
 
     def fields(self) -> dict[str, np.ndarray]:
         """Host copies of the per-point output fields (copies: on the CPU ``numpy()`` is a view)."""

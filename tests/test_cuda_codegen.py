@@ -31,7 +31,7 @@ def test_granular_step_compiles_for_sm90(tmp_path):
     scene.add_points(np.array([[0.1, 0.2], [0.12, 0.2]]), mat, size=0.01, release_time=[0.0, 0.01])
     config = M.SolverConfig(granular=True, shape="cpdi1", transfer="FLIP", update="MUSL", deterministic=True)
     m = M.Simulation(scene, config, device="cpu").mpm
-    kernels = [item.kernel for item in m._sequence if not isinstance(item, tuple)]
+    kernels = m.step_kernels()
     kernels += [m._diagnostics, kgran.make_granular_statistics(config.precision, m.staged)]
     assert _compile(kernels, tmp_path) >= 10
 
@@ -61,7 +61,7 @@ def test_coupled_step_compiles_for_sm90(tmp_path):
         sim = M.Simulation(scene, M.SolverConfig(coupling=scheme, transfer="PIC", deterministic=True), device="cpu")
         cp = sim.coupling
         kernels = [v for v in vars(cp.k).values() if isinstance(v, wp.Kernel)]
-        kernels += [item.kernel for item in sim.mpm._sequence if not isinstance(item, tuple)]
+        kernels += sim.mpm.step_kernels()
         if cp.liu is not None:
             kernels += [v for v in vars(cp.liu[0]).values() if isinstance(v, wp.Kernel)]
         done += _compile(kernels, tmp_path)

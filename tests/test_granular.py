@@ -75,7 +75,7 @@ def test_components_match_brute_force_graph(shape, seed):
     m.step()
     comp = m.P.comp.numpy()
     S = m.interaction
-    expected = _brute_force_components(x0, S.dom_a.numpy(), S.dom_b.numpy(), S.reach.numpy())
+    expected = _brute_force_components(x0, *m.interaction_domains(), S.reach.numpy())
     np.testing.assert_array_equal(comp, expected)
     n_comp = len(np.unique(comp))
     assert 1 < n_comp < len(comp)  # the layouts really mix touching and separate islands
@@ -88,7 +88,7 @@ def test_domain_of_interaction_is_scaled_to_critical_volume():
     m = sim.mpm
     m.set_stop_time(1.0)
     m.step()
-    a, b = m.interaction.dom_a.numpy()[0], m.interaction.dom_b.numpy()[0]
+    a, b = (d[0] for d in m.interaction_domains())
     area = 4.0 * abs(a[0] * b[1] - a[1] * b[0])
     v_cr = 1500.0 * (0.5 * H) ** 2 / 1400.0
     assert area == pytest.approx(v_cr, rel=1e-12)
