@@ -67,6 +67,7 @@ __all__ = [
     "STAT_LAYERS",
     "STATUS_BIN_OVERFLOW",
     "STATUS_LAYER_OVERFLOW",
+    "COPY_RUN",
     "domains_overlap",
     "make_domain_of_interaction",
     "make_granular_kernels",
@@ -112,31 +113,57 @@ STAT_COMPONENTS = 0
 STAT_LAYERS = 1
 
 
+#: Grid copies are visited in runs of this many nodes along j: ``Grid.depth`` holds, for each run,
+#: the most copies in use at one of its nodes, and the kernels over copies go that deep at every
+#: node of the run, so their stores cover whole memory sectors (a store to a sector that other
+#: threads leave partly unwritten is several times slower on an H100 than a whole one).
+COPY_RUN = 32
+
+
 @functools.cache
 def make_layer_row(insert: bool):
-    """``layer_row(owner, i, j, comp, layer_rows, layers) -> row`` (−1 when none).
+    """``layer_row(owner, i, j, comp, layer_rows, layers) -> row`` (−1 when none): the row of the
+    grid copy that component ``comp`` uses at node (i, j).
 
-    The row of the grid copy that component ``comp`` uses at node (i, j); with ``insert`` the
-    first free copy is claimed (compare-and-swap), else a missing copy gives −1.
+    With ``insert`` it is ``layer_row(owner, depth, i, j, comp, layer_rows, layers)`` and claims the
+    first free copy (compare-and-swap) when the component has none there, raising the depth of the
+    node's run (``Grid.depth``, ``COPY_RUN``) to cover it.
     """
+    if insert:
+
+        @wp.func
+        def claim_row(owner: wp.array2d(dtype=wp.int32), depth: wp.array2d(dtype=wp.int32), i: int, j: int,
+                      comp: int, layer_rows: int, layers: int):
+            for s in range(layers):
+                r = s * layer_rows + i
+                k = owner[r, j]
+                if k == comp:
+                    return r
+                if k < 0:
+                    old = wp.atomic_cas(owner, r, j, -1, comp)
+                    if old == -1:
+                        run = j // COPY_RUN
+                        if depth[i, run] <= s:  # (most claims are within the run's depth already)
+                            wp.atomic_max(depth, i, run, s + 1)
+                        return r
+                    if old == comp:
+                        return r
+            return -1
+
+        return claim_row
 
     @wp.func
-    def layer_row(owner: wp.array2d(dtype=wp.int32), i: int, j: int, comp: int, layer_rows: int, layers: int):
+    def find_row(owner: wp.array2d(dtype=wp.int32), i: int, j: int, comp: int, layer_rows: int, layers: int):
         for s in range(layers):
             r = s * layer_rows + i
             k = owner[r, j]
             if k == comp:
                 return r
             if k < 0:
-                if wp.static(insert):
-                    old = wp.atomic_cas(owner, r, j, -1, comp)
-                    if old == -1 or old == comp:
-                        return r
-                else:
-                    return -1
+                return -1
         return -1
 
-    return layer_row
+    return find_row
 
 
 @functools.cache
@@ -274,6 +301,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     # how many cells apart two points that share a node can be: K nodes per stencil, plus the
     # spread of the four corner stencils of CPDI1 (domains up to about a cell across)
     W = K + (1 if shape == "cpdi1" else 0)
+    WINDOW = (W + 1) * (2 * W + 1)  # cells of the half window that ``check`` visits, (0, 0) included
     deforming = shape in DEFORMING_DOMAINS
 
     @wp.func
@@ -539,7 +567,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             S.cell_ref[cell] = S.bins[cell, 1]  # the cell's reference: any of its points, the same for all
         S.bins[cell, 0] = 0
 
-    @kernel
+    @kernel(max_unroll=WINDOW)
     def check(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
               status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
         # whether this step needs a rebuild (see the module docstring): a new node range rebuilds;
@@ -568,16 +596,20 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             reduce_max(S.motion, MOVE_RELATIVE * EXT_SLOTS, p, quanta(wp.max(wp.abs(e[0]), wp.abs(e[1])), S, True))
             if ref == p:
                 # a cell's reference point: how much the references of the cells within the search
-                # reach (W cells: every pair that shares a node) moved relative to it
+                # reach (W cells: every pair that shares a node) moved relative to it; half the
+                # window, (dx, dy) after (0, 0) column-major. The loop is unrolled and its reads take
+                # clamped indices instead of branches, so they all leave at once rather than one
+                # cell after another
                 most = T(0.0)
-                for ix in range(cx, wp.min(cx + W + 1, D.layer_rows)):
-                    iy0 = wp.max(cy - W, 0)
-                    if ix == cx:
-                        iy0 = cy + 1
-                    for iy in range(iy0, wp.min(cy + W + 1, rows)):
-                        other = S.cell_ref[ix * rows + iy]
-                        if other >= 0:
-                            f = d - moved(P, S, other)
+                for k in range(WINDOW):
+                    dx = k // (2 * W + 1)
+                    dy = k - dx * (2 * W + 1) - W
+                    if dx > 0 or dy > 0:
+                        ix = cx + dx
+                        iy = cy + dy
+                        other = S.cell_ref[wp.min(ix, D.layer_rows - 1) * rows + wp.clamp(iy, 0, rows - 1)]
+                        f = d - moved(P, S, wp.max(other, 0))
+                        if other >= 0 and ix < D.layer_rows and iy >= 0 and iy < rows:
                             most = wp.max(most, wp.max(wp.abs(f[0]), wp.abs(f[1])))
                 reduce_max(S.motion, MOVE_CELLS * EXT_SLOTS, p, quanta(most, S, True))
 
@@ -596,7 +628,7 @@ def make_rebuild_decision(precision: str):
     Interaction = make_interaction_struct(precision)
     T = scalar_types(precision).scalar
 
-    @kernel
+    @kernel(max_unroll=3 * EXT_SLOTS)
     def judge(S: Interaction):
         # keep the labels if either bound on the change of every pair's offset is below the margin,
         # with the round-off of the displacements (2 or 4) and of the margin
@@ -604,6 +636,8 @@ def make_rebuild_decision(precision: str):
         relative = int(0)
         cells = int(0)
         least = NO_MARGIN
+        # (unrolled loops: all the loads leave at once, instead of one slot after another, each
+        # waiting for the last, on the critical path of every step)
         for k in range(EXT_SLOTS):
             absolute = wp.max(absolute, S.motion[MOVE_ABSOLUTE * EXT_SLOTS + k])
             relative = wp.max(relative, S.motion[MOVE_RELATIVE * EXT_SLOTS + k])
@@ -627,11 +661,12 @@ def make_rebuild_decision(precision: str):
 
 @functools.cache
 def make_reset_copies(precision: str, deforming: bool):
-    """Kernel ``reset_copies(G, D, ext_max, slack, cell_ref, flags)`` over the nodes of one layer, on rebuild steps
+    """Kernels ``reset_copies(G, D, ext_max, slack, cell_ref, flags)`` over the nodes of one layer, then
+    ``reset_depths(G, flags)`` over ``Grid.depth``, on rebuild steps
     (every step for deforming domains):
-    frees the copies the previous step claimed (a prefix at each node, so a node without claims
-    costs one read instead of a memset of every layer) and resets ``ext_max`` (deforming domains)
-    or ``slack`` and ``cell_ref`` (the others)."""
+    frees the copies the previous step claimed (as deep as ``Grid.depth`` says, so a node without
+    claims costs one read instead of a memset of every layer; ``reset_depths`` then zeroes the depths)
+    and resets ``ext_max`` (deforming domains) or ``slack`` and ``cell_ref`` (the others)."""
     Particles, Grid, Domain = make_state_structs(precision)
 
     @kernel
@@ -651,13 +686,20 @@ def make_reset_copies(precision: str, deforming: bool):
             if k < EXT_SLOTS:
                 slack[k] = NO_MARGIN
             cell_ref[k] = -1
-        for s in range(D.layers):
-            r = s * D.layer_rows + i
-            if G.owner[r, j] < 0:
-                break
-            G.owner[r, j] = -1
+        for s in range(G.depth[i, j // COPY_RUN]):  # (whole runs: stores that cover whole sectors)
+            G.owner[s * D.layer_rows + i, j] = -1
 
-    return reset_copies
+    @kernel
+    def reset_depths(G: Grid, flags: wp.array(dtype=wp.int32)):
+        # after reset_copies, over the runs of nodes (``Grid.depth``): no copy is claimed any more
+        # (not in reset_copies itself: the nodes of one run may sit in different thread blocks)
+        if wp.static(not deforming):
+            if flags[FLAG_REBUILD] == 0:
+                return
+        i, k = wp.tid()
+        G.depth[i, k] = 0
+
+    return reset_copies, reset_depths
 
 
 @functools.cache

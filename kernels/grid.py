@@ -4,7 +4,7 @@ import functools
 
 import warp as wp
 
-from .granular import make_layer_row
+from .granular import COPY_RUN, make_layer_row
 from .state import make_state_structs
 from .types import kernel, scalar_types
 
@@ -193,7 +193,8 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
             if wp.static(clear):
                 G.mass[i, j] = T(0.0)
                 G.mom[i, j] = t.vec2()
-                G.force[i, j] = t.vec2()
+                if wp.static(not fused_impulse):  # (a fused P2G puts its forces into the momentum)
+                    G.force[i, j] = t.vec2()
         if m <= D.mass_eps:
             if wp.static(remap):
                 G.vm[i, j] = t.vec2()
@@ -241,12 +242,11 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         if clock[1] <= wp.float64(0.0):
             return
         if wp.static(layered):
-            # launched over one layer: the copies in use at a node are a prefix (claimed first-fit)
-            for s in range(D.layers):
-                r = s * D.layer_rows + i
-                if G.owner[r, j] < 0:
-                    break
-                update_node(G, D, clock, work, r, i, j)
+            # launched over one layer: the copies in use at a node are a prefix (claimed first-fit);
+            # every node of a run goes as deep as the busiest one (COPY_RUN), so that the clearing
+            # stores cover whole sectors (copies not in use have no mass and are written zero)
+            for s in range(G.depth[i, j // COPY_RUN]):
+                update_node(G, D, clock, work, s * D.layer_rows + i, i, j)
         else:
             update_node(G, D, clock, work, i, i, j)
 

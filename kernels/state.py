@@ -46,6 +46,7 @@ def make_state_structs(precision: str):
         vk: wp.array2d(dtype=t.vec2)  # XPIC: v*_k = (P_m G)^{k−1} P_m V [m/s]
         pk: wp.array2d(dtype=t.vec2)  # XPIC: momentum accumulator of the next v*_k [kg m/s]
         owner: wp.array2d(dtype=wp.int32)  # granular mode: component using each layer of a node (−1: free)
+        depth: wp.array2d(dtype=wp.int32)  # granular mode: copies in use at the busiest node of each run of nodes
         solid: wp.array2d(dtype=wp.int32)  # nodes of one layer in an obstacle: 0 none, 1 fixed, 2 slip
         solid_normal: wp.array2d(dtype=t.vec2)  # outward normal of the obstacle's surface at slip nodes
 

@@ -204,7 +204,10 @@ def make_p2g(
                     gj = by + j
                     row = gi
                     if wp.static(layered):
-                        row = layer_row(G.owner, gi, gj, comp, D.layer_rows, D.layers)
+                        if wp.static(mass):
+                            row = layer_row(G.owner, G.depth, gi, gj, comp, D.layer_rows, D.layers)
+                        else:
+                            row = layer_row(G.owner, gi, gj, comp, D.layer_rows, D.layers)
                         if row < 0:
                             wp.atomic_add(status, STATUS_LAYER_OVERFLOW, 1)
                     if row >= 0:
@@ -343,8 +346,9 @@ def make_g2p(
                     gj = by + j
                     row = gi
                     if wp.static(layered):
-                        row = wp.max(layer_row(G.owner, gi, gj, comp, D.layer_rows, D.layers), 0)
-                        if G.owner[row, gj] != comp:
+                        row = layer_row(G.owner, gi, gj, comp, D.layer_rows, D.layers)
+                        if row < 0:
+                            row = gi
                             w = T(0.0)  # a node the point put nothing on (a layer overflow)
                             grad = t.vec2()
                     vt = G.vt[row, gj]

@@ -158,6 +158,8 @@ class MPMSolver:
         self.grid_shape = shape
         G = Grid()
         G.owner = wp.full(shape if self.config.granular else (1, 1), -1, dtype=wp.int32, device=dev)
+        runs = (rows, -(-shape[1] // kgran.COPY_RUN)) if self.config.granular else (1, 1)
+        G.depth = wp.zeros(runs, dtype=wp.int32, device=dev)
         solid, normal = self._solid_nodes(rows, shape[1])
         G.solid = wp.array(solid, dtype=wp.int32, device=dev)
         G.solid_normal = wp.array(normal.astype(T), dtype=t.vec2, device=dev)
@@ -317,8 +319,9 @@ class MPMSolver:
             gin = [P, G, D, mats, S, self.status, clock]
             check, *build = kgran.make_granular_kernels(c.shape, prec, self.granular_cell_capacity,
                                                         staged=self.staged)
-            rebuild = [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim,
-                               [G, D, S.ext_max, S.slack, S.cell_ref, S.flags])]
+            reset_copies, reset_depths = kgran.make_reset_copies(prec, deforming)
+            rebuild = [_Launch(reset_copies, grid_dim, [G, D, S.ext_max, S.slack, S.cell_ref, S.flags]),
+                       _Launch(reset_depths, G.depth.shape, [G, S.flags])]
             rebuild += [_Launch(k, n, gin) for k in build]
             if check is not None:
                 seq += [_Launch(check, n, gin), _Launch(kgran.make_rebuild_decision(prec), 1, [S])]

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import warp as wp
 from helpers import run_script
+from mpmdem.kernels import granular as kgran
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
@@ -120,6 +121,13 @@ def test_layers_separate_components_on_every_node(shape, seed):
         assert len(used) == len(set(used))  # no component twice, no two components in one copy
         assert set(used) == comps
     assert m.granular_statistics()[1] == max(len(s) for s in reaching.values())
+    # the kernels over copies go as deep as their run's depth: it covers every copy in use, and the
+    # step's last grid update left every copy it visited (so every copy) cleared for the next P2G
+    depth = m.G.depth.numpy()
+    in_use = (owner.reshape(layers, rows, -1) >= 0).sum(axis=0)
+    for (i, j), comps in reaching.items():
+        assert depth[i, j // kgran.COPY_RUN] >= in_use[i, j] == len(comps)
+    assert not m.G.mass.numpy().any() and not m.G.mom.numpy().any()
 
 
 @pytest.mark.parametrize("update", ["USL", "MUSL", "USF"])
