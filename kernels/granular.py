@@ -54,6 +54,7 @@ from .types import kernel, scalar_types
 __all__ = [
     "DEFORMING_DOMAINS",
     "EXT_SLOTS",
+    "SLOT_STRIDE",
     "FLAG_COUNT",
     "MOVE_ABSOLUTE",
     "MOVE_CELLS",
@@ -88,6 +89,11 @@ DEFORMING_DOMAINS = ("cpgimp", "cpdi1")
 #: The largest extent of deforming domains is reduced into this many (x, y) slots (point p uses
 #: slot p % EXT_SLOTS, and only when it beats the slot): no million atomics on one address.
 EXT_SLOTS = 32
+#: Consecutive slots of ``Interaction.slack`` and ``Interaction.motion`` lie this many int32 apart
+#: (128 bytes): each in a cache line of its own, so their atomics and reads spread over the L2's
+#: slices instead of queueing on one line (on an H100 the reads of ``check``'s three reduction lines
+#: were a third of its stalls).
+SLOT_STRIDE = 32
 
 #: Slots of ``Interaction.motion`` (each reduced over EXT_SLOTS slots): max |Δx_p|, max
 #: |Δx_p − Δx_ref(p)| and max |Δx_ref(c) − Δx_ref(c')| since the last rebuild, in quanta (rounded up).
@@ -245,10 +251,12 @@ def make_interaction_struct(precision: str):
     box (N,) vec4 (non-deforming domains; one entry else): the position at the last rebuild [m] and
     the half-extents of the axis-aligned domain of interaction [m], −1 for a continuum point, read
     by the search as one 16-byte record; reach (N,) vec4i node range (x0, x1, y0, y1); ext_max
-    (2 EXT_SLOTS,) float32 largest half-extent [cells], x and y; slack (EXT_SLOTS,) int32: the
-    margin of the last rebuild's pair tests and pruned windows in whole quanta (rounded down),
-    reduced in slots; flags (FLAG_SLOTS,) int32; motion (3 EXT_SLOTS,) int32 (``MOVE_*``);
-    cell_ref (cells,) int32: each cell's reference point at the last rebuild, −1 for none;
+    (2 EXT_SLOTS,) float32 largest half-extent [cells], x and y; slack (EXT_SLOTS SLOT_STRIDE,) int32:
+    the margin of the last rebuild's pair tests and pruned windows in whole quanta (rounded down),
+    reduced in slots (slot k at k SLOT_STRIDE); flags (FLAG_SLOTS,) int32; motion
+    (3 EXT_SLOTS SLOT_STRIDE,) int32 (``MOVE_*``, slots as in slack);
+    cell_ref (cells,) int32: each cell's reference point at the last rebuild, −1 for none; ref (N,)
+    int32: the reference point of each point's cell at the last rebuild (non-deforming domains);
     quantum: the unit of ``slack`` and ``motion`` [m]; roundoff: the round-off allowance [m] of one
     displacement or margin."""
     t = scalar_types(precision)
@@ -265,6 +273,7 @@ def make_interaction_struct(precision: str):
         slack: wp.array(dtype=wp.int32)
         motion: wp.array(dtype=wp.int32)
         cell_ref: wp.array(dtype=wp.int32)
+        ref: wp.array(dtype=wp.int32)
         quantum: t.scalar
         flags: wp.array(dtype=wp.int32)
         roundoff: t.scalar
@@ -298,9 +307,12 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     domain = make_domain_of_interaction(shape, precision)
     overlap = _overlap(precision)
     CAP = int(cell_capacity)
-    # how many cells apart two points that share a node can be: K nodes per stencil, plus the
-    # spread of the four corner stencils of CPDI1 (domains up to about a cell across)
-    W = K + (1 if shape == "cpdi1" else 0)
+    # how many cells apart two points that share a node can be: the K nodes of a stencil start at
+    # the point's own cell (the tent: floor(c)) or one of the two cells before it (the others), so
+    # K − 1 or K; plus the spread of the four corner stencils of CPDI1 (domains up to about a cell
+    # across). It bounds the search and the cells whose references ``check`` compares: the tighter,
+    # the longer the labels last
+    W = K - 1 if shape == "linear" else K + (1 if shape == "cpdi1" else 0)
     WINDOW = (W + 1) * (2 * W + 1)  # cells of the half window that ``check`` visits, (0, 0) included
     deforming = shape in DEFORMING_DOMAINS
 
@@ -355,7 +367,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
 
     @wp.func
     def reduce_max(slots: wp.array(dtype=wp.int32), base: int, p: int, value: int):
-        slot = base + p % EXT_SLOTS
+        slot = (base + p % EXT_SLOTS) * SLOT_STRIDE
         if value > slots[slot]:  # most values do not beat their slot: no atomic
             wp.atomic_max(slots, slot, value)
 
@@ -447,7 +459,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             if rho_cr > T(0.0):
                 S.box[p] = t.vec4(xp[0], xp[1], wp.abs(a[0]) + wp.abs(b[0]), wp.abs(a[1]) + wp.abs(b[1]))
                 wx, wy, slack = search_window(wp.abs(a[0]) + wp.abs(b[0]), wp.abs(a[1]) + wp.abs(b[1]), S, D)
-                slot = p % EXT_SLOTS
+                slot = (p % EXT_SLOTS) * SLOT_STRIDE
                 q = quanta(slack, S, False)
                 if q < S.slack[slot]:  # most points do not beat their slot: no atomic
                     wp.atomic_min(S.slack, slot, q)
@@ -540,7 +552,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                             if rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]:
                                 root = unite(S.parent, root, q)
         if wp.static(not deforming):
-            slot = p % EXT_SLOTS
+            slot = (p % EXT_SLOTS) * SLOT_STRIDE
             q = quanta(margin_p, S, False)
             if q < S.slack[slot]:
                 wp.atomic_min(S.slack, slot, q)
@@ -564,7 +576,9 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         cx, cy = cell_of(P, D, p, rows)
         cell = cx * rows + cy
         if wp.static(not deforming):
-            S.cell_ref[cell] = S.bins[cell, 1]  # the cell's reference: any of its points, the same for all
+            ref = S.bins[cell, 1]  # the cell's reference: any of its points, the same for all
+            S.cell_ref[cell] = ref
+            S.ref[p] = ref
         S.bins[cell, 0] = 0
 
     @kernel(max_unroll=WINDOW)
@@ -589,12 +603,12 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         if released:
             d = moved(P, S, p)
             reduce_max(S.motion, MOVE_ABSOLUTE * EXT_SLOTS, p, quanta(wp.max(wp.abs(d[0]), wp.abs(d[1])), S, True))
-            rows = G.mass.shape[1]
-            cx, cy = cell_at(reference(S, p), D, rows)
-            ref = S.cell_ref[cx * rows + cy]
+            ref = S.ref[p]  # (kept per point: no gather through the cell on the way)
             e = d - moved(P, S, ref)
             reduce_max(S.motion, MOVE_RELATIVE * EXT_SLOTS, p, quanta(wp.max(wp.abs(e[0]), wp.abs(e[1])), S, True))
             if ref == p:
+                rows = G.mass.shape[1]
+                cx, cy = cell_at(reference(S, p), D, rows)
                 # a cell's reference point: how much the references of the cells within the search
                 # reach (W cells: every pair that shares a node) moved relative to it; half the
                 # window, (dx, dy) after (0, 0) column-major. The loop is unrolled and its reads take
@@ -639,10 +653,10 @@ def make_rebuild_decision(precision: str):
         # (unrolled loops: all the loads leave at once, instead of one slot after another, each
         # waiting for the last, on the critical path of every step)
         for k in range(EXT_SLOTS):
-            absolute = wp.max(absolute, S.motion[MOVE_ABSOLUTE * EXT_SLOTS + k])
-            relative = wp.max(relative, S.motion[MOVE_RELATIVE * EXT_SLOTS + k])
-            cells = wp.max(cells, S.motion[MOVE_CELLS * EXT_SLOTS + k])
-            least = wp.min(least, S.slack[k])
+            absolute = wp.max(absolute, S.motion[(MOVE_ABSOLUTE * EXT_SLOTS + k) * SLOT_STRIDE])
+            relative = wp.max(relative, S.motion[(MOVE_RELATIVE * EXT_SLOTS + k) * SLOT_STRIDE])
+            cells = wp.max(cells, S.motion[(MOVE_CELLS * EXT_SLOTS + k) * SLOT_STRIDE])
+            least = wp.min(least, S.slack[k * SLOT_STRIDE])
         q = S.quantum
         margin = T(least) * q
         keep_absolute = T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < margin
@@ -654,7 +668,7 @@ def make_rebuild_decision(precision: str):
         S.flags[FLAG_FORCED] = 0
         S.flags[FLAG_RANGE] = 0
         for k in range(3 * EXT_SLOTS):
-            S.motion[k] = 0
+            S.motion[k * SLOT_STRIDE] = 0
 
     return judge
 
@@ -684,7 +698,7 @@ def make_reset_copies(precision: str, deforming: bool):
                 ext_max[k] = wp.float32(0.0)
         else:
             if k < EXT_SLOTS:
-                slack[k] = NO_MARGIN
+                slack[k * SLOT_STRIDE] = NO_MARGIN
             cell_ref[k] = -1
         for s in range(G.depth[i, j // COPY_RUN]):  # (whole runs: stores that cover whole sectors)
             G.owner[s * D.layer_rows + i, j] = -1

@@ -206,10 +206,11 @@ class MPMSolver:
             S.box = wp.zeros(1 if deforming else n, dtype=t.vec4, device=dev)
             S.reach = wp.zeros(n, dtype=wp.vec4i, device=dev)
             S.ext_max = wp.array(self._static_extent(host, mats), dtype=wp.float32, device=dev)
-            S.slack = wp.full(kgran.EXT_SLOTS, kgran.NO_MARGIN, dtype=wp.int32, device=dev)
+            S.slack = wp.full(kgran.EXT_SLOTS * kgran.SLOT_STRIDE, kgran.NO_MARGIN, dtype=wp.int32, device=dev)
             S.quantum = t.scalar(self.scene.cell_size * 2.0**-20)
-            S.motion = wp.zeros(3 * kgran.EXT_SLOTS, dtype=wp.int32, device=dev)
+            S.motion = wp.zeros(3 * kgran.EXT_SLOTS * kgran.SLOT_STRIDE, dtype=wp.int32, device=dev)
             S.cell_ref = wp.full(cells, -1, dtype=wp.int32, device=dev)
+            S.ref = wp.zeros(1 if deforming else n, dtype=wp.int32, device=dev)
             flags = np.zeros(kgran.FLAG_SLOTS, np.int32)
             flags[kgran.FLAG_FORCED] = 1
             S.flags = wp.array(flags, dtype=wp.int32, device=dev)
