@@ -54,7 +54,6 @@ from .types import kernel, scalar_types
 __all__ = [
     "DEFORMING_DOMAINS",
     "EXT_SLOTS",
-    "SLOT_STRIDE",
     "FLAG_COUNT",
     "MOVE_ABSOLUTE",
     "MOVE_CELLS",
@@ -89,11 +88,6 @@ DEFORMING_DOMAINS = ("cpgimp", "cpdi1")
 #: The largest extent of deforming domains is reduced into this many (x, y) slots (point p uses
 #: slot p % EXT_SLOTS, and only when it beats the slot): no million atomics on one address.
 EXT_SLOTS = 32
-#: Consecutive slots of ``Interaction.slack`` and ``Interaction.motion`` lie this many int32 apart
-#: (128 bytes): each in a cache line of its own, so their atomics and reads spread over the L2's
-#: slices instead of queueing on one line (on an H100 the reads of ``check``'s three reduction lines
-#: were a third of its stalls).
-SLOT_STRIDE = 32
 
 #: Slots of ``Interaction.motion`` (each reduced over EXT_SLOTS slots): max |Δx_p|, max
 #: |Δx_p − Δx_ref(p)| and max |Δx_ref(c) − Δx_ref(c')| since the last rebuild, in quanta (rounded up).
@@ -123,7 +117,7 @@ STAT_LAYERS = 1
 #: the most copies in use at one of its nodes, and the kernels over copies go that deep at every
 #: node of the run, so their stores cover whole memory sectors (a store to a sector that other
 #: threads leave partly unwritten is several times slower on an H100 than a whole one).
-COPY_RUN = 32
+COPY_RUN = 8
 
 
 @functools.cache
@@ -251,10 +245,9 @@ def make_interaction_struct(precision: str):
     box (N,) vec4 (non-deforming domains; one entry else): the position at the last rebuild [m] and
     the half-extents of the axis-aligned domain of interaction [m], −1 for a continuum point, read
     by the search as one 16-byte record; reach (N,) vec4i node range (x0, x1, y0, y1); ext_max
-    (2 EXT_SLOTS,) float32 largest half-extent [cells], x and y; slack (EXT_SLOTS SLOT_STRIDE,) int32:
-    the margin of the last rebuild's pair tests and pruned windows in whole quanta (rounded down),
-    reduced in slots (slot k at k SLOT_STRIDE); flags (FLAG_SLOTS,) int32; motion
-    (3 EXT_SLOTS SLOT_STRIDE,) int32 (``MOVE_*``, slots as in slack);
+    (2 EXT_SLOTS,) float32 largest half-extent [cells], x and y; slack (EXT_SLOTS,) int32: the
+    margin of the last rebuild's pair tests and pruned windows in whole quanta (rounded down),
+    reduced in slots; flags (FLAG_SLOTS,) int32; motion (3 EXT_SLOTS,) int32 (``MOVE_*``);
     cell_ref (cells,) int32: each cell's reference point at the last rebuild, −1 for none; ref (N,)
     int32: the reference point of each point's cell at the last rebuild (non-deforming domains);
     quantum: the unit of ``slack`` and ``motion`` [m]; roundoff: the round-off allowance [m] of one
@@ -314,6 +307,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     # the longer the labels last
     W = K - 1 if shape == "linear" else K + (1 if shape == "cpdi1" else 0)
     WINDOW = (W + 1) * (2 * W + 1)  # cells of the half window that ``check`` visits, (0, 0) included
+    tent_cells = shape == "linear" and not staged  # ``check`` compares cells instead of node ranges
     deforming = shape in DEFORMING_DOMAINS
 
     @wp.func
@@ -367,7 +361,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
 
     @wp.func
     def reduce_max(slots: wp.array(dtype=wp.int32), base: int, p: int, value: int):
-        slot = (base + p % EXT_SLOTS) * SLOT_STRIDE
+        slot = base + p % EXT_SLOTS
         if value > slots[slot]:  # most values do not beat their slot: no atomic
             wp.atomic_max(slots, slot, value)
 
@@ -459,7 +453,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             if rho_cr > T(0.0):
                 S.box[p] = t.vec4(xp[0], xp[1], wp.abs(a[0]) + wp.abs(b[0]), wp.abs(a[1]) + wp.abs(b[1]))
                 wx, wy, slack = search_window(wp.abs(a[0]) + wp.abs(b[0]), wp.abs(a[1]) + wp.abs(b[1]), S, D)
-                slot = (p % EXT_SLOTS) * SLOT_STRIDE
+                slot = p % EXT_SLOTS
                 q = quanta(slack, S, False)
                 if q < S.slack[slot]:  # most points do not beat their slot: no atomic
                     wp.atomic_min(S.slack, slot, q)
@@ -552,7 +546,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                             if rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]:
                                 root = unite(S.parent, root, q)
         if wp.static(not deforming):
-            slot = (p % EXT_SLOTS) * SLOT_STRIDE
+            slot = p % EXT_SLOTS
             q = quanta(margin_p, S, False)
             if q < S.slack[slot]:
                 wp.atomic_min(S.slack, slot, q)
@@ -590,16 +584,26 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         if S.flags[FLAG_FORCED] != 0 or S.flags[FLAG_RANGE] != 0:
             return  # a rebuild anyway
         p = wp.tid()
-        reach = wp.vec4i(0, -1, 0, -1)
         released = True
-        if wp.static(staged):
-            released = clock[0] >= P.release[p]
-        if released:
-            reach = node_reach(P, D, p)
-        old = S.reach[p]
-        if reach[0] != old[0] or reach[1] != old[1] or reach[2] != old[2] or reach[3] != old[3]:
-            S.flags[FLAG_RANGE] = 1
-            return
+        if wp.static(tent_cells):
+            # the tent's node range starts at the point's cell, floor((x − origin)/h) (the stencil's
+            # floor(c − 1) + 1 is the same on the grid): it changed iff that cell differs from the
+            # cell of the position at the rebuild, which needs no read of the stored range
+            a = (P.x[p] - D.origin) * D.inv_h
+            b = (reference(S, p) - D.origin) * D.inv_h
+            if wp.floor(a[0]) != wp.floor(b[0]) or wp.floor(a[1]) != wp.floor(b[1]):
+                S.flags[FLAG_RANGE] = 1
+                return
+        else:
+            reach = wp.vec4i(0, -1, 0, -1)
+            if wp.static(staged):
+                released = clock[0] >= P.release[p]
+            if released:
+                reach = node_reach(P, D, p)
+            old = S.reach[p]
+            if reach[0] != old[0] or reach[1] != old[1] or reach[2] != old[2] or reach[3] != old[3]:
+                S.flags[FLAG_RANGE] = 1
+                return
         if released:
             d = moved(P, S, p)
             reduce_max(S.motion, MOVE_ABSOLUTE * EXT_SLOTS, p, quanta(wp.max(wp.abs(d[0]), wp.abs(d[1])), S, True))
@@ -653,10 +657,10 @@ def make_rebuild_decision(precision: str):
         # (unrolled loops: all the loads leave at once, instead of one slot after another, each
         # waiting for the last, on the critical path of every step)
         for k in range(EXT_SLOTS):
-            absolute = wp.max(absolute, S.motion[(MOVE_ABSOLUTE * EXT_SLOTS + k) * SLOT_STRIDE])
-            relative = wp.max(relative, S.motion[(MOVE_RELATIVE * EXT_SLOTS + k) * SLOT_STRIDE])
-            cells = wp.max(cells, S.motion[(MOVE_CELLS * EXT_SLOTS + k) * SLOT_STRIDE])
-            least = wp.min(least, S.slack[k * SLOT_STRIDE])
+            absolute = wp.max(absolute, S.motion[MOVE_ABSOLUTE * EXT_SLOTS + k])
+            relative = wp.max(relative, S.motion[MOVE_RELATIVE * EXT_SLOTS + k])
+            cells = wp.max(cells, S.motion[MOVE_CELLS * EXT_SLOTS + k])
+            least = wp.min(least, S.slack[k])
         q = S.quantum
         margin = T(least) * q
         keep_absolute = T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < margin
@@ -668,7 +672,7 @@ def make_rebuild_decision(precision: str):
         S.flags[FLAG_FORCED] = 0
         S.flags[FLAG_RANGE] = 0
         for k in range(3 * EXT_SLOTS):
-            S.motion[k * SLOT_STRIDE] = 0
+            S.motion[k] = 0
 
     return judge
 
@@ -698,7 +702,7 @@ def make_reset_copies(precision: str, deforming: bool):
                 ext_max[k] = wp.float32(0.0)
         else:
             if k < EXT_SLOTS:
-                slack[k * SLOT_STRIDE] = NO_MARGIN
+                slack[k] = NO_MARGIN
             cell_ref[k] = -1
         for s in range(G.depth[i, j // COPY_RUN]):  # (whole runs: stores that cover whole sectors)
             G.owner[s * D.layer_rows + i, j] = -1

@@ -163,7 +163,8 @@ def test_separate_islands_evolve_as_if_alone(update):
 BLOCK = np.array([[0.0025 + 0.005 * i, 0.0025 + 0.005 * j] for i in range(4) for j in range(4)])
 
 
-def _reuse_against_rebuild(parts, shape: str, gravity: float, steps: int) -> tuple[int, int]:
+def _reuse_against_rebuild(parts, shape: str, gravity: float, steps: int,
+                           critical_density: float | None = 1400.0) -> tuple[int, int]:
     """Step two copies of a granular scene, one reusing its labels (kernels/granular.py) and one
     forced to rebuild the interaction graph every step; they must agree on the components at every
     step and end with bit-identical positions. Returns (rebuilds of the first, distinct labellings)."""
@@ -171,7 +172,7 @@ def _reuse_against_rebuild(parts, shape: str, gravity: float, steps: int) -> tup
     def make():
         scene = Scene(domain=((0.0, 0.0), (0.2, 0.2)), cell_size=H, gravity=(0.0, gravity),
                       boundaries={s: "free" for s in ("left", "right", "bottom", "top")})
-        mat = LinearElastic(1.0e5, 0.3, 1500.0, critical_density=1400.0)
+        mat = LinearElastic(1.0e5, 0.3, 1500.0, critical_density=critical_density)
         for x, v in parts:
             scene.add_points(x, mat, size=0.5 * H, velocity=v)
         sim = Simulation(scene, SolverConfig(granular=True, shape=shape, precision="f64", dt=2.0e-5), device="cpu")
@@ -215,6 +216,19 @@ def test_reused_labels_follow_a_body_that_moves_as_a_whole():
     rebuilds, labellings = _reuse_against_rebuild(parts, "linear", -9.81, 120)
     assert rebuilds <= 8  # the absolute bound alone would rebuild about every 5 steps
     assert labellings == 1
+
+
+def test_reused_labels_see_continua_meet_through_a_node():
+    """Continua (no critical density) interact with every point they share a node with, so only
+    the node-range part of the check can see two of them meet. Two blocks approach along x at
+    0.5 m/s each, no gravity: no motion inside a block and no overlap test to set a margin. The
+    left block's front column crosses a cell line (x = 0.06) after 0.4 mm, 40 steps, and then shares
+    node x = 0.07 with the right block, which crosses x = 0.07 only after 50 steps: the run that
+    reuses its labels must merge them at the same step as the one that rebuilds every step."""
+    parts = [(BLOCK + [0.0421, 0.08], (0.5, 0.0)), (BLOCK + [0.068, 0.08], (-0.5, 0.0))]
+    rebuilds, labellings = _reuse_against_rebuild(parts, "linear", 0.0, 60, critical_density=None)
+    assert labellings == 2  # apart, then one
+    assert rebuilds <= 4  # the first step and the steps whose points crossed a cell line
 
 
 def test_layer_overflow_stops_with_a_message():
