@@ -425,6 +425,12 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             if S.flags[FLAG_REBUILD] == 0:
                 return
         p = wp.tid()
+        # reset_copies has freed the copies by the depths of their runs (Grid.depth); no copy is
+        # claimed now, so the depths start again from zero, here because reset_copies reads them
+        # (the nodes of one run may sit in different thread blocks)
+        runs = G.depth.shape[1]
+        for k in range(p, G.depth.shape[0] * runs, P.x.shape[0]):
+            G.depth[k // runs, k - (k // runs) * runs] = 0
         S.parent[p] = p
         if wp.static(staged):
             if clock[0] < P.release[p]:
@@ -498,8 +504,15 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             continuum_p = box_p[2] < T(0.0)
         wx = W
         wy = W
+        near = False
         if not continuum_p:
             wx, wy, slack = search_window(ep[0], ep[1], S, D)
+            if wp.static(shape == "linear" and not deforming):
+                # tent: if the half-extents of p and of the largest domain add up to less than a
+                # cell, two overlapping domains have centres less than a cell apart, hence cells
+                # at most one apart, whose stencils share a node: the pre-task needs no check
+                # (0.999 leaves room for the rounding of the sums)
+                near = (ep[0] * D.inv_h + T(S.ext_max[0]) < T(0.999)) and (ep[1] * D.inv_h + T(S.ext_max[1]) < T(0.999))
         margin_p = T(1.0e30)
         root = p  # an ancestor of p in the union-find forest: saves walking up from p on each merge
         # half the neighbourhood: cells after this one (column-major), and in this cell the points
@@ -542,8 +555,11 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                             margin_p = wp.min(margin_p, wp.abs(wp.min(sx, sy)))
                             joined = sx > T(0.0) and sy > T(0.0)
                         if joined:
-                            rq = S.reach[q]
-                            if rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]:
+                            shares = True
+                            if not near or box_q[2] < T(0.0):
+                                rq = S.reach[q]
+                                shares = rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]
+                            if shares:
                                 root = unite(S.parent, root, q)
         if wp.static(not deforming):
             slot = p % EXT_SLOTS
@@ -679,11 +695,10 @@ def make_rebuild_decision(precision: str):
 
 @functools.cache
 def make_reset_copies(precision: str, deforming: bool):
-    """Kernels ``reset_copies(G, D, ext_max, slack, cell_ref, flags)`` over the nodes of one layer, then
-    ``reset_depths(G, flags)`` over ``Grid.depth``, on rebuild steps
+    """Kernel ``reset_copies(G, D, ext_max, slack, cell_ref, flags)`` over the nodes of one layer, on rebuild steps
     (every step for deforming domains):
     frees the copies the previous step claimed (as deep as ``Grid.depth`` says, so a node without
-    claims costs one read instead of a memset of every layer; ``reset_depths`` then zeroes the depths)
+    claims costs one read instead of a memset of every layer; ``prepare`` then zeroes the depths)
     and resets ``ext_max`` (deforming domains) or ``slack`` and ``cell_ref`` (the others)."""
     Particles, Grid, Domain = make_state_structs(precision)
 
@@ -707,17 +722,7 @@ def make_reset_copies(precision: str, deforming: bool):
         for s in range(G.depth[i, j // COPY_RUN]):  # (whole runs: stores that cover whole sectors)
             G.owner[s * D.layer_rows + i, j] = -1
 
-    @kernel
-    def reset_depths(G: Grid, flags: wp.array(dtype=wp.int32)):
-        # after reset_copies, over the runs of nodes (``Grid.depth``): no copy is claimed any more
-        # (not in reset_copies itself: the nodes of one run may sit in different thread blocks)
-        if wp.static(not deforming):
-            if flags[FLAG_REBUILD] == 0:
-                return
-        i, k = wp.tid()
-        G.depth[i, k] = 0
-
-    return reset_copies, reset_depths
+    return reset_copies
 
 
 @functools.cache

@@ -320,9 +320,8 @@ class MPMSolver:
             gin = [P, G, D, mats, S, self.status, clock]
             check, *build = kgran.make_granular_kernels(c.shape, prec, self.granular_cell_capacity,
                                                         staged=self.staged)
-            reset_copies, reset_depths = kgran.make_reset_copies(prec, deforming)
-            rebuild = [_Launch(reset_copies, grid_dim, [G, D, S.ext_max, S.slack, S.cell_ref, S.flags]),
-                       _Launch(reset_depths, G.depth.shape, [G, S.flags])]
+            rebuild = [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim,
+                               [G, D, S.ext_max, S.slack, S.cell_ref, S.flags])]
             rebuild += [_Launch(k, n, gin) for k in build]
             if check is not None:
                 seq += [_Launch(check, n, gin), _Launch(kgran.make_rebuild_decision(prec), 1, [S])]
