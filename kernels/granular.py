@@ -128,41 +128,89 @@ def make_layer_row(insert: bool):
     With ``insert`` it is ``layer_row(owner, depth, i, j, comp, layer_rows, layers)`` and claims the
     first free copy (compare-and-swap) when the component has none there, raising the depth of the
     node's run (``Grid.depth``, ``COPY_RUN``) to cover it.
+
+    The owners are read four layers at a time (rows past the last layer clamped to it), so
+    the loads of a batch leave together instead of each waiting for the one before; most lookups
+    end in the first batch. A value read ahead may be stale only in one way (a free copy claimed
+    meanwhile: claims are never undone within a step), which the compare-and-swap settles.
     """
-    if insert:
 
-        @wp.func
-        def claim_row(owner: wp.array2d(dtype=wp.int32), depth: wp.array2d(dtype=wp.int32), i: int, j: int,
-                      comp: int, layer_rows: int, layers: int):
-            for s in range(layers):
-                r = s * layer_rows + i
-                k = owner[r, j]
-                if k == comp:
-                    return r
-                if k < 0:
-                    old = wp.atomic_cas(owner, r, j, -1, comp)
-                    if old == -1:
-                        run = j // COPY_RUN
-                        if depth[i, run] <= s:  # (most claims are within the run's depth already)
-                            wp.atomic_max(depth, i, run, s + 1)
-                        return r
-                    if old == comp:
-                        return r
+    @wp.func
+    def claim_at(owner: wp.array2d(dtype=wp.int32), depth: wp.array2d(dtype=wp.int32), s: int, r: int, j: int,
+                 i: int, comp: int, k: int):
+        # the row r (layer s) if comp owns it or has just claimed it, else −1 (look further)
+        if k == comp:
+            return r
+        if k < 0:
+            old = wp.atomic_cas(owner, r, j, -1, comp)
+            if old == -1:
+                run = j // COPY_RUN
+                if depth[i, run] <= s:  # (most claims are within the run's depth already)
+                    wp.atomic_max(depth, i, run, s + 1)
+                return r
+            if old == comp:
+                return r
+        return -1
+
+    @wp.func
+    def claim_row(owner: wp.array2d(dtype=wp.int32), depth: wp.array2d(dtype=wp.int32), i: int, j: int,
+                  comp: int, layer_rows: int, layers: int):
+        last = layers - 1
+        for b in range(0, layers, 4):
+            r0 = b * layer_rows + i
+            r1 = wp.min(b + 1, last) * layer_rows + i
+            r2 = wp.min(b + 2, last) * layer_rows + i
+            r3 = wp.min(b + 3, last) * layer_rows + i
+            k0 = owner[r0, j]
+            k1 = owner[r1, j]
+            k2 = owner[r2, j]
+            k3 = owner[r3, j]
+            r = claim_at(owner, depth, b, r0, j, i, comp, k0)
+            if r < 0 and b + 1 < layers:
+                r = claim_at(owner, depth, b + 1, r1, j, i, comp, k1)
+            if r < 0 and b + 2 < layers:
+                r = claim_at(owner, depth, b + 2, r2, j, i, comp, k2)
+            if r < 0 and b + 3 < layers:
+                r = claim_at(owner, depth, b + 3, r3, j, i, comp, k3)
+            if r >= 0:
+                return r
+        return -1
+
+    @wp.func
+    def find_at(r: int, comp: int, k: int):
+        # r if comp owns it, −1 if the copy is free (comp has none: the used copies are a prefix),
+        # −2 if another component owns it (look further)
+        if k == comp:
+            return r
+        if k < 0:
             return -1
-
-        return claim_row
+        return -2
 
     @wp.func
     def find_row(owner: wp.array2d(dtype=wp.int32), i: int, j: int, comp: int, layer_rows: int, layers: int):
-        for s in range(layers):
-            r = s * layer_rows + i
-            k = owner[r, j]
-            if k == comp:
+        last = layers - 1
+        for b in range(0, layers, 4):
+            r0 = b * layer_rows + i
+            r1 = wp.min(b + 1, last) * layer_rows + i
+            r2 = wp.min(b + 2, last) * layer_rows + i
+            r3 = wp.min(b + 3, last) * layer_rows + i
+            k0 = owner[r0, j]
+            k1 = owner[r1, j]
+            k2 = owner[r2, j]
+            k3 = owner[r3, j]
+            r = find_at(r0, comp, k0)
+            if r == -2 and b + 1 < layers:
+                r = find_at(r1, comp, k1)
+            if r == -2 and b + 2 < layers:
+                r = find_at(r2, comp, k2)
+            if r == -2 and b + 3 < layers:
+                r = find_at(r3, comp, k3)
+            if r != -2:
                 return r
-            if k < 0:
-                return -1
         return -1
 
+    if insert:
+        return claim_row
     return find_row
 
 

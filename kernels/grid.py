@@ -180,15 +180,26 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         return wall_work(v, solid(dirichlet(v, D, i, j), G, i, j), m, D, G, i, j, work)
 
     @wp.func
-    def update_node(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), work: wp.array(dtype=wp.float64),
-                    i: int, ib: int, j: int):
-        # node (ib, j) of the grid, stored in row i (its copy's row in granular mode)
-        dt = T(clock[1])
+    def load_node(G: Grid, i: int, j: int):
+        # what the update of node (i, j) reads first: mass, momentum (the re-mapped one with remap)
+        # and internal force
         m = G.mass[i, j]
-        mom = G.mom[i, j]
+        mom = t.vec2()
+        if wp.static(remap):
+            mom = G.vm[i, j]
+        else:
+            mom = G.mom[i, j]
         fint = t.vec2()
         if wp.static(force):
             fint = G.force[i, j]
+        return m, mom, fint
+
+    @wp.func
+    def update_node(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), work: wp.array(dtype=wp.float64),
+                    i: int, ib: int, j: int, m: T, mom: t.vec2, fint: t.vec2):
+        # node (ib, j) of the grid, stored in row i (its copy's row in granular mode), whose mass,
+        # momentum and force (``load_node``) are m, mom, fint
+        dt = T(clock[1])
         if wp.static(layered):
             if wp.static(clear):
                 G.mass[i, j] = T(0.0)
@@ -207,7 +218,7 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         if D.gravity_ramp > wp.float64(0.0):
             g = g * T(wp.min(clock[0] / D.gravity_ramp, wp.float64(1.0)))
         if wp.static(remap):
-            G.vm[i, j] = solid(boundary(G.vm[i, j] * inv_m, D, ib, j), G, ib, j)
+            G.vm[i, j] = solid(boundary(mom * inv_m, D, ib, j), G, ib, j)
             return
         if wp.static(fused_impulse):
             G.vt[i, j] = constrain(mom * inv_m + dt * g, m, D, G, ib, j, work)
@@ -245,10 +256,31 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
             # launched over one layer: the copies in use at a node are a prefix (claimed first-fit);
             # every node of a run goes as deep as the busiest one (COPY_RUN), so that the clearing
             # stores cover whole sectors (copies not in use have no mass and are written zero)
-            for s in range(G.depth[i, j // COPY_RUN]):
-                update_node(G, D, clock, work, s * D.layer_rows + i, i, j)
+            # Four copies at a time: their loads leave together, where one copy after another would
+            # wait for each (its loads may not pass the stores of the copy before, which for all the
+            # compiler knows could alias them); rows past the depth are clamped to the last one and
+            # loaded, not updated.
+            n = G.depth[i, j // COPY_RUN]
+            rows = D.layer_rows
+            for b in range(0, n, 4):
+                r0 = b * rows + i
+                r1 = wp.min(b + 1, n - 1) * rows + i
+                r2 = wp.min(b + 2, n - 1) * rows + i
+                r3 = wp.min(b + 3, n - 1) * rows + i
+                m0, p0, f0 = load_node(G, r0, j)
+                m1, p1, f1 = load_node(G, r1, j)
+                m2, p2, f2 = load_node(G, r2, j)
+                m3, p3, f3 = load_node(G, r3, j)
+                update_node(G, D, clock, work, r0, i, j, m0, p0, f0)
+                if b + 1 < n:
+                    update_node(G, D, clock, work, r1, i, j, m1, p1, f1)
+                if b + 2 < n:
+                    update_node(G, D, clock, work, r2, i, j, m2, p2, f2)
+                if b + 3 < n:
+                    update_node(G, D, clock, work, r3, i, j, m3, p3, f3)
         else:
-            update_node(G, D, clock, work, i, i, j)
+            m, mom, fint = load_node(G, i, j)
+            update_node(G, D, clock, work, i, i, j, m, mom, fint)
 
     return grid_update
 
