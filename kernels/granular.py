@@ -37,7 +37,9 @@ changed since is below M (less a round-off allowance): 2 max|Δx_p| (absolute mo
 2 max|Δx_p − Δx_ref(p)| + max|Δx_ref(c) − Δx_ref(c')| over cells c, c' within the search reach
 (moves relative to the references: a body that translates, falls or flows as a whole keeps
 its labels). Skipped steps get exactly the labels a rebuild would give and keep the grid copies
-they claimed. Deforming domains (cpGIMP, CPDI) rebuild every step.
+they claimed. The check runs at the end of a step, on the positions the next step starts from,
+and its verdict goes out with the clock's advance (``judge``: one launch for both). Deforming
+domains (cpGIMP, CPDI) rebuild every step.
 
 Non-granular materials (no critical density) are continua: their points interact with every
 point they share a node with, so they are never split.
@@ -47,6 +49,7 @@ import functools
 
 import warp as wp
 
+from .reductions import advance
 from .shape_functions import SUPPORT_NODES
 from .state import make_state_structs
 from .types import kernel, scalar_types
@@ -58,7 +61,6 @@ __all__ = [
     "MOVE_ABSOLUTE",
     "MOVE_CELLS",
     "MOVE_RELATIVE",
-    "FLAG_FORCED",
     "FLAG_RANGE",
     "FLAG_REBUILD",
     "FLAG_SLOTS",
@@ -95,14 +97,13 @@ MOVE_ABSOLUTE = 0
 MOVE_RELATIVE = 1
 MOVE_CELLS = 2
 
-#: Slots of ``Interaction.flags``: a rebuild asked by the host (first step, after a reorder or a
-#: checkpoint), the decision of this step, the number of rebuilds so far, and a node range that
-#: ``check`` found changed this step.
-FLAG_FORCED = 0
-FLAG_REBUILD = 1
-FLAG_COUNT = 2
-FLAG_RANGE = 3
-FLAG_SLOTS = 4
+#: Slots of ``Interaction.flags``: whether the next step rebuilds (set by ``judge`` at the end of a
+#: step, or by the host: first step, after a reorder or a checkpoint), the number of rebuilds so
+#: far, and a node range that ``check`` found changed.
+FLAG_REBUILD = 0
+FLAG_COUNT = 1
+FLAG_RANGE = 2
+FLAG_SLOTS = 3
 #: A margin that nothing limits (no pair, no pruned window), in quanta (``Interaction.quantum``):
 #: margins are reduced as integers, whose atomic minimum is native (a float one is a CAS loop, slow
 #: when a million threads meet on a few slots).
@@ -128,89 +129,41 @@ def make_layer_row(insert: bool):
     With ``insert`` it is ``layer_row(owner, depth, i, j, comp, layer_rows, layers)`` and claims the
     first free copy (compare-and-swap) when the component has none there, raising the depth of the
     node's run (``Grid.depth``, ``COPY_RUN``) to cover it.
-
-    The owners are read four layers at a time (rows past the last layer clamped to it), so
-    the loads of a batch leave together instead of each waiting for the one before; most lookups
-    end in the first batch. A value read ahead may be stale only in one way (a free copy claimed
-    meanwhile: claims are never undone within a step), which the compare-and-swap settles.
     """
+    if insert:
 
-    @wp.func
-    def claim_at(owner: wp.array2d(dtype=wp.int32), depth: wp.array2d(dtype=wp.int32), s: int, r: int, j: int,
-                 i: int, comp: int, k: int):
-        # the row r (layer s) if comp owns it or has just claimed it, else −1 (look further)
-        if k == comp:
-            return r
-        if k < 0:
-            old = wp.atomic_cas(owner, r, j, -1, comp)
-            if old == -1:
-                run = j // COPY_RUN
-                if depth[i, run] <= s:  # (most claims are within the run's depth already)
-                    wp.atomic_max(depth, i, run, s + 1)
-                return r
-            if old == comp:
-                return r
-        return -1
-
-    @wp.func
-    def claim_row(owner: wp.array2d(dtype=wp.int32), depth: wp.array2d(dtype=wp.int32), i: int, j: int,
-                  comp: int, layer_rows: int, layers: int):
-        last = layers - 1
-        for b in range(0, layers, 4):
-            r0 = b * layer_rows + i
-            r1 = wp.min(b + 1, last) * layer_rows + i
-            r2 = wp.min(b + 2, last) * layer_rows + i
-            r3 = wp.min(b + 3, last) * layer_rows + i
-            k0 = owner[r0, j]
-            k1 = owner[r1, j]
-            k2 = owner[r2, j]
-            k3 = owner[r3, j]
-            r = claim_at(owner, depth, b, r0, j, i, comp, k0)
-            if r < 0 and b + 1 < layers:
-                r = claim_at(owner, depth, b + 1, r1, j, i, comp, k1)
-            if r < 0 and b + 2 < layers:
-                r = claim_at(owner, depth, b + 2, r2, j, i, comp, k2)
-            if r < 0 and b + 3 < layers:
-                r = claim_at(owner, depth, b + 3, r3, j, i, comp, k3)
-            if r >= 0:
-                return r
-        return -1
-
-    @wp.func
-    def find_at(r: int, comp: int, k: int):
-        # r if comp owns it, −1 if the copy is free (comp has none: the used copies are a prefix),
-        # −2 if another component owns it (look further)
-        if k == comp:
-            return r
-        if k < 0:
+        @wp.func
+        def claim_row(owner: wp.array2d(dtype=wp.int32), depth: wp.array2d(dtype=wp.int32), i: int, j: int,
+                      comp: int, layer_rows: int, layers: int):
+            for s in range(layers):
+                r = s * layer_rows + i
+                k = owner[r, j]
+                if k == comp:
+                    return r
+                if k < 0:
+                    old = wp.atomic_cas(owner, r, j, -1, comp)
+                    if old == -1:
+                        run = j // COPY_RUN
+                        if depth[i, run] <= s:  # (most claims are within the run's depth already)
+                            wp.atomic_max(depth, i, run, s + 1)
+                        return r
+                    if old == comp:
+                        return r
             return -1
-        return -2
+
+        return claim_row
 
     @wp.func
     def find_row(owner: wp.array2d(dtype=wp.int32), i: int, j: int, comp: int, layer_rows: int, layers: int):
-        last = layers - 1
-        for b in range(0, layers, 4):
-            r0 = b * layer_rows + i
-            r1 = wp.min(b + 1, last) * layer_rows + i
-            r2 = wp.min(b + 2, last) * layer_rows + i
-            r3 = wp.min(b + 3, last) * layer_rows + i
-            k0 = owner[r0, j]
-            k1 = owner[r1, j]
-            k2 = owner[r2, j]
-            k3 = owner[r3, j]
-            r = find_at(r0, comp, k0)
-            if r == -2 and b + 1 < layers:
-                r = find_at(r1, comp, k1)
-            if r == -2 and b + 2 < layers:
-                r = find_at(r2, comp, k2)
-            if r == -2 and b + 3 < layers:
-                r = find_at(r3, comp, k3)
-            if r != -2:
+        for s in range(layers):
+            r = s * layer_rows + i
+            k = owner[r, j]
+            if k == comp:
                 return r
+            if k < 0:
+                return -1
         return -1
 
-    if insert:
-        return claim_row
     return find_row
 
 
@@ -327,9 +280,10 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     """(check, prepare, link, label) kernels of the interaction graph (see the module docstring).
 
     Launch each with dim = number of points and inputs ``[P, G, D, materials, S, status, clock]``:
-    ``check``, ``judge`` (``make_rebuild_decision``), ``reset_copies``, then the other three, which
-    run only when ``judge`` asked for a rebuild (``check`` is None for deforming domains, which
-    rebuild every step and have no ``judge``). S is an ``Interaction``
+    at the start of a step ``reset_copies``, ``prepare``, ``link``, ``label``, which run only when
+    the previous step's ``judge`` (``make_rebuild_decision``) asked for a rebuild; ``check`` after
+    the step's last G2P, then ``judge`` as the step's last kernel (``check`` is None for deforming
+    domains, which rebuild every step and have no ``judge``). S is an ``Interaction``
     (``make_interaction_struct``): cells of ``S.bins`` are indexed like ``Grid.mass`` (column-major
     over the node lattice of one layer); ``S.ext_max`` holds for shapes outside DEFORMING_DOMAINS a
     constant set by the host in slot 0, else ``reset_copies`` zeroes it and ``prepare`` fills it.
@@ -552,15 +506,8 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             continuum_p = box_p[2] < T(0.0)
         wx = W
         wy = W
-        near = False
         if not continuum_p:
             wx, wy, slack = search_window(ep[0], ep[1], S, D)
-            if wp.static(shape == "linear" and not deforming):
-                # tent: if the half-extents of p and of the largest domain add up to less than a
-                # cell, two overlapping domains have centres less than a cell apart, hence cells
-                # at most one apart, whose stencils share a node: the pre-task needs no check
-                # (0.999 leaves room for the rounding of the sums)
-                near = (ep[0] * D.inv_h + T(S.ext_max[0]) < T(0.999)) and (ep[1] * D.inv_h + T(S.ext_max[1]) < T(0.999))
         margin_p = T(1.0e30)
         root = p  # an ancestor of p in the union-find forest: saves walking up from p on each merge
         # half the neighbourhood: cells after this one (column-major), and in this cell the points
@@ -603,11 +550,8 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                             margin_p = wp.min(margin_p, wp.abs(wp.min(sx, sy)))
                             joined = sx > T(0.0) and sy > T(0.0)
                         if joined:
-                            shares = True
-                            if not near or box_q[2] < T(0.0):
-                                rq = S.reach[q]
-                                shares = rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]
-                            if shares:
+                            rq = S.reach[q]
+                            if rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]:
                                 root = unite(S.parent, root, q)
         if wp.static(not deforming):
             slot = p % EXT_SLOTS
@@ -642,10 +586,10 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     @kernel(max_unroll=WINDOW)
     def check(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
               status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
-        # whether this step needs a rebuild (see the module docstring): a new node range rebuilds;
-        # the moves since the last rebuild, absolute and relative to the cell's reference point,
-        # go to S.motion for ``judge``
-        if S.flags[FLAG_FORCED] != 0 or S.flags[FLAG_RANGE] != 0:
+        # after the step's last G2P: whether the next step needs a rebuild (see the module
+        # docstring): a new node range rebuilds; the moves since the last rebuild, absolute and
+        # relative to the cell's reference point, go to S.motion for ``judge``
+        if S.flags[FLAG_RANGE] != 0:
             return  # a rebuild anyway
         p = wp.tid()
         released = True
@@ -661,7 +605,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         else:
             reach = wp.vec4i(0, -1, 0, -1)
             if wp.static(staged):
-                released = clock[0] >= P.release[p]
+                released = clock[0] + clock[1] >= P.release[p]  # (at the next step's time)
             if released:
                 reach = node_reach(P, D, p)
             old = S.reach[p]
@@ -702,16 +646,18 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
 
 @functools.cache
 def make_rebuild_decision(precision: str):
-    """Kernel ``judge(S)``, one thread, after ``check`` (non-deforming domains; deforming ones rebuild
-    every step): this step rebuilds the interaction graph if the host asked for it, if ``check``
-    found a changed node range, or unless one of the two bounds on the change of the pairs' offsets
-    is below the margin of the last rebuild (module docstring). It then clears what ``check``
-    gathers, for the next step."""
+    """Kernel ``judge(S, clock, steps)``, one thread, the last of a step, after ``check``
+    (non-deforming domains; deforming ones rebuild every step): the next step rebuilds the
+    interaction graph if ``check`` found a changed node range, or unless one of the two bounds on
+    the change of the pairs' offsets is below the margin of the last rebuild (module docstring). It
+    clears what ``check`` gathers, and advances the clock (``reductions.advance``): one launch for
+    both, on the critical path of every step."""
     Interaction = make_interaction_struct(precision)
     T = scalar_types(precision).scalar
 
     @kernel(max_unroll=3 * EXT_SLOTS)
-    def judge(S: Interaction):
+    def judge(S: Interaction, clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
+        advance(clock, steps)
         # keep the labels if either bound on the change of every pair's offset is below the margin,
         # with the round-off of the displacements (2 or 4) and of the margin
         absolute = int(0)
@@ -729,11 +675,10 @@ def make_rebuild_decision(precision: str):
         margin = T(least) * q
         keep_absolute = T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < margin
         keep_relative = (T(2.0) * T(relative) + T(cells)) * q + T(7.0) * S.roundoff < margin
-        rebuild = S.flags[FLAG_FORCED] != 0 or S.flags[FLAG_RANGE] != 0 or not (keep_absolute or keep_relative)
+        rebuild = S.flags[FLAG_RANGE] != 0 or not (keep_absolute or keep_relative)
         S.flags[FLAG_REBUILD] = 0
         if rebuild:
             S.flags[FLAG_REBUILD] = 1
-        S.flags[FLAG_FORCED] = 0
         S.flags[FLAG_RANGE] = 0
         for k in range(3 * EXT_SLOTS):
             S.motion[k] = 0

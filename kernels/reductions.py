@@ -134,13 +134,19 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
     clock[1] = dt
 
 
-@kernel
-def advance_time(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
-    """t += dt; count steps taken."""
+@wp.func
+def advance(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
+    """t += dt; count steps taken (the end of a step)."""
     dt = clock[1]
     if dt > wp.float64(0.0):
         clock[0] = clock[0] + dt
         steps[0] = steps[0] + wp.int64(1)
+
+
+@kernel
+def advance_time(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
+    """t += dt; count steps taken."""
+    advance(clock, steps)
 
 
 @functools.cache

@@ -212,7 +212,7 @@ class MPMSolver:
             S.cell_ref = wp.full(cells, -1, dtype=wp.int32, device=dev)
             S.ref = wp.zeros(1 if deforming else n, dtype=wp.int32, device=dev)
             flags = np.zeros(kgran.FLAG_SLOTS, np.int32)
-            flags[kgran.FLAG_FORCED] = 1
+            flags[kgran.FLAG_REBUILD] = 1  # the first step builds the graph
             S.flags = wp.array(flags, dtype=wp.int32, device=dev)
             # round-off of one displacement, offset or margin: every one is a difference of two
             # nearby coordinates (exact when they are within a factor 2 of each other, Sterbenz;
@@ -312,6 +312,7 @@ class MPMSolver:
 
         self.fused = c.update == "USL" and s.flip_fraction == 0.0 and not s.xpic and c.damping == 0.0
         seq: list = []
+        self._judge = None  # granular mode, non-deforming domains: the rebuild decision (end_step)
         if c.granular:
             # Granular MPM tasks 1-2: interaction graph and components; the copies of each node
             # are claimed in the P2G below (kernels/granular.py)
@@ -324,10 +325,11 @@ class MPMSolver:
                                [G, D, S.ext_max, S.slack, S.cell_ref, S.flags])]
             rebuild += [_Launch(k, n, gin) for k in build]
             if check is not None:
-                seq += [_Launch(check, n, gin), _Launch(kgran.make_rebuild_decision(prec), 1, [S])]
-                # the rebuild runs only when judge asks for it: inside a CUDA graph a conditional
-                # node skips its launches; elsewhere each kernel reads the flag and returns at once
+                # the rebuild runs only when the previous step's judge (end_step) asked for it: inside
+                # a CUDA graph a conditional node skips its launches; elsewhere each kernel reads the
+                # flag and returns at once. ``check`` goes after the step's last G2P (below).
                 seq += [("if", S.flags[kgran.FLAG_REBUILD:], rebuild)]
+                self._judge = kgran.make_rebuild_decision(prec)
             else:
                 seq += rebuild
         if c.update == "USL":
@@ -364,6 +366,9 @@ class MPMSolver:
                        if isinstance(item, _Launch) and id(item.kernel) in self._grid_kernels)
             item = seq[last]
             seq[last] = _Launch(self._grid_kernels[id(item.kernel)](clear=True), item.dim, item.inputs)
+            if self._judge is not None:
+                # the positions the next step starts from are final: whether it may keep the labels
+                seq += [_Launch(check, n, gin)]
         self._sequence = seq
         self._diagnostics = kred.make_diagnostics(prec, self.material_kinds, staged=self.staged)
         # speeds of the initial state, for the first step's dt (later steps: inside G2P)
@@ -452,7 +457,7 @@ class MPMSolver:
                 elif item[0] == "if":
                     yield from walk(item[2])
 
-        return list(walk(self._sequence))
+        return list(walk(self._sequence)) + ([self._judge] if self._judge is not None else [])
 
     def _run(self, sequence: list) -> None:
         dev = self.device
@@ -475,8 +480,12 @@ class MPMSolver:
                 wp.launch(item.kernel, item.dim, inputs=item.inputs, device=dev)
 
     def end_step(self) -> None:
-        """t += dt on the device clock."""
-        wp.launch(kred.advance_time, 1, inputs=[self.clock, self.steps], device=self.device)
+        """t += dt on the device clock (in granular mode with it, whether the next step rebuilds the
+        interaction graph: one launch)."""
+        if self._judge is not None:
+            wp.launch(self._judge, 1, inputs=[self.interaction, self.clock, self.steps], device=self.device)
+        else:
+            wp.launch(kred.advance_time, 1, inputs=[self.clock, self.steps], device=self.device)
 
     _POINT_FIELDS = ("x", "v", "C", "F", "stress", "szz", "mass", "vol", "vol0", "half0", "material", "strain_energy",
                      "pid")
@@ -515,7 +524,7 @@ class MPMSolver:
         reordered or overwritten from the host, e.g. a checkpoint); a no-op otherwise."""
         if self.config.granular:
             flag = wp.array([1], dtype=wp.int32, device="cpu")
-            wp.copy(self.interaction.flags, flag, dest_offset=kgran.FLAG_FORCED, count=1)
+            wp.copy(self.interaction.flags, flag, dest_offset=kgran.FLAG_REBUILD, count=1)
 
     def sort_points(self) -> None:
         """Reorder the points by grid cell (radix sort on the device); outputs keep the scene's order."""

@@ -188,8 +188,8 @@ def _reuse_against_rebuild(parts, shape: str, gravity: float, steps: int,
         np.testing.assert_array_equal(reuse.components(), rebuild.components())
         labels_seen.add(tuple(reuse.components()))
     np.testing.assert_array_equal(reuse.fields()["x"], rebuild.fields()["x"])
-    assert rebuild.interaction.flags.numpy()[2] == steps
-    return int(reuse.interaction.flags.numpy()[2]), len(labels_seen)
+    assert rebuild.interaction.flags.numpy()[kgran.FLAG_COUNT] == steps
+    return int(reuse.interaction.flags.numpy()[kgran.FLAG_COUNT]), len(labels_seen)
 
 
 @pytest.mark.parametrize("shape", ["linear", "ugimp"])
