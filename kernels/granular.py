@@ -477,32 +477,6 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         else:
             wp.atomic_add(status, STATUS_BIN_OVERFLOW, 1)
 
-    @wp.func
-    def visit(S: Interaction, p: int, q: int, box_q: t.vec4, same: bool, xp: t.vec2, ep: t.vec2, rp: wp.vec4i,
-              continuum_p: bool, margin_p: T, root: int):
-        # the pair (p, q) of axis-aligned domains, q's record box_q: the record alone decides task 1,
-        # the node ranges (the pre-task) are read only for pairs that pass it or a continuum;
-        # returns p's margin and union-find ancestor
-        if same and q <= p:
-            return margin_p, root  # (met from q's side)
-        joined = False
-        margin = margin_p
-        if continuum_p or box_q[2] < T(0.0):
-            joined = True  # continua interact with every point they share a node with
-        else:
-            # the overlap test flips only once the offset d changes by more than |s| in max-norm,
-            # s = least (sum of half-extents − |d|); touching is apart
-            sx = ep[0] + box_q[2] - wp.abs(box_q[0] - xp[0])
-            sy = ep[1] + box_q[3] - wp.abs(box_q[1] - xp[1])
-            margin = wp.min(margin, wp.abs(wp.min(sx, sy)))
-            joined = sx > T(0.0) and sy > T(0.0)
-        ancestor = root
-        if joined:
-            rq = S.reach[q]
-            if rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]:
-                ancestor = unite(S.parent, root, q)
-        return margin, ancestor
-
     @kernel
     def link(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                 status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
@@ -546,11 +520,11 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                 cell = ix * rows + iy
                 same = ix == cx and iy == cy
                 count = wp.min(S.bins[cell, 0], CAP)
-                if wp.static(deforming):
-                    for s in range(count):
-                        q = S.bins[cell, 1 + s]
-                        if same and q <= p:
-                            continue
+                for s in range(count):
+                    q = S.bins[cell, 1 + s]
+                    if same and q <= p:
+                        continue
+                    if wp.static(deforming):
                         rq = S.reach[q]  # (an unreleased q is not in the bins)
                         # pre-task: a common node (the node ranges overlap in both directions)
                         if rq[0] > rp[1] or rp[0] > rq[1] or rq[2] > rp[3] or rp[2] > rq[3]:
@@ -561,27 +535,24 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                             continue
                         if overlap(xp, ap, bp, P.x[q], S.dom_a[q], S.dom_b[q]):
                             root = unite(S.parent, root, q)
-                else:
-                    # four candidates at a time: their bin entries, then their records, are loaded
-                    # together rather than one candidate after another (entries past the count
-                    # are clamped to the last one and loaded, not visited)
-                    last = count - 1
-                    for s in range(0, count, 4):
-                        q0 = S.bins[cell, 1 + s]
-                        q1 = S.bins[cell, 1 + wp.min(s + 1, last)]
-                        q2 = S.bins[cell, 1 + wp.min(s + 2, last)]
-                        q3 = S.bins[cell, 1 + wp.min(s + 3, last)]
-                        b0 = S.box[q0]
-                        b1 = S.box[q1]
-                        b2 = S.box[q2]
-                        b3 = S.box[q3]
-                        margin_p, root = visit(S, p, q0, b0, same, xp, ep, rp, continuum_p, margin_p, root)
-                        if s + 1 < count:
-                            margin_p, root = visit(S, p, q1, b1, same, xp, ep, rp, continuum_p, margin_p, root)
-                        if s + 2 < count:
-                            margin_p, root = visit(S, p, q2, b2, same, xp, ep, rp, continuum_p, margin_p, root)
-                        if s + 3 < count:
-                            margin_p, root = visit(S, p, q3, b3, same, xp, ep, rp, continuum_p, margin_p, root)
+                    else:
+                        # axis-aligned domains: the record of q alone decides task 1, the node
+                        # ranges (the pre-task) are read only for pairs that pass it or a continuum
+                        box_q = S.box[q]
+                        joined = False
+                        if continuum_p or box_q[2] < T(0.0):
+                            joined = True  # continua interact with every point they share a node with
+                        else:
+                            # the overlap test flips only once the offset d changes by more than
+                            # |s| in max-norm, s = least (sum of half-extents − |d|); touching is apart
+                            sx = ep[0] + box_q[2] - wp.abs(box_q[0] - xp[0])
+                            sy = ep[1] + box_q[3] - wp.abs(box_q[1] - xp[1])
+                            margin_p = wp.min(margin_p, wp.abs(wp.min(sx, sy)))
+                            joined = sx > T(0.0) and sy > T(0.0)
+                        if joined:
+                            rq = S.reach[q]
+                            if rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]:
+                                root = unite(S.parent, root, q)
         if wp.static(not deforming):
             slot = p % EXT_SLOTS
             q = quanta(margin_p, S, False)
