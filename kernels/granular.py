@@ -31,7 +31,11 @@ Reuse of the labels (a Verlet-style skip, exact): the graph depends on each poin
 At a rebuild every point records its position and its node range, each cell one of its points
 as reference, and the search records the margin M: the smallest change of a pair's offset
 (max-norm) that would flip any overlap test it made, or let a pair the cell window pruned overlap
-(``S.slack``, a global minimum: the rebuild decision is global anyway). A step then rebuilds only
+(``S.slack``, a global minimum: the rebuild decision is global anyway). Tests that were within a
+small band of flipping (``S.band``) are left out of M: their pairs are listed (``S.critical``) and
+tested anew at every step, a flip rebuilds, so one pair at the threshold (a dense packing that
+dilates: the paper's ρ_cr lets neighbours overlap by only 0.17 % of a cell) does not make every
+step rebuild while it crosses. A step then rebuilds only
 when some point's node range changed, or when neither bound on how much any pair's offset d_pq
 changed since is below M (less a round-off allowance): 2 max|Δx_p| (absolute moves), or
 2 max|Δx_p − Δx_ref(p)| + max|Δx_ref(c) − Δx_ref(c')| over cells c, c' within the search reach
@@ -62,6 +66,7 @@ __all__ = [
     "MOVE_CELLS",
     "MOVE_RELATIVE",
     "FLAG_RANGE",
+    "FLAG_CRITICAL",
     "FLAG_REBUILD",
     "FLAG_SLOTS",
     "NO_MARGIN",
@@ -103,7 +108,8 @@ MOVE_CELLS = 2
 FLAG_REBUILD = 0
 FLAG_COUNT = 1
 FLAG_RANGE = 2
-FLAG_SLOTS = 3
+FLAG_CRITICAL = 3  # pairs the last rebuild listed in ``Interaction.critical`` (may exceed its size)
+FLAG_SLOTS = 4
 #: A margin that nothing limits (no pair, no pruned window), in quanta (``Interaction.quantum``):
 #: margins are reduced as integers, whose atomic minimum is native (a float one is a CAS loop, slow
 #: when a million threads meet on a few slots).
@@ -251,6 +257,9 @@ def make_interaction_struct(precision: str):
     reduced in slots; flags (FLAG_SLOTS,) int32; motion (3 EXT_SLOTS,) int32 (``MOVE_*``);
     cell_ref (cells,) int32: each cell's reference point at the last rebuild, −1 for none; ref (N,)
     int32: the reference point of each point's cell at the last rebuild (non-deforming domains);
+    critical (capacity,) vec2i: the pairs (p, q) of the last rebuild's overlap tests that were
+    within ``band`` [m] of flipping, p stored as −p − 1 if they were apart (``FLAG_CRITICAL`` counts
+    them; those past the capacity count in ``slack`` instead);
     quantum: the unit of ``slack`` and ``motion`` [m]; roundoff: the round-off allowance [m] of one
     displacement or margin."""
     t = scalar_types(precision)
@@ -268,6 +277,8 @@ def make_interaction_struct(precision: str):
         motion: wp.array(dtype=wp.int32)
         cell_ref: wp.array(dtype=wp.int32)
         ref: wp.array(dtype=wp.int32)
+        critical: wp.array(dtype=wp.vec2i)
+        band: t.scalar
         quantum: t.scalar
         flags: wp.array(dtype=wp.int32)
         roundoff: t.scalar
@@ -547,8 +558,19 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                             # |s| in max-norm, s = least (sum of half-extents − |d|); touching is apart
                             sx = ep[0] + box_q[2] - wp.abs(box_q[0] - xp[0])
                             sy = ep[1] + box_q[3] - wp.abs(box_q[1] - xp[1])
-                            margin_p = wp.min(margin_p, wp.abs(wp.min(sx, sy)))
                             joined = sx > T(0.0) and sy > T(0.0)
+                            near = wp.abs(wp.min(sx, sy))
+                            if near < S.band:
+                                # about to flip: listed, and tested anew at every step's check, so
+                                # it does not shrink the margin of all the others
+                                k = wp.atomic_add(S.flags, FLAG_CRITICAL, 1)
+                                if k < S.critical.shape[0]:
+                                    a = p
+                                    if not joined:
+                                        a = -p - 1
+                                    S.critical[k] = wp.vec2i(a, q)
+                                    near = T(1.0e30)
+                            margin_p = wp.min(margin_p, near)
                         if joined:
                             rq = S.reach[q]
                             if rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]:
@@ -592,6 +614,24 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         if S.flags[FLAG_RANGE] != 0:
             return  # a rebuild anyway
         p = wp.tid()
+        if p < wp.min(S.flags[FLAG_CRITICAL], S.critical.shape[0]):
+            # a pair the last rebuild found within ``band`` of flipping: its overlap test again, as
+            # a rebuild would make it now (the same operands, from the same side: a point that
+            # changed cells triggers a rebuild anyway); a flip rebuilds
+            pair = S.critical[p]
+            first = pair[0]
+            joined_then = first >= 0
+            if first < 0:
+                first = -first - 1
+            ba = S.box[first]
+            bb = S.box[pair[1]]
+            xa = P.x[first]
+            xb = P.x[pair[1]]
+            sx = ba[2] + bb[2] - wp.abs(xb[0] - xa[0])
+            sy = ba[3] + bb[3] - wp.abs(xb[1] - xa[1])
+            if (sx > T(0.0) and sy > T(0.0)) != joined_then:
+                S.flags[FLAG_RANGE] = 1
+                return
         released = True
         if wp.static(tent_cells):
             # the tent's node range starts at the point's cell, floor((x − origin)/h) (the stencil's
@@ -711,6 +751,8 @@ def make_reset_copies(precision: str, deforming: bool):
         else:
             if k < EXT_SLOTS:
                 slack[k] = NO_MARGIN
+            if k == 0:
+                flags[FLAG_CRITICAL] = 0
             cell_ref[k] = -1
         for s in range(G.depth[i, j // COPY_RUN]):  # (whole runs: stores that cover whole sectors)
             G.owner[s * D.layer_rows + i, j] = -1

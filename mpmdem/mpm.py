@@ -31,6 +31,11 @@ __all__ = ["GHOST_NODES", "MPMSolver", "device_order", "initial_dt_bound"]
 _STATE_FIELDS = ("x", "v", "C", "F", "stress", "szz", "vol", "strain_energy", "mass", "vol0", "half0", "material",
                  "pid")
 
+#: Granular mode: overlap tests closer than this many cells to flipping are listed and re-tested
+#: at every step instead of setting the margin of the label reuse (below the 1.7e-3 cells by which
+#: the paper's ρ_cr makes neighbouring domains of a dense packing overlap).
+CRITICAL_BAND = 2.0**-11
+
 #: Ghost node layers around the domain, enough for the widest stencil (4 nodes) of a point that
 #: sits on, or slightly beyond, the domain boundary.
 GHOST_NODES = 3
@@ -211,6 +216,10 @@ class MPMSolver:
             S.motion = wp.zeros(3 * kgran.EXT_SLOTS, dtype=wp.int32, device=dev)
             S.cell_ref = wp.full(cells, -1, dtype=wp.int32, device=dev)
             S.ref = wp.zeros(1 if deforming else n, dtype=wp.int32, device=dev)
+            # pairs within band of flipping are listed and re-tested every step rather than let them
+            # set the margin of all (kernels/granular.py): a few near the threshold at any time
+            S.critical = wp.zeros(1 if deforming else max(1024, n // 8), dtype=wp.vec2i, device=dev)
+            S.band = t.scalar(self.scene.cell_size * CRITICAL_BAND)
             flags = np.zeros(kgran.FLAG_SLOTS, np.int32)
             flags[kgran.FLAG_REBUILD] = 1  # the first step builds the graph
             S.flags = wp.array(flags, dtype=wp.int32, device=dev)

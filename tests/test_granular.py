@@ -14,6 +14,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from mpmdem import BlowUpError, InputError, LinearElastic, MohrCoulomb, Scene, Simulation, SolverConfig, rectangle
+from mpmdem.mpm import CRITICAL_BAND
 
 H = 0.01  # m
 
@@ -229,6 +230,24 @@ def test_reused_labels_see_continua_meet_through_a_node():
     rebuilds, labellings = _reuse_against_rebuild(parts, "linear", 0.0, 60, critical_density=None)
     assert labellings == 2  # apart, then one
     assert rebuilds <= 4  # the first step and the steps whose points crossed a cell line
+
+
+def test_reused_labels_see_a_pair_at_the_threshold_meet():
+    """Two grains whose domains of interaction are 1 µm apart, a fifth of the band within which an
+    overlap test counts as about to flip (mpm.CRITICAL_BAND of a cell), drift together at 1 cm/s,
+    inside one cell. Their pair is listed and re-tested at every step, so the margin of the label
+    reuse stays open (nothing else limits it) and the labels are kept until the pair meets, 5 steps
+    in; the run that reuses its labels must merge them at the same step as the one that rebuilds
+    every step. (Without the re-test nothing would notice.)"""
+    gap = 1.0e-6  # m
+    assert gap < 0.5 * H * CRITICAL_BAND
+    reach = 0.5 * H * math.sqrt(1500.0 / 1400.0)  # sum of the two half-extents: V_cr = m / ρ_cr
+    a = np.array([[0.1025, 0.1025]])
+    b = a + np.array([reach + gap, 0.0])
+    parts = [(a, (0.005, 0.0)), (b, (-0.005, 0.0))]
+    rebuilds, labellings = _reuse_against_rebuild(parts, "linear", 0.0, 12)
+    assert labellings == 2  # two components, then one
+    assert rebuilds == 2  # the first step, and the step after the pair met
 
 
 def test_layer_overflow_stops_with_a_message():
