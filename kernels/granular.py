@@ -136,17 +136,17 @@ def make_layer_row(insert: bool):
     first free copy (compare-and-swap) when the component has none there, raising the depth of the
     node's run (``Grid.depth``, ``COPY_RUN``) to cover it.
     """
-    if insert:
 
-        @wp.func
-        def claim_row(owner: wp.array2d(dtype=wp.int32), depth: wp.array2d(dtype=wp.int32), i: int, j: int,
-                      comp: int, layer_rows: int, layers: int):
-            for s in range(layers):
-                r = s * layer_rows + i
-                k = owner[r, j]
-                if k == comp:
-                    return r
-                if k < 0:
+    @wp.func
+    def scan(owner: wp.array2d(dtype=wp.int32), depth: wp.array2d(dtype=wp.int32), i: int, j: int, comp: int,
+             layer_rows: int, layers: int):
+        for s in range(layers):
+            r = s * layer_rows + i
+            k = owner[r, j]
+            if k == comp:
+                return r
+            if k < 0:
+                if wp.static(insert):
                     old = wp.atomic_cas(owner, r, j, -1, comp)
                     if old == -1:
                         run = j // COPY_RUN
@@ -155,20 +155,16 @@ def make_layer_row(insert: bool):
                         return r
                     if old == comp:
                         return r
-            return -1
+                else:
+                    return -1  # (the copies in use are a prefix)
+        return -1
 
-        return claim_row
+    if insert:
+        return scan
 
     @wp.func
     def find_row(owner: wp.array2d(dtype=wp.int32), i: int, j: int, comp: int, layer_rows: int, layers: int):
-        for s in range(layers):
-            r = s * layer_rows + i
-            k = owner[r, j]
-            if k == comp:
-                return r
-            if k < 0:
-                return -1
-        return -1
+        return scan(owner, owner, i, j, comp, layer_rows, layers)  # (a lookup touches no depth)
 
     return find_row
 
