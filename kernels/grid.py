@@ -255,7 +255,7 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         if wp.static(layered):
             # launched over one layer: the copies in use at a node are a prefix (claimed first-fit);
             # every node of a run goes as deep as the busiest one (COPY_RUN), so that the clearing
-            # stores cover whole sectors (copies not in use have no mass and are written zero)
+            # stores cover whole sectors (copies not in use have no mass and are written zero).
             # Four copies at a time: their loads leave together, where one copy after another would
             # wait for each (its loads may not pass the stores of the copy before, which for all the
             # compiler knows could alias them); rows past the depth are clamped to the last one and
