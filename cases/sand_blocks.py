@@ -173,7 +173,7 @@ def build(args) -> CaseSetup:
     # contact holds each at r_p from the face while the grid keeps bringing more, with det F ≈ 1):
     # more than 16 in one cell at t = 0.28 s, the default of both searches; 64 keeps the run going.
     return CaseSetup(scene, end_time=end, frames=round(end / 0.01),
-                     config={"imp_skin": VERLET, "granular_cell_capacity": 64, "imp_cell_capacity": 64})
+                     config={"imp_skin": VERLET, "imp_cell_capacity": 64})
 
 
 def first_time(times: np.ndarray, flags: np.ndarray) -> float | None:

@@ -38,8 +38,7 @@
 #   first. cpdi1 (the paper's Granular CPDI of Fig. 16) also runs cleanly (--shape cpdi1 --update
 #   USL). Other transfers, tried on 150 points: PIC gathered 42 points into one cell by t = 5.4 s
 #   (the run stopped); pure FLIP kept points moving at 1.3 m/s in the deposit and made the floor
-#   load noisy (even negative at the last frame). granular_cell_capacity is raised to 32 points per
-#   cell (default 16) so that a locally dense pack of flattened points does not stop the run.
+#   load noisy (even negative at the last frame).
 #
 # What it gives (full run, 504 points, CPU, ≈ 4 min): the mass is exact at every frame, the deposit
 # is at rest (0-0.2 m/s, the paper's Granular range being 0-1 m/s) and every point sits at or just
@@ -62,7 +61,7 @@ from mpmdem.runner import CaseSetup
 NAME = "silo-filling"
 DESCRIPTION = "a flat-bottom silo filled from the top, 3 points every 0.17 s (stress-free vs Granular MPM)"
 DEFAULTS = {"granular": True, "shape": "linear", "transfer": "APIC", "update": "MUSL", "precision": "f64",
-            "dt": 5.0e-5, "granular_cell_capacity": 32}
+            "dt": 5.0e-5}
 
 GRAVITY = 9.81  # m/s²
 # "Granular MPM" Table 4

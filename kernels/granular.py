@@ -7,17 +7,20 @@ the rebuild kernels sit in a conditional graph node and are not launched at all)
 1. ``prepare``: each point computes its domain of interaction (its domain scaled to the
    critical volume V_cr = m / ρ_cr, §3.3 and Fig. 4) as a parallelogram (centre, half-vectors
    a, b), the range of grid nodes its shape function reaches, resets its union–find parent, and
-   drops itself into the bin of its grid cell (fixed capacity, counted overflow). For the shapes
-   whose domains stay axis-aligned rectangles it keeps one 16-byte record instead (position and
-   half-extents, ``Interaction.box``), so the search reads one record per candidate.
-2. ``link``: each point visits the bins around its cell. A pair interacts when the two points
+   counts itself into its grid cell (its rank there from the atomic add). For the shapes whose
+   domains stay axis-aligned rectangles it keeps one 16-byte record instead (position and
+   half-extents, ``Interaction.box``), so the search reads one record per candidate. The cell
+   counts are summed (``kernels.scan``) and ``place`` puts every point at its cell's start plus
+   its rank in a cell-sorted list (``Interaction.order``, with the records beside it): the points
+   of a column of cells are then one contiguous run, whatever their number (no bin capacity).
+2. ``link``: each point visits the runs of the columns of cells around its own. A pair interacts when the two points
    send data to a common node (the appendix's pre-task, from the node ranges) and their domains
    of interaction overlap (task 1, separating-axis test; for axis-aligned rectangles the two
    half-extent sums, and the node ranges are read only for pairs that overlap). Interacting pairs are merged in a
    lock-free union–find (compare-and-swap, the larger root is hooked under the smaller), so the
    interaction graph is never stored and the search is cell-binned, not O(N²).
 3. ``label``: every point takes its root, the smallest point index of its component, as label
-   (independent of thread order, so runs are reproducible), and roots count the components.
+   (independent of thread order, so runs are reproducible), and zeroes its cell's count.
 4. Task 2–3: instead of one grid per component, each grid node holds ``layers`` copies. In the
    first P2G of the step a point claims, at every node it reaches, the first copy that is free
    or already its component's (compare-and-swap on ``Grid.owner``); later kernels look the copy
@@ -54,6 +57,7 @@ import functools
 import warp as wp
 
 from .reductions import advance
+from .scan import prefix_sum
 from .shape_functions import SUPPORT_NODES
 from .state import make_state_structs
 from .types import kernel, scalar_types
@@ -72,7 +76,6 @@ __all__ = [
     "NO_MARGIN",
     "STAT_COMPONENTS",
     "STAT_LAYERS",
-    "STATUS_BIN_OVERFLOW",
     "STATUS_LAYER_OVERFLOW",
     "COPY_RUN",
     "domains_overlap",
@@ -83,11 +86,12 @@ __all__ = [
     "make_interaction_struct",
     "make_reset_copies",
     "make_layer_row",
+    "make_node_ranges",
+    "make_node_reach",
 ]
 
 #: Status counters (after the two of ``reductions``).
 STATUS_LAYER_OVERFLOW = 2
-STATUS_BIN_OVERFLOW = 3
 
 #: Shapes whose domain of interaction follows F; for the others it is fixed from the start, and
 #: its largest extent is computed once on the host (``static_extent``).
@@ -242,14 +246,18 @@ def make_domain_of_interaction(shape: str, precision: str):
 
 @functools.cache
 def make_interaction_struct(precision: str):
-    """The arrays of the interaction graph, bundled for the kernels: bins (cells × (1 + capacity))
-    int32, a count then the points of each cell; parent (N,) int32 union–find links; dom_a, dom_b
+    """The arrays of the interaction graph, bundled for the kernels: count (≥ cells + 1, whole scan
+    tiles) int32 points per cell at this rebuild (zero between rebuilds); prefix1, prefix2, prefix3
+    its three-level exclusive prefix sums (``kernels.scan``): the start of each cell's run in order;
+    rank (N,) int32 each point's place among its cell's points; order (N,) int32 the points by cell
+    (column-major cells, like the grid); records (N,) vec4 (non-deforming domains; one entry else)
+    the ``box`` record of order[k] at k; parent (N,) int32 union–find links; dom_a, dom_b
     (N,) vec2 half-vectors of the domains of interaction [m] (deforming domains; one entry else);
     box (N,) vec4 (non-deforming domains; one entry else): the position at the last rebuild [m] and
     the half-extents of the axis-aligned domain of interaction [m], −1 for a continuum point, read
-    by the search as one 16-byte record; reach (N,) vec4i node range (x0, x1, y0, y1); ext_max
-    (2 EXT_SLOTS,) float32 largest half-extent [cells], x and y; slack (EXT_SLOTS,) int32: the
-    margin of the last rebuild's pair tests and pruned windows in whole quanta (rounded down),
+    by the search as one 16-byte record; reach (N,) vec4i node range (x0, x1, y0, y1) (one entry
+    for the tent outside staged scenes, whose range follows from its cell); ext_max (2 EXT_SLOTS,)
+    float32 largest half-extent [cells], x and y; slack (EXT_SLOTS,) int32: the margin of the last rebuild's pair tests and pruned windows in whole quanta (rounded down),
     reduced in slots; flags (FLAG_SLOTS,) int32; motion (3 EXT_SLOTS,) int32 (``MOVE_*``);
     cell_ref (cells,) int32: each cell's reference point at the last rebuild, −1 for none; ref (N,)
     int32: the reference point of each point's cell at the last rebuild (non-deforming domains);
@@ -262,7 +270,13 @@ def make_interaction_struct(precision: str):
 
     @wp.struct
     class Interaction:
-        bins: wp.array2d(dtype=wp.int32)
+        count: wp.array(dtype=wp.int32)
+        prefix1: wp.array(dtype=wp.int32)
+        prefix2: wp.array(dtype=wp.int32)
+        prefix3: wp.array(dtype=wp.int32)
+        rank: wp.array(dtype=wp.int32)
+        order: wp.array(dtype=wp.int32)
+        records: wp.array(dtype=t.vec4)
         parent: wp.array(dtype=wp.int32)
         dom_a: wp.array(dtype=t.vec2)
         dom_b: wp.array(dtype=t.vec2)
@@ -283,32 +297,71 @@ def make_interaction_struct(precision: str):
 
 
 @functools.cache
-def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged: bool = False):
-    """(check, prepare, link, label) kernels of the interaction graph (see the module docstring).
-
-    Launch each with dim = number of points and inputs ``[P, G, D, materials, S, status, clock]``:
-    at the start of a step ``reset_copies``, ``prepare``, ``link``, ``label``, which run only when
-    the previous step's ``judge`` (``make_rebuild_decision``) asked for a rebuild; ``check`` after
-    the step's last G2P, then ``judge`` as the step's last kernel (``check`` is None for deforming
-    domains, which rebuild every step and have no ``judge``). S is an ``Interaction``
-    (``make_interaction_struct``): cells of ``S.bins`` are indexed like ``Grid.mass`` (column-major
-    over the node lattice of one layer); ``S.ext_max`` holds for shapes outside DEFORMING_DOMAINS a
-    constant set by the host in slot 0, else ``reset_copies`` zeroes it and ``prepare`` fills it.
-    ``bins`` starts zeroed and ``label`` empties the bins it used. staged: points not yet released (``P.release``
-    ahead of ``clock[0]``) stay single, unbinned components.
-    """
+def make_node_reach(shape: str, precision: str):
+    """``node_reach(P, D, p) -> vec4i``: the range (x0, x1, y0, y1) of grid nodes (indices of one
+    layer) that point p's stencil reaches, all corners for CPDI: what the pre-task compares."""
     from .transfer import CORNERS, make_stencil  # noqa: PLC0415 (transfer imports this module's helpers)
 
-    t = scalar_types(precision)
-    T = t.scalar
     K = SUPPORT_NODES[shape]
     NC = CORNERS.get(shape, 1)
     Particles, Grid, Domain = make_state_structs(precision)
-    Interaction = make_interaction_struct(precision)
     stencil = make_stencil(shape, precision)[0]
+
+    @wp.func
+    def node_reach(P: Particles, D: Domain, p: int):
+        x0 = int(1073741824)
+        y0 = int(1073741824)
+        x1 = int(-1073741824)
+        y1 = int(-1073741824)
+        for k in range(wp.static(NC)):
+            bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
+            x0 = wp.min(x0, bx)
+            y0 = wp.min(y0, by)
+            x1 = wp.max(x1, bx + K - 1)
+            y1 = wp.max(y1, by + K - 1)
+        return wp.vec4i(x0, x1, y0, y1)
+
+    return node_reach
+
+
+@functools.cache
+def make_node_ranges(shape: str, precision: str):
+    """Kernel ``node_ranges(P, D, out)`` over the points: each point's node range (``make_node_reach``)
+    into ``out`` (N,) vec4i, for the host (``MPMSolver.node_ranges``)."""
+    Particles, Grid, Domain = make_state_structs(precision)
+    node_reach = make_node_reach(shape, precision)
+
+    @kernel
+    def node_ranges(P: Particles, D: Domain, out: wp.array(dtype=wp.vec4i)):
+        p = wp.tid()
+        out[p] = node_reach(P, D, p)
+
+    return node_ranges
+
+
+@functools.cache
+def make_granular_kernels(shape: str, precision: str, staged: bool = False):
+    """(check, prepare, place, link, label) kernels of the interaction graph (module docstring).
+
+    Launch each with dim = number of points and inputs ``[P, G, D, materials, S, status, clock]``:
+    at the start of a step ``reset_copies``, ``prepare``, the three scans of ``S.count``
+    (``kernels.scan``), ``place``, ``link``, ``label``, which run only when the previous step's
+    ``judge`` (``make_rebuild_decision``) asked for a rebuild; ``check`` after the step's last G2P,
+    then ``judge`` as the step's last kernel (``check`` is None for deforming domains, which
+    rebuild every step and have no ``judge``). S is an ``Interaction``
+    (``make_interaction_struct``): cells of ``S.count`` are indexed like ``Grid.mass`` (column-major
+    over the node lattice of one layer); ``S.ext_max`` holds for shapes outside DEFORMING_DOMAINS a
+    constant set by the host in slot 0, else ``reset_copies`` zeroes it and ``prepare`` fills it.
+    ``count`` starts zeroed and ``label`` zeroes the counts it used. staged: points not yet released
+    (``P.release`` ahead of ``clock[0]``) stay single components, in no cell.
+    """
+    t = scalar_types(precision)
+    T = t.scalar
+    K = SUPPORT_NODES[shape]
+    Particles, Grid, Domain = make_state_structs(precision)
+    Interaction = make_interaction_struct(precision)
     domain = make_domain_of_interaction(shape, precision)
     overlap = _overlap(precision)
-    CAP = int(cell_capacity)
     # how many cells apart two points that share a node can be: the K nodes of a stencil start at
     # the point's own cell (the tent: floor(c)) or one of the two cells before it (the others), so
     # K − 1 or K; plus the spread of the four corner stencils of CPDI1 (domains up to about a cell
@@ -326,20 +379,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         cy = wp.clamp(int(wp.floor(c[1])), 0, rows - 1)
         return cx, cy
 
-    @wp.func
-    def node_reach(P: Particles, D: Domain, p: int):
-        # the node range (x0, x1, y0, y1) of point p's stencil (all corners for CPDI)
-        x0 = int(1073741824)
-        y0 = int(1073741824)
-        x1 = int(-1073741824)
-        y1 = int(-1073741824)
-        for k in range(wp.static(NC)):
-            bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
-            x0 = wp.min(x0, bx)
-            y0 = wp.min(y0, by)
-            x1 = wp.max(x1, bx + K - 1)
-            y1 = wp.max(y1, by + K - 1)
-        return wp.vec4i(x0, x1, y0, y1)
+    node_reach = make_node_reach(shape, precision)
 
     @wp.func
     def search_window(ext_x: T, ext_y: T, S: Interaction, D: Domain):
@@ -367,6 +407,11 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
     @wp.func
     def cell_of(P: Particles, D: Domain, p: int, rows: int):
         return cell_at(P.x[p], D, rows)
+
+    @wp.func
+    def start(S: Interaction, cell: int):
+        # where the cell's run begins in S.order (the next cell's: where it ends)
+        return prefix_sum(S.prefix1, S.prefix2, S.prefix3, cell)
 
     @wp.func
     def reduce_max(slots: wp.array(dtype=wp.int32), base: int, p: int, value: int):
@@ -474,15 +519,29 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                     wp.atomic_min(S.slack, slot, q)
             else:
                 S.box[p] = t.vec4(xp[0], xp[1], T(-1.0), T(-1.0))  # a continuum: interacts through its nodes
-        S.reach[p] = node_reach(P, D, p)
+        if wp.static(not tent_cells):
+            S.reach[p] = node_reach(P, D, p)  # (the tent's follows from its cell: not stored)
         rows = G.mass.shape[1]
         cx, cy = cell_of(P, D, p, rows)
-        cell = cx * rows + cy
-        slot = wp.atomic_add(S.bins, cell, 0, 1)
-        if slot < CAP:
-            S.bins[cell, 1 + slot] = p
-        else:
-            wp.atomic_add(status, STATUS_BIN_OVERFLOW, 1)
+        S.rank[p] = wp.atomic_add(S.count, cx * rows + cy, 1)
+
+    @kernel
+    def place(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
+              status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
+        # after the scan of the cell counts: each point to its cell's run in S.order (with its record)
+        if wp.static(not deforming):
+            if S.flags[FLAG_REBUILD] == 0:
+                return
+        p = wp.tid()
+        if wp.static(staged):
+            if clock[0] < P.release[p]:
+                return
+        rows = G.mass.shape[1]
+        cx, cy = cell_of(P, D, p, rows)
+        k = start(S, cx * rows + cy) + S.rank[p]
+        S.order[k] = p
+        if wp.static(not deforming):
+            S.records[k] = S.box[p]
 
     @kernel
     def link(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
@@ -496,7 +555,9 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
                 return
         rows = G.mass.shape[1]
         cx, cy = cell_of(P, D, p, rows)
-        rp = S.reach[p]
+        rp = wp.vec4i()
+        if wp.static(not tent_cells):
+            rp = S.reach[p]
         xp = P.x[p]
         ap = t.vec2()
         bp = t.vec2()
@@ -517,57 +578,60 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
             wx, wy, slack = search_window(ep[0], ep[1], S, D)
         margin_p = T(1.0e30)
         root = p  # an ancestor of p in the union-find forest: saves walking up from p on each merge
-        # half the neighbourhood: cells after this one (column-major), and in this cell the points
-        # after p; the windows are symmetric, so every pair is met once, from its first cell
+        # half the neighbourhood: the points after p in S.order within its own column of cells (its
+        # cell and those above it), and the next columns' cells within the window; the windows are
+        # symmetric, so every pair is met once. Each column is one run of S.order: one loop, with
+        # the point and its record read side by side
+        own = start(S, cx * rows + cy) + S.rank[p]
         for ix in range(cx, wp.min(cx + wx + 1, D.layer_rows)):
-            iy0 = wp.max(cy - wy, 0)
-            if ix == cx:
-                iy0 = cy
-            for iy in range(iy0, wp.min(cy + wy + 1, rows)):
-                cell = ix * rows + iy
-                same = ix == cx and iy == cy
-                count = wp.min(S.bins[cell, 0], CAP)
-                for s in range(count):
-                    q = S.bins[cell, 1 + s]
-                    if same and q <= p:
+            first = own + 1
+            if ix != cx:
+                first = start(S, ix * rows + wp.max(cy - wy, 0))
+            last = start(S, ix * rows + wp.min(cy + wy, rows - 1) + 1)
+            for k in range(first, last):
+                q = S.order[k]
+                if wp.static(deforming):
+                    rq = S.reach[q]  # (an unreleased q is in no cell)
+                    # pre-task: a common node (the node ranges overlap in both directions)
+                    if rq[0] > rp[1] or rp[0] > rq[1] or rq[2] > rp[3] or rp[2] > rq[3]:
                         continue
-                    if wp.static(deforming):
-                        rq = S.reach[q]  # (an unreleased q is not in the bins)
-                        # pre-task: a common node (the node ranges overlap in both directions)
-                        if rq[0] > rp[1] or rp[0] > rq[1] or rq[2] > rp[3] or rp[2] > rq[3]:
-                            continue
-                        # task 1: the domains of interaction overlap (continua always interact)
-                        if continuum_p or materials[P.material[q]][9] <= T(0.0):
-                            root = unite(S.parent, root, q)
-                            continue
-                        if overlap(xp, ap, bp, P.x[q], S.dom_a[q], S.dom_b[q]):
-                            root = unite(S.parent, root, q)
+                    # task 1: the domains of interaction overlap (continua always interact)
+                    if continuum_p or materials[P.material[q]][9] <= T(0.0):
+                        root = unite(S.parent, root, q)
+                        continue
+                    if overlap(xp, ap, bp, P.x[q], S.dom_a[q], S.dom_b[q]):
+                        root = unite(S.parent, root, q)
+                else:
+                    # axis-aligned domains: the record of q alone decides task 1, the node
+                    # ranges (the pre-task) are read only for pairs that pass it or a continuum
+                    box_q = S.records[k]
+                    joined = False
+                    if continuum_p or box_q[2] < T(0.0):
+                        joined = True  # continua interact with every point they share a node with
                     else:
-                        # axis-aligned domains: the record of q alone decides task 1, the node
-                        # ranges (the pre-task) are read only for pairs that pass it or a continuum
-                        box_q = S.box[q]
-                        joined = False
-                        if continuum_p or box_q[2] < T(0.0):
-                            joined = True  # continua interact with every point they share a node with
+                        # the overlap test flips only once the offset d changes by more than
+                        # |s| in max-norm, s = least (sum of half-extents − |d|); touching is apart
+                        sx = ep[0] + box_q[2] - wp.abs(box_q[0] - xp[0])
+                        sy = ep[1] + box_q[3] - wp.abs(box_q[1] - xp[1])
+                        joined = sx > T(0.0) and sy > T(0.0)
+                        near = wp.abs(wp.min(sx, sy))
+                        if near < S.band:
+                            # about to flip: listed, and tested anew at every step's check, so
+                            # it does not shrink the margin of all the others
+                            listed = wp.atomic_add(S.flags, FLAG_CRITICAL, 1)
+                            if listed < S.critical.shape[0]:
+                                a = p
+                                if not joined:
+                                    a = -p - 1
+                                S.critical[listed] = wp.vec2i(a, q)
+                                near = T(1.0e30)
+                        margin_p = wp.min(margin_p, near)
+                    if joined:
+                        if wp.static(tent_cells):
+                            # the tent's nodes are the corners of its cell and the window reaches
+                            # one cell (W = 1): every pair met here shares a node
+                            root = unite(S.parent, root, q)
                         else:
-                            # the overlap test flips only once the offset d changes by more than
-                            # |s| in max-norm, s = least (sum of half-extents − |d|); touching is apart
-                            sx = ep[0] + box_q[2] - wp.abs(box_q[0] - xp[0])
-                            sy = ep[1] + box_q[3] - wp.abs(box_q[1] - xp[1])
-                            joined = sx > T(0.0) and sy > T(0.0)
-                            near = wp.abs(wp.min(sx, sy))
-                            if near < S.band:
-                                # about to flip: listed, and tested anew at every step's check, so
-                                # it does not shrink the margin of all the others
-                                k = wp.atomic_add(S.flags, FLAG_CRITICAL, 1)
-                                if k < S.critical.shape[0]:
-                                    a = p
-                                    if not joined:
-                                        a = -p - 1
-                                    S.critical[k] = wp.vec2i(a, q)
-                                    near = T(1.0e30)
-                            margin_p = wp.min(margin_p, near)
-                        if joined:
                             rq = S.reach[q]
                             if rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]:
                                 root = unite(S.parent, root, q)
@@ -587,8 +651,8 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         if p == 0:
             S.flags[FLAG_COUNT] = S.flags[FLAG_COUNT] + 1
         P.comp[p] = find(S.parent, p)
-        # empty this point's bin for the next step (every binned point of a cell writes the same
-        # zero; cells without points were never filled), which spares a memset of every bin
+        # zero this point's cell count for the next rebuild (every point of a cell writes the same
+        # zero; cells without points were never counted), which spares a memset of every cell
         if wp.static(staged):
             if clock[0] < P.release[p]:
                 return
@@ -596,10 +660,10 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
         cx, cy = cell_of(P, D, p, rows)
         cell = cx * rows + cy
         if wp.static(not deforming):
-            ref = S.bins[cell, 1]  # the cell's reference: any of its points, the same for all
+            ref = S.order[start(S, cell)]  # the cell's reference: its first point in order
             S.cell_ref[cell] = ref
             S.ref[p] = ref
-        S.bins[cell, 0] = 0
+        S.count[cell] = 0
 
     @kernel(max_unroll=WINDOW)
     def check(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
@@ -677,7 +741,7 @@ def make_granular_kernels(shape: str, precision: str, cell_capacity: int, staged
 
     if deforming:
         check = None
-    return check, prepare, link, label
+    return check, prepare, place, link, label
 
 
 @functools.cache

@@ -121,8 +121,6 @@ class SolverConfig:
         granular_layers: grid copies per node in granular mode: the most components that may put
             mass on one node in one step; None picks 4 per point per cell of the densest body,
             at least 8. More stops the run with a message naming this setting.
-        granular_cell_capacity: points a cell can hold in the binning of the interaction search;
-            None picks 4 × the densest seeding, at least 16. Overflow stops the run with a message.
         coupling: how the contact force between a material point and a rigid body reaches the
             grid (scenes with both; MPM-SDEM §5.4): "imp" (default, the paper's: at the point,
             with its shape function, eq. 47), "grid" (the same force at the grid node nearest
@@ -156,7 +154,6 @@ class SolverConfig:
     granular: bool = False
     density_control: str = "revert"
     granular_layers: int | None = None
-    granular_cell_capacity: int | None = None
     coupling: str = "imp"
     imp_skin: float | None = None
     imp_max_bodies: int = 4
@@ -207,10 +204,9 @@ class SolverConfig:
             raise InputError("granular", self.granular, "True or False")
         if self.density_control not in DENSITY_CONTROLS:
             raise InputError("density_control", self.density_control, f"one of {', '.join(DENSITY_CONTROLS)}")
-        for name in ("granular_layers", "granular_cell_capacity"):
-            v = getattr(self, name)
-            if v is not None and not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 1024):
-                raise InputError(name, v, "an integer in 1..1024, or None (automatic)")
+        v = self.granular_layers
+        if v is not None and not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 1024):
+            raise InputError("granular_layers", v, "an integer in 1..1024, or None (automatic)")
         if self.coupling not in COUPLING_SCHEMES:
             raise InputError("coupling", self.coupling, f"one of {', '.join(COUPLING_SCHEMES)}")
         if self.imp_skin is not None and not (math.isfinite(float(self.imp_skin)) and float(self.imp_skin) > 0.0):

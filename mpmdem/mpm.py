@@ -18,6 +18,7 @@ from .errors import BlowUpError, InputError
 from .kernels import granular as kgran
 from .kernels import grid as kgrid
 from .kernels import reductions as kred
+from .kernels import scan as kscan
 from .kernels import sorting as ksort
 from .kernels import transfer as ktr
 from .kernels.shape_functions import SUPPORT_NODES
@@ -67,6 +68,7 @@ class _Launch:
     kernel: object
     dim: object
     inputs: list
+    block_dim: int | None = None  # tile kernels (dim then ends with it)
 
 
 class MPMSolver:
@@ -101,7 +103,6 @@ class MPMSolver:
         # at most (cells reaching a node) × (points per cell) components can meet at one node
         self.granular_layers = (min(64, max(8, reach * reach * ppc * ppc)) if config.granular_layers is None
                                 else config.granular_layers) if config.granular else 1
-        self.granular_cell_capacity = config.granular_cell_capacity or max(16, 4 * ppc * ppc)
         self.staged = bool((host["release"] > 0.0).any())
         #: rigid bodies push on the points through contact forces (MPM-SDEM §4; mpmdem.coupling)
         self.coupled = scene.has_dem
@@ -202,14 +203,26 @@ class MPMSolver:
             # interaction graph of Granular MPM (kernels/granular.py); cells = nodes of one layer
             cells = rows * shape[1]
             S = kgran.make_interaction_struct(self.config.precision)()
-            S.bins = wp.zeros((cells, 1 + self.granular_cell_capacity), dtype=wp.int32, device=dev)
+            # points by cell (CSR): counts, their prefix sums in three levels (kernels/scan.py), ranks, order
+            n1, n2 = kscan.scan_lengths(cells + 1)
+            S.count = wp.zeros(n1, dtype=wp.int32, device=dev)
+            S.prefix1 = wp.zeros(n1, dtype=wp.int32, device=dev)
+            S.prefix2 = wp.zeros(n2, dtype=wp.int32, device=dev)
+            S.prefix3 = wp.zeros(kscan.SCAN_TILE, dtype=wp.int32, device=dev)
+            self._scan_totals = (wp.zeros(n2, dtype=wp.int32, device=dev),
+                                 wp.zeros(kscan.SCAN_TILE, dtype=wp.int32, device=dev),
+                                 wp.zeros(1, dtype=wp.int32, device=dev))
+            S.rank = wp.zeros(n, dtype=wp.int32, device=dev)
+            S.order = wp.zeros(n, dtype=wp.int32, device=dev)
             S.parent = wp.zeros(n, dtype=wp.int32, device=dev)
             deforming = self.config.shape in kgran.DEFORMING_DOMAINS
             S.dom_a = wp.zeros(n if deforming else 1, dtype=t.vec2, device=dev)
             S.dom_b = wp.zeros(n if deforming else 1, dtype=t.vec2, device=dev)
             # reuse of the labels between rebuilds (kernels/granular.py): a rebuild on the first step
             S.box = wp.zeros(1 if deforming else n, dtype=t.vec4, device=dev)
-            S.reach = wp.zeros(n, dtype=wp.vec4i, device=dev)
+            S.records = wp.zeros(1 if deforming else n, dtype=t.vec4, device=dev)
+            tent = self.config.shape == "linear" and not self.staged  # (its node range follows from its cell)
+            S.reach = wp.zeros(1 if tent else n, dtype=wp.vec4i, device=dev)
             S.ext_max = wp.array(self._static_extent(host, mats), dtype=wp.float32, device=dev)
             S.slack = wp.full(kgran.EXT_SLOTS, kgran.NO_MARGIN, dtype=wp.int32, device=dev)
             S.quantum = t.scalar(self.scene.cell_size * 2.0**-20)
@@ -241,7 +254,7 @@ class MPMSolver:
         self.clock.assign(clock)
         self.steps = wp.zeros(1, dtype=wp.int64, device=dev)
         self.max_speed = wp.zeros(kred.SPEED_SLOTS, dtype=wp.float32, device=dev)
-        self.status = wp.zeros(4, dtype=wp.int32, device=dev)
+        self.status = wp.zeros(3, dtype=wp.int32, device=dev)
         self.diag = wp.zeros(len(kred.DIAG_NAMES), dtype=wp.float64, device=dev)
         self.work = wp.zeros((len(kgrid.WORK_TERMS) + 2 * len(kgrid.WALLS)) * kgrid.WORK_SLOTS, dtype=wp.float64,
                              device=dev)
@@ -328,11 +341,19 @@ class MPMSolver:
             deforming = c.shape in kgran.DEFORMING_DOMAINS
             S = self.interaction
             gin = [P, G, D, mats, S, self.status, clock]
-            check, *build = kgran.make_granular_kernels(c.shape, prec, self.granular_cell_capacity,
-                                                        staged=self.staged)
+            check, prepare, place, link, label = kgran.make_granular_kernels(c.shape, prec, staged=self.staged)
             rebuild = [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim,
-                               [G, D, S.ext_max, S.slack, S.cell_ref, S.flags])]
-            rebuild += [_Launch(k, n, gin) for k in build]
+                               [G, D, S.ext_max, S.slack, S.cell_ref, S.flags]), _Launch(prepare, n, gin)]
+            # the start of each cell's run in the cell-sorted list: prefix sums of the counts
+            scan, threads = kscan.make_tile_scan(), kscan.SCAN_THREADS
+            totals = self._scan_totals
+            levels = [(S.count, S.prefix1, totals[0]), (totals[0], S.prefix2, totals[1]),
+                      (totals[1], S.prefix3, totals[2])]
+            # (a level whose input is one tile adds nothing: its prefix stays zero)
+            rebuild += [_Launch(scan, (values.shape[0] // kscan.SCAN_TILE, threads), [values, prefix, totals], threads)
+                        for k, (values, prefix, totals) in enumerate(levels)
+                        if k == 0 or levels[k - 1][0].shape[0] > kscan.SCAN_TILE]
+            rebuild += [_Launch(k, n, gin) for k in (place, link, label)]
             if check is not None:
                 # the rebuild runs only when the previous step's judge (end_step) asked for it: inside
                 # a CUDA graph a conditional node skips its launches; elsewhere each kernel reads the
@@ -486,7 +507,7 @@ class MPMSolver:
                 else:
                     item[1].zero_()
             else:
-                wp.launch(item.kernel, item.dim, inputs=item.inputs, device=dev)
+                wp.launch(item.kernel, item.dim, inputs=item.inputs, device=dev, block_dim=item.block_dim or 256)
 
     def end_step(self) -> None:
         """t += dt on the device clock (in granular mode with it, whether the next step rebuilds the
@@ -593,13 +614,6 @@ class MPMSolver:
                 f"at t = {t:.6g} s more than {self.granular_layers} components met at one grid node "
                 f"({int(status[2])} point-node contributions had no grid layer left): raise "
                 "SolverConfig.granular_layers (granular mode).", t)
-        if len(status) > 3 and status[3] > 0:
-            raise BlowUpError(
-                "granular-bins",
-                f"at t = {t:.6g} s more than {self.granular_cell_capacity} points sat in one grid cell "
-                f"({int(status[3])} left out of the interaction search): raise "
-                "SolverConfig.granular_cell_capacity (granular mode), or check for a collapse of the "
-                f"material ({self._likely_cause(dt, bound)}).", t)
         if status[1] > 0:
             raise BlowUpError(
                 "left-domain",
@@ -654,6 +668,14 @@ class MPMSolver:
         out = np.empty(self.particle_count, np.int64)
         out[pid] = pid[comp]
         return out
+
+    def node_ranges(self) -> np.ndarray:
+        """(N, 4) int32 range (x0, x1, y0, y1) of grid nodes that each point's stencil reaches now,
+        in device order (indices of one grid layer): what the interaction graph's pre-task compares."""
+        out = wp.empty(self.particle_count, dtype=wp.vec4i, device=self.device)
+        wp.launch(kgran.make_node_ranges(self.config.shape, self.config.precision), self.particle_count,
+                  inputs=[self.P, self.D, out], device=self.device)
+        return out.numpy()
 
     def interaction_domains(self) -> tuple[np.ndarray, np.ndarray]:
         """Half-vectors a, b [m] of each point's domain of interaction at the last rebuild of the

@@ -73,15 +73,26 @@ def test_components_match_brute_force_graph(shape, seed):
     sim = _granular_sim(_random_islands(seed), shape)
     m = sim.mpm
     x0 = m.P.x.numpy().copy()  # device order, positions the graph is built from
+    reach0 = m.node_ranges()
     m.set_stop_time(1.0)
     m.step()
     comp = m.P.comp.numpy()
-    S = m.interaction
-    expected = _brute_force_components(x0, *m.interaction_domains(), S.reach.numpy())
+    expected = _brute_force_components(x0, *m.interaction_domains(), reach0)
     np.testing.assert_array_equal(comp, expected)
     n_comp = len(np.unique(comp))
     assert 1 < n_comp < len(comp)  # the layouts really mix touching and separate islands
     assert m.granular_statistics()[0] == n_comp
+
+
+def test_tent_node_range_is_its_cell_corners():
+    """The tent's stencil reaches the corners of the point's cell: the search relies on it (its pre-task
+    is then implied within a one-cell window, and ``check`` compares cells instead of ranges)."""
+    sim = _granular_sim(_random_islands(5), "linear")
+    m = sim.mpm
+    origin = np.array([float(v) for v in m.D.origin])
+    c = np.floor((m.P.x.numpy() - origin) / float(m.D.h)).astype(np.int32)
+    expected = np.stack([c[:, 0], c[:, 0] + 1, c[:, 1], c[:, 1] + 1], axis=1)
+    np.testing.assert_array_equal(m.node_ranges(), expected)
 
 
 def test_domain_of_interaction_is_scaled_to_critical_volume():
@@ -103,10 +114,10 @@ def test_layers_separate_components_on_every_node(shape, seed):
     """Every node holds one copy per component that reaches it, never two components in one copy."""
     sim = _granular_sim(_random_islands(seed, islands=8), shape, layers=32)
     m = sim.mpm
+    reach = m.node_ranges()  # (of the positions the step's P2G starts from)
     m.set_stop_time(1.0)
     m.step()
     comp = m.P.comp.numpy()
-    reach = m.interaction.reach.numpy()
     owner = m.G.owner.numpy()
     rows, layers = m.D.layer_rows, m.D.layers
     reaching: dict[tuple[int, int], set] = {}
@@ -304,7 +315,7 @@ def test_density_control_dissipates_the_released_energy():
         ({"granular": True, "transfer": "XPIC"}, "transfer"),
         ({"density_control": "freeze"}, "density_control"),
         ({"granular_layers": 0}, "granular_layers"),
-        ({"granular_cell_capacity": 2.5}, "granular_cell_capacity"),
+        ({"granular_layers": 2.5}, "granular_layers"),
         ({"granular": "yes"}, "granular"),
     ],
 )

@@ -1,0 +1,57 @@
+"""Exclusive prefix sums of int32 counts on the device, in three levels of tile scans.
+
+Used to turn per-cell point counts into the start of each cell's run in a cell-sorted list (a
+compressed-sparse-row layout), inside a CUDA graph: plain kernel launches, no temporary memory.
+Level 1 scans tiles of ``SCAN_TILE`` counts and writes each tile's total; level 2 scans those totals
+the same way; level 3 scans the level-2 totals in one tile. The exclusive sum up to entry i is then
+``prefix1[i] + prefix2[i >> SCAN_BITS] + prefix3[i >> 2 SCAN_BITS]`` (``prefix_sum``): up to
+SCAN_TILE³ (about 10⁹) entries.
+"""
+
+import functools
+
+import warp as wp
+
+from .types import kernel
+
+__all__ = ["SCAN_BITS", "SCAN_THREADS", "SCAN_TILE", "make_tile_scan", "prefix_sum", "scan_lengths"]
+
+SCAN_BITS = 10
+#: Entries per tile of each level.
+SCAN_TILE = 1 << SCAN_BITS
+#: Threads per block of a tile scan.
+SCAN_THREADS = 256
+
+
+def scan_lengths(entries: int) -> tuple[int, int]:
+    """(level-1 length, level-2 length) for ``entries`` counts, each a whole number of tiles; the
+    level-3 arrays hold one tile. Raises ValueError past SCAN_TILE³ entries."""
+    n1 = -(-max(entries, 1) // SCAN_TILE) * SCAN_TILE
+    n2 = -(-(n1 // SCAN_TILE) // SCAN_TILE) * SCAN_TILE
+    if n2 // SCAN_TILE > SCAN_TILE:
+        raise ValueError(f"{entries} entries exceed the {SCAN_TILE ** 3} a three-level scan covers")
+    return n1, n2
+
+
+@functools.cache
+def make_tile_scan():
+    """Kernel ``tile_scan(values, prefix, totals)``, launched over (tiles, SCAN_THREADS) with
+    block_dim SCAN_THREADS: ``prefix`` gets the exclusive prefix sum of ``values`` within each tile
+    of SCAN_TILE entries, ``totals[b]`` the sum of tile b."""
+
+    @kernel
+    def tile_scan(values: wp.array(dtype=wp.int32), prefix: wp.array(dtype=wp.int32),
+                  totals: wp.array(dtype=wp.int32)):
+        b, lane = wp.tid()
+        tile = wp.tile_load(values, shape=SCAN_TILE, offset=b * SCAN_TILE)
+        wp.tile_store(prefix, wp.tile_scan_exclusive(tile), offset=b * SCAN_TILE)
+        wp.tile_store(totals, wp.tile_sum(tile), offset=b)
+
+    return tile_scan
+
+
+@wp.func
+def prefix_sum(prefix1: wp.array(dtype=wp.int32), prefix2: wp.array(dtype=wp.int32),
+               prefix3: wp.array(dtype=wp.int32), i: int):
+    """Sum of the counts before entry i, from the three levels of ``tile_scan``."""
+    return prefix1[i] + prefix2[i >> SCAN_BITS] + prefix3[i >> (2 * SCAN_BITS)]
