@@ -258,14 +258,14 @@ def make_interaction_struct(precision: str):
     by the search as one 16-byte record; reach (N,) vec4i node range (x0, x1, y0, y1) (one entry
     for the tent outside staged scenes, whose range follows from its cell); ext_max (2 EXT_SLOTS,)
     float32 largest half-extent [cells], x and y; slack (EXT_SLOTS,) int32: the margin of the last
-    rebuild's pair tests and pruned windows in whole quanta (rounded down), reduced in slots; flags (FLAG_SLOTS,) int32; motion (3 EXT_SLOTS,) int32 (``MOVE_*``);
-    cell_ref (cells,) int32: each cell's reference point at the last rebuild, −1 for none; ref (N,)
-    int32: the reference point of each point's cell at the last rebuild (non-deforming domains);
-    critical (capacity,) vec2i: the pairs (p, q) of the last rebuild's overlap tests that were
-    within ``band`` [m] of flipping, p stored as −p − 1 if they were apart (``FLAG_CRITICAL`` counts
-    them; those past the capacity count in ``slack`` instead);
-    quantum: the unit of ``slack`` and ``motion`` [m]; roundoff: the round-off allowance [m] of one
-    displacement or margin."""
+    rebuild's pair tests and pruned windows in whole quanta (rounded down), reduced in slots; flags
+    (FLAG_SLOTS,) int32; motion (3 EXT_SLOTS,) int32 (``MOVE_*``); cell_ref (cells,) int32: each
+    cell's reference point at the last rebuild, −1 for none; ref (N,) int32: the reference point
+    of each point's cell at the last rebuild (non-deforming domains); critical (capacity,)
+    vec2i: the pairs (p, q) of the last rebuild's overlap tests that were within ``band`` [m] of
+    flipping, p stored as −p − 1 if they were apart (``FLAG_CRITICAL`` counts them; those past
+    the capacity count in ``slack`` instead); quantum: the unit of ``slack`` and ``motion`` [m];
+    roundoff: the round-off allowance [m] of one displacement or margin."""
     t = scalar_types(precision)
 
     @wp.struct
