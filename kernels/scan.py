@@ -5,7 +5,8 @@ compressed-sparse-row layout), inside a CUDA graph: plain kernel launches, no te
 Level 1 scans tiles of ``SCAN_TILE`` counts and writes each tile's total; level 2 scans those totals
 the same way; level 3 scans the level-2 totals in one tile. The exclusive sum up to entry i is then
 ``prefix1[i] + prefix2[i >> SCAN_BITS] + prefix3[i >> 2 SCAN_BITS]`` (``prefix_sum``): up to
-SCAN_TILE³ (about 10⁹) entries.
+SCAN_TILE³ (about 10⁹) entries. On the CPU, where tile operations run one thread a block, one
+thread sums the counts in order instead (``make_serial_scan``: all of it in level 1).
 """
 
 import functools
@@ -14,7 +15,8 @@ import warp as wp
 
 from .types import kernel
 
-__all__ = ["SCAN_BITS", "SCAN_THREADS", "SCAN_TILE", "make_tile_scan", "prefix_sum", "scan_lengths"]
+__all__ = ["SCAN_BITS", "SCAN_THREADS", "SCAN_TILE", "make_serial_scan", "make_tile_scan", "prefix_sum",
+           "scan_lengths"]
 
 SCAN_BITS = 10
 #: Entries per tile of each level.
@@ -48,6 +50,26 @@ def make_tile_scan():
         wp.tile_store(totals, wp.tile_sum(tile), offset=b)
 
     return tile_scan
+
+
+@functools.cache
+def make_serial_scan():
+    """Kernel ``serial_scan(values, prefix, gate)``, one thread (the CPU's scan): ``prefix`` gets the
+    exclusive prefix sum of all of ``values`` (levels 2 and 3 stay zero), when ``gate[0]`` ≠ 0 (a
+    rebuild flag: outside a CUDA graph the kernels of a skipped rebuild are launched and return)."""
+
+    @kernel
+    def serial_scan(values: wp.array(dtype=wp.int32), prefix: wp.array(dtype=wp.int32),
+                    gate: wp.array(dtype=wp.int32)):
+        if gate[0] == 0:
+            return
+        total = int(0)
+        for i in range(values.shape[0]):
+            v = values[i]
+            prefix[i] = total
+            total = total + v
+
+    return serial_scan
 
 
 @wp.func

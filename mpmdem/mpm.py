@@ -209,9 +209,11 @@ class MPMSolver:
             S.prefix1 = wp.zeros(n1, dtype=wp.int32, device=dev)
             S.prefix2 = wp.zeros(n2, dtype=wp.int32, device=dev)
             S.prefix3 = wp.zeros(kscan.SCAN_TILE, dtype=wp.int32, device=dev)
+            # level-1 and level-2 tile totals, and a sink for level 3's (the CPU's serial scan takes it
+            # as an open gate: deforming domains rebuild every step)
             self._scan_totals = (wp.zeros(n2, dtype=wp.int32, device=dev),
                                  wp.zeros(kscan.SCAN_TILE, dtype=wp.int32, device=dev),
-                                 wp.zeros(1, dtype=wp.int32, device=dev))
+                                 wp.ones(1, dtype=wp.int32, device=dev))
             S.rank = wp.zeros(n, dtype=wp.int32, device=dev)
             S.order = wp.zeros(n, dtype=wp.int32, device=dev)
             S.parent = wp.zeros(n, dtype=wp.int32, device=dev)
@@ -345,14 +347,19 @@ class MPMSolver:
             rebuild = [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim,
                                [G, D, S.ext_max, S.slack, S.cell_ref, S.flags]), _Launch(prepare, n, gin)]
             # the start of each cell's run in the cell-sorted list: prefix sums of the counts
-            scan, threads = kscan.make_tile_scan(), kscan.SCAN_THREADS
-            totals = self._scan_totals
-            levels = [(S.count, S.prefix1, totals[0]), (totals[0], S.prefix2, totals[1]),
-                      (totals[1], S.prefix3, totals[2])]
-            # (a level whose input is one tile adds nothing: its prefix stays zero)
-            rebuild += [_Launch(scan, (values.shape[0] // kscan.SCAN_TILE, threads), [values, prefix, totals], threads)
-                        for k, (values, prefix, totals) in enumerate(levels)
-                        if k == 0 or levels[k - 1][0].shape[0] > kscan.SCAN_TILE]
+            if wp.get_device(self.device).is_cuda:
+                scan, threads = kscan.make_tile_scan(), kscan.SCAN_THREADS
+                totals = self._scan_totals
+                levels = [(S.count, S.prefix1, totals[0]), (totals[0], S.prefix2, totals[1]),
+                          (totals[1], S.prefix3, totals[2])]
+                # (a level whose input is one tile adds nothing: its prefix stays zero)
+                rebuild += [_Launch(scan, (values.shape[0] // kscan.SCAN_TILE, threads), [values, prefix, totals],
+                                    threads)
+                            for k, (values, prefix, totals) in enumerate(levels)
+                            if k == 0 or levels[k - 1][0].shape[0] > kscan.SCAN_TILE]
+            else:
+                gate = S.flags[kgran.FLAG_REBUILD:] if check is not None else self._scan_totals[2]
+                rebuild += [_Launch(kscan.make_serial_scan(), 1, [S.count, S.prefix1, gate])]
             rebuild += [_Launch(k, n, gin) for k in (place, link, label)]
             if check is not None:
                 # the rebuild runs only when the previous step's judge (end_step) asked for it: inside

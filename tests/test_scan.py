@@ -47,3 +47,16 @@ def test_scan_lengths_are_whole_tiles_and_refuse_too_many():
     assert (n1, n2) == (2 * kscan.SCAN_TILE, kscan.SCAN_TILE)
     with pytest.raises(ValueError, match="entries"):
         kscan.scan_lengths(kscan.SCAN_TILE**3 + 1)
+
+
+def test_serial_scan_matches_and_respects_its_gate():
+    """The CPU's one-thread scan: the same exclusive sums, written only when the gate is open."""
+    counts = np.random.default_rng(7).integers(0, 5, 5000).astype(np.int32)
+    values = wp.array(counts, dtype=wp.int32, device="cpu")
+    prefix = wp.full(len(counts), -7, dtype=wp.int32, device="cpu")
+    closed = wp.zeros(1, dtype=wp.int32, device="cpu")
+    wp.launch(kscan.make_serial_scan(), 1, inputs=[values, prefix, closed], device="cpu")
+    assert (prefix.numpy() == -7).all()
+    wp.launch(kscan.make_serial_scan(), 1, inputs=[values, prefix, wp.ones(1, dtype=wp.int32, device="cpu")],
+              device="cpu")
+    np.testing.assert_array_equal(prefix.numpy(), np.cumsum(counts) - counts)
