@@ -409,6 +409,25 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         return cell_at(P.x[p], D, rows)
 
     @wp.func
+    def cell_index(P: Particles, G: Grid, D: Domain, p: int):
+        # point p's cell, column-major over the nodes of one layer (as S.count and Grid.mass)
+        rows = G.mass.shape[1]
+        cx, cy = cell_of(P, D, p, rows)
+        return cx * rows + cy
+
+    @wp.func
+    def idle(P: Particles, S: Interaction, clock: wp.array(dtype=wp.float64), p: int):
+        # whether point p takes no part in this step's search: no rebuild (non-deforming domains;
+        # outside a CUDA graph the rebuild kernels are launched and return), or not yet released
+        if wp.static(not deforming):
+            if S.flags[FLAG_REBUILD] == 0:
+                return True
+        if wp.static(staged):
+            if clock[0] < P.release[p]:
+                return True
+        return False
+
+    @wp.func
     def start(S: Interaction, cell: int):
         # where the cell's run begins in S.order (the next cell's: where it ends)
         return prefix_sum(S.prefix1, S.prefix2, S.prefix3, cell)
@@ -521,24 +540,16 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                 S.box[p] = t.vec4(xp[0], xp[1], T(-1.0), T(-1.0))  # a continuum: interacts through its nodes
         if wp.static(not tent_cells):
             S.reach[p] = node_reach(P, D, p)  # (the tent's follows from its cell: not stored)
-        rows = G.mass.shape[1]
-        cx, cy = cell_of(P, D, p, rows)
-        S.rank[p] = wp.atomic_add(S.count, cx * rows + cy, 1)
+        S.rank[p] = wp.atomic_add(S.count, cell_index(P, G, D, p), 1)
 
     @kernel
     def place(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
               status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
         # after the scan of the cell counts: each point to its cell's run in S.order (with its record)
-        if wp.static(not deforming):
-            if S.flags[FLAG_REBUILD] == 0:
-                return
         p = wp.tid()
-        if wp.static(staged):
-            if clock[0] < P.release[p]:
-                return
-        rows = G.mass.shape[1]
-        cx, cy = cell_of(P, D, p, rows)
-        k = start(S, cx * rows + cy) + S.rank[p]
+        if idle(P, S, clock, p):
+            return
+        k = start(S, cell_index(P, G, D, p)) + S.rank[p]
         S.order[k] = p
         if wp.static(not deforming):
             S.records[k] = S.box[p]
@@ -546,13 +557,9 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
     @kernel
     def link(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                 status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
-        if wp.static(not deforming):
-            if S.flags[FLAG_REBUILD] == 0:
-                return
         p = wp.tid()
-        if wp.static(staged):
-            if clock[0] < P.release[p]:
-                return
+        if idle(P, S, clock, p):
+            return
         rows = G.mass.shape[1]
         cx, cy = cell_of(P, D, p, rows)
         rp = wp.vec4i()
@@ -656,9 +663,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         if wp.static(staged):
             if clock[0] < P.release[p]:
                 return
-        rows = G.mass.shape[1]
-        cx, cy = cell_of(P, D, p, rows)
-        cell = cx * rows + cy
+        cell = cell_index(P, G, D, p)
         if wp.static(not deforming):
             ref = S.order[start(S, cell)]  # the cell's reference: its first point in order
             S.cell_ref[cell] = ref
