@@ -209,11 +209,10 @@ class MPMSolver:
             S.prefix1 = wp.zeros(n1, dtype=wp.int32, device=dev)
             S.prefix2 = wp.zeros(n2, dtype=wp.int32, device=dev)
             S.prefix3 = wp.zeros(kscan.SCAN_TILE, dtype=wp.int32, device=dev)
-            # level-1 and level-2 tile totals, and a sink for level 3's (the CPU's serial scan takes it
-            # as an open gate: deforming domains rebuild every step)
+            # the tile totals of levels 1 and 2, and a sink for level 3's
             self._scan_totals = (wp.zeros(n2, dtype=wp.int32, device=dev),
                                  wp.zeros(kscan.SCAN_TILE, dtype=wp.int32, device=dev),
-                                 wp.ones(1, dtype=wp.int32, device=dev))
+                                 wp.zeros(1, dtype=wp.int32, device=dev))
             S.rank = wp.zeros(n, dtype=wp.int32, device=dev)
             S.order = wp.zeros(n, dtype=wp.int32, device=dev)
             S.parent = wp.zeros(n, dtype=wp.int32, device=dev)
@@ -358,7 +357,9 @@ class MPMSolver:
                             for k, (values, prefix, totals) in enumerate(levels)
                             if k == 0 or levels[k - 1][0].shape[0] > kscan.SCAN_TILE]
             else:
-                gate = S.flags[kgran.FLAG_REBUILD:] if check is not None else self._scan_totals[2]
+                # (gated by the rebuild flag; deforming domains rebuild every step: an open gate)
+                gate = S.flags[kgran.FLAG_REBUILD:] if check is not None else wp.ones(1, dtype=wp.int32,
+                                                                                      device=self.device)
                 rebuild += [_Launch(kscan.make_serial_scan(), 1, [S.count, S.prefix1, gate])]
             rebuild += [_Launch(k, n, gin) for k in (place, link, label)]
             if check is not None:
@@ -514,7 +515,8 @@ class MPMSolver:
                 else:
                     item[1].zero_()
             else:
-                wp.launch(item.kernel, item.dim, inputs=item.inputs, device=dev, block_dim=item.block_dim or 256)
+                extra = {"block_dim": item.block_dim} if item.block_dim else {}
+                wp.launch(item.kernel, item.dim, inputs=item.inputs, device=dev, **extra)
 
     def end_step(self) -> None:
         """t += dt on the device clock (in granular mode with it, whether the next step rebuilds the
