@@ -102,6 +102,9 @@ EXT_SLOTS = 32
 
 #: Slots of ``Interaction.motion`` (each reduced over EXT_SLOTS slots): max |Δx_p|, max
 #: |Δx_p − Δx_ref(p)| and max |Δx_ref(c) − Δx_ref(c')| since the last rebuild, in quanta (rounded up).
+#: They are the largest over the steps since the rebuild (zeroed only by ``reset_copies``): never
+#: less than the current ones, so the bounds stay safe, and a point that does not beat its slot's
+#: running maximum (most of them, once a body moves) costs ``check`` no atomic.
 MOVE_ABSOLUTE = 0
 MOVE_RELATIVE = 1
 MOVE_CELLS = 2
@@ -755,8 +758,8 @@ def make_rebuild_decision(precision: str):
     (non-deforming domains; deforming ones rebuild every step): the next step rebuilds the
     interaction graph if ``check`` found a changed node range, or unless one of the two bounds on
     the change of the pairs' offsets is below the margin of the last rebuild (module docstring). It
-    clears what ``check`` gathers, and advances the clock (``reductions.advance``): one launch for
-    both, on the critical path of every step."""
+    clears the range flag, and advances the clock (``reductions.advance``): one launch for both, on
+    the critical path of every step."""
     Interaction = make_interaction_struct(precision)
     T = scalar_types(precision).scalar
 
@@ -785,24 +788,23 @@ def make_rebuild_decision(precision: str):
         if rebuild:
             S.flags[FLAG_REBUILD] = 1
         S.flags[FLAG_RANGE] = 0
-        for k in range(3 * EXT_SLOTS):
-            S.motion[k] = 0
 
     return judge
 
 
 @functools.cache
 def make_reset_copies(precision: str, deforming: bool):
-    """Kernel ``reset_copies(G, D, ext_max, slack, cell_ref, flags)`` over the nodes of one layer, on rebuild steps
-    (every step for deforming domains):
-    frees the copies the previous step claimed (as deep as ``Grid.depth`` says, so a node without
-    claims costs one read instead of a memset of every layer; ``prepare`` then zeroes the depths)
-    and resets ``ext_max`` (deforming domains) or ``slack`` and ``cell_ref`` (the others)."""
+    """Kernel ``reset_copies(G, D, ext_max, slack, cell_ref, flags, motion)`` over the nodes of one
+    layer, on rebuild steps (every step for deforming domains): frees the copies the previous step
+    claimed (as deep as ``Grid.depth`` says, so a node without claims costs one read instead of a
+    memset of every layer; ``prepare`` then zeroes the depths) and resets ``ext_max`` (deforming
+    domains) or ``slack``, ``cell_ref`` and ``motion`` (the others)."""
     Particles, Grid, Domain = make_state_structs(precision)
 
     @kernel
     def reset_copies(G: Grid, D: Domain, ext_max: wp.array(dtype=wp.float32), slack: wp.array(dtype=wp.int32),
-                     cell_ref: wp.array(dtype=wp.int32), flags: wp.array(dtype=wp.int32)):
+                     cell_ref: wp.array(dtype=wp.int32), flags: wp.array(dtype=wp.int32),
+                     motion: wp.array(dtype=wp.int32)):
         # on a step that reuses the labels every point keeps its node range, so the copies claimed
         # at the last rebuild are the ones this step claims again: they stay
         if wp.static(not deforming):
@@ -816,6 +818,8 @@ def make_reset_copies(precision: str, deforming: bool):
         else:
             if k < EXT_SLOTS:
                 slack[k] = NO_MARGIN
+            if k < 3 * EXT_SLOTS:
+                motion[k] = 0
             if k == 0:
                 flags[FLAG_CRITICAL] = 0
             cell_ref[k] = -1

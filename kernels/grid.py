@@ -66,7 +66,7 @@ def make_boundary_condition(precision: str):
 WORK_TERMS = ("work_boundary", "work_damping", "work_plastic", "work_inflow")
 WORK_PLASTIC = 2
 WORK_INFLOW = 3  # energy (kinetic + gravity) that released points bring into the scene
-WORK_SLOTS = 16
+WORK_SLOTS = 1024
 
 #: Cumulative impulse [N s/m] that the material exerts on the obstacles (x, y), stored after the
 #: work terms in the same array: a load cell's reading is its change over a frame divided by the

@@ -344,7 +344,7 @@ class MPMSolver:
             gin = [P, G, D, mats, S, self.status, clock]
             check, prepare, place, link, label = kgran.make_granular_kernels(c.shape, prec, staged=self.staged)
             rebuild = [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim,
-                               [G, D, S.ext_max, S.slack, S.cell_ref, S.flags]), _Launch(prepare, n, gin)]
+                               [G, D, S.ext_max, S.slack, S.cell_ref, S.flags, S.motion]), _Launch(prepare, n, gin)]
             # the start of each cell's run in the cell-sorted list: prefix sums of the counts
             if wp.get_device(self.device).is_cuda:
                 scan, threads = kscan.make_tile_scan(), kscan.SCAN_THREADS
