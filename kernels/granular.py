@@ -73,6 +73,7 @@ __all__ = [
     "FLAG_CRITICAL",
     "FLAG_REBUILD",
     "FLAG_SLOTS",
+    "NO_LAYER",
     "NO_MARGIN",
     "STAT_COMPONENTS",
     "STAT_LAYERS",
@@ -88,6 +89,7 @@ __all__ = [
     "make_layer_row",
     "make_node_ranges",
     "make_node_reach",
+    "slot_words",
 ]
 
 #: Status counters (after the two of ``reductions``).
@@ -127,6 +129,18 @@ STAT_COMPONENTS = 0
 STAT_LAYERS = 1
 
 
+#: The layer of a stencil node that has no copy of the point's component (a layer overflow) in
+#: ``Particles.slots``, which keeps the layer of each of a point's stencil nodes in 8 bits, four to a
+#: word: the P2G that claims the copies writes them, the later passes of the step read them instead
+#: of looking the copies up (``slot_words``).
+NO_LAYER = 255
+
+
+def slot_words(nodes: int) -> int:
+    """Words of ``Particles.slots`` per point for a stencil of ``nodes`` nodes (8 bits each)."""
+    return (nodes + 3) // 4
+
+
 #: Grid copies are visited in runs of this many nodes along j: ``Grid.depth`` holds, for each run,
 #: the most copies in use at one of its nodes, and the kernels over copies go that deep at every
 #: node of the run, so their stores cover whole memory sectors (a store to a sector that other
@@ -139,19 +153,21 @@ def make_layer_row(insert: bool):
     """``layer_row(owner, i, j, comp, layer_rows, layers) -> row`` (−1 when none): the row of the
     grid copy that component ``comp`` uses at node (i, j).
 
-    With ``insert`` it is ``layer_row(owner, depth, i, j, comp, layer_rows, layers)`` and claims the
-    first free copy (compare-and-swap) when the component has none there, raising the depth of the
-    node's run (``Grid.depth``, ``COPY_RUN``) to cover it.
+    With ``insert`` it is ``layer_row(owner, depth, i, j, comp, layer_rows, layers) -> (row, layer)``
+    (layer ``NO_LAYER`` when none) and claims the first free copy (compare-and-swap) when the
+    component has none there, raising the depth of the node's run (``Grid.depth``, ``COPY_RUN``) to
+    cover it.
     """
 
     @wp.func
     def scan(owner: wp.array2d(dtype=wp.int32), depth: wp.array2d(dtype=wp.int32), i: int, j: int, comp: int,
              layer_rows: int, layers: int):
+        # (row, layer) of the component's copy, (−1, NO_LAYER) when none
         for s in range(layers):
             r = s * layer_rows + i
             k = owner[r, j]
             if k == comp:
-                return r
+                return r, s
             if k < 0:
                 if wp.static(insert):
                     old = wp.atomic_cas(owner, r, j, -1, comp)
@@ -159,19 +175,20 @@ def make_layer_row(insert: bool):
                         run = j // COPY_RUN
                         if depth[i, run] <= s:  # (most claims are within the run's depth already)
                             wp.atomic_max(depth, i, run, s + 1)
-                        return r
+                        return r, s
                     if old == comp:
-                        return r
+                        return r, s
                 else:
-                    return -1  # (the copies in use are a prefix)
-        return -1
+                    return -1, NO_LAYER  # (the copies in use are a prefix)
+        return -1, NO_LAYER
 
     if insert:
         return scan
 
     @wp.func
     def find_row(owner: wp.array2d(dtype=wp.int32), i: int, j: int, comp: int, layer_rows: int, layers: int):
-        return scan(owner, owner, i, j, comp, layer_rows, layers)  # (a lookup touches no depth)
+        r, s = scan(owner, owner, i, j, comp, layer_rows, layers)  # (a lookup touches no depth)
+        return r
 
     return find_row
 

@@ -31,6 +31,7 @@ def make_state_structs(precision: str):
         tmp: wp.array(dtype=t.vec2)  # XPIC scratch (G v*_k, then the displacement) [m/s or m]
         pid: wp.array(dtype=wp.int32)  # index of the point in the scene's order (outputs use it)
         comp: wp.array(dtype=wp.int32)  # granular mode: component label (its root point) this step
+        slots: wp.array2d(dtype=wp.int32)  # granular mode: grid layer of each stencil node this step, 8 bits each
         release: wp.array(dtype=wp.float64)  # time a point enters the scene [s] (staged scenes only)
         fcont: wp.array(dtype=t.vec2)  # contact force from rigid bodies this step [N/m] (coupled scenes)
 

@@ -10,7 +10,7 @@ import functools
 import warp as wp
 
 from .constitutive import make_point_update
-from .granular import STATUS_LAYER_OVERFLOW, make_layer_row
+from .granular import NO_LAYER, STATUS_LAYER_OVERFLOW, make_layer_row, slot_words
 from .grid import WORK_INFLOW, WORK_PLASTIC, work_slot
 from .reductions import make_speed_check
 from .shape_functions import CPGIMP_MAX_HALF, SUPPORT_NODES, make_weights_1d
@@ -123,6 +123,16 @@ def make_point_on_grid(shape: str, precision: str):
     return point_on_grid
 
 
+@wp.func
+def copy_row(packed: wp.vec4i, n: int, i: int, layer_rows: int):
+    """Row of the grid copy of stencil node n (node row i) whose layer the step's claiming P2G kept in
+    ``Particles.slots`` (granular mode), −1 if it found none (a layer overflow)."""
+    s = (packed[n // 4] >> (8 * (n % 4))) & 255
+    if s == NO_LAYER:
+        return -1
+    return s * layer_rows + i
+
+
 @functools.cache
 def make_p2g(
     shape: str,
@@ -160,7 +170,9 @@ def make_p2g(
     point_on_grid = make_point_on_grid(shape, precision)
     with_contact = contact and (force or fused_impulse)
     has_affine = affine != "none" and momentum
-    layer_row = make_layer_row(insert=mass)
+    claim = layered and mass  # the step's first P2G claims the copies (kernels/granular.py)
+    layer_row = make_layer_row(insert=True)
+    WORDS = slot_words(NC * K * K)
 
     @kernel(deterministic=deterministic)
     def p2g(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64),
@@ -193,8 +205,12 @@ def make_p2g(
             if wp.static(fused_impulse):
                 fc = fc * dt
         comp = int(0)
-        if wp.static(layered):
+        if wp.static(claim):
             comp = P.comp[p]
+        packed = wp.vec4i()  # the layer of each stencil node, 8 bits each (Particles.slots)
+        if wp.static(layered and not claim):
+            for word in range(wp.static(WORDS)):
+                packed[word] = P.slots[p, word]
         for k in range(wp.static(NC)):
             bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
             for i in range(wp.static(K)):
@@ -203,13 +219,16 @@ def make_p2g(
                     gi = bx + i
                     gj = by + j
                     row = gi
-                    if wp.static(layered):
-                        if wp.static(mass):
-                            row = layer_row(G.owner, G.depth, gi, gj, comp, D.layer_rows, D.layers)
-                        else:
-                            row = layer_row(G.owner, gi, gj, comp, D.layer_rows, D.layers)
+                    if wp.static(claim):
+                        # claim (or find) the component's copy of the node, and keep its layer for
+                        # the step's later passes
+                        row, s = layer_row(G.owner, G.depth, gi, gj, comp, D.layer_rows, D.layers)
                         if row < 0:
                             wp.atomic_add(status, STATUS_LAYER_OVERFLOW, 1)
+                        n = (k * K + i) * K + j
+                        packed[n // 4] = packed[n // 4] | (s << (8 * (n % 4)))
+                    if wp.static(layered and not claim):
+                        row = copy_row(packed, (k * K + i) * K + j, gi, D.layer_rows)
                     if row >= 0:
                         if wp.static(mass):
                             wp.atomic_add(G.mass, row, gj, w * mp)
@@ -232,6 +251,9 @@ def make_p2g(
                                 wp.atomic_add(G.vm, row, gj, mom)
                             else:
                                 wp.atomic_add(G.mom, row, gj, mom)
+        if wp.static(claim):
+            for word in range(wp.static(WORDS)):
+                P.slots[p, word] = packed[word]
 
     return p2g
 
@@ -278,7 +300,7 @@ def make_g2p(
     point_on_grid = make_point_on_grid(shape, precision)
     point_update = make_point_update(material_kinds, precision, density_control, critical)
     dissipative = critical or any(k >= 2 for k in material_kinds)
-    layer_row = make_layer_row(insert=False)
+    WORDS = slot_words(NC * K * K)
     X = float(flip_fraction)
     X_pic = 1.0 - X
     flip = X > 0.0
@@ -334,9 +356,10 @@ def make_g2p(
         L = t.mat22()
         gsum = t.vec2()
         vref = t.vec2()
-        comp = int(0)
+        packed = wp.vec4i()  # the layers of the stencil's copies, from the step's claiming P2G
         if wp.static(layered):
-            comp = P.comp[p]
+            for word in range(wp.static(WORDS)):
+                packed[word] = P.slots[p, word]
         for k in range(wp.static(NC)):
             bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
             for i in range(wp.static(K)):
@@ -346,7 +369,7 @@ def make_g2p(
                     gj = by + j
                     row = gi
                     if wp.static(layered):
-                        row = layer_row(G.owner, gi, gj, comp, D.layer_rows, D.layers)
+                        row = copy_row(packed, (k * K + i) * K + j, gi, D.layer_rows)
                         if row < 0:
                             row = gi
                             w = T(0.0)  # a node the point put nothing on (a layer overflow)

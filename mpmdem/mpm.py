@@ -141,6 +141,10 @@ class MPMSolver:
         P.stress = wp.zeros(n, dtype=t.mat22, device=dev)
         P.szz = wp.zeros(n, dtype=t.scalar, device=dev)
         P.comp = wp.zeros(n if self.config.granular else 1, dtype=wp.int32, device=dev)
+        # the grid layer of each stencil node, kept by the step's claiming P2G (kernels/transfer.py)
+        nodes = ktr.CORNERS.get(self.config.shape, 1) * SUPPORT_NODES[self.config.shape] ** 2
+        P.slots = wp.zeros((n, kgran.slot_words(nodes)) if self.config.granular else (1, 1), dtype=wp.int32,
+                           device=dev)
         P.release = wp.array(host["release"] if self.staged else np.zeros(1), dtype=wp.float64, device=dev)
         P.mass = wp.array(host["mass"].astype(T), dtype=t.scalar, device=dev)
         P.vol = wp.array(host["vol"].astype(T), dtype=t.scalar, device=dev)
@@ -540,6 +544,7 @@ class MPMSolver:
                 setattr(scratch, name, wp.empty_like(getattr(self.P, name)))
             scratch.tmp = self.P.tmp
             scratch.comp = self.P.comp
+            scratch.slots = self.P.slots
             scratch.fcont = self.P.fcont
             scratch.release = wp.empty_like(self.P.release) if self.staged else self.P.release
             keys = wp.empty(2 * n, dtype=wp.int32, device=dev)
