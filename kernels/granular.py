@@ -132,7 +132,10 @@ STAT_LAYERS = 1
 #: The layer of a stencil node that has no copy of the point's component (a layer overflow) in
 #: ``Particles.slots``, which keeps the layer of each of a point's stencil nodes in 8 bits, four to a
 #: word: the P2G that claims the copies writes them, the later passes of the step read them instead
-#: of looking the copies up (``slot_words``).
+#: of looking the copies up (``slot_words``). On a step that keeps the labels the copies and the
+#: point's nodes are those of the last claim, so that P2G reads them too; ``prepare`` voids them at
+#: a rebuild (a first word of −1, every layer NO_LAYER, which a real claim could only write for a
+#: point that found no copy at all: it then claims again, and finds none again).
 NO_LAYER = 255
 
 
@@ -525,6 +528,9 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         for k in range(p, G.depth.shape[0] * runs, P.x.shape[0]):
             G.depth[k // runs, k - (k // runs) * runs] = 0
         S.parent[p] = p
+        # the copies are claimed anew this step: the layers the last claims kept are void (all
+        # NO_LAYER in the first word tells the claiming P2G to claim; kernels/transfer.py)
+        P.slots[p, 0] = -1
         if wp.static(staged):
             if clock[0] < P.release[p]:
                 S.reach[p] = wp.vec4i(0, -1, 0, -1)  # an empty node range: shares no node

@@ -205,12 +205,18 @@ def make_p2g(
             if wp.static(fused_impulse):
                 fc = fc * dt
         comp = int(0)
-        if wp.static(claim):
-            comp = P.comp[p]
         packed = wp.vec4i()  # the layer of each stencil node, 8 bits each (Particles.slots)
-        if wp.static(layered and not claim):
+        claiming = False
+        if wp.static(layered):
             for word in range(wp.static(WORDS)):
                 packed[word] = P.slots[p, word]
+        if wp.static(claim):
+            # claim only after a rebuild (prepare voided the layers); a step that keeps the labels
+            # keeps the copies and the point's nodes, so the layers kept are still right
+            claiming = packed[0] == -1
+            if claiming:
+                comp = P.comp[p]
+                packed = wp.vec4i()
         for k in range(wp.static(NC)):
             bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
             for i in range(wp.static(K)):
@@ -219,16 +225,16 @@ def make_p2g(
                     gi = bx + i
                     gj = by + j
                     row = gi
-                    if wp.static(claim):
-                        # claim (or find) the component's copy of the node, and keep its layer for
-                        # the step's later passes
-                        row, s = layer_row(G.owner, G.depth, gi, gj, comp, D.layer_rows, D.layers)
-                        if row < 0:
-                            wp.atomic_add(status, STATUS_LAYER_OVERFLOW, 1)
+                    if wp.static(layered):
                         n = (k * K + i) * K + j
-                        packed[n // 4] = packed[n // 4] | (s << (8 * (n % 4)))
-                    if wp.static(layered and not claim):
-                        row = copy_row(packed, (k * K + i) * K + j, gi, D.layer_rows)
+                        if claiming:
+                            # claim (or find) the component's copy of the node, and keep its layer
+                            row, s = layer_row(G.owner, G.depth, gi, gj, comp, D.layer_rows, D.layers)
+                            if row < 0:
+                                wp.atomic_add(status, STATUS_LAYER_OVERFLOW, 1)
+                            packed[n // 4] = packed[n // 4] | (s << (8 * (n % 4)))
+                        else:
+                            row = copy_row(packed, n, gi, D.layer_rows)
                     if row >= 0:
                         if wp.static(mass):
                             wp.atomic_add(G.mass, row, gj, w * mp)
@@ -251,7 +257,7 @@ def make_p2g(
                                 wp.atomic_add(G.vm, row, gj, mom)
                             else:
                                 wp.atomic_add(G.mom, row, gj, mom)
-        if wp.static(claim):
+        if claiming:
             for word in range(wp.static(WORDS)):
                 P.slots[p, word] = packed[word]
 
