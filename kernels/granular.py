@@ -456,11 +456,10 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         return prefix_sum(S.prefix1, S.prefix2, S.prefix3, cell)
 
     @wp.func
-    def reduce_max(slots: wp.array(dtype=wp.int32), base: int, p: int, value: int, seen: int):
-        # seen: the slot's value read earlier (slots only grow: a value that does not beat it,
-        # most of them, needs no atomic)
-        if value > seen:
-            wp.atomic_max(slots, base + p % EXT_SLOTS, value)
+    def reduce_max(slots: wp.array(dtype=wp.int32), base: int, p: int, value: int):
+        slot = base + p % EXT_SLOTS
+        if value > slots[slot]:  # most values do not beat their slot: no atomic
+            wp.atomic_max(slots, slot, value)
 
     @wp.func
     def reference(S: Interaction, p: int):
@@ -706,11 +705,6 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         if S.flags[FLAG_RANGE] != 0:
             return  # a rebuild anyway
         p = wp.tid()
-        # the running maxima of this point's motion slots, read first: the loads leave together
-        slot = p % EXT_SLOTS
-        seen_absolute = S.motion[MOVE_ABSOLUTE * EXT_SLOTS + slot]
-        seen_relative = S.motion[MOVE_RELATIVE * EXT_SLOTS + slot]
-        seen_cells = S.motion[MOVE_CELLS * EXT_SLOTS + slot]
         if p < wp.min(S.flags[FLAG_CRITICAL], S.critical.shape[0]):
             # a pair the last rebuild found within ``band`` of flipping: its overlap test again, as
             # a rebuild would make it now (the same operands, from the same side: a point that
@@ -751,12 +745,10 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                 return
         if released:
             d = moved(P, S, p)
-            reduce_max(S.motion, MOVE_ABSOLUTE * EXT_SLOTS, p, quanta(wp.max(wp.abs(d[0]), wp.abs(d[1])), S, True),
-                       seen_absolute)
+            reduce_max(S.motion, MOVE_ABSOLUTE * EXT_SLOTS, p, quanta(wp.max(wp.abs(d[0]), wp.abs(d[1])), S, True))
             ref = S.ref[p]  # (kept per point: no gather through the cell on the way)
             e = d - moved(P, S, ref)
-            reduce_max(S.motion, MOVE_RELATIVE * EXT_SLOTS, p, quanta(wp.max(wp.abs(e[0]), wp.abs(e[1])), S, True),
-                       seen_relative)
+            reduce_max(S.motion, MOVE_RELATIVE * EXT_SLOTS, p, quanta(wp.max(wp.abs(e[0]), wp.abs(e[1])), S, True))
             if ref == p:
                 rows = G.mass.shape[1]
                 cx, cy = cell_at(reference(S, p), D, rows)
@@ -776,7 +768,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                         f = d - moved(P, S, wp.max(other, 0))
                         if other >= 0 and ix < D.layer_rows and iy >= 0 and iy < rows:
                             most = wp.max(most, wp.max(wp.abs(f[0]), wp.abs(f[1])))
-                reduce_max(S.motion, MOVE_CELLS * EXT_SLOTS, p, quanta(most, S, True), seen_cells)
+                reduce_max(S.motion, MOVE_CELLS * EXT_SLOTS, p, quanta(most, S, True))
 
     if deforming:
         check = None
