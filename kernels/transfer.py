@@ -213,9 +213,9 @@ def make_p2g(
         if wp.static(claim):
             # claim only after a rebuild (prepare voided the layers); a step that keeps the labels
             # keeps the copies and the point's nodes, so the layers kept are still right
+            comp = P.comp[p]  # (read alongside the layers, not after them)
             claiming = packed[0] == -1
             if claiming:
-                comp = P.comp[p]
                 packed = wp.vec4i()
         for k in range(wp.static(NC)):
             bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
