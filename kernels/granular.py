@@ -45,8 +45,9 @@ changed since is below M (less a round-off allowance): 2 max|Δx_p| (absolute mo
 (moves relative to the references: a body that translates, falls or flows as a whole keeps
 its labels). Skipped steps get exactly the labels a rebuild would give and keep the grid copies
 they claimed. The check runs at the end of a step, on the positions the next step starts from,
-and its verdict goes out with the clock's advance (``judge``: one launch for both). Deforming
-domains (cpGIMP, CPDI) rebuild every step.
+and its verdict goes out with the clock's advance (``judge``: one launch for both). A scene that
+rebuilds at STREAK_START steps in a row (a dispersed flow) skips the check for a while and just
+rebuilds (``FLAG_FORCED``). Deforming domains (cpGIMP, CPDI) rebuild every step.
 
 Non-granular materials (no critical density) are continua: their points interact with every
 point they share a node with, so they are never split.
@@ -71,6 +72,8 @@ __all__ = [
     "MOVE_RELATIVE",
     "FLAG_RANGE",
     "FLAG_CRITICAL",
+    "FLAG_FORCED",
+    "FLAG_STREAK",
     "FLAG_REBUILD",
     "FLAG_SLOTS",
     "NO_LAYER",
@@ -78,6 +81,8 @@ __all__ = [
     "STAT_COMPONENTS",
     "STAT_LAYERS",
     "STATUS_LAYER_OVERFLOW",
+    "STREAK_MAX",
+    "STREAK_START",
     "COPY_RUN",
     "domains_overlap",
     "make_domain_of_interaction",
@@ -118,7 +123,17 @@ FLAG_REBUILD = 0
 FLAG_COUNT = 1
 FLAG_RANGE = 2
 FLAG_CRITICAL = 3  # pairs the last rebuild listed in ``Interaction.critical`` (may exceed its size)
-FLAG_SLOTS = 4
+FLAG_STREAK = 4  # consecutive steps whose check asked for a rebuild
+FLAG_FORCED = 5  # steps left that rebuild without a check (a streak of rebuilds: see STREAK_START)
+FLAG_SLOTS = 6
+
+#: A scene whose checks ask for a rebuild this many steps in a row (a dispersed flow, whose points
+#: change cells at every step) stops checking: the next ``min(streak, STREAK_MAX)`` steps rebuild
+#: without one, then a check decides again. A rebuild is always exact, so this changes no result,
+#: only what a step costs: such a scene spends no ``check`` on a verdict known in advance, and one
+#: that calms down keeps its labels again at most STREAK_MAX steps later.
+STREAK_START = 8
+STREAK_MAX = 32
 #: A margin that nothing limits (no pair, no pruned window), in quanta (``Interaction.quantum``):
 #: margins are reduced as integers, whose atomic minimum is native (a float one is a CAS loop, slow
 #: when a million threads meet on a few slots).
@@ -165,24 +180,40 @@ def make_layer_row(insert: bool):
     @wp.func
     def scan(owner: wp.array2d(dtype=wp.int32), depth: wp.array2d(dtype=wp.int32), i: int, j: int, comp: int,
              layer_rows: int, layers: int):
-        # (row, layer) of the component's copy, (−1, NO_LAYER) when none
-        for s in range(layers):
-            r = s * layer_rows + i
-            k = owner[r, j]
-            if k == comp:
-                return r, s
-            if k < 0:
-                if wp.static(insert):
-                    old = wp.atomic_cas(owner, r, j, -1, comp)
-                    if old == -1:
-                        run = j // COPY_RUN
-                        if depth[i, run] <= s:  # (most claims are within the run's depth already)
-                            wp.atomic_max(depth, i, run, s + 1)
+        # (row, layer) of the component's copy, (−1, NO_LAYER) when none. The owners of four copies
+        # are read at once (rows past the last layer clamped to it), so that a node where many
+        # components meet (a dispersed cloud) costs one wait a four copies, not one a copy. Read
+        # values are safe to act on: an owner, once set, stays for the step, and a free copy is
+        # only ever taken by compare-and-swap, whose outcome decides.
+        known = int(0)
+        if wp.static(insert):
+            # the run's depth, read up front: it only grows while copies are claimed, so a depth
+            # already past a new claim needs no atomic, and the read does not wait for the claim
+            known = depth[i, j // COPY_RUN]
+        top = layers - 1
+        for b in range(0, layers, 4):
+            ks = wp.vec4i(owner[b * layer_rows + i, j], owner[wp.min(b + 1, top) * layer_rows + i, j],
+                          owner[wp.min(b + 2, top) * layer_rows + i, j],
+                          owner[wp.min(b + 3, top) * layer_rows + i, j])
+            for u in range(4):
+                s = b + u
+                if s < layers:
+                    r = s * layer_rows + i
+                    k = ks[u]
+                    if k == comp:
                         return r, s
-                    if old == comp:
-                        return r, s
-                else:
-                    return -1, NO_LAYER  # (the copies in use are a prefix)
+                    if k < 0:
+                        if wp.static(insert):
+                            old = wp.atomic_cas(owner, r, j, -1, comp)
+                            if old == -1:
+                                if known <= s:
+                                    wp.atomic_max(depth, i, j // COPY_RUN, s + 1)
+                                return r, s
+                            if old == comp:
+                                return r, s
+                            # (another component took it first: on to the next copy)
+                        else:
+                            return -1, NO_LAYER  # (the copies in use are a prefix)
         return -1, NO_LAYER
 
     if insert:
@@ -702,7 +733,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         # after the step's last G2P: whether the next step needs a rebuild (see the module
         # docstring): a new node range rebuilds; the moves since the last rebuild, absolute and
         # relative to the cell's reference point, go to S.motion for ``judge``
-        if S.flags[FLAG_RANGE] != 0:
+        if S.flags[FLAG_RANGE] != 0 or S.flags[FLAG_FORCED] > 0:
             return  # a rebuild anyway
         p = wp.tid()
         if p < wp.min(S.flags[FLAG_CRITICAL], S.critical.shape[0]):
@@ -780,7 +811,8 @@ def make_rebuild_decision(precision: str):
     """Kernel ``judge(S, clock, steps)``, one thread, the last of a step, after ``check``
     (non-deforming domains; deforming ones rebuild every step): the next step rebuilds the
     interaction graph if ``check`` found a changed node range, or unless one of the two bounds on
-    the change of the pairs' offsets is below the margin of the last rebuild (module docstring). It
+    the change of the pairs' offsets is below the margin of the last rebuild (module docstring); after
+    STREAK_START such rebuilds in a row, the next steps rebuild without a check (``FLAG_FORCED``). It
     clears the range flag, and advances the clock (``reductions.advance``): one launch for both, on
     the critical path of every step."""
     Interaction = make_interaction_struct(precision)
@@ -789,6 +821,13 @@ def make_rebuild_decision(precision: str):
     @kernel(max_unroll=3 * EXT_SLOTS)
     def judge(S: Interaction, clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
         advance(clock, steps)
+        forced = S.flags[FLAG_FORCED]
+        if forced > 0:
+            # a streak of rebuilds: this step's check was skipped, the next step rebuilds anyway
+            S.flags[FLAG_FORCED] = forced - 1
+            S.flags[FLAG_REBUILD] = 1
+            S.flags[FLAG_RANGE] = 0
+            return
         # keep the labels if either bound on the change of every pair's offset is below the margin,
         # with the round-off of the displacements (2 or 4) and of the margin
         absolute = int(0)
@@ -808,8 +847,13 @@ def make_rebuild_decision(precision: str):
         keep_relative = (T(2.0) * T(relative) + T(cells)) * q + T(7.0) * S.roundoff < margin
         rebuild = S.flags[FLAG_RANGE] != 0 or not (keep_absolute or keep_relative)
         S.flags[FLAG_REBUILD] = 0
+        streak = int(0)
         if rebuild:
             S.flags[FLAG_REBUILD] = 1
+            streak = S.flags[FLAG_STREAK] + 1
+            if streak >= STREAK_START:
+                S.flags[FLAG_FORCED] = wp.min(streak, STREAK_MAX)
+        S.flags[FLAG_STREAK] = streak
         S.flags[FLAG_RANGE] = 0
 
     return judge

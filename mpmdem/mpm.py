@@ -313,7 +313,8 @@ class MPMSolver:
                 fields = [G.vt]
             else:
                 fields = ([G.v] if flags.get("velocity") else []) + ([G.vt] if flags.get("force") else [])
-            return [_Launch(kernel, grid_dim, [G, D, clock, work])] + mirrored(*fields)
+            update_dim = kgrid.grid_update_dim(self.D.layer_rows, self.grid_shape[1], layered)
+            return [_Launch(kernel, update_dim, [G, D, clock, work])] + mirrored(*fields)
 
         def g2p(**flags):
             k = ktr.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds,
