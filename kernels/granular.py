@@ -64,6 +64,7 @@ from .state import make_state_structs
 from .types import kernel, scalar_types
 
 __all__ = [
+    "ASSIGN_CACHE",
     "DEFORMING_DOMAINS",
     "EXT_SLOTS",
     "FLAG_COUNT",
@@ -158,6 +159,10 @@ def slot_words(nodes: int) -> int:
     """Words of ``Particles.slots`` per point for a stencil of ``nodes`` nodes (8 bits each)."""
     return (nodes + 3) // 4
 
+
+#: Components a node thread of ``assign`` (the tent's copies, ``make_granular_kernels``) keeps in
+#: registers while it gives out copies; those past it are looked up in ``Grid.owner``.
+ASSIGN_CACHE = 16
 
 #: Grid copies are visited in runs of this many nodes along j: ``Grid.depth`` holds, for each run,
 #: the most copies in use at one of its nodes, and the kernels over copies go that deep at every
@@ -395,7 +400,7 @@ def make_node_ranges(shape: str, precision: str):
 
 @functools.cache
 def make_granular_kernels(shape: str, precision: str, staged: bool = False):
-    """(check, prepare, place, link, label) kernels of the interaction graph (module docstring).
+    """(check, prepare, place, link, label, assign) kernels of the interaction graph (module docstring).
 
     Launch each with dim = number of points and inputs ``[P, G, D, materials, S, status, clock]``:
     at the start of a step ``reset_copies``, ``prepare``, the three scans of ``S.count``
@@ -406,7 +411,9 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
     (``make_interaction_struct``): cells of ``S.count`` are indexed like ``Grid.mass`` (column-major
     over the node lattice of one layer); ``S.ext_max`` holds for shapes outside DEFORMING_DOMAINS a
     constant set by the host in slot 0, else ``reset_copies`` zeroes it and ``prepare`` fills it.
-    ``count`` starts zeroed and ``label`` zeroes the counts it used. staged: points not yet released
+    ``count`` starts zeroed and ``label`` zeroes the counts it used. ``assign`` (the tent outside
+    staged scenes; None else) runs after ``label`` over the nodes of one layer and gives out the
+    grid copies there, instead of the claims in P2G. staged: points not yet released
     (``P.release`` ahead of ``clock[0]``) stay single components, in no cell.
     """
     t = scalar_types(precision)
@@ -727,6 +734,66 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             S.ref[p] = ref
         S.count[cell] = 0
 
+    cache_vec = wp.types.vector(length=ASSIGN_CACHE, dtype=wp.int32)
+
+    @kernel(max_unroll=ASSIGN_CACHE)
+    def assign(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
+               status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
+        # the tent outside staged scenes, after ``label``, over the nodes of one layer: node (i, j)
+        # gives its copies to the components of the points whose stencil reaches it, which are the
+        # points of the four cells it is a corner of (their runs in S.order), in that order, and
+        # writes each point's layer into its slot for this node (Particles.slots: the claiming P2G
+        # then finds them set and claims nothing). One thread decides a node's copies alone, so it
+        # needs no compare-and-swap; the claims in P2G cost a chain of them where many components
+        # meet (each loser of a race tries the next copy), and these are the same copies a claim
+        # would give, in a fixed order: reproducible.
+        if S.flags[FLAG_REBUILD] == 0:
+            return
+        i, j = wp.tid()
+        rows = G.mass.shape[1]
+        lr = D.layer_rows
+        seen = cache_vec()  # the components of the first ASSIGN_CACHE copies, in layer order
+        n = int(0)  # copies given out
+        for dx in range(2):
+            cx = i - 1 + dx
+            if cx >= 0 and cx < lr:
+                k = start(S, cx * rows + wp.max(j - 1, 0))
+                for dy in range(2):
+                    cy = j - 1 + dy
+                    if cy >= 0 and cy < rows:
+                        end = start(S, cx * rows + cy + 1)
+                        # this node is corner (i − cx, j − cy) of the cell: its slot in the stencil
+                        shift = 8 * ((1 - dx) * 2 + (1 - dy))
+                        while k < end:
+                            q = S.order[k]
+                            k += 1
+                            comp = P.comp[q]
+                            s = int(-1)
+                            for u in range(ASSIGN_CACHE):
+                                if u < n and s < 0:
+                                    if seen[u] == comp:
+                                        s = u
+                            if s < 0:
+                                for r in range(ASSIGN_CACHE, n):
+                                    if s < 0 and G.owner[r * lr + i, j] == comp:
+                                        s = r
+                            if s < 0:
+                                if n < D.layers:
+                                    s = n
+                                    G.owner[s * lr + i, j] = comp
+                                    for u in range(ASSIGN_CACHE):
+                                        if u == n:
+                                            seen[u] = comp
+                                    n += 1
+                                else:
+                                    wp.atomic_add(status, STATUS_LAYER_OVERFLOW, 1)
+                            if s >= 0:
+                                # prepare left every layer NO_LAYER (all bits set): clear the bits
+                                # that s lacks in this node's byte
+                                wp.atomic_and(P.slots, q, 0, -1 ^ ((NO_LAYER ^ s) << shift))
+        if n > 0:
+            wp.atomic_max(G.depth, i, j // COPY_RUN, n)
+
     @kernel(max_unroll=WINDOW)
     def check(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
               status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
@@ -803,7 +870,9 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
 
     if deforming:
         check = None
-    return check, prepare, place, link, label
+    if not tent_cells:
+        assign = None
+    return check, prepare, place, link, label, assign
 
 
 @functools.cache
@@ -821,40 +890,42 @@ def make_rebuild_decision(precision: str):
     @kernel(max_unroll=3 * EXT_SLOTS)
     def judge(S: Interaction, clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
         advance(clock, steps)
+        # (every load first, then the decision: the loads leave together instead of one after
+        # another, on the critical path of every step; the loops are unrolled for the same reason)
         forced = S.flags[FLAG_FORCED]
-        if forced > 0:
-            # a streak of rebuilds: this step's check was skipped, the next step rebuilds anyway
-            S.flags[FLAG_FORCED] = forced - 1
-            S.flags[FLAG_REBUILD] = 1
-            S.flags[FLAG_RANGE] = 0
-            return
+        range_changed = S.flags[FLAG_RANGE] != 0
+        streak = S.flags[FLAG_STREAK]
         # keep the labels if either bound on the change of every pair's offset is below the margin,
         # with the round-off of the displacements (2 or 4) and of the margin
         absolute = int(0)
         relative = int(0)
         cells = int(0)
         least = NO_MARGIN
-        # (unrolled loops: all the loads leave at once, instead of one slot after another, each
-        # waiting for the last, on the critical path of every step)
         for k in range(EXT_SLOTS):
             absolute = wp.max(absolute, S.motion[MOVE_ABSOLUTE * EXT_SLOTS + k])
             relative = wp.max(relative, S.motion[MOVE_RELATIVE * EXT_SLOTS + k])
             cells = wp.max(cells, S.motion[MOVE_CELLS * EXT_SLOTS + k])
             least = wp.min(least, S.slack[k])
+        S.flags[FLAG_RANGE] = 0
+        if forced > 0:
+            # a streak of rebuilds: this step's check was skipped, the next step rebuilds anyway
+            S.flags[FLAG_FORCED] = forced - 1
+            S.flags[FLAG_REBUILD] = 1
+            return
         q = S.quantum
         margin = T(least) * q
         keep_absolute = T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < margin
         keep_relative = (T(2.0) * T(relative) + T(cells)) * q + T(7.0) * S.roundoff < margin
-        rebuild = S.flags[FLAG_RANGE] != 0 or not (keep_absolute or keep_relative)
+        rebuild = range_changed or not (keep_absolute or keep_relative)
         S.flags[FLAG_REBUILD] = 0
-        streak = int(0)
         if rebuild:
             S.flags[FLAG_REBUILD] = 1
-            streak = S.flags[FLAG_STREAK] + 1
+            streak = streak + 1
             if streak >= STREAK_START:
                 S.flags[FLAG_FORCED] = wp.min(streak, STREAK_MAX)
+        else:
+            streak = 0
         S.flags[FLAG_STREAK] = streak
-        S.flags[FLAG_RANGE] = 0
 
     return judge
 

@@ -13,7 +13,6 @@ __all__ = [
     "BC_FREE",
     "BC_FRICTION",
     "BC_SLIP",
-    "COPY_LANES",
     "WORK_INFLOW",
     "WORK_PLASTIC",
     "WORK_SLOTS",
@@ -23,7 +22,6 @@ __all__ = [
     "make_boundary",
     "make_boundary_condition",
     "make_fold_ghosts",
-    "grid_update_dim",
     "make_grid_update",
     "make_mirror_ghosts",
     "make_xpic_grid",
@@ -79,17 +77,6 @@ WALLS = ("obstacles",)
 IMPULSE_BASE = len(WORK_TERMS)
 
 
-#: Threads per node of the layered (granular) grid update: lane q updates the node's copies q,
-#: q + COPY_LANES, ... (``make_grid_update``).
-COPY_LANES = 4
-
-
-def grid_update_dim(layer_rows: int, cols: int, layered: bool) -> tuple[int, int]:
-    """Launch dimensions of ``make_grid_update``'s kernel for a grid of ``layer_rows`` × ``cols``
-    nodes per layer: one thread a node, COPY_LANES a node in granular mode (layered)."""
-    return ((COPY_LANES if layered else 1) * layer_rows, cols)
-
-
 @wp.func
 def work_slot(term: int, i: int, j: int) -> int:
     return term * WORK_SLOTS + (i * 7 + j) % WORK_SLOTS
@@ -140,9 +127,8 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     remap: normalise ``Grid.vm`` (MUSL re-mapped momentum) in place instead of ``Grid.mom``.
     damping: add Cundall's local damping force ("Motion integration" eq. 61-62).
     The work of wall reactions and of the damping force is accumulated into ``work``.
-    layered: granular mode, launched over ``grid_update_dim`` (COPY_LANES threads a node); each
-    thread updates its share of the copies of its node that components claimed (a prefix of the
-    layers). Launch it over ``grid_update_dim`` in either mode. clear (layered, the step's last
+    layered: granular mode, launched over the nodes of one layer; each thread updates the copies
+    of its node that components claimed (a prefix of the layers). clear (layered, the step's last
     grid update): zero the mass, momentum and force of the copies used, so the next step needs no
     memset of every layer.
     obstacles: nodes marked in ``Grid.solid`` (inside a ``Scene.add_obstacle`` shape) are fixed
@@ -269,47 +255,41 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
 
     @kernel
     def grid_update(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), work: wp.array(dtype=wp.float64)):
-        r, j = wp.tid()
+        i, j = wp.tid()
+        n = int(0)
+        if wp.static(layered):
+            n = G.depth[i, j // COPY_RUN]  # (read before the clock's test: both loads leave at once)
         if clock[1] <= wp.float64(0.0):
             return
         dt, g = step_loads(D, clock)
         if wp.static(layered):
-            # launched over COPY_LANES × the nodes of one layer (``grid_update_dim``): lane q of
-            # node (i, j) updates the copies q, q + COPY_LANES, ... in use there. Those are a prefix
-            # (claimed first-fit); every node of a run goes as deep as the busiest one (COPY_RUN),
-            # so that the clearing stores cover whole sectors (copies not in use have no mass and
-            # are written zero). The lanes spread a node's copies over threads, whose loads leave
-            # together: one thread going through them would wait for each copy's loads in turn
-            # (they may not pass the stores of the copy before, which could alias them). A lane
-            # past the depth (most of them, where one component covers the nodes) returns at once.
+            # launched over one layer: the copies in use at a node are a prefix (claimed first-fit);
+            # every node of a run goes as deep as the busiest one (COPY_RUN), so that the clearing
+            # stores cover whole sectors (copies not in use have no mass and are written zero).
+            # Four copies at a time: their loads leave together, where one copy after another would
+            # wait for each (its loads may not pass the stores of the copy before, which for all the
+            # compiler knows could alias them); rows past the depth are clamped to the last one and
+            # loaded, not updated.
             rows = D.layer_rows
-            q = r // rows
-            i = r - q * rows
-            n = G.depth[i, j // COPY_RUN]
-            if q >= n:
-                return
-            # up to four copies of this lane at once; rows past the depth are clamped to the lane's
-            # last copy and loaded, not updated
-            last = q + ((n - 1 - q) // COPY_LANES) * COPY_LANES
-            for b in range(q, n, 4 * COPY_LANES):
+            for b in range(0, n, 4):
                 r0 = b * rows + i
-                r1 = wp.min(b + COPY_LANES, last) * rows + i
-                r2 = wp.min(b + 2 * COPY_LANES, last) * rows + i
-                r3 = wp.min(b + 3 * COPY_LANES, last) * rows + i
+                r1 = wp.min(b + 1, n - 1) * rows + i
+                r2 = wp.min(b + 2, n - 1) * rows + i
+                r3 = wp.min(b + 3, n - 1) * rows + i
                 m0, p0, f0 = load_node(G, r0, j)
                 m1, p1, f1 = load_node(G, r1, j)
                 m2, p2, f2 = load_node(G, r2, j)
                 m3, p3, f3 = load_node(G, r3, j)
                 update_node(G, D, dt, g, work, r0, i, j, m0, p0, f0)
-                if b + COPY_LANES < n:
+                if b + 1 < n:
                     update_node(G, D, dt, g, work, r1, i, j, m1, p1, f1)
-                if b + 2 * COPY_LANES < n:
+                if b + 2 < n:
                     update_node(G, D, dt, g, work, r2, i, j, m2, p2, f2)
-                if b + 3 * COPY_LANES < n:
+                if b + 3 < n:
                     update_node(G, D, dt, g, work, r3, i, j, m3, p3, f3)
         else:
-            m, mom, fint = load_node(G, r, j)
-            update_node(G, D, dt, g, work, r, r, j, m, mom, fint)
+            m, mom, fint = load_node(G, i, j)
+            update_node(G, D, dt, g, work, i, i, j, m, mom, fint)
 
     return grid_update
 

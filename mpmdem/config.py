@@ -205,8 +205,9 @@ class SolverConfig:
         if self.density_control not in DENSITY_CONTROLS:
             raise InputError("density_control", self.density_control, f"one of {', '.join(DENSITY_CONTROLS)}")
         v = self.granular_layers
-        if v is not None and not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 1024):
-            raise InputError("granular_layers", v, "an integer in 1..1024, or None (automatic)")
+        # (each point keeps the layer of each of its stencil nodes in 8 bits, 255 meaning none)
+        if v is not None and not (isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 254):
+            raise InputError("granular_layers", v, "an integer in 1..254, or None (automatic)")
         if self.coupling not in COUPLING_SCHEMES:
             raise InputError("coupling", self.coupling, f"one of {', '.join(COUPLING_SCHEMES)}")
         if self.imp_skin is not None and not (math.isfinite(float(self.imp_skin)) and float(self.imp_skin) > 0.0):

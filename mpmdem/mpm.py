@@ -313,8 +313,7 @@ class MPMSolver:
                 fields = [G.vt]
             else:
                 fields = ([G.v] if flags.get("velocity") else []) + ([G.vt] if flags.get("force") else [])
-            update_dim = kgrid.grid_update_dim(self.D.layer_rows, self.grid_shape[1], layered)
-            return [_Launch(kernel, update_dim, [G, D, clock, work])] + mirrored(*fields)
+            return [_Launch(kernel, grid_dim, [G, D, clock, work])] + mirrored(*fields)
 
         def g2p(**flags):
             k = ktr.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds,
@@ -347,7 +346,8 @@ class MPMSolver:
             deforming = c.shape in kgran.DEFORMING_DOMAINS
             S = self.interaction
             gin = [P, G, D, mats, S, self.status, clock]
-            check, prepare, place, link, label = kgran.make_granular_kernels(c.shape, prec, staged=self.staged)
+            check, prepare, place, link, label, assign = kgran.make_granular_kernels(c.shape, prec,
+                                                                                    staged=self.staged)
             rebuild = [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim,
                                [G, D, S.ext_max, S.slack, S.cell_ref, S.flags, S.motion]), _Launch(prepare, n, gin)]
             # the start of each cell's run in the cell-sorted list: prefix sums of the counts
@@ -367,6 +367,9 @@ class MPMSolver:
                                                                                       device=self.device)
                 rebuild += [_Launch(kscan.make_serial_scan(), 1, [S.count, S.prefix1, gate])]
             rebuild += [_Launch(k, n, gin) for k in (place, link, label)]
+            if assign is not None:
+                # the tent: each node gives out its copies (instead of the claims in P2G)
+                rebuild += [_Launch(assign, grid_dim, gin)]
             if check is not None:
                 # the rebuild runs only when the previous step's judge (end_step) asked for it: inside
                 # a CUDA graph a conditional node skips its launches; elsewhere each kernel reads the

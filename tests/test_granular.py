@@ -140,6 +140,17 @@ def test_layers_separate_components_on_every_node(shape, seed):
     for (i, j), comps in reaching.items():
         assert depth[i, j // kgran.COPY_RUN] >= in_use[i, j] == len(comps)
     assert not m.G.mass.numpy().any() and not m.G.mom.numpy().any()
+    # every point kept, for each node of its stencil, the layer of its component's copy there
+    # (Particles.slots, 8 bits a node: the tent's node threads wrote them, the others' claims)
+    slots = m.P.slots.numpy()
+    for p in range(len(comp)):
+        x0, x1, y0, y1 = reach[p]
+        k = y1 - y0 + 1
+        for i in range(x0, x1 + 1):
+            for j in range(y0, y1 + 1):
+                n = (i - x0) * k + (j - y0)
+                layer = (int(slots[p, n // 4]) >> (8 * (n % 4))) & 255
+                assert owner[layer * rows + i, j] == comp[p]
 
 
 @pytest.mark.parametrize("update", ["USL", "MUSL", "USF"])
@@ -368,6 +379,7 @@ def test_density_control_dissipates_the_released_energy():
         ({"density_control": "freeze"}, "density_control"),
         ({"granular_layers": 0}, "granular_layers"),
         ({"granular_layers": 2.5}, "granular_layers"),
+        ({"granular_layers": 255}, "granular_layers"),  # a layer must fit the 8 bits a point keeps per node
         ({"granular": "yes"}, "granular"),
     ],
 )
