@@ -309,7 +309,8 @@ def make_interaction_struct(precision: str):
     tiles) int32 points per cell at this rebuild (zero between rebuilds); prefix1, prefix2, prefix3
     its three-level exclusive prefix sums (``kernels.scan``): the start of each cell's run in order;
     rank (N,) int32 each point's place among its cell's points; order (N,) int32 the points by cell
-    (column-major cells, like the grid); records (N,) vec4 (non-deforming domains; one entry else)
+    (column-major cells, like the grid); labels (N,) int32 (the tent outside staged scenes; one entry
+    else) the component of order[k] at k, for ``assign``; records (N,) vec4 (non-deforming domains; one entry else)
     the ``box`` record of order[k] at k; parent (N,) int32 union–find links; dom_a, dom_b
     (N,) vec2 half-vectors of the domains of interaction [m] (deforming domains; one entry else);
     box (N,) vec4 (non-deforming domains; one entry else): the position at the last rebuild [m] and
@@ -335,6 +336,7 @@ def make_interaction_struct(precision: str):
         prefix3: wp.array(dtype=wp.int32)
         rank: wp.array(dtype=wp.int32)
         order: wp.array(dtype=wp.int32)
+        labels: wp.array(dtype=wp.int32)
         records: wp.array(dtype=t.vec4)
         parent: wp.array(dtype=wp.int32)
         dom_a: wp.array(dtype=t.vec2)
@@ -721,7 +723,8 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         p = wp.tid()
         if p == 0:
             S.flags[FLAG_COUNT] = S.flags[FLAG_COUNT] + 1
-        P.comp[p] = find(S.parent, p)
+        comp = find(S.parent, p)
+        P.comp[p] = comp
         # zero this point's cell count for the next rebuild (every point of a cell writes the same
         # zero; cells without points were never counted), which spares a memset of every cell
         if wp.static(staged):
@@ -729,9 +732,12 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                 return
         cell = cell_index(P, G, D, p)
         if wp.static(not deforming):
-            ref = S.order[start(S, cell)]  # the cell's reference: its first point in order
+            first = start(S, cell)
+            ref = S.order[first]  # the cell's reference: its first point in order
             S.cell_ref[cell] = ref
             S.ref[p] = ref
+            if wp.static(tent_cells):
+                S.labels[first + S.rank[p]] = comp  # (in the cell-sorted order, for ``assign``)
         S.count[cell] = 0
 
     cache_vec = wp.types.vector(length=ASSIGN_CACHE, dtype=wp.int32)
@@ -752,7 +758,10 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         i, j = wp.tid()
         rows = G.mass.shape[1]
         lr = D.layer_rows
-        seen = cache_vec()  # the components of the first ASSIGN_CACHE copies, in layer order
+        # the components of the first ASSIGN_CACHE copies, in layer order (−2 where none: no label)
+        seen = cache_vec()
+        for u in range(ASSIGN_CACHE):
+            seen[u] = -2
         n = int(0)  # copies given out
         for dx in range(2):
             cx = i - 1 + dx
@@ -765,14 +774,14 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                         # this node is corner (i − cx, j − cy) of the cell: its slot in the stencil
                         shift = 8 * ((1 - dx) * 2 + (1 - dy))
                         while k < end:
+                            # (both read along the cell-sorted list: one line serves many points)
                             q = S.order[k]
+                            comp = S.labels[k]
                             k += 1
-                            comp = P.comp[q]
                             s = int(-1)
                             for u in range(ASSIGN_CACHE):
-                                if u < n and s < 0:
-                                    if seen[u] == comp:
-                                        s = u
+                                if seen[u] == comp:
+                                    s = u
                             if s < 0:
                                 for r in range(ASSIGN_CACHE, n):
                                     if s < 0 and G.owner[r * lr + i, j] == comp:

@@ -195,20 +195,11 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         return m, mom, fint
 
     @wp.func
-    def step_loads(D: Domain, clock: wp.array(dtype=wp.float64)):
-        # dt and the (ramped) gravity of this step, read once per thread: a read of the clock after
-        # a copy's stores would wait for them (for all the compiler knows they could alias it)
-        dt = T(clock[1])
-        g = D.gravity
-        if D.gravity_ramp > wp.float64(0.0):
-            g = g * T(wp.min(clock[0] / D.gravity_ramp, wp.float64(1.0)))
-        return dt, g
-
-    @wp.func
-    def update_node(G: Grid, D: Domain, dt: T, g: t.vec2, work: wp.array(dtype=wp.float64),
+    def update_node(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), work: wp.array(dtype=wp.float64),
                     i: int, ib: int, j: int, m: T, mom: t.vec2, fint: t.vec2):
         # node (ib, j) of the grid, stored in row i (its copy's row in granular mode), whose mass,
-        # momentum and force (``load_node``) are m, mom, fint; dt and g from ``step_loads``
+        # momentum and force (``load_node``) are m, mom, fint
+        dt = T(clock[1])
         if wp.static(layered):
             if wp.static(clear):
                 G.mass[i, j] = T(0.0)
@@ -223,6 +214,9 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
                 G.vt[i, j] = t.vec2()
             return
         inv_m = T(1.0) / m
+        g = D.gravity
+        if D.gravity_ramp > wp.float64(0.0):
+            g = g * T(wp.min(clock[0] / D.gravity_ramp, wp.float64(1.0)))
         if wp.static(remap):
             G.vm[i, j] = solid(boundary(mom * inv_m, D, ib, j), G, ib, j)
             return
@@ -256,12 +250,8 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     @kernel
     def grid_update(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), work: wp.array(dtype=wp.float64)):
         i, j = wp.tid()
-        n = int(0)
-        if wp.static(layered):
-            n = G.depth[i, j // COPY_RUN]  # (read before the clock's test: both loads leave at once)
         if clock[1] <= wp.float64(0.0):
             return
-        dt, g = step_loads(D, clock)
         if wp.static(layered):
             # launched over one layer: the copies in use at a node are a prefix (claimed first-fit);
             # every node of a run goes as deep as the busiest one (COPY_RUN), so that the clearing
@@ -270,6 +260,7 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
             # wait for each (its loads may not pass the stores of the copy before, which for all the
             # compiler knows could alias them); rows past the depth are clamped to the last one and
             # loaded, not updated.
+            n = G.depth[i, j // COPY_RUN]
             rows = D.layer_rows
             for b in range(0, n, 4):
                 r0 = b * rows + i
@@ -280,16 +271,16 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
                 m1, p1, f1 = load_node(G, r1, j)
                 m2, p2, f2 = load_node(G, r2, j)
                 m3, p3, f3 = load_node(G, r3, j)
-                update_node(G, D, dt, g, work, r0, i, j, m0, p0, f0)
+                update_node(G, D, clock, work, r0, i, j, m0, p0, f0)
                 if b + 1 < n:
-                    update_node(G, D, dt, g, work, r1, i, j, m1, p1, f1)
+                    update_node(G, D, clock, work, r1, i, j, m1, p1, f1)
                 if b + 2 < n:
-                    update_node(G, D, dt, g, work, r2, i, j, m2, p2, f2)
+                    update_node(G, D, clock, work, r2, i, j, m2, p2, f2)
                 if b + 3 < n:
-                    update_node(G, D, dt, g, work, r3, i, j, m3, p3, f3)
+                    update_node(G, D, clock, work, r3, i, j, m3, p3, f3)
         else:
             m, mom, fint = load_node(G, i, j)
-            update_node(G, D, dt, g, work, i, i, j, m, mom, fint)
+            update_node(G, D, clock, work, i, i, j, m, mom, fint)
 
     return grid_update
 

@@ -219,6 +219,8 @@ class MPMSolver:
                                  wp.zeros(1, dtype=wp.int32, device=dev))
             S.rank = wp.zeros(n, dtype=wp.int32, device=dev)
             S.order = wp.zeros(n, dtype=wp.int32, device=dev)
+            tent = self.config.shape == "linear" and not self.staged  # (its node range follows from its cell)
+            S.labels = wp.zeros(n if tent else 1, dtype=wp.int32, device=dev)  # (for its node threads)
             S.parent = wp.zeros(n, dtype=wp.int32, device=dev)
             deforming = self.config.shape in kgran.DEFORMING_DOMAINS
             S.dom_a = wp.zeros(n if deforming else 1, dtype=t.vec2, device=dev)
@@ -226,7 +228,6 @@ class MPMSolver:
             # reuse of the labels between rebuilds (kernels/granular.py): a rebuild on the first step
             S.box = wp.zeros(1 if deforming else n, dtype=t.vec4, device=dev)
             S.records = wp.zeros(1 if deforming else n, dtype=t.vec4, device=dev)
-            tent = self.config.shape == "linear" and not self.staged  # (its node range follows from its cell)
             S.reach = wp.zeros(1 if tent else n, dtype=wp.vec4i, device=dev)
             S.ext_max = wp.array(self._static_extent(host, mats), dtype=wp.float32, device=dev)
             S.slack = wp.full(kgran.EXT_SLOTS, kgran.NO_MARGIN, dtype=wp.int32, device=dev)
