@@ -310,7 +310,9 @@ def make_interaction_struct(precision: str):
     its three-level exclusive prefix sums (``kernels.scan``): the start of each cell's run in order;
     rank (N,) int32 each point's place among its cell's points; order (N,) int32 the points by cell
     (column-major cells, like the grid); labels (N,) int32 (the tent outside staged scenes; one entry
-    else) the component of order[k] at k, for ``assign``; records (N,) vec4 (non-deforming domains; one entry else)
+    else) the component of order[k] at k, for ``assign``; slot_bytes (N, 4) uint8 (likewise) the
+    bytes of ``Particles.slots`` (the same memory: byte n of a word is bits 8n..8n+7, little-endian),
+    which ``assign`` stores one by one; records (N,) vec4 (non-deforming domains; one entry else)
     the ``box`` record of order[k] at k; parent (N,) int32 union–find links; dom_a, dom_b
     (N,) vec2 half-vectors of the domains of interaction [m] (deforming domains; one entry else);
     box (N,) vec4 (non-deforming domains; one entry else): the position at the last rebuild [m] and
@@ -337,6 +339,7 @@ def make_interaction_struct(precision: str):
         rank: wp.array(dtype=wp.int32)
         order: wp.array(dtype=wp.int32)
         labels: wp.array(dtype=wp.int32)
+        slot_bytes: wp.array2d(dtype=wp.uint8)
         records: wp.array(dtype=t.vec4)
         parent: wp.array(dtype=wp.int32)
         dom_a: wp.array(dtype=t.vec2)
@@ -597,11 +600,12 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             xp = P.x[p]
             if rho_cr > T(0.0):
                 S.box[p] = t.vec4(xp[0], xp[1], wp.abs(a[0]) + wp.abs(b[0]), wp.abs(a[1]) + wp.abs(b[1]))
-                wx, wy, slack = search_window(wp.abs(a[0]) + wp.abs(b[0]), wp.abs(a[1]) + wp.abs(b[1]), S, D)
-                slot = p % EXT_SLOTS
-                q = quanta(slack, S, False)
-                if q < S.slack[slot]:  # most points do not beat their slot: no atomic
-                    wp.atomic_min(S.slack, slot, q)
+                if S.flags[FLAG_FORCED] == 0:  # (a margin for this step's check: see ``link``)
+                    wx, wy, slack = search_window(wp.abs(a[0]) + wp.abs(b[0]), wp.abs(a[1]) + wp.abs(b[1]), S, D)
+                    slot = p % EXT_SLOTS
+                    q = quanta(slack, S, False)
+                    if q < S.slack[slot]:  # most points do not beat their slot: no atomic
+                        wp.atomic_min(S.slack, slot, q)
             else:
                 S.box[p] = t.vec4(xp[0], xp[1], T(-1.0), T(-1.0))  # a continuum: interacts through its nodes
         if wp.static(not tent_cells):
@@ -650,6 +654,11 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         if not continuum_p:
             wx, wy, slack = search_window(ep[0], ep[1], S, D)
         margin_p = T(1.0e30)
+        # the margin and the pairs about to flip are for this step's check: none in a streak of
+        # rebuilds (FLAG_FORCED), whose steps skip it
+        checked = True
+        if wp.static(not deforming):
+            checked = S.flags[FLAG_FORCED] == 0
         root = p  # an ancestor of p in the union-find forest: saves walking up from p on each merge
         # half the neighbourhood: the points after p in S.order within its own column of cells (its
         # cell and those above it), and the next columns' cells within the window; the windows are
@@ -687,18 +696,19 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                         sx = ep[0] + box_q[2] - wp.abs(box_q[0] - xp[0])
                         sy = ep[1] + box_q[3] - wp.abs(box_q[1] - xp[1])
                         joined = sx > T(0.0) and sy > T(0.0)
-                        near = wp.abs(wp.min(sx, sy))
-                        if near < S.band:
-                            # about to flip: listed, and tested anew at every step's check, so
-                            # it does not shrink the margin of all the others
-                            listed = wp.atomic_add(S.flags, FLAG_CRITICAL, 1)
-                            if listed < S.critical.shape[0]:
-                                a = p
-                                if not joined:
-                                    a = -p - 1
-                                S.critical[listed] = wp.vec2i(a, q)
-                                near = T(1.0e30)
-                        margin_p = wp.min(margin_p, near)
+                        if checked:
+                            near = wp.abs(wp.min(sx, sy))
+                            if near < S.band:
+                                # about to flip: listed, and tested anew at every step's check, so
+                                # it does not shrink the margin of all the others
+                                listed = wp.atomic_add(S.flags, FLAG_CRITICAL, 1)
+                                if listed < S.critical.shape[0]:
+                                    a = p
+                                    if not joined:
+                                        a = -p - 1
+                                    S.critical[listed] = wp.vec2i(a, q)
+                                    near = T(1.0e30)
+                            margin_p = wp.min(margin_p, near)
                     if joined:
                         if wp.static(tent_cells):
                             # the tent's nodes are the corners of its cell and the window reaches
@@ -709,10 +719,11 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                             if rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]:
                                 root = unite(S.parent, root, q)
         if wp.static(not deforming):
-            slot = p % EXT_SLOTS
-            q = quanta(margin_p, S, False)
-            if q < S.slack[slot]:
-                wp.atomic_min(S.slack, slot, q)
+            if checked:
+                slot = p % EXT_SLOTS
+                q = quanta(margin_p, S, False)
+                if q < S.slack[slot]:
+                    wp.atomic_min(S.slack, slot, q)
 
     @kernel
     def label(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
@@ -772,7 +783,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                     if cy >= 0 and cy < rows:
                         end = start(S, cx * rows + cy + 1)
                         # this node is corner (i − cx, j − cy) of the cell: its slot in the stencil
-                        shift = 8 * ((1 - dx) * 2 + (1 - dy))
+                        corner = (1 - dx) * 2 + (1 - dy)
                         while k < end:
                             # (both read along the cell-sorted list: one line serves many points)
                             q = S.order[k]
@@ -797,9 +808,9 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                                 else:
                                     wp.atomic_add(status, STATUS_LAYER_OVERFLOW, 1)
                             if s >= 0:
-                                # prepare left every layer NO_LAYER (all bits set): clear the bits
-                                # that s lacks in this node's byte
-                                wp.atomic_and(P.slots, q, 0, -1 ^ ((NO_LAYER ^ s) << shift))
+                                # this node's byte of the point's slots (prepare left it NO_LAYER):
+                                # the four nodes of a point store to the four bytes of one word
+                                S.slot_bytes[q, corner] = wp.uint8(s)
         if n > 0:
             wp.atomic_max(G.depth, i, j // COPY_RUN, n)
 

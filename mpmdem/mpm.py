@@ -221,6 +221,11 @@ class MPMSolver:
             S.order = wp.zeros(n, dtype=wp.int32, device=dev)
             tent = self.config.shape == "linear" and not self.staged  # (its node range follows from its cell)
             S.labels = wp.zeros(n if tent else 1, dtype=wp.int32, device=dev)  # (for its node threads)
+            # the bytes of P.slots, which the tent's node threads store one by one (a view: P.slots
+            # is allocated once and never replaced)
+            words = self.P.slots.shape[1]
+            S.slot_bytes = (wp.array(ptr=self.P.slots.ptr, dtype=wp.uint8, shape=(n, 4 * words), device=dev)
+                            if tent else wp.zeros((1, 4), dtype=wp.uint8, device=dev))
             S.parent = wp.zeros(n, dtype=wp.int32, device=dev)
             deforming = self.config.shape in kgran.DEFORMING_DOMAINS
             S.dom_a = wp.zeros(n if deforming else 1, dtype=t.vec2, device=dev)
