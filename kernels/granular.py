@@ -162,7 +162,7 @@ def slot_words(nodes: int) -> int:
 
 #: Components a node thread of ``assign`` (the tent's copies, ``make_granular_kernels``) keeps in
 #: registers while it gives out copies; those past it are looked up in ``Grid.owner``.
-ASSIGN_CACHE = 16
+ASSIGN_CACHE = 8
 
 #: Grid copies are visited in runs of this many nodes along j: ``Grid.depth`` holds, for each run,
 #: the most copies in use at one of its nodes, and the kernels over copies go that deep at every

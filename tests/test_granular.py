@@ -153,6 +153,37 @@ def test_layers_separate_components_on_every_node(shape, seed):
                 assert owner[layer * rows + i, j] == comp[p]
 
 
+def test_more_components_at_a_node_than_the_assign_cache():
+    """Sixteen separate grains of two points each in the four cells around one node (twice what
+    the tent's node threads keep in registers, kgran.ASSIGN_CACHE, so the second point of the later
+    grains finds its copy past them): that node gives out sixteen copies, one per grain, and every
+    point keeps its grain's layer for each of its four nodes."""
+    offsets = np.array([-0.0068, -0.0023, 0.0023, 0.0068])
+    grains = 0.1 + np.stack(np.meshgrid(offsets, offsets), -1).reshape(-1, 2)
+    x = np.concatenate([grains - [0.0006, 0.0], grains + [0.0006, 0.0]])  # (each pair in one cell)
+    scene = Scene(domain=((0.0, 0.0), (0.2, 0.2)), cell_size=H, gravity=(0.0, 0.0),
+                  boundaries={s: "free" for s in ("left", "right", "bottom", "top")})
+    scene.add_points(x, LinearElastic(1.0e5, 0.3, 1500.0, critical_density=1400.0), size=0.2 * H)
+    m = Simulation(scene, SolverConfig(granular=True, shape="linear", precision="f64", dt=1.0e-5),
+                   device="cpu").mpm
+    assert m.granular_layers > kgran.ASSIGN_CACHE
+    reach = m.node_ranges()
+    m.set_stop_time(1.0)
+    m.step()
+    comp = m.P.comp.numpy()
+    # (domains of 2.07 mm: the two points of a grain, 1.2 mm apart, overlap; grains 4.5 mm apart do not)
+    assert len(np.unique(comp)) == 16
+    owner, slots, rows = m.G.owner.numpy(), m.P.slots.numpy(), m.D.layer_rows
+    centre = (reach[:, 1].min(), reach[:, 3].min())  # the node every grain reaches
+    used = [int(owner[s * rows + centre[0], centre[1]]) for s in range(m.D.layers)]
+    assert sorted(c for c in used if c >= 0) == sorted(np.unique(comp).tolist())
+    for p in range(32):
+        x0, _, y0, _ = reach[p]
+        for n in range(4):
+            layer = (int(slots[p, 0]) >> (8 * n)) & 255
+            assert owner[layer * rows + x0 + n // 2, y0 + n % 2] == comp[p]
+
+
 @pytest.mark.parametrize("update", ["USL", "MUSL", "USF"])
 def test_separate_islands_evolve_as_if_alone(update):
     """Two islands sharing grid nodes but not interacting give bit-identical results to each alone
