@@ -27,7 +27,12 @@ the rebuild kernels sit in a conditional graph node and are not launched at all)
    up. Components that share a node thus never share a copy there, and a component alone on a
    node uses copy 0, so the usual case costs one extra read per node. This is a greedy colouring
    per node rather than one colour per component: it needs no iterations, and uses no more
-   copies than the most components meeting at one node.
+   copies than the most components meeting at one node. The tent outside staged scenes gives out
+   its copies before P2G instead (``assign``): one thread per node walks the points of the four
+   cells the node is a corner of (their runs in the cell-sorted list), gives each new component
+   the next copy and stores each point's layer into ``Particles.slots``: no compare-and-swap
+   races (where k components meet, the last claim waits k round trips), and the layers do not
+   depend on thread timing.
 
 Reuse of the labels (a Verlet-style skip, exact): the graph depends on each point's node range
 (pre-task) and, for two granular points of a non-deforming domain, on their distance (task 1).
