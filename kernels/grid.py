@@ -77,6 +77,10 @@ WALLS = ("obstacles",)
 IMPULSE_BASE = len(WORK_TERMS)
 
 
+#: Registers per thread of the layered (granular) grid update on CUDA, None for the compiler's choice.
+GRID_UPDATE_REGISTERS = None
+
+
 @wp.func
 def work_slot(term: int, i: int, j: int) -> int:
     return term * WORK_SLOTS + (i * 7 + j) % WORK_SLOTS
@@ -247,7 +251,7 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
             # Ṽ = V + a Δt, a = f/m + g ("Motion integration" eq. 28; "MPM notes" steps 5-7)
             G.vt[i, j] = constrain(v + dt * f * inv_m, m, D, G, ib, j, work)
 
-    @kernel
+    @kernel(max_registers=GRID_UPDATE_REGISTERS if layered else None)
     def grid_update(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), work: wp.array(dtype=wp.float64)):
         i, j = wp.tid()
         if clock[1] <= wp.float64(0.0):

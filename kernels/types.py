@@ -15,16 +15,20 @@ MATERIAL_PARAMS = 10
 KERNEL_OPTIONS = {"enable_backward": False}
 
 
-def kernel(fn=None, *, deterministic: bool = False, max_unroll: int | None = None):
+def kernel(fn=None, *, deterministic: bool = False, max_unroll: int | None = None,
+           max_registers: int | None = None):
     """``wp.kernel`` in its own module, without backward pass.
 
     deterministic: order float atomics so that repeated runs on one GPU are bit-identical
     (Warp's ``DeterministicMode.RUN_TO_RUN``; CPU runs are always deterministic).
     max_unroll: unroll loops of a constant trip count up to this (Warp's default is 16).
+    max_registers: registers per thread on CUDA (``__maxnreg__``; None: the compiler's choice).
     """
     options = dict(KERNEL_OPTIONS)
     if max_unroll is not None:
         options["max_unroll"] = max_unroll
+    if max_registers is not None:
+        options["cuda_max_registers"] = max_registers
     if deterministic and hasattr(wp, "DeterministicMode"):
         options["deterministic"] = wp.DeterministicMode.RUN_TO_RUN
 

@@ -232,6 +232,7 @@ class MPMSolver:
             S.dom_b = wp.zeros(n if deforming else 1, dtype=t.vec2, device=dev)
             # reuse of the labels between rebuilds (kernels/granular.py): a rebuild on the first step
             S.box = wp.zeros(1 if deforming else n, dtype=t.vec4, device=dev)
+            S.anchor = wp.zeros(1 if deforming else n, dtype=t.vec2, device=dev)
             S.records = wp.zeros(1 if deforming else n, dtype=t.vec4, device=dev)
             S.reach = wp.zeros(1 if tent else n, dtype=wp.vec4i, device=dev)
             S.ext_max = wp.array(self._static_extent(host, mats), dtype=wp.float32, device=dev)
