@@ -169,6 +169,10 @@ def slot_words(nodes: int) -> int:
 #: registers while it gives out copies; those past it are looked up in ``Grid.owner``.
 ASSIGN_CACHE = 8
 
+#: Registers per thread on CUDA of ``link`` and ``assign`` (None: the compiler's choice).
+LINK_REGISTERS = None
+ASSIGN_REGISTERS = None
+
 #: Grid copies are visited in runs of this many nodes along j: ``Grid.depth`` holds, for each run,
 #: the most copies in use at one of its nodes, and the kernels over copies go that deep at every
 #: node of the run, so their stores cover whole memory sectors (a store to a sector that other
@@ -632,7 +636,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         if wp.static(not deforming):
             S.records[k] = S.box[p]
 
-    @kernel
+    @kernel(max_registers=LINK_REGISTERS)
     def link(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                 status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
         p = wp.tid()
@@ -761,7 +765,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
 
     cache_vec = wp.types.vector(length=ASSIGN_CACHE, dtype=wp.int32)
 
-    @kernel(max_unroll=ASSIGN_CACHE)
+    @kernel(max_unroll=ASSIGN_CACHE, max_registers=ASSIGN_REGISTERS)
     def assign(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
         # the tent outside staged scenes, after ``label``, over the nodes of one layer: node (i, j)

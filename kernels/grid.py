@@ -78,7 +78,7 @@ IMPULSE_BASE = len(WORK_TERMS)
 
 
 #: Registers per thread of the layered (granular) grid update on CUDA, None for the compiler's choice.
-GRID_UPDATE_REGISTERS = None
+GRID_UPDATE_REGISTERS = 32
 
 
 @wp.func

@@ -27,12 +27,12 @@ def kernel(fn=None, *, deterministic: bool = False, max_unroll: int | None = Non
     options = dict(KERNEL_OPTIONS)
     if max_unroll is not None:
         options["max_unroll"] = max_unroll
-    if max_registers is not None:
-        options["cuda_max_registers"] = max_registers
     if deterministic and hasattr(wp, "DeterministicMode"):
         options["deterministic"] = wp.DeterministicMode.RUN_TO_RUN
 
     def wrap(f):
+        if max_registers is not None:
+            return wp.kernel(f, module="unique", module_options=options, cuda_max_registers=max_registers)
         return wp.kernel(f, module="unique", module_options=options)
 
     return wrap if fn is None else wrap(fn)
