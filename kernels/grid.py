@@ -265,6 +265,12 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
             # compiler knows could alias them); rows past the depth are clamped to the last one and
             # loaded, not updated.
             n = G.depth[i, j // COPY_RUN]
+            if n == 1:
+                # one component on the whole run (a dense body): copy 0 alone, without the batch
+                # of four (whose registers a capped kernel would spill here too)
+                m, mom, fint = load_node(G, i, j)
+                update_node(G, D, clock, work, i, i, j, m, mom, fint)
+                return
             rows = D.layer_rows
             for b in range(0, n, 4):
                 r0 = b * rows + i
