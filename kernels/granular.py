@@ -881,8 +881,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                     # than a cell apart then) overlap only once their offset changed by
                     # reclaim_gap, which ``judge`` compares with the absolute bound. The point's
                     # copies at its new nodes are claimed by the next P2G (G2P voided its layers).
-                    if S.flags[FLAG_MOVED] == 0:  # (most moved points find it set: no store to
-                        S.flags[FLAG_MOVED] = 1     # one address from thousands of threads)
+                    S.flags[FLAG_MOVED] = 1
                 else:
                     S.flags[FLAG_RANGE] = 1
                     return
