@@ -49,13 +49,7 @@ changed since is below M (less a round-off allowance): 2 max|Δx_p| (absolute mo
 2 max|Δx_p − Δx_ref(p)| + max|Δx_ref(c) − Δx_ref(c')| over cells c, c' within the search reach
 (moves relative to the references: a body that translates, falls or flows as a whole keeps
 its labels). Skipped steps get exactly the labels a rebuild would give and keep the grid copies
-they claimed. The tent outside staged scenes, when every domain is granular and under half a cell
-(``Interaction.reclaim_gap``), keeps its labels through changes of cell too: two overlapping
-domains are then less than a cell apart, so their points share a node whatever their cells and
-the graph is the overlaps alone; a point that changed cells has its copies claimed anew by the
-next P2G (G2P voids its layers), and since the pairs the search left out (more than a cell apart)
-overlap only once their offset changed by reclaim_gap, the absolute bound must stay below it.
-The check runs at the end of a step, on the positions the next step starts from,
+they claimed. The check runs at the end of a step, on the positions the next step starts from,
 and its verdict goes out with the clock's advance (``judge``: one launch for both). A scene that
 rebuilds at STREAK_START steps in a row (a dispersed flow) skips the check for a while and just
 rebuilds (``FLAG_FORCED``). Deforming domains (cpGIMP, CPDI) rebuild every step.
@@ -85,7 +79,6 @@ __all__ = [
     "FLAG_RANGE",
     "FLAG_CRITICAL",
     "FLAG_FORCED",
-    "FLAG_MOVED",
     "FLAG_STREAK",
     "FLAG_REBUILD",
     "FLAG_SLOTS",
@@ -138,8 +131,7 @@ FLAG_RANGE = 2
 FLAG_CRITICAL = 3  # pairs the last rebuild listed in ``Interaction.critical`` (may exceed its size)
 FLAG_STREAK = 4  # consecutive steps whose check asked for a rebuild
 FLAG_FORCED = 5  # steps left that rebuild without a check (a streak of rebuilds: see STREAK_START)
-FLAG_MOVED = 6  # the tent: some point is in another cell than at the last rebuild (labels may stay)
-FLAG_SLOTS = 7
+FLAG_SLOTS = 6
 
 #: A scene whose checks ask for a rebuild this many steps in a row (a dispersed flow, whose points
 #: change cells at every step) stops checking: the next ``min(streak, STREAK_MAX)`` steps rebuild
@@ -345,11 +337,7 @@ def make_interaction_struct(precision: str):
     of each point's cell at the last rebuild (non-deforming domains); critical (capacity,)
     vec2i: the pairs (p, q) of the last rebuild's overlap tests that were within ``band`` [m] of
     flipping, p stored as −p − 1 if they were apart (``FLAG_CRITICAL`` counts them; those past
-    the capacity count in ``slack`` instead); reclaim_gap: the tent outside staged scenes, when every
-    point is granular and twice the largest half-extent of a domain of interaction is below a cell:
-    (1 − 2 max half-extent [cells]) h [m], the least change of offset that lets two points more
-    than a cell apart overlap (a point that changes cells then keeps the labels, ``check``); −1
-    else; quantum: the unit of ``slack`` and ``motion`` [m];
+    the capacity count in ``slack`` instead); quantum: the unit of ``slack`` and ``motion`` [m];
     roundoff: the round-off allowance [m] of one displacement or margin."""
     t = scalar_types(precision)
 
@@ -377,7 +365,6 @@ def make_interaction_struct(precision: str):
         ref: wp.array(dtype=wp.int32)
         critical: wp.array(dtype=wp.vec2i)
         band: t.scalar
-        reclaim_gap: t.scalar
         quantum: t.scalar
         flags: wp.array(dtype=wp.int32)
         roundoff: t.scalar
@@ -874,17 +861,8 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             a = (P.x[p] - D.origin) * D.inv_h
             b = (reference(S, p) - D.origin) * D.inv_h
             if wp.floor(a[0]) != wp.floor(b[0]) or wp.floor(a[1]) != wp.floor(b[1]):
-                if S.reclaim_gap > T(0.0):
-                    # every domain is granular and under half a cell: two overlapping domains are
-                    # less than a cell apart, so their points share a node whatever their cells,
-                    # and the graph is the overlaps alone. The pairs the search did not test (more
-                    # than a cell apart then) overlap only once their offset changed by
-                    # reclaim_gap, which ``judge`` compares with the absolute bound. The point's
-                    # copies at its new nodes are claimed by the next P2G (G2P voided its layers).
-                    S.flags[FLAG_MOVED] = 1
-                else:
-                    S.flags[FLAG_RANGE] = 1
-                    return
+                S.flags[FLAG_RANGE] = 1
+                return
         else:
             reach = wp.vec4i(0, -1, 0, -1)
             if wp.static(staged):
@@ -948,7 +926,6 @@ def make_rebuild_decision(precision: str):
         # another, on the critical path of every step; the loops are unrolled for the same reason)
         forced = S.flags[FLAG_FORCED]
         range_changed = S.flags[FLAG_RANGE] != 0
-        moved = S.flags[FLAG_MOVED] != 0
         streak = S.flags[FLAG_STREAK]
         # keep the labels if either bound on the change of every pair's offset is below the margin,
         # with the round-off of the displacements (2 or 4) and of the margin
@@ -962,7 +939,6 @@ def make_rebuild_decision(precision: str):
             cells = wp.max(cells, S.motion[MOVE_CELLS * EXT_SLOTS + k])
             least = wp.min(least, S.slack[k])
         S.flags[FLAG_RANGE] = 0
-        S.flags[FLAG_MOVED] = 0
         if forced > 0:
             # a streak of rebuilds: this step's check was skipped, the next step rebuilds anyway
             S.flags[FLAG_FORCED] = forced - 1
@@ -973,10 +949,6 @@ def make_rebuild_decision(precision: str):
         keep_absolute = T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < margin
         keep_relative = (T(2.0) * T(relative) + T(cells)) * q + T(7.0) * S.roundoff < margin
         rebuild = range_changed or not (keep_absolute or keep_relative)
-        if moved:
-            # points changed cells: pairs the search left out may meet (see ``check``); only the
-            # absolute bound covers them
-            rebuild = rebuild or not (T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < S.reclaim_gap)
         S.flags[FLAG_REBUILD] = 0
         if rebuild:
             S.flags[FLAG_REBUILD] = 1

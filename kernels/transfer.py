@@ -316,8 +316,6 @@ def make_g2p(
     X_pic = 1.0 - X
     flip = X > 0.0
     xpic = position_mode == "xpic"
-    # the tent outside staged scenes: copies claimed anew after a change of cell (kernels/granular.py)
-    reclaim = layered and shape == "linear" and not staged
     need_v_old = (velocity and (flip or xpic))
     stress_dt = float(stress_fraction)
     apic = affine == "apic"
@@ -465,13 +463,6 @@ def make_g2p(
                 P.x[p] = x_old + dt * P.v[p]  # eq. 36 / 38
         if wp.static(position and xpic and not velocity):
             P.x[p] = x_old + P.tmp[p]
-        if wp.static(position and reclaim):
-            # a point that moved to another cell reaches other nodes: its copies are claimed anew
-            # by the next P2G, if the step keeps the labels (``check`` decides whether they may
-            # stay; a rebuild gives the copies out again anyway)
-            cn = (P.x[p] - D.origin) * D.inv_h
-            if wp.floor(cn[0]) != wp.floor(c[0]) or wp.floor(cn[1]) != wp.floor(c[1]):
-                P.slots[p, 0] = -1
         if wp.static(has_stress):
             diss = point_update(P, p, materials[P.material[p]], L, dt * T(stress_dt))
             if wp.static(dissipative):

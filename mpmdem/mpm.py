@@ -245,11 +245,6 @@ class MPMSolver:
             # set the margin of all (kernels/granular.py): a few near the threshold at any time
             S.critical = wp.zeros(1 if deforming else max(1024, n // 8), dtype=wp.vec2i, device=dev)
             S.band = t.scalar(self.scene.cell_size * CRITICAL_BAND)
-            # the tent: a change of cell keeps the labels when every domain is granular and under half
-            # a cell (kernels/granular.py, check); a continuum's extent is its stencil, past that
-            reach = float(S.ext_max.numpy()[:2].max())
-            tent = self.config.shape == "linear" and not self.staged
-            S.reclaim_gap = t.scalar((1.0 - 2.0 * reach) * self.scene.cell_size if tent and reach < 0.5 else -1.0)
             flags = np.zeros(kgran.FLAG_SLOTS, np.int32)
             flags[kgran.FLAG_REBUILD] = 1  # the first step builds the graph
             S.flags = wp.array(flags, dtype=wp.int32, device=dev)
