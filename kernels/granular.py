@@ -169,10 +169,6 @@ def slot_words(nodes: int) -> int:
 #: registers while it gives out copies; those past it are looked up in ``Grid.owner``.
 ASSIGN_CACHE = 8
 
-#: Registers per thread on CUDA of ``link`` and ``assign`` (None: the compiler's choice).
-LINK_REGISTERS = None
-ASSIGN_REGISTERS = None
-
 #: Grid copies are visited in runs of this many nodes along j: ``Grid.depth`` holds, for each run,
 #: the most copies in use at one of its nodes, and the kernels over copies go that deep at every
 #: node of the run, so their stores cover whole memory sectors (a store to a sector that other
@@ -194,40 +190,24 @@ def make_layer_row(insert: bool):
     @wp.func
     def scan(owner: wp.array2d(dtype=wp.int32), depth: wp.array2d(dtype=wp.int32), i: int, j: int, comp: int,
              layer_rows: int, layers: int):
-        # (row, layer) of the component's copy, (−1, NO_LAYER) when none. The owners of four copies
-        # are read at once (rows past the last layer clamped to it), so that a node where many
-        # components meet (a dispersed cloud) costs one wait a four copies, not one a copy. Read
-        # values are safe to act on: an owner, once set, stays for the step, and a free copy is
-        # only ever taken by compare-and-swap, whose outcome decides.
-        known = int(0)
-        if wp.static(insert):
-            # the run's depth, read up front: it only grows while copies are claimed, so a depth
-            # already past a new claim needs no atomic, and the read does not wait for the claim
-            known = depth[i, j // COPY_RUN]
-        top = layers - 1
-        for b in range(0, layers, 4):
-            ks = wp.vec4i(owner[b * layer_rows + i, j], owner[wp.min(b + 1, top) * layer_rows + i, j],
-                          owner[wp.min(b + 2, top) * layer_rows + i, j],
-                          owner[wp.min(b + 3, top) * layer_rows + i, j])
-            for u in range(4):
-                s = b + u
-                if s < layers:
-                    r = s * layer_rows + i
-                    k = ks[u]
-                    if k == comp:
+        # (row, layer) of the component's copy, (−1, NO_LAYER) when none
+        for s in range(layers):
+            r = s * layer_rows + i
+            k = owner[r, j]
+            if k == comp:
+                return r, s
+            if k < 0:
+                if wp.static(insert):
+                    old = wp.atomic_cas(owner, r, j, -1, comp)
+                    if old == -1:
+                        run = j // COPY_RUN
+                        if depth[i, run] <= s:  # (most claims are within the run's depth already)
+                            wp.atomic_max(depth, i, run, s + 1)
                         return r, s
-                    if k < 0:
-                        if wp.static(insert):
-                            old = wp.atomic_cas(owner, r, j, -1, comp)
-                            if old == -1:
-                                if known <= s:
-                                    wp.atomic_max(depth, i, j // COPY_RUN, s + 1)
-                                return r, s
-                            if old == comp:
-                                return r, s
-                            # (another component took it first: on to the next copy)
-                        else:
-                            return -1, NO_LAYER  # (the copies in use are a prefix)
+                    if old == comp:
+                        return r, s
+                else:
+                    return -1, NO_LAYER  # (the copies in use are a prefix)
         return -1, NO_LAYER
 
     if insert:
@@ -328,8 +308,8 @@ def make_interaction_struct(precision: str):
     the half-extents of the axis-aligned domain of interaction [m], −1 for a continuum point, read
     by the search as one 16-byte record; anchor (N,) vec2 (likewise) the same position alone, which
     ``check`` reads at every step (8 bytes instead of the record's 16); reach (N,) vec4i node range
-    (x0, x1, y0, y1) (one entry
-    for the tent outside staged scenes, whose range follows from its cell); ext_max (2 EXT_SLOTS,)
+    (x0, x1, y0, y1) (one entry for the tent outside staged scenes, whose range follows from its
+    cell); ext_max (2 EXT_SLOTS,)
     float32 largest half-extent [cells], x and y; slack (EXT_SLOTS,) int32: the margin of the last
     rebuild's pair tests and pruned windows in whole quanta (rounded down), reduced in slots; flags
     (FLAG_SLOTS,) int32; motion (3 EXT_SLOTS,) int32 (``MOVE_*``); cell_ref (cells,) int32: each
@@ -636,7 +616,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         if wp.static(not deforming):
             S.records[k] = S.box[p]
 
-    @kernel(max_registers=LINK_REGISTERS)
+    @kernel
     def link(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                 status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
         p = wp.tid()
@@ -765,7 +745,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
 
     cache_vec = wp.types.vector(length=ASSIGN_CACHE, dtype=wp.int32)
 
-    @kernel(max_unroll=ASSIGN_CACHE, max_registers=ASSIGN_REGISTERS)
+    @kernel(max_unroll=ASSIGN_CACHE)
     def assign(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
         # the tent outside staged scenes, after ``label``, over the nodes of one layer: node (i, j)

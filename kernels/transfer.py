@@ -123,11 +123,6 @@ def make_point_on_grid(shape: str, precision: str):
     return point_on_grid
 
 
-#: Registers per thread on CUDA of granular mode's (layered) P2G and G2P (None: the compiler's choice).
-P2G_LAYERED_REGISTERS = None
-G2P_LAYERED_REGISTERS = None
-
-
 @wp.func
 def copy_row(packed: wp.vec4i, n: int, i: int, layer_rows: int):
     """Row of the grid copy of stencil node n (node row i) whose layer the step's claiming P2G kept in
@@ -179,7 +174,7 @@ def make_p2g(
     layer_row = make_layer_row(insert=True)
     WORDS = slot_words(NC * K * K)
 
-    @kernel(deterministic=deterministic, max_registers=P2G_LAYERED_REGISTERS if layered else None)
+    @kernel(deterministic=deterministic)
     def p2g(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64),
             status: wp.array(dtype=wp.int32)):
         p = wp.tid()
@@ -328,7 +323,7 @@ def make_g2p(
     has_stress = stress != "none"
     speed_check = make_speed_check(precision)
 
-    @kernel(max_registers=G2P_LAYERED_REGISTERS if layered else None)
+    @kernel
     def g2p(
         P: Particles,
         G: Grid,
