@@ -36,6 +36,18 @@ def test_granular_step_compiles_for_sm90(tmp_path):
     assert _compile(kernels, tmp_path) >= 10
 
 
+def test_granular_tent_step_compiles_for_sm90(tmp_path):
+    """The tent's own path: the node threads that give out the copies (byte stores into the
+    points' slots), the one-copy path and the register cap of the layered grid update."""
+    mat = M.MohrCoulomb(1e6, 0.3, 2000.0, 30.0, critical_density=1990.0)
+    scene = M.Scene(domain=((0, 0), (0.3, 0.3)), cell_size=0.02, gravity=(0, -9.81))
+    scene.add_points(np.array([[0.1, 0.2], [0.12, 0.2]]), mat, size=0.01)
+    m = M.Simulation(scene, M.SolverConfig(granular=True, shape="linear"), device="cpu").mpm
+    kernels = m.step_kernels()
+    assert any(k.key.endswith("assign") for k in kernels)
+    assert _compile(kernels, tmp_path) >= 10
+
+
 def test_dem_step_compiles_for_sm90(tmp_path):
     scene = M.Scene(domain=((0, 0), (1, 1)), gravity=(0, -9.81), contact=M.ContactLaw(1e6, restitution=0.5))
     scene.add_walls(("left", "right", "bottom"), friction=0.5)
