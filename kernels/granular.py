@@ -165,6 +165,11 @@ def slot_words(nodes: int) -> int:
     return (nodes + 3) // 4
 
 
+#: Guard [cells] on the distances by which ``link`` leaves cells out of a tent point's window in
+#: a streak of rebuilds (plus 1e-6 of the coordinate in cells): far above the rounding of a
+#: position within its cell.
+PRUNE_GUARD = 1.0e-3
+
 #: Components a node thread of ``assign`` (the tent's copies, ``make_granular_kernels``) keeps in
 #: registers while it gives out copies; those past it are looked up in ``Grid.owner``.
 ASSIGN_CACHE = 8
@@ -656,12 +661,36 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         # cell and those above it), and the next columns' cells within the window; the windows are
         # symmetric, so every pair is met once. Each column is one run of S.order: one loop, with
         # the point and its record read side by side
+        lo = wp.max(cy - wy, 0)
+        hi = wp.min(cy + wy, rows - 1)
+        if wp.static(tent_cells):
+            if not checked and not continuum_p:
+                # no margins to keep (a streak of rebuilds): the window shrinks to the cells where
+                # a partner could overlap p. A point of the next column, or of the cell above or
+                # below, is at least p's distance to that side of its cell away, and two domains
+                # overlap only closer than the sum of their half-extents, at most p's own plus the
+                # largest (with a guard for the rounding of the distances): the pairs left out
+                # share no edge, and each pair is still met by its left or lower point, whose
+                # window this is
+                c = (xp - D.origin) * D.inv_h
+                fx = c[0] - T(cx)
+                fy = c[1] - T(cy)
+                # (the guard grows with the coordinate: a few float32 ulps of c, in cells)
+                guard = T(PRUNE_GUARD) + T(1.0e-6) * (wp.abs(c[0]) + wp.abs(c[1]))
+                reach_x = ep[0] * D.inv_h + T(S.ext_max[0]) + guard
+                reach_y = ep[1] * D.inv_h + T(S.ext_max[1]) + guard
+                if T(1.0) - fx >= reach_x:
+                    wx = 0
+                if T(1.0) - fy >= reach_y:
+                    hi = wp.min(cy, rows - 1)
+                if fy >= reach_y:
+                    lo = cy
         own = start(S, cx * rows + cy) + S.rank[p]
         for ix in range(cx, wp.min(cx + wx + 1, D.layer_rows)):
             first = own + 1
             if ix != cx:
-                first = start(S, ix * rows + wp.max(cy - wy, 0))
-            last = start(S, ix * rows + wp.min(cy + wy, rows - 1) + 1)
+                first = start(S, ix * rows + lo)
+            last = start(S, ix * rows + hi + 1)
             for k in range(first, last):
                 q = S.order[k]
                 if wp.static(deforming):

@@ -84,6 +84,31 @@ def test_components_match_brute_force_graph(shape, seed):
     assert m.granular_statistics()[0] == n_comp
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_components_in_a_streak_of_rebuilds_match_brute_force_graph(seed):
+    """In a streak of rebuilds (no margins kept) the tent's search leaves out the cells where no
+    partner of a point can overlap it; the labels must still be those of the O(N²) graph. The
+    islands translate at 30 m/s, so points cross cell lines at every step and the streak starts
+    after kgran.STREAK_START steps; then five steps are checked against the brute force."""
+    sim = _granular_sim(_random_islands(seed, islands=8), "linear")
+    m = sim.mpm
+    v = m.P.v.numpy()
+    v[:] = (21.0, 21.0)
+    m.P.v.assign(v)
+    m.set_stop_time(1.0)
+    for _ in range(kgran.STREAK_START + 1):
+        m.step()
+    checked = 0
+    for _ in range(5):
+        assert m.interaction.flags.numpy()[kgran.FLAG_FORCED] > 0  # (this step's link prunes)
+        x0, reach0 = m.P.x.numpy().copy(), m.node_ranges()
+        m.step()
+        comp = m.P.comp.numpy()
+        np.testing.assert_array_equal(comp, _brute_force_components(x0, *m.interaction_domains(), reach0))
+        checked += 1 < len(np.unique(comp)) < len(comp)
+    assert checked == 5  # the layouts mix touching and separate islands
+
+
 def test_tent_node_range_is_its_cell_corners():
     """The tent's stencil reaches the corners of the point's cell: the search relies on it (its pre-task
     is then implied within a one-cell window, and ``check`` compares cells instead of ranges)."""
