@@ -77,7 +77,16 @@ __all__ = [
     "MOVE_CELLS",
     "MOVE_RELATIVE",
     "FLAG_RANGE",
-    "FLAG_CRITICAL",
+    "FLAG_CHANGED",
+    "FLAG_RELABEL",
+    "FLAG_RELABELS",
+    "FLAG_WIDE",
+    "FLAG_CALM",
+    "FLAG_BAND",
+    "FLAG_AGE",
+    "PAIR_SLOTS",
+    "WIDE_STEPS",
+    "CALM_STEPS",
     "FLAG_FORCED",
     "FLAG_STREAK",
     "FLAG_REBUILD",
@@ -122,24 +131,43 @@ MOVE_ABSOLUTE = 0
 MOVE_RELATIVE = 1
 MOVE_CELLS = 2
 
-#: Slots of ``Interaction.flags``: whether the next step rebuilds (set by ``judge`` at the end of a
-#: step, or by the host: first step, after a reorder or a checkpoint), the number of rebuilds so
-#: far, and a node range that ``check`` found changed.
+#: Slots of ``Interaction.flags``: whether the next step rebuilds the interaction graph (set by
+#: ``judge`` at the end of a step, or by the host: first step, after a reorder or a checkpoint) and
+#: whether it labels the components anew (on every rebuild, and on a step whose check found a listed
+#: pair flipped or a point in another cell, without a rebuild: ``relink``), how many of each so far,
+#: and what ``check`` found: a node range changed (a rebuild) or a listed pair flipped / a point
+#: changed cells (a relabel).
 FLAG_REBUILD = 0
-FLAG_COUNT = 1
+FLAG_COUNT = 1  # rebuilds so far
 FLAG_RANGE = 2
-FLAG_CRITICAL = 3  # pairs the last rebuild listed in ``Interaction.critical`` (may exceed its size)
+FLAG_CHANGED = 3
 FLAG_STREAK = 4  # consecutive steps whose check asked for a rebuild
 FLAG_FORCED = 5  # steps left that rebuild without a check (a streak of rebuilds: see STREAK_START)
-FLAG_SLOTS = 6
+FLAG_RELABEL = 6
+FLAG_RELABELS = 7  # relabels without a rebuild so far
+FLAG_WIDE = 8  # 1 while the rebuilds list pairs within a wide band (a streak of rebuilds: see WIDE_STEPS)
+FLAG_CALM = 9  # consecutive steps that kept everything while wide
+FLAG_BAND = 10  # the band [quanta] of the next rebuild's pair lists
+FLAG_AGE = 11  # steps since the last rebuild
+FLAG_SLOTS = 12
 
-#: A scene whose checks ask for a rebuild this many steps in a row (a dispersed flow, whose points
-#: change cells at every step) stops checking: the next ``min(streak, STREAK_MAX)`` steps rebuild
-#: without one, then a check decides again. A rebuild is always exact, so this changes no result,
-#: only what a step costs: such a scene spends no ``check`` on a verdict known in advance, and one
-#: that calms down keeps its labels again at most STREAK_MAX steps later.
+#: Pairs a point lists (``Interaction.pairs``): the overlap tests of a rebuild that were within the
+#: band of flipping; those past it count in the margin instead.
+PAIR_SLOTS = 4
+
+#: A scene whose checks ask for a rebuild STREAK_START steps in a row (a dispersed flow, whose
+#: points change cells and meet at every step) first widens the band of its pair lists
+#: (``FLAG_WIDE``): each rebuild lists the pairs within 2 WIDE_STEPS times the largest move of a
+#: point per step since the last rebuild (at least the narrow band, at most ``band_cap``), so the
+#: lists last about WIDE_STEPS steps, and the steps between relabel over them instead of rebuilding.
+#: CALM_STEPS steps in a row that keep everything end it (a narrow rebuild). If the checks still ask
+#: for a rebuild STREAK_START steps in a row, the scene stops checking: the next
+#: ``min(streak, STREAK_MAX)`` steps rebuild without one, then a check decides again. A rebuild and a
+#: relabel are always exact, so none of this changes a result, only what a step costs.
 STREAK_START = 8
 STREAK_MAX = 32
+WIDE_STEPS = 8
+CALM_STEPS = 8
 #: A margin that nothing limits (no pair, no pruned window), in quanta (``Interaction.quantum``):
 #: margins are reduced as integers, whose atomic minimum is native (a float one is a CAS loop, slow
 #: when a million threads meet on a few slots).
@@ -319,11 +347,20 @@ def make_interaction_struct(precision: str):
     rebuild's pair tests and pruned windows in whole quanta (rounded down), reduced in slots; flags
     (FLAG_SLOTS,) int32; motion (3 EXT_SLOTS,) int32 (``MOVE_*``); cell_ref (cells,) int32: each
     cell's reference point at the last rebuild, −1 for none; ref (N,) int32: the reference point
-    of each point's cell at the last rebuild (non-deforming domains); critical (capacity,)
-    vec2i: the pairs (p, q) of the last rebuild's overlap tests that were within ``band`` [m] of
-    flipping, p stored as −p − 1 if they were apart (``FLAG_CRITICAL`` counts them; those past
-    the capacity count in ``slack`` instead); quantum: the unit of ``slack`` and ``motion`` [m];
-    roundoff: the round-off allowance [m] of one displacement or margin."""
+    of each point's cell at the last rebuild (non-deforming domains); pairs (N,) vec4i and npairs
+    (N,) int32 (non-deforming domains; one entry else): the partners q of the first ``npairs[p]``
+    of point p's overlap tests at the last rebuild that were within the band (``FLAG_BAND``) of
+    flipping, each stored as q if the domains overlapped at the last labelling, −q − 1 if not
+    (those past PAIR_SLOTS count in ``slack`` instead); base (N,) int32 (likewise): each point's
+    root in the forest of the pairs that were not listed (the part of the graph that holds until the
+    next rebuild); home (N,) int32 (the tent outside staged scenes): each point's cell at the last
+    labelling; band_min, band_cap: the narrow band and the widest [quanta]; moves: 1 when a point
+    may change cells without a rebuild (the tent outside staged scenes, every point granular, every
+    domain of interaction under half a cell: overlapping domains then share a node whatever their
+    cells, and domains that do not overlap never interact), 0 else; moves_margin [quanta]: then the
+    least change of offset that makes a pair the search did not visit (two or more cells apart)
+    overlap, (1 − 2 largest half-extent) h, NO_MARGIN else; quantum: the unit of ``slack`` and
+    ``motion`` [m]; roundoff: the round-off allowance [m] of one displacement or margin."""
     t = scalar_types(precision)
 
     @wp.struct
@@ -348,8 +385,14 @@ def make_interaction_struct(precision: str):
         motion: wp.array(dtype=wp.int32)
         cell_ref: wp.array(dtype=wp.int32)
         ref: wp.array(dtype=wp.int32)
-        critical: wp.array(dtype=wp.vec2i)
-        band: t.scalar
+        pairs: wp.array(dtype=wp.vec4i)
+        npairs: wp.array(dtype=wp.int32)
+        base: wp.array(dtype=wp.int32)
+        home: wp.array(dtype=wp.int32)
+        band_min: int
+        band_cap: int
+        moves: int
+        moves_margin: int
         quantum: t.scalar
         flags: wp.array(dtype=wp.int32)
         roundoff: t.scalar
@@ -402,19 +445,21 @@ def make_node_ranges(shape: str, precision: str):
 
 @functools.cache
 def make_granular_kernels(shape: str, precision: str, staged: bool = False):
-    """(check, prepare, place, link, label, assign) kernels of the interaction graph (module docstring).
+    """(check, prepare, place, link, settle, relink, label, assign) kernels of the interaction graph
+    (module docstring).
 
-    Launch each with dim = number of points and inputs ``[P, G, D, materials, S, status, clock]``:
-    at the start of a step ``reset_copies``, ``prepare``, the three scans of ``S.count``
-    (``kernels.scan``), ``place``, ``link``, ``label``, which run only when the previous step's
-    ``judge`` (``make_rebuild_decision``) asked for a rebuild; ``check`` after the step's last G2P,
-    then ``judge`` as the step's last kernel (``check`` is None for deforming domains, which
-    rebuild every step and have no ``judge``). S is an ``Interaction``
-    (``make_interaction_struct``): cells of ``S.count`` are indexed like ``Grid.mass`` (column-major
-    over the node lattice of one layer); ``S.ext_max`` holds for shapes outside DEFORMING_DOMAINS a
-    constant set by the host in slot 0, else ``reset_copies`` zeroes it and ``prepare`` fills it.
-    ``count`` starts zeroed and ``label`` zeroes the counts it used. ``assign`` (the tent outside
-    staged scenes; None else) runs after ``label`` over the nodes of one layer and gives out the
+    Launch each with dim = number of points and inputs ``[P, G, D, materials, S, status, clock]``.
+    A step that relabels (``FLAG_RELABEL``, set by the previous step's ``judge``,
+    ``make_rebuild_decision``; every step for deforming domains) runs ``reset_copies``, then, if it
+    also rebuilds (``FLAG_REBUILD``), ``prepare``, the three scans of ``S.count`` (``kernels.scan``),
+    ``place``, ``link`` and ``settle``, then ``relink``, ``label`` and ``assign``. ``check`` runs after
+    the step's last G2P, then ``judge`` as the step's last kernel (``check`` and ``settle`` are None
+    for deforming domains, which rebuild every step, list no pairs and have no ``judge``). S is an
+    ``Interaction`` (``make_interaction_struct``): cells of ``S.count`` are indexed like ``Grid.mass``
+    (column-major over the node lattice of one layer); ``S.ext_max`` holds for shapes outside
+    DEFORMING_DOMAINS a constant set by the host in slot 0, else ``reset_copies`` zeroes it and
+    ``prepare`` fills it. ``count`` starts zeroed and ``label`` zeroes the counts it used. ``assign``
+    (the tent outside staged scenes; None else) runs over the nodes of one layer and gives out the
     grid copies there, instead of the claims in P2G. staged: points not yet released
     (``P.release`` ahead of ``clock[0]``) stay single components, in no cell.
     """
@@ -553,6 +598,29 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             b = find(parent, old)
         return a
 
+    @wp.func
+    def share(S: Interaction, p: int, q: int):
+        # whether two points whose domains overlap share a node (the pre-task): always for the tent
+        # (in one cell's reach at a rebuild; or, with S.moves, overlapping domains under half a cell)
+        if wp.static(tent_cells):
+            return True
+        rp = S.reach[p]
+        rq = S.reach[q]
+        return rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]
+
+    @wp.func
+    def joined_now(P: Particles, S: Interaction, p: int, q: int):
+        # the overlap test of a listed pair with today's positions, the operands as a rebuild's
+        # ``link`` would take them (sums and |differences| of the same numbers: the same result
+        # whichever of the two searches)
+        bp = S.box[p]
+        bq = S.box[q]
+        xp = P.x[p]
+        xq = P.x[q]
+        sx = bp[2] + bq[2] - wp.abs(xq[0] - xp[0])
+        sy = bp[3] + bq[3] - wp.abs(xq[1] - xp[1])
+        return sx > T(0.0) and sy > T(0.0)
+
     @kernel
     def prepare(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                 status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
@@ -560,19 +628,11 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             if S.flags[FLAG_REBUILD] == 0:
                 return
         p = wp.tid()
-        # reset_copies has freed the copies by the depths of their runs (Grid.depth); no copy is
-        # claimed now, so the depths start again from zero, here because reset_copies reads them
-        # (the nodes of one run may sit in different thread blocks)
-        runs = G.depth.shape[1]
-        for k in range(p, G.depth.shape[0] * runs, P.x.shape[0]):
-            G.depth[k // runs, k - (k // runs) * runs] = 0
         S.parent[p] = p
-        # the copies are claimed anew this step: the layers the last claims kept are void (all
-        # NO_LAYER in the first word tells the claiming P2G to claim; kernels/transfer.py)
-        P.slots[p, 0] = -1
         if wp.static(staged):
             if clock[0] < P.release[p]:
                 S.reach[p] = wp.vec4i(0, -1, 0, -1)  # an empty node range: shares no node
+                S.npairs[p] = 0
                 return
         rho_cr = materials[P.material[p]][9]
         a, b = domain(P, p, rho_cr)
@@ -654,8 +714,13 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         # the margin and the pairs about to flip are for this step's check: none in a streak of
         # rebuilds (FLAG_FORCED), whose steps skip it
         checked = True
+        band = T(0.0)
         if wp.static(not deforming):
             checked = S.flags[FLAG_FORCED] == 0
+            band = T(S.flags[FLAG_BAND]) * S.quantum
+        pairs_p = wp.vec4i()  # the pairs p lists (PAIR_SLOTS), and how near each was to flipping [m]
+        nears_p = t.vec4()
+        listed_p = int(0)
         root = p  # an ancestor of p in the union-find forest: saves walking up from p on each merge
         # half the neighbourhood: the points after p in S.order within its own column of cells (its
         # cell and those above it), and the next columns' cells within the window; the windows are
@@ -709,6 +774,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                     # ranges (the pre-task) are read only for pairs that pass it or a continuum
                     box_q = S.records[k]
                     joined = False
+                    listed = False
                     if continuum_p or box_q[2] < T(0.0):
                         joined = True  # continua interact with every point they share a node with
                     else:
@@ -719,18 +785,35 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                         joined = sx > T(0.0) and sy > T(0.0)
                         if checked:
                             near = wp.abs(wp.min(sx, sy))
-                            if near < S.band:
-                                # about to flip: listed, and tested anew at every step's check, so
-                                # it does not shrink the margin of all the others
-                                listed = wp.atomic_add(S.flags, FLAG_CRITICAL, 1)
-                                if listed < S.critical.shape[0]:
-                                    a = p
+                            if near < band:
+                                # within the band of flipping: listed, tested anew at every step's
+                                # check and merged by ``relink`` (not here), so it does not shrink
+                                # the margin of all the others. Past PAIR_SLOTS the pair farthest
+                                # from flipping leaves the list (into the margin, and merged here
+                                # if its domains overlap)
+                                slot = listed_p
+                                if listed_p == PAIR_SLOTS:
+                                    for u in range(PAIR_SLOTS):
+                                        if nears_p[u] > near and (slot == PAIR_SLOTS or nears_p[u] > nears_p[slot]):
+                                            slot = u
+                                if slot < PAIR_SLOTS:
+                                    if listed_p == PAIR_SLOTS:
+                                        out = pairs_p[slot]
+                                        margin_p = wp.min(margin_p, nears_p[slot])
+                                        if out >= 0:  # (overlapping: merged as an unlisted pair)
+                                            if share(S, p, out):
+                                                root = unite(S.parent, root, out)
+                                    else:
+                                        listed_p += 1
+                                    code = q
                                     if not joined:
-                                        a = -p - 1
-                                    S.critical[listed] = wp.vec2i(a, q)
-                                    near = T(1.0e30)
-                            margin_p = wp.min(margin_p, near)
-                    if joined:
+                                        code = -q - 1
+                                    pairs_p[slot] = code
+                                    nears_p[slot] = near
+                                    listed = True
+                            if not listed:
+                                margin_p = wp.min(margin_p, near)
+                    if joined and not listed:
                         if wp.static(tent_cells):
                             # the tent's nodes are the corners of its cell and the window reaches
                             # one cell (W = 1): every pair met here shares a node
@@ -740,6 +823,9 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                             if rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]:
                                 root = unite(S.parent, root, q)
         if wp.static(not deforming):
+            S.npairs[p] = listed_p
+            if listed_p > 0:
+                S.pairs[p] = pairs_p
             if checked:
                 slot = p % EXT_SLOTS
                 q = quanta(margin_p, S, False)
@@ -747,30 +833,100 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                     wp.atomic_min(S.slack, slot, q)
 
     @kernel
-    def label(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
-                status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
+    def settle(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
+               status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
+        # after ``link`` (rebuilds of non-deforming domains): every point's root in the forest of the
+        # pairs that were not listed, kept in S.base for the relabels until the next rebuild, and
+        # made its parent (no merge runs now, so the roots stay put: the forest stays valid)
+        if S.flags[FLAG_REBUILD] == 0:
+            return
+        p = wp.tid()
+        r = find(S.parent, p)
+        S.base[p] = r
+        S.parent[p] = r
+
+    @kernel
+    def relink(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
+               status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
+        # a relabel (every rebuild too), after ``reset_copies``: the listed pairs whose domains
+        # overlap now are merged into the forest of the others (S.parent, which ``settle`` or the
+        # last ``check`` set to S.base), and keep their new state; the layers the last claims kept
+        # are void (all NO_LAYER in the first word tells the claiming P2G to claim; kernels/transfer.py)
         if wp.static(not deforming):
-            if S.flags[FLAG_REBUILD] == 0:
+            if S.flags[FLAG_RELABEL] == 0:
                 return
         p = wp.tid()
+        # reset_copies has freed the copies by the depths of their runs (Grid.depth); no copy is
+        # claimed now, so the depths start again from zero, here because reset_copies reads them
+        # (the nodes of one run may sit in different thread blocks)
+        runs = G.depth.shape[1]
+        for k in range(p, G.depth.shape[0] * runs, P.x.shape[0]):
+            G.depth[k // runs, k - (k // runs) * runs] = 0
+        P.slots[p, 0] = -1
+        if wp.static(not deforming):
+            n = S.npairs[p]
+            if n > 0:
+                pairs = S.pairs[p]
+                root = p
+                for k in range(PAIR_SLOTS):
+                    if k < n:
+                        code = pairs[k]
+                        q = code
+                        if code < 0:
+                            q = -code - 1
+                        joined = joined_now(P, S, p, q)
+                        if joined and share(S, p, q):
+                            root = unite(S.parent, root, q)
+                        if joined:
+                            pairs[k] = q
+                        else:
+                            pairs[k] = -q - 1
+                S.pairs[p] = pairs
+
+    @kernel
+    def label(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
+                status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
+        rebuilt = True
+        if wp.static(not deforming):
+            if S.flags[FLAG_RELABEL] == 0:
+                return
+            rebuilt = S.flags[FLAG_REBUILD] != 0
+        p = wp.tid()
         if p == 0:
-            S.flags[FLAG_COUNT] = S.flags[FLAG_COUNT] + 1
+            if rebuilt:
+                S.flags[FLAG_COUNT] = S.flags[FLAG_COUNT] + 1
+            else:
+                S.flags[FLAG_RELABELS] = S.flags[FLAG_RELABELS] + 1
         comp = find(S.parent, p)
         P.comp[p] = comp
-        # zero this point's cell count for the next rebuild (every point of a cell writes the same
-        # zero; cells without points were never counted), which spares a memset of every cell
         if wp.static(staged):
             if clock[0] < P.release[p]:
                 return
-        cell = cell_index(P, G, D, p)
-        if wp.static(not deforming):
+        rows = G.mass.shape[1]
+        if wp.static(deforming):
+            S.count[cell_index(P, G, D, p)] = 0  # (see below)
+        else:
+            # the point's cell at the last rebuild, where the cell-sorted list has it
+            ax, ay = cell_at(reference(S, p), D, rows)
+            cell = ax * rows + ay
             first = start(S, cell)
-            ref = S.order[first]  # the cell's reference: its first point in order
-            S.cell_ref[cell] = ref
-            S.ref[p] = ref
+            if rebuilt:
+                ref = S.order[first]  # the cell's reference: its first point in order
+                S.cell_ref[cell] = ref
+                S.ref[p] = ref
+                # zero this point's cell count for the next rebuild (every point of a cell writes the
+                # same zero; cells without points were never counted), which spares a memset of
+                # every cell
+                S.count[cell] = 0
             if wp.static(tent_cells):
-                S.labels[first + S.rank[p]] = comp  # (in the cell-sorted order, for ``assign``)
-        S.count[cell] = 0
+                # the component in the cell-sorted order, for ``assign``; −1 for a point that has
+                # left that cell since (S.moves), whose copies the claiming P2G finds instead
+                cx, cy = cell_of(P, D, p, rows)
+                here = cx * rows + cy
+                if here != cell:
+                    comp = -1
+                S.labels[first + S.rank[p]] = comp
+                S.home[p] = here
 
     cache_vec = wp.types.vector(length=ASSIGN_CACHE, dtype=wp.int32)
 
@@ -784,8 +940,9 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         # then finds them set and claims nothing). One thread decides a node's copies alone, so it
         # needs no compare-and-swap; the claims in P2G cost a chain of them where many components
         # meet (each loser of a race tries the next copy), and these are the same copies a claim
-        # would give, in a fixed order: reproducible.
-        if S.flags[FLAG_REBUILD] == 0:
+        # would give, in a fixed order: reproducible. The list is that of the last rebuild: a point
+        # that has left its cell since (label −1) claims its copies in P2G.
+        if S.flags[FLAG_RELABEL] == 0:
             return
         i, j = wp.tid()
         rows = G.mass.shape[1]
@@ -810,6 +967,8 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                             q = S.order[k]
                             comp = S.labels[k]
                             k += 1
+                            if comp < 0:
+                                continue
                             s = int(-1)
                             for u in range(ASSIGN_CACHE):
                                 if seen[u] == comp:
@@ -841,37 +1000,40 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         # after the step's last G2P: whether the next step needs a rebuild (see the module
         # docstring): a new node range rebuilds; the moves since the last rebuild, absolute and
         # relative to the cell's reference point, go to S.motion for ``judge``
+        p = wp.tid()
+        if S.flags[FLAG_RELABEL] != 0:
+            S.parent[p] = S.base[p]  # (back to the forest of the unlisted pairs, for the next relabel)
         if S.flags[FLAG_RANGE] != 0 or S.flags[FLAG_FORCED] > 0:
             return  # a rebuild anyway
-        p = wp.tid()
-        if p < wp.min(S.flags[FLAG_CRITICAL], S.critical.shape[0]):
-            # a pair the last rebuild found within ``band`` of flipping: its overlap test again, as
-            # a rebuild would make it now (the same operands, from the same side: a point that
-            # changed cells triggers a rebuild anyway); a flip rebuilds
-            pair = S.critical[p]
-            first = pair[0]
-            joined_then = first >= 0
-            if first < 0:
-                first = -first - 1
-            ba = S.box[first]
-            bb = S.box[pair[1]]
-            xa = P.x[first]
-            xb = P.x[pair[1]]
-            sx = ba[2] + bb[2] - wp.abs(xb[0] - xa[0])
-            sy = ba[3] + bb[3] - wp.abs(xb[1] - xa[1])
-            if (sx > T(0.0) and sy > T(0.0)) != joined_then:
-                S.flags[FLAG_RANGE] = 1
-                return
+        n = S.npairs[p]
+        if n > 0:
+            # the pairs the last rebuild found within the band of flipping: their overlap tests again,
+            # as a rebuild would make them now; a flip relabels
+            pairs = S.pairs[p]
+            for k in range(PAIR_SLOTS):
+                if k < n:
+                    code = pairs[k]
+                    q = code
+                    if code < 0:
+                        q = -code - 1
+                    if joined_now(P, S, p, q) != (code >= 0):
+                        if S.flags[FLAG_CHANGED] == 0:  # (a load before the store: most find it set)
+                            S.flags[FLAG_CHANGED] = 1
         released = True
         if wp.static(tent_cells):
-            # the tent's node range starts at the point's cell, floor((x − origin)/h) (the stencil's
-            # floor(c − 1) + 1 is the same on the grid): it changed iff that cell differs from the
-            # cell of the position at the rebuild, which needs no read of the stored range
-            a = (P.x[p] - D.origin) * D.inv_h
-            b = (reference(S, p) - D.origin) * D.inv_h
-            if wp.floor(a[0]) != wp.floor(b[0]) or wp.floor(a[1]) != wp.floor(b[1]):
-                S.flags[FLAG_RANGE] = 1
-                return
+            # the tent's node range starts at the point's cell (the stencil's floor(c − 1) + 1 is
+            # floor(c) on the grid): it changed iff the cell differs from the one of the last
+            # labelling, which needs no read of the stored range. A relabel takes a point in another
+            # cell when every domain is granular and under half a cell (S.moves); a rebuild else
+            rows = G.mass.shape[1]
+            cx, cy = cell_of(P, D, p, rows)
+            if cx * rows + cy != S.home[p]:
+                if S.moves != 0:
+                    if S.flags[FLAG_CHANGED] == 0:
+                        S.flags[FLAG_CHANGED] = 1
+                else:
+                    S.flags[FLAG_RANGE] = 1
+                    return
         else:
             reach = wp.vec4i(0, -1, 0, -1)
             if wp.static(staged):
@@ -911,9 +1073,10 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
 
     if deforming:
         check = None
+        settle = None
     if not tent_cells:
         assign = None
-    return check, prepare, place, link, label, assign
+    return check, prepare, place, link, settle, relink, label, assign
 
 
 @functools.cache
@@ -921,10 +1084,11 @@ def make_rebuild_decision(precision: str):
     """Kernel ``judge(S, clock, steps)``, one thread, the last of a step, after ``check``
     (non-deforming domains; deforming ones rebuild every step): the next step rebuilds the
     interaction graph if ``check`` found a changed node range, or unless one of the two bounds on
-    the change of the pairs' offsets is below the margin of the last rebuild (module docstring); after
-    STREAK_START such rebuilds in a row, the next steps rebuild without a check (``FLAG_FORCED``). It
-    clears the range flag, and advances the clock (``reductions.advance``): one launch for both, on
-    the critical path of every step."""
+    the change of the pairs' offsets is below the margin of the last rebuild (module docstring); it
+    relabels (without a rebuild) if ``check`` found a listed pair flipped or a point in another
+    cell. A streak of rebuilds widens the band of the pair lists, then stops the checks for a while
+    (STREAK_START, WIDE_STEPS). It clears what ``check`` found, and advances the clock
+    (``reductions.advance``): one launch for both, on the critical path of every step."""
     Interaction = make_interaction_struct(precision)
     T = scalar_types(precision).scalar
 
@@ -935,38 +1099,77 @@ def make_rebuild_decision(precision: str):
         # another, on the critical path of every step; the loops are unrolled for the same reason)
         forced = S.flags[FLAG_FORCED]
         range_changed = S.flags[FLAG_RANGE] != 0
+        changed = S.flags[FLAG_CHANGED] != 0
         streak = S.flags[FLAG_STREAK]
+        wide = S.flags[FLAG_WIDE]
+        calm = S.flags[FLAG_CALM]
+        age = S.flags[FLAG_AGE] + 1
         # keep the labels if either bound on the change of every pair's offset is below the margin,
         # with the round-off of the displacements (2 or 4) and of the margin
         absolute = int(0)
         relative = int(0)
         cells = int(0)
-        least = NO_MARGIN
+        least = S.moves_margin
         for k in range(EXT_SLOTS):
             absolute = wp.max(absolute, S.motion[MOVE_ABSOLUTE * EXT_SLOTS + k])
             relative = wp.max(relative, S.motion[MOVE_RELATIVE * EXT_SLOTS + k])
             cells = wp.max(cells, S.motion[MOVE_CELLS * EXT_SLOTS + k])
             least = wp.min(least, S.slack[k])
         S.flags[FLAG_RANGE] = 0
+        S.flags[FLAG_CHANGED] = 0
         if forced > 0:
             # a streak of rebuilds: this step's check was skipped, the next step rebuilds anyway
             S.flags[FLAG_FORCED] = forced - 1
             S.flags[FLAG_REBUILD] = 1
+            S.flags[FLAG_RELABEL] = 1
+            S.flags[FLAG_AGE] = 0
             return
         q = S.quantum
         margin = T(least) * q
         keep_absolute = T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < margin
         keep_relative = (T(2.0) * T(relative) + T(cells)) * q + T(7.0) * S.roundoff < margin
         rebuild = range_changed or not (keep_absolute or keep_relative)
-        S.flags[FLAG_REBUILD] = 0
+        relabel = rebuild or changed
         if rebuild:
-            S.flags[FLAG_REBUILD] = 1
             streak = streak + 1
+            calm = 0
             if streak >= STREAK_START:
-                S.flags[FLAG_FORCED] = wp.min(streak, STREAK_MAX)
+                if wide == 0:
+                    wide = 1  # first, lists that last longer (WIDE_STEPS)
+                    streak = 0
+                else:
+                    S.flags[FLAG_FORCED] = wp.min(streak, STREAK_MAX)
         else:
             streak = 0
+            if relabel:
+                calm = 0
+            elif wide != 0:
+                calm = calm + 1
+                if calm >= CALM_STEPS:
+                    # calm again: a rebuild with the narrow band, whose lists cost the checks less
+                    wide = 0
+                    calm = 0
+                    rebuild = True
+                    relabel = True
+        if rebuild:
+            band = S.band_min
+            if wide != 0:
+                # the largest move of a point per step since the last rebuild (rounded up), so that
+                # 2 max |Δx_p| reaches the band after about WIDE_STEPS steps
+                rate = wp.min((absolute + age - 1) // age, S.band_cap)
+                band = wp.clamp(2 * WIDE_STEPS * rate, S.band_min, S.band_cap)
+            S.flags[FLAG_BAND] = band
+            age = 0
+        S.flags[FLAG_REBUILD] = 0
+        S.flags[FLAG_RELABEL] = 0
+        if rebuild:
+            S.flags[FLAG_REBUILD] = 1
+        if relabel:
+            S.flags[FLAG_RELABEL] = 1
         S.flags[FLAG_STREAK] = streak
+        S.flags[FLAG_WIDE] = wide
+        S.flags[FLAG_CALM] = calm
+        S.flags[FLAG_AGE] = age
 
     return judge
 
@@ -974,20 +1177,20 @@ def make_rebuild_decision(precision: str):
 @functools.cache
 def make_reset_copies(precision: str, deforming: bool):
     """Kernel ``reset_copies(G, D, ext_max, slack, cell_ref, flags, motion)`` over the nodes of one
-    layer, on rebuild steps (every step for deforming domains): frees the copies the previous step
-    claimed (as deep as ``Grid.depth`` says, so a node without claims costs one read instead of a
-    memset of every layer; ``prepare`` then zeroes the depths) and resets ``ext_max`` (deforming
-    domains) or ``slack``, ``cell_ref`` and ``motion`` (the others)."""
+    layer, on the steps that relabel (every step for deforming domains): frees the copies the
+    previous steps claimed (as deep as ``Grid.depth`` says, so a node without claims costs one read
+    instead of a memset of every layer; ``relink`` then zeroes the depths) and, on a rebuild, resets
+    ``ext_max`` (deforming domains) or ``slack``, ``cell_ref`` and ``motion`` (the others)."""
     Particles, Grid, Domain = make_state_structs(precision)
 
     @kernel
     def reset_copies(G: Grid, D: Domain, ext_max: wp.array(dtype=wp.float32), slack: wp.array(dtype=wp.int32),
                      cell_ref: wp.array(dtype=wp.int32), flags: wp.array(dtype=wp.int32),
                      motion: wp.array(dtype=wp.int32)):
-        # on a step that reuses the labels every point keeps its node range, so the copies claimed
-        # at the last rebuild are the ones this step claims again: they stay
+        # on a step that keeps the labels every point keeps its node range, so the copies claimed
+        # at the last labelling are the ones this step claims again: they stay
         if wp.static(not deforming):
-            if flags[FLAG_REBUILD] == 0:
+            if flags[FLAG_RELABEL] == 0:
                 return
         i, j = wp.tid()
         k = i * G.owner.shape[1] + j
@@ -995,13 +1198,12 @@ def make_reset_copies(precision: str, deforming: bool):
             if k < 2 * EXT_SLOTS:
                 ext_max[k] = wp.float32(0.0)
         else:
-            if k < EXT_SLOTS:
-                slack[k] = NO_MARGIN
-            if k < 3 * EXT_SLOTS:
-                motion[k] = 0
-            if k == 0:
-                flags[FLAG_CRITICAL] = 0
-            cell_ref[k] = -1
+            if flags[FLAG_REBUILD] != 0:
+                if k < EXT_SLOTS:
+                    slack[k] = NO_MARGIN
+                if k < 3 * EXT_SLOTS:
+                    motion[k] = 0
+                cell_ref[k] = -1
         for s in range(G.depth[i, j // COPY_RUN]):  # (whole runs: stores that cover whole sectors)
             G.owner[s * D.layer_rows + i, j] = -1
 

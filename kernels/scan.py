@@ -37,13 +37,15 @@ def scan_lengths(entries: int) -> tuple[int, int]:
 
 @functools.cache
 def make_tile_scan():
-    """Kernel ``tile_scan(values, prefix, totals)``, launched over (tiles, SCAN_THREADS) with
+    """Kernel ``tile_scan(values, prefix, totals, gate)``, launched over (tiles, SCAN_THREADS) with
     block_dim SCAN_THREADS: ``prefix`` gets the exclusive prefix sum of ``values`` within each tile
-    of SCAN_TILE entries, ``totals[b]`` the sum of tile b."""
+    of SCAN_TILE entries, ``totals[b]`` the sum of tile b, when ``gate[0]`` ≠ 0 (as ``serial_scan``)."""
 
     @kernel
     def tile_scan(values: wp.array(dtype=wp.int32), prefix: wp.array(dtype=wp.int32),
-                  totals: wp.array(dtype=wp.int32)):
+                  totals: wp.array(dtype=wp.int32), gate: wp.array(dtype=wp.int32)):
+        if gate[0] == 0:  # (the same for every thread of the block: the tile operations are skipped whole)
+            return
         b, lane = wp.tid()
         tile = wp.tile_load(values, shape=SCAN_TILE, offset=b * SCAN_TILE)
         wp.tile_store(prefix, wp.tile_scan_exclusive(tile), offset=b * SCAN_TILE)

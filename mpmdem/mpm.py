@@ -36,6 +36,8 @@ _STATE_FIELDS = ("x", "v", "C", "F", "stress", "szz", "vol", "strain_energy", "m
 #: at every step instead of setting the margin of the label reuse (below the 1.7e-3 cells by which
 #: the paper's ρ_cr makes neighbouring domains of a dense packing overlap).
 CRITICAL_BAND = 2.0**-11
+#: The widest band of the pair lists [cells] (kernels/granular.py, WIDE_STEPS).
+WIDE_BAND_CAP = 0.25
 
 #: Ghost node layers around the domain, enough for the widest stencil (4 nodes) of a point that
 #: sits on, or slightly beyond, the domain boundary.
@@ -237,16 +239,33 @@ class MPMSolver:
             S.reach = wp.zeros(1 if tent else n, dtype=wp.vec4i, device=dev)
             S.ext_max = wp.array(self._static_extent(host, mats), dtype=wp.float32, device=dev)
             S.slack = wp.full(kgran.EXT_SLOTS, kgran.NO_MARGIN, dtype=wp.int32, device=dev)
-            S.quantum = t.scalar(self.scene.cell_size * 2.0**-20)
             S.motion = wp.zeros(3 * kgran.EXT_SLOTS, dtype=wp.int32, device=dev)
             S.cell_ref = wp.full(cells, -1, dtype=wp.int32, device=dev)
             S.ref = wp.zeros(1 if deforming else n, dtype=wp.int32, device=dev)
-            # pairs within band of flipping are listed and re-tested every step rather than let them
-            # set the margin of all (kernels/granular.py): a few near the threshold at any time
-            S.critical = wp.zeros(1 if deforming else max(1024, n // 8), dtype=wp.vec2i, device=dev)
-            S.band = t.scalar(self.scene.cell_size * CRITICAL_BAND)
+            # pairs within a band of flipping are listed per point and re-tested every step rather
+            # than let them set the margin of all; a flip relabels over the lists, on top of the
+            # forest of the other pairs (kernels/granular.py)
+            listed = 1 if deforming else n
+            S.pairs = wp.zeros(listed, dtype=wp.vec4i, device=dev)
+            S.npairs = wp.zeros(listed, dtype=wp.int32, device=dev)
+            S.base = wp.zeros(listed, dtype=wp.int32, device=dev)
+            S.home = wp.zeros(n if tent else 1, dtype=wp.int32, device=dev)
+            S.quantum = t.scalar(self.scene.cell_size * 2.0**-20)
+            S.band_min = int(CRITICAL_BAND * 2.0**20)  # (in quanta of h 2^-20)
+            S.band_cap = int(WIDE_BAND_CAP * 2.0**20)
+            # a point may change cells without a rebuild when every point is granular and every
+            # domain of interaction under half a cell (the tent outside staged scenes): then the
+            # pairs the search did not visit need (1 − 2 largest half-extent) h to meet
+            ext = float(self._static_extent(host, mats)[:2].max())
+            rho_cr = np.array([m.critical_density or 0.0 for m in mats])[host["material_index"]]
+            granular_only = bool((rho_cr > 0.0).all())
+            S.moves = int(tent and granular_only and ext < 0.5)
+            S.moves_margin = (int(math.floor((1.0 - 2.0 * ext * (1.0 + 1.0e-6)) * 2.0**20)) if S.moves
+                              else kgran.NO_MARGIN)
             flags = np.zeros(kgran.FLAG_SLOTS, np.int32)
             flags[kgran.FLAG_REBUILD] = 1  # the first step builds the graph
+            flags[kgran.FLAG_RELABEL] = 1
+            flags[kgran.FLAG_BAND] = S.band_min
             S.flags = wp.array(flags, dtype=wp.int32, device=dev)
             # round-off of one displacement, offset or margin: every one is a difference of two
             # nearby coordinates (exact when they are within a factor 2 of each other, Sterbenz;
@@ -353,38 +372,43 @@ class MPMSolver:
             deforming = c.shape in kgran.DEFORMING_DOMAINS
             S = self.interaction
             gin = [P, G, D, mats, S, self.status, clock]
-            check, prepare, place, link, label, assign = kgran.make_granular_kernels(c.shape, prec,
-                                                                                    staged=self.staged)
-            rebuild = [_Launch(kgran.make_reset_copies(prec, deforming), grid_dim,
-                               [G, D, S.ext_max, S.slack, S.cell_ref, S.flags, S.motion]), _Launch(prepare, n, gin)]
-            # the start of each cell's run in the cell-sorted list: prefix sums of the counts
+            check, prepare, place, link, settle, relink, label, assign = kgran.make_granular_kernels(
+                c.shape, prec, staged=self.staged)
+            reset = _Launch(kgran.make_reset_copies(prec, deforming), grid_dim,
+                            [G, D, S.ext_max, S.slack, S.cell_ref, S.flags, S.motion])
+            rebuild = [_Launch(prepare, n, gin)]
+            # the start of each cell's run in the cell-sorted list: prefix sums of the counts (gated
+            # by the rebuild flag: outside a CUDA graph the kernels of a skipped rebuild are launched
+            # and return; deforming domains rebuild every step: an open gate)
+            gate = S.flags[kgran.FLAG_REBUILD:] if check is not None else wp.ones(1, dtype=wp.int32, device=self.device)
             if wp.get_device(self.device).is_cuda:
                 scan, threads = kscan.make_tile_scan(), kscan.SCAN_THREADS
                 totals = self._scan_totals
                 levels = [(S.count, S.prefix1, totals[0]), (totals[0], S.prefix2, totals[1]),
                           (totals[1], S.prefix3, totals[2])]
                 # (a level whose input is one tile adds nothing: its prefix stays zero)
-                rebuild += [_Launch(scan, (values.shape[0] // kscan.SCAN_TILE, threads), [values, prefix, totals],
-                                    threads)
+                rebuild += [_Launch(scan, (values.shape[0] // kscan.SCAN_TILE, threads),
+                                    [values, prefix, totals, gate], threads)
                             for k, (values, prefix, totals) in enumerate(levels)
                             if k == 0 or levels[k - 1][0].shape[0] > kscan.SCAN_TILE]
             else:
-                # (gated by the rebuild flag; deforming domains rebuild every step: an open gate)
-                gate = S.flags[kgran.FLAG_REBUILD:] if check is not None else wp.ones(1, dtype=wp.int32,
-                                                                                      device=self.device)
                 rebuild += [_Launch(kscan.make_serial_scan(), 1, [S.count, S.prefix1, gate])]
-            rebuild += [_Launch(k, n, gin) for k in (place, link, label)]
+            rebuild += [_Launch(k, n, gin) for k in (place, link)]
+            relabel = [_Launch(relink, n, gin), _Launch(label, n, gin)]
             if assign is not None:
                 # the tent: each node gives out its copies (instead of the claims in P2G)
-                rebuild += [_Launch(assign, grid_dim, gin)]
+                relabel += [_Launch(assign, grid_dim, gin)]
             if check is not None:
-                # the rebuild runs only when the previous step's judge (end_step) asked for it: inside
-                # a CUDA graph a conditional node skips its launches; elsewhere each kernel reads the
-                # flag and returns at once. ``check`` goes after the step's last G2P (below).
-                seq += [("if", S.flags[kgran.FLAG_REBUILD:], rebuild)]
+                # the rebuild runs only when the previous step's judge (end_step) asked for it, the
+                # relabel when it asked for either: inside a CUDA graph conditional nodes skip their
+                # launches; elsewhere each kernel reads its flag and returns at once. ``check`` goes
+                # after the step's last G2P (below).
+                rebuild += [_Launch(settle, n, gin)]
+                seq += [("if", S.flags[kgran.FLAG_RELABEL:],
+                         [reset, ("if", S.flags[kgran.FLAG_REBUILD:], rebuild)] + relabel)]
                 self._judge = kgran.make_rebuild_decision(prec)
             else:
-                seq += rebuild
+                seq += [reset] + rebuild + relabel
         if c.update == "USL":
             if self.fused:
                 seq += p2g(mass=True, momentum=True, force=True, fused_impulse=True)
@@ -579,7 +603,8 @@ class MPMSolver:
         reordered or overwritten from the host, e.g. a checkpoint); a no-op otherwise."""
         if self.config.granular:
             flag = wp.array([1], dtype=wp.int32, device="cpu")
-            wp.copy(self.interaction.flags, flag, dest_offset=kgran.FLAG_REBUILD, count=1)
+            for slot in (kgran.FLAG_REBUILD, kgran.FLAG_RELABEL):  # (a rebuild labels too)
+                wp.copy(self.interaction.flags, flag, dest_offset=slot, count=1)
 
     def sort_points(self) -> None:
         """Reorder the points by grid cell (radix sort on the device); outputs keep the scene's order."""

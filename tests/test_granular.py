@@ -84,29 +84,63 @@ def test_components_match_brute_force_graph(shape, seed):
     assert m.granular_statistics()[0] == n_comp
 
 
-@pytest.mark.parametrize("seed", [0, 1])
-def test_components_in_a_streak_of_rebuilds_match_brute_force_graph(seed):
-    """In a streak of rebuilds (no margins kept) the tent's search leaves out the cells where no
-    partner of a point can overlap it; the labels must still be those of the O(N²) graph. The
-    islands translate at 30 m/s, so points cross cell lines at every step and the streak starts
-    after kgran.STREAK_START steps; then five steps are checked against the brute force."""
+def _translating_islands(seed: int):
+    """Eight islands moving together at 30 m/s (0.021 cells a step): points cross cell lines at
+    every step, and nothing moves relative to anything else."""
     sim = _granular_sim(_random_islands(seed, islands=8), "linear")
     m = sim.mpm
     v = m.P.v.numpy()
     v[:] = (21.0, 21.0)
     m.P.v.assign(v)
     m.set_stop_time(1.0)
-    for _ in range(kgran.STREAK_START + 1):
+    return m
+
+
+def _step_against_brute_force(m) -> bool:
+    """One step; its labels must be those of the O(N²) graph of the positions it started from.
+    Whether the layout mixes touching and separate islands."""
+    x0, reach0 = m.P.x.numpy().copy(), m.node_ranges()
+    m.step()
+    comp = m.P.comp.numpy()
+    np.testing.assert_array_equal(comp, _brute_force_components(x0, *m.interaction_domains(), reach0))
+    return 1 < len(np.unique(comp)) < len(comp)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_components_match_brute_force_graph_when_points_change_cells(seed):
+    """Points that change cells between rebuilds (every domain granular and under half a cell) are
+    relabelled, not rebuilt: their copies are claimed in P2G and the node threads skip them. The
+    islands cross cell lines at every step, and the bounds keep the graph (no relative motion), so
+    the steps relabel without a rebuild; their labels must be those of the O(N²) graph."""
+    m = _translating_islands(seed)
+    assert m.interaction.moves == 1
+    for _ in range(3):
         m.step()
-    checked = 0
+    mixed = 0
+    for _ in range(5):
+        f = m.interaction.flags.numpy()
+        assert f[kgran.FLAG_RELABEL] == 1 and f[kgran.FLAG_REBUILD] == 0  # (a relabel alone)
+        mixed += _step_against_brute_force(m)
+    assert mixed == 5
+    assert m.interaction.flags.numpy()[kgran.FLAG_COUNT] == 1  # the first step's rebuild only
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_components_in_a_streak_of_rebuilds_match_brute_force_graph(seed):
+    """In a streak of rebuilds (FLAG_FORCED: no margins kept, set here by hand) the tent's search
+    leaves out the cells where no partner of a point can overlap it; the labels must still be those
+    of the O(N²) graph. Five forced steps are checked against the brute force."""
+    m = _translating_islands(seed)
+    m.step()
+    flags = m.interaction.flags.numpy()
+    flags[kgran.FLAG_FORCED] = 5
+    flags[kgran.FLAG_REBUILD] = flags[kgran.FLAG_RELABEL] = 1
+    m.interaction.flags.assign(flags)
+    mixed = 0
     for _ in range(5):
         assert m.interaction.flags.numpy()[kgran.FLAG_FORCED] > 0  # (this step's link prunes)
-        x0, reach0 = m.P.x.numpy().copy(), m.node_ranges()
-        m.step()
-        comp = m.P.comp.numpy()
-        np.testing.assert_array_equal(comp, _brute_force_components(x0, *m.interaction_domains(), reach0))
-        checked += 1 < len(np.unique(comp)) < len(comp)
-    assert checked == 5  # the layouts mix touching and separate islands
+        mixed += _step_against_brute_force(m)
+    assert mixed == 5  # the layouts mix touching and separate islands
 
 
 def test_tent_node_range_is_its_cell_corners():
@@ -243,11 +277,11 @@ BLOCK = np.array([[0.0025 + 0.005 * i, 0.0025 + 0.005 * j] for i in range(4) for
 
 
 def _reuse_against_rebuild(parts, shape: str, gravity: float, steps: int,
-                           critical_density: float | None = 1400.0, forced: list | None = None) -> tuple[int, int]:
+                           critical_density: float | None = 1400.0, flags: list | None = None) -> tuple[int, int, int]:
     """Step two copies of a granular scene, one reusing its labels (kernels/granular.py) and one
     forced to rebuild the interaction graph every step; they must agree on the components at every
-    step and end with bit-identical positions. Returns (rebuilds of the first, distinct labellings);
-    ``forced`` gets, per step, the first's steps left to rebuild without a check."""
+    step and end with bit-identical positions. Returns (rebuilds of the first, its relabels without
+    a rebuild, distinct labellings); ``flags`` gets the first's flags after each step."""
 
     def make():
         scene = Scene(domain=((0.0, 0.0), (0.2, 0.2)), cell_size=H, gravity=(0.0, gravity),
@@ -267,11 +301,13 @@ def _reuse_against_rebuild(parts, shape: str, gravity: float, steps: int,
         rebuild.step()
         np.testing.assert_array_equal(reuse.components(), rebuild.components())
         labels_seen.add(tuple(reuse.components()))
-        if forced is not None:
-            forced.append(int(reuse.interaction.flags.numpy()[kgran.FLAG_FORCED]))
+        if flags is not None:
+            flags.append(reuse.interaction.flags.numpy().copy())
     np.testing.assert_array_equal(reuse.fields()["x"], rebuild.fields()["x"])
+    np.testing.assert_array_equal(reuse.fields()["v"], rebuild.fields()["v"])
     assert rebuild.interaction.flags.numpy()[kgran.FLAG_COUNT] == steps
-    return int(reuse.interaction.flags.numpy()[kgran.FLAG_COUNT]), len(labels_seen)
+    f = reuse.interaction.flags.numpy()
+    return int(f[kgran.FLAG_COUNT]), int(f[kgran.FLAG_RELABELS]), len(labels_seen)
 
 
 @pytest.mark.parametrize("shape", ["linear", "ugimp"])
@@ -283,20 +319,22 @@ def test_reused_labels_equal_a_rebuild_every_step(shape):
     # gaps of 1 mm between the domains of interaction (edge 5.18 mm): the blocks meet in ~20 steps
     parts = [(BLOCK + [0.0605, 0.08], (0.5, 0.0)), (BLOCK + [0.0822, 0.0812], (-0.5, 0.0)),
              (BLOCK + [0.06, 0.105], (0.0, 0.0))]
-    rebuilds, labellings = _reuse_against_rebuild(parts, shape, -1.0, 150)
+    rebuilds, _, labellings = _reuse_against_rebuild(parts, shape, -1.0, 150)
     assert 1 < rebuilds < 150 / 2  # it reused the labels on most steps, and still rebuilt
     assert labellings >= 2  # the components changed during the run
 
 
 def test_reused_labels_follow_a_body_that_moves_as_a_whole():
-    """A falling block and a separate grain drifting with it: the points move ~2.5 mm, 50 times the
+    """A falling block and a separate grain drifting with it: the points move ~3.3 mm, 70 times the
     margin of the block's barely overlapping domains (0.18 mm), but not relative to each other, so
-    the relative bound keeps the labels; rebuilds come only from node ranges crossing cell lines
-    (a point 1/4 cell from a line crosses it after 2.5 mm). Still exact."""
+    the relative bound keeps the labels and there is no rebuild after the first step. Points
+    crossing a cell line (a point 1/4 cell from a line crosses it after 2.5 mm, step 124) are
+    relabelled: their copies claimed anew. Still exact."""
     grain = np.array([[0.105, 0.1175]])  # 1.5 mm from the block's domains: apart
     parts = [(BLOCK + [0.08, 0.1], (0.0, -1.0)), (grain, (0.0, -1.0))]
-    rebuilds, labellings = _reuse_against_rebuild(parts, "linear", -9.81, 120)
-    assert rebuilds <= 8  # the absolute bound alone would rebuild about every 5 steps
+    rebuilds, relabels, labellings = _reuse_against_rebuild(parts, "linear", -9.81, 160)
+    assert rebuilds == 1  # the absolute bound alone would rebuild about every 5 steps
+    assert relabels >= 1  # points crossed cell lines
     assert labellings == 1
 
 
@@ -308,76 +346,117 @@ def test_reused_labels_see_continua_meet_through_a_node():
     node x = 0.07 with the right block, which crosses x = 0.07 only after 50 steps: the run that
     reuses its labels must merge them at the same step as the one that rebuilds every step."""
     parts = [(BLOCK + [0.0421, 0.08], (0.5, 0.0)), (BLOCK + [0.068, 0.08], (-0.5, 0.0))]
-    rebuilds, labellings = _reuse_against_rebuild(parts, "linear", 0.0, 60, critical_density=None)
+    rebuilds, relabels, labellings = _reuse_against_rebuild(parts, "linear", 0.0, 60, critical_density=None)
     assert labellings == 2  # apart, then one
     assert rebuilds <= 4  # the first step and the steps whose points crossed a cell line
+    assert relabels == 0  # continua: a point in another cell rebuilds
 
 
-def test_reused_labels_see_a_pair_at_the_threshold_meet():
+@pytest.mark.parametrize("shape", ["linear", "ugimp"])
+def test_reused_labels_see_a_pair_at_the_threshold_meet(shape):
     """Two grains whose domains of interaction are 1 µm apart, a fifth of the band within which an
     overlap test counts as about to flip (mpm.CRITICAL_BAND of a cell), drift together at 1 cm/s,
     inside one cell. Their pair is listed and re-tested at every step, so the margin of the label
     reuse stays open (nothing else limits it) and the labels are kept until the pair meets, 5 steps
-    in; the run that reuses its labels must merge them at the same step as the one that rebuilds
-    every step. (Without the re-test nothing would notice.)"""
+    in; then the step relabels over the listed pairs, without a rebuild (uGIMP: its copies claimed
+    in P2G; the tent: given out by the node threads), and must merge them at the same step as the
+    run that rebuilds every step. (Without the re-test nothing would notice.)"""
     gap = 1.0e-6  # m
     assert gap < 0.5 * H * CRITICAL_BAND
     reach = 0.5 * H * math.sqrt(1500.0 / 1400.0)  # sum of the two half-extents: V_cr = m / ρ_cr
     a = np.array([[0.1025, 0.1025]])
     b = a + np.array([reach + gap, 0.0])
     parts = [(a, (0.005, 0.0)), (b, (-0.005, 0.0))]
-    rebuilds, labellings = _reuse_against_rebuild(parts, "linear", 0.0, 12)
+    rebuilds, relabels, labellings = _reuse_against_rebuild(parts, shape, 0.0, 12)
     assert labellings == 2  # two components, then one
-    assert rebuilds == 2  # the first step, and the step after the pair met
+    assert rebuilds == 1  # the first step
+    assert relabels == 1  # the step after the pair met
 
 
-def test_a_streak_of_rebuilds_stops_checking_and_stays_exact():
-    """Grains that cross cell lines at every step (3 × 3 cm spread, 2–4 m/s: about 0.006 cells a
-    step each, 100 of them) make every check ask for a rebuild. After STREAK_START of those the
-    run rebuilds without checking, for min(streak, STREAK_MAX) steps at a time, and still agrees
-    with a run that rebuilds every step, components and positions."""
+def test_a_streak_of_rebuilds_widens_the_lists_and_stays_exact():
+    """Grains that move apart and together at every step (3 × 3 cm spread, 2–4 m/s: about 0.006
+    cells a step each, 100 of them, so ~11 to a cell: more pairs than PAIR_SLOTS near a point) make
+    every check ask for a rebuild, since the narrow band lists almost nothing. After STREAK_START of
+    those the rebuilds list the pairs within a wide band (FLAG_WIDE) and the steps between relabel
+    over them: fewer rebuilds, and still the components and bit-identical positions and velocities
+    of a run that rebuilds every step."""
     rng = np.random.default_rng(3)
     x = 0.085 + rng.uniform(0.0, 0.03, (100, 2))
     angle = rng.uniform(0.0, 2.0 * np.pi, 100)
     speed = rng.uniform(2.0, 4.0, 100)
     parts = [(x[k:k + 1], (speed[k] * math.cos(angle[k]), speed[k] * math.sin(angle[k]))) for k in range(100)]
-    forced: list[int] = []
-    rebuilds, labellings = _reuse_against_rebuild(parts, "linear", 0.0, 40, forced=forced)
-    assert rebuilds == 40
-    # after the judge of step n, how many of the next steps skip their check: 0 for the first
-    # STREAK_START − 1 steps, then a window of STREAK_START steps counting down, a check, and a
-    # window one longer
+    flags: list[np.ndarray] = []
+    rebuilds, relabels, labellings = _reuse_against_rebuild(parts, "linear", 0.0, 40, flags=flags)
     start = kgran.STREAK_START
-    expected = [0] * (start - 1) + list(range(start, -1, -1)) + list(range(start + 1, -1, -1))
-    assert forced[: len(expected)] == expected
+    assert [int(f[kgran.FLAG_REBUILD]) for f in flags[:start]] == [1] * start  # the streak
+    assert [int(f[kgran.FLAG_WIDE]) for f in flags[:start]] == [0] * (start - 1) + [1]  # then wide lists
+    assert flags[start - 1][kgran.FLAG_BAND] > 16 * flags[0][kgran.FLAG_BAND]
+    assert rebuilds < 40 - start  # most wide lists lasted more than a step
+    assert relabels > 5
     assert labellings >= 2  # grains met (else the components were never at stake)
 
 
+def test_relabels_replayed_from_a_cuda_graph_match_brute_force_graph(device):
+    """The 100 meeting and parting grains above, stepped as a Simulation does (on CUDA each step
+    replays a captured graph, whose relabel and rebuild are nested conditional nodes): the labels
+    of every step are those of the O(N²) graph, over steps that rebuild, relabel and keep."""
+    rng = np.random.default_rng(3)
+    x = 0.085 + rng.uniform(0.0, 0.03, (100, 2))
+    angle = rng.uniform(0.0, 2.0 * np.pi, 100)
+    v = rng.uniform(2.0, 4.0, 100)[:, None] * np.column_stack([np.cos(angle), np.sin(angle)])
+    scene = Scene(domain=((0.0, 0.0), (0.2, 0.2)), cell_size=H, gravity=(0.0, 0.0),
+                  boundaries={s: "free" for s in ("left", "right", "bottom", "top")})
+    scene.add_points(x, LinearElastic(1.0e5, 0.3, 1500.0, critical_density=1400.0), size=0.5 * H, velocity=v)
+    sim = Simulation(scene, SolverConfig(granular=True, shape="linear", precision="f64", dt=2.0e-5), device=device)
+    sim.advance_to(1.0e-12)  # (loads the modules, captures the graph on CUDA, takes one step)
+    m = sim.mpm
+    m.set_stop_time(1.0)
+    seen = set()
+    for _ in range(40):
+        f = m.interaction.flags.numpy()
+        seen.add((int(f[kgran.FLAG_REBUILD]), int(f[kgran.FLAG_RELABEL])))
+        x0, reach0 = m.P.x.numpy().copy(), m.node_ranges()
+        sim.advance(1)
+        np.testing.assert_array_equal(m.P.comp.numpy(), _brute_force_components(x0, *m.interaction_domains(), reach0))
+    assert seen == {(1, 1), (0, 1), (0, 0)}  # rebuilds, relabels and steps that keep everything
+
+
 def test_rebuild_decision_backs_off_and_returns():
-    """The judge kernel alone, on a resting scene's interaction state: eight verdicts "a node range
-    changed" in a row open a window of eight steps that rebuild unchecked; a verdict "nothing
-    moved" after it keeps the labels and ends the streak."""
+    """The judge kernel alone, on a resting scene's interaction state: a verdict "a pair flipped"
+    relabels without a rebuild; eight verdicts "a node range changed" in a row widen the band of the
+    lists (FLAG_WIDE, a rebuild), eight more open a window of eight steps that rebuild unchecked; a
+    verdict "nothing moved" after it keeps the labels and ends the streak, and CALM_STEPS of those
+    end the wide lists with a rebuild."""
     sim = _granular_sim(BLOCK + 0.1, "linear")
     mpm = sim.mpm
     mpm.step()
     S = mpm.interaction
 
-    def judge(range_changed: bool) -> tuple[int, int, int]:
+    def judge(range_changed: bool, changed: bool = False) -> tuple[int, int, int, int, int]:
         flags = S.flags.numpy()
         flags[kgran.FLAG_RANGE] = int(range_changed)
+        flags[kgran.FLAG_CHANGED] = int(changed)
         S.flags.assign(flags)
         wp.launch(mpm._judge, 1, inputs=[S, mpm.clock, mpm.steps], device="cpu")
         f = S.flags.numpy()
-        return int(f[kgran.FLAG_REBUILD]), int(f[kgran.FLAG_STREAK]), int(f[kgran.FLAG_FORCED])
+        return (int(f[kgran.FLAG_REBUILD]), int(f[kgran.FLAG_RELABEL]), int(f[kgran.FLAG_STREAK]),
+                int(f[kgran.FLAG_FORCED]), int(f[kgran.FLAG_WIDE]))
 
-    assert judge(False) == (0, 0, 0)  # at rest: keep the labels
+    assert judge(False) == (0, 0, 0, 0, 0)  # at rest: keep the labels
+    assert judge(False, changed=True) == (0, 1, 0, 0, 0)  # a pair flipped: relabel
     start = kgran.STREAK_START
     for k in range(1, start):
-        assert judge(True) == (1, k, 0)
-    assert judge(True) == (1, start, start)  # the streak opens a window
+        assert judge(True) == (1, 1, k, 0, 0)
+    assert judge(True) == (1, 1, 0, 0, 1)  # the streak widens the lists
+    for k in range(1, start):
+        assert judge(True) == (1, 1, k, 0, 1)
+    assert judge(True) == (1, 1, start, start, 1)  # still rebuilding: a window without checks
     for left in range(start - 1, -1, -1):
-        assert judge(False) == (1, start, left)  # rebuilds without a verdict (check skipped)
-    assert judge(False) == (0, 0, 0)  # the next verdict keeps the labels: the streak is over
+        assert judge(False) == (1, 1, start, left, 1)  # rebuilds without a verdict (check skipped)
+    for _ in range(kgran.CALM_STEPS - 1):
+        assert judge(False) == (0, 0, 0, 0, 1)  # the next verdicts keep the labels: the streak is over
+    assert judge(False) == (1, 1, 0, 0, 0)  # calm: back to the narrow band, with a rebuild
+    assert S.flags.numpy()[kgran.FLAG_BAND] == S.band_min
 
 
 def test_layer_overflow_stops_with_a_message():

@@ -21,10 +21,12 @@ def _scan(counts: np.ndarray, device: str) -> tuple[wp.array, wp.array, wp.array
     prefixes = [wp.zeros(n, dtype=wp.int32, device=device) for n in (n1, n2, kscan.SCAN_TILE)]
     totals = [wp.zeros(n, dtype=wp.int32, device=device) for n in (n2, kscan.SCAN_TILE, 1)]
     inputs = [values, totals[0], totals[1]]
+    gate = wp.ones(1, dtype=wp.int32, device=device)
     for level in range(3):
         tiles = inputs[level].shape[0] // kscan.SCAN_TILE
         wp.launch(kscan.make_tile_scan(), (tiles, kscan.SCAN_THREADS),
-                  inputs=[inputs[level], prefixes[level], totals[level]], block_dim=kscan.SCAN_THREADS, device=device)
+                  inputs=[inputs[level], prefixes[level], totals[level], gate], block_dim=kscan.SCAN_THREADS,
+                  device=device)
     return prefixes
 
 
