@@ -126,11 +126,13 @@ BUILDERS = {"dense-column": dense_column, "dispersed-cloud": dispersed_cloud}
 
 
 # -- timing ---------------------------------------------------------------------------------------
-def _rebuilds(mpm) -> int:
-    """Interaction-graph rebuilds so far (granular mode; kernels/granular.py reuses the labels)."""
+def _rebuilds(mpm) -> tuple[int, int]:
+    """Interaction-graph rebuilds and relabels without a rebuild so far (granular mode;
+    kernels/granular.py reuses the labels, or relabels over its pair lists)."""
     if not mpm.config.granular:
-        return 0
-    return int(mpm.interaction.flags.numpy()[kgran.FLAG_COUNT])
+        return 0, 0
+    flags = mpm.interaction.flags.numpy()
+    return int(flags[kgran.FLAG_COUNT]), int(flags[kgran.FLAG_RELABELS])
 
 
 def kernel_split(mpm, steps: int) -> dict[str, float]:
@@ -171,7 +173,9 @@ def time_mode(scene: Scene, config: SolverConfig, steps: int, device, kernel_ste
     if config.granular:
         out["components"], out["layers"] = mpm.granular_statistics()
         out["components_start"] = components_start
-        out["rebuilds"] = _rebuilds(mpm) - rebuilds_before
+        after = _rebuilds(mpm)
+        out["rebuilds"] = after[0] - rebuilds_before[0]
+        out["relabels"] = after[1] - rebuilds_before[1]
     if kernel_steps and str(device).startswith("cuda"):
         out["kernels_us_per_step"] = kernel_split(mpm, kernel_steps)
     del sim, mpm
@@ -197,7 +201,7 @@ def measure(case: str, particles: int, config: SolverConfig, steps: int, device,
             row.update(components=r["components"], components_start=r["components_start"], layers=r["layers"],
                        overhead=r["seconds_per_step"] / rows[0]["seconds_per_step"],
                        target=TARGETS[case], grid_layers=r["grid_layers"],
-                       rebuilds=r["rebuilds"])
+                       rebuilds=r["rebuilds"], relabels=r["relabels"])
         if "kernels_us_per_step" in r:
             row["kernels_us_per_step"] = r["kernels_us_per_step"]
         row.update(shape=cfg.shape, transfer=cfg.transfer, update=cfg.update, precision=cfg.precision,

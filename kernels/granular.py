@@ -40,19 +40,27 @@ At a rebuild every point records its position and its node range, each cell one 
 as reference, and the search records the margin M: the smallest change of a pair's offset
 (max-norm) that would flip any overlap test it made, or let a pair the cell window pruned overlap
 (``S.slack``, a global minimum: the rebuild decision is global anyway). Tests that were within a
-small band of flipping (``S.band``) are left out of M: their pairs are listed (``S.critical``) and
-tested anew at every step, a flip rebuilds, so one pair at the threshold (a dense packing that
-dilates: the paper's ρ_cr lets neighbours overlap by only 0.17 % of a cell) does not make every
-step rebuild while it crosses. A step then rebuilds only
-when some point's node range changed, or when neither bound on how much any pair's offset d_pq
-changed since is below M (less a round-off allowance): 2 max|Δx_p| (absolute moves), or
-2 max|Δx_p − Δx_ref(p)| + max|Δx_ref(c) − Δx_ref(c')| over cells c, c' within the search reach
-(moves relative to the references: a body that translates, falls or flows as a whole keeps
-its labels). Skipped steps get exactly the labels a rebuild would give and keep the grid copies
-they claimed. The check runs at the end of a step, on the positions the next step starts from,
-and its verdict goes out with the clock's advance (``judge``: one launch for both). A scene that
-rebuilds at STREAK_START steps in a row (a dispersed flow) skips the check for a while and just
-rebuilds (``FLAG_FORCED``). Deforming domains (cpGIMP, CPDI) rebuild every step.
+band of flipping (``FLAG_BAND``) are left out of M: their pairs are listed (``S.pairs``, up to
+PAIR_SLOTS a point, the rest in ``S.spill``) and are not merged by the search; ``settle`` keeps
+each point's root in the forest of the other pairs (``S.base``), and ``relink`` merges on top of
+it the listed pairs whose domains overlap now. A step then
+rebuilds only when some point's node range changed, or when neither bound on how much any pair's
+offset d_pq changed since is below M (less a round-off allowance): 2 max|Δx_p| (absolute moves),
+or 2 max|Δx_p − Δx_ref(p)| + max|Δx_ref(c) − Δx_ref(c')| over cells c, c' within the search reach
+(moves relative to the references: a body that translates, falls or flows as a whole keeps its
+labels). When a listed pair flipped, or a point changed cells in a scene where that cannot change
+the graph (``S.moves``: the tent, every point granular, every domain under half a cell), the step
+relabels instead: ``relink`` and ``label`` over the forest and the lists, ``assign`` over the
+rebuild's cell-sorted list, the points that left their cell since claiming their copies in P2G.
+Steps that keep or relabel get exactly the labels a rebuild would give. The check runs at the end
+of a step, on the positions the next step starts from, and its verdict goes out with the clock's
+advance (``judge``: one launch for both). The band is narrow (``mpm.CRITICAL_BAND``: one pair at
+the threshold, as in a dense packing that dilates, where the paper's ρ_cr lets neighbours overlap
+by only 0.17 % of a cell, does not make every step rebuild while it crosses); a scene that
+rebuilds at STREAK_START steps in a row (a dispersed flow) widens it so that the lists last about
+WIDE_STEPS steps and relabels at every step between (``FLAG_WIDE``), and if it still rebuilds at
+every step it skips the check for a while and just rebuilds (``FLAG_FORCED``). Deforming domains
+(cpGIMP, CPDI) rebuild every step.
 
 Non-granular materials (no critical density) are continua: their points interact with every
 point they share a node with, so they are never split.
@@ -84,6 +92,9 @@ __all__ = [
     "FLAG_CALM",
     "FLAG_BAND",
     "FLAG_AGE",
+    "FLAG_SPILLED",
+    "FLAG_FLIPPED",
+    "FLAG_STRAYED",
     "PAIR_SLOTS",
     "WIDE_STEPS",
     "CALM_STEPS",
@@ -149,10 +160,14 @@ FLAG_WIDE = 8  # 1 while the rebuilds list pairs within a wide band (a streak of
 FLAG_CALM = 9  # consecutive steps that kept everything while wide
 FLAG_BAND = 10  # the band [quanta] of the next rebuild's pair lists
 FLAG_AGE = 11  # steps since the last rebuild
-FLAG_SLOTS = 12
+FLAG_SPILLED = 12  # pairs the last rebuild listed in ``Interaction.spill`` (may exceed its size)
+FLAG_FLIPPED = 13  # 1 when this step's ``relink`` found a listed pair flipped
+FLAG_STRAYED = 14  # 1 once a relabel since the last rebuild took a point in another cell (``Interaction.home``)
+FLAG_SLOTS = 15
 
 #: Pairs a point lists (``Interaction.pairs``): the overlap tests of a rebuild that were within the
-#: band of flipping; those past it count in the margin instead.
+#: band of flipping; those past it go to one list for all (``Interaction.spill``), and past its
+#: size they count in the margin instead.
 PAIR_SLOTS = 4
 
 #: A scene whose checks ask for a rebuild STREAK_START steps in a row (a dispersed flow, whose
@@ -331,36 +346,37 @@ def make_interaction_struct(precision: str):
     tiles) int32 points per cell at this rebuild (zero between rebuilds); prefix1, prefix2, prefix3
     its three-level exclusive prefix sums (``kernels.scan``): the start of each cell's run in order;
     rank (N,) int32 each point's place among its cell's points; order (N,) int32 the points by cell
-    (column-major cells, like the grid); labels (N,) int32 (the tent outside staged scenes; one entry
-    else) the component of order[k] at k, for ``assign``; slot_bytes (N, 4) uint8 (likewise) the
-    bytes of ``Particles.slots`` (the same memory: byte n of a word is bits 8n..8n+7, little-endian),
-    which ``assign`` stores one by one; records (N,) vec4 (non-deforming domains; one entry else)
-    the ``box`` record of order[k] at k; parent (N,) int32 union–find links; dom_a, dom_b
-    (N,) vec2 half-vectors of the domains of interaction [m] (deforming domains; one entry else);
-    box (N,) vec4 (non-deforming domains; one entry else): the position at the last rebuild [m] and
-    the half-extents of the axis-aligned domain of interaction [m], −1 for a continuum point, read
-    by the search as one 16-byte record; anchor (N,) vec2 (likewise) the same position alone, which
-    ``check`` reads at every step (8 bytes instead of the record's 16); reach (N,) vec4i node range
-    (x0, x1, y0, y1) (one entry for the tent outside staged scenes, whose range follows from its
-    cell); ext_max (2 EXT_SLOTS,)
-    float32 largest half-extent [cells], x and y; slack (EXT_SLOTS,) int32: the margin of the last
-    rebuild's pair tests and pruned windows in whole quanta (rounded down), reduced in slots; flags
-    (FLAG_SLOTS,) int32; motion (3 EXT_SLOTS,) int32 (``MOVE_*``); cell_ref (cells,) int32: each
-    cell's reference point at the last rebuild, −1 for none; ref (N,) int32: the reference point
-    of each point's cell at the last rebuild (non-deforming domains); pairs (N,) vec4i and npairs
-    (N,) int32 (non-deforming domains; one entry else): the partners q of the first ``npairs[p]``
-    of point p's overlap tests at the last rebuild that were within the band (``FLAG_BAND``) of
-    flipping, each stored as q if the domains overlapped at the last labelling, −q − 1 if not
-    (those past PAIR_SLOTS count in ``slack`` instead); base (N,) int32 (likewise): each point's
-    root in the forest of the pairs that were not listed (the part of the graph that holds until the
-    next rebuild); home (N,) int32 (the tent outside staged scenes): each point's cell at the last
-    labelling; band_min, band_cap: the narrow band and the widest [quanta]; moves: 1 when a point
-    may change cells without a rebuild (the tent outside staged scenes, every point granular, every
-    domain of interaction under half a cell: overlapping domains then share a node whatever their
-    cells, and domains that do not overlap never interact), 0 else; moves_margin [quanta]: then the
-    least change of offset that makes a pair the search did not visit (two or more cells apart)
-    overlap, (1 − 2 largest half-extent) h, NO_MARGIN else; quantum: the unit of ``slack`` and
-    ``motion`` [m]; roundoff: the round-off allowance [m] of one displacement or margin."""
+    (column-major cells, like the grid); labels (N,) int32 (the tent outside staged scenes; one
+    entry else) the component of order[k] at k, for ``assign``; slot_bytes (N, 4) uint8 (likewise)
+    the bytes of ``Particles.slots`` (the same memory: byte n of a word is bits 8n..8n+7,
+    little-endian), which ``assign`` stores one by one; records (N,) vec4 (non-deforming domains;
+    one entry else) the ``box`` record of order[k] at k; parent (N,) int32 union–find links; dom_a,
+    dom_b (N,) vec2 half-vectors of the domains of interaction [m] (deforming domains; one entry
+    else); box (N,) vec4 (non-deforming domains; one entry else): the position at the last rebuild
+    [m] and the half-extents of the axis-aligned domain of interaction [m], −1 for a continuum
+    point, read by the search as one 16-byte record; anchor (N,) vec2 (likewise) the same position
+    alone, which ``check`` reads at every step (8 bytes instead of the record's 16); reach (N,)
+    vec4i node range (x0, x1, y0, y1) (one entry for the tent outside staged scenes, whose range
+    follows from its cell); ext_max (2 EXT_SLOTS,) float32 largest half-extent [cells], x and y;
+    slack (EXT_SLOTS,) int32: the margin of the last rebuild's pair tests and pruned windows in
+    whole quanta (rounded down), reduced in slots; flags (FLAG_SLOTS,) int32; motion (3 EXT_SLOTS,)
+    int32 (``MOVE_*``); cell_ref (cells,) int32: each cell's reference point at the last rebuild, −1
+    for none; ref (N,) int32: the reference point of each point's cell at the last rebuild
+    (non-deforming domains); pairs (N, PAIR_SLOTS) int32 and npairs (N,) int32 (non-deforming
+    domains; one entry else): the partners q of the first ``npairs[p]`` of point p's overlap tests
+    at the last rebuild that were within the band (``FLAG_BAND``) of flipping, each stored as q if
+    the domains overlapped at the last labelling, −q − 1 if not; spill (capacity,) vec2i: those past
+    PAIR_SLOTS, (p, q) or (−p − 1, q) (``FLAG_SPILLED`` counts them; those past the capacity count
+    in ``slack`` instead); base (N,) int32 (likewise): each point's root in the forest of the pairs
+    that were not listed (the part of the graph that holds until the next rebuild); home (N,) int32
+    (the tent outside staged scenes): each point's cell at the last labelling; band_min, band_cap:
+    the narrow band and the widest [quanta]; moves: 1 when a point may change cells without a
+    rebuild (the tent outside staged scenes, every point granular, every domain of interaction under
+    half a cell: overlapping domains then share a node whatever their cells, and domains that do not
+    overlap never interact), 0 else; moves_margin [quanta]: then the least change of offset that
+    makes a pair the search did not visit (two or more cells apart) overlap, (1 − 2 largest
+    half-extent) h, NO_MARGIN else; quantum: the unit of ``slack`` and ``motion`` [m]; roundoff: the
+    round-off allowance [m] of one displacement or margin."""
     t = scalar_types(precision)
 
     @wp.struct
@@ -385,8 +401,9 @@ def make_interaction_struct(precision: str):
         motion: wp.array(dtype=wp.int32)
         cell_ref: wp.array(dtype=wp.int32)
         ref: wp.array(dtype=wp.int32)
-        pairs: wp.array(dtype=wp.vec4i)
+        pairs: wp.array2d(dtype=wp.int32)
         npairs: wp.array(dtype=wp.int32)
+        spill: wp.array(dtype=wp.vec2i)
         base: wp.array(dtype=wp.int32)
         home: wp.array(dtype=wp.int32)
         band_min: int
@@ -715,12 +732,12 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         # rebuilds (FLAG_FORCED), whose steps skip it
         checked = True
         band = T(0.0)
+        wide = False  # (the narrow band lists few pairs, all in the spill list, which ``check`` tests)
         if wp.static(not deforming):
             checked = S.flags[FLAG_FORCED] == 0
             band = T(S.flags[FLAG_BAND]) * S.quantum
-        pairs_p = wp.vec4i()  # the pairs p lists (PAIR_SLOTS), and how near each was to flipping [m]
-        nears_p = t.vec4()
-        listed_p = int(0)
+            wide = S.flags[FLAG_WIDE] != 0
+        listed_p = int(0)  # pairs listed in p's slots
         root = p  # an ancestor of p in the union-find forest: saves walking up from p on each merge
         # half the neighbourhood: the points after p in S.order within its own column of cells (its
         # cell and those above it), and the next columns' cells within the window; the windows are
@@ -788,29 +805,22 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                             if near < band:
                                 # within the band of flipping: listed, tested anew at every step's
                                 # check and merged by ``relink`` (not here), so it does not shrink
-                                # the margin of all the others. Past PAIR_SLOTS the pair farthest
-                                # from flipping leaves the list (into the margin, and merged here
-                                # if its domains overlap)
-                                slot = listed_p
-                                if listed_p == PAIR_SLOTS:
-                                    for u in range(PAIR_SLOTS):
-                                        if nears_p[u] > near and (slot == PAIR_SLOTS or nears_p[u] > nears_p[slot]):
-                                            slot = u
-                                if slot < PAIR_SLOTS:
-                                    if listed_p == PAIR_SLOTS:
-                                        out = pairs_p[slot]
-                                        margin_p = wp.min(margin_p, nears_p[slot])
-                                        if out >= 0:  # (overlapping: merged as an unlisted pair)
-                                            if share(S, p, out):
-                                                root = unite(S.parent, root, out)
-                                    else:
-                                        listed_p += 1
-                                    code = q
-                                    if not joined:
-                                        code = -q - 1
-                                    pairs_p[slot] = code
-                                    nears_p[slot] = near
+                                # the margin of all the others; past PAIR_SLOTS into the spill list
+                                code = q
+                                if not joined:
+                                    code = -q - 1
+                                if listed_p < PAIR_SLOTS and wide:
+                                    S.pairs[p, listed_p] = code
+                                    listed_p += 1
                                     listed = True
+                                else:
+                                    spilled = wp.atomic_add(S.flags, FLAG_SPILLED, 1)
+                                    if spilled < S.spill.shape[0]:
+                                        first = p
+                                        if not joined:
+                                            first = -p - 1
+                                        S.spill[spilled] = wp.vec2i(first, q)
+                                        listed = True
                             if not listed:
                                 margin_p = wp.min(margin_p, near)
                     if joined and not listed:
@@ -824,8 +834,6 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                                 root = unite(S.parent, root, q)
         if wp.static(not deforming):
             S.npairs[p] = listed_p
-            if listed_p > 0:
-                S.pairs[p] = pairs_p
             if checked:
                 slot = p % EXT_SLOTS
                 q = quanta(margin_p, S, False)
@@ -844,6 +852,20 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         r = find(S.parent, p)
         S.base[p] = r
         S.parent[p] = r
+
+    @wp.func
+    def relist(P: Particles, S: Interaction, p: int, code: int):
+        # a listed pair (p, q), q = code or −code − 1 if its domains did not overlap: merged if they
+        # overlap now (and share a node); returns its code for today
+        q = code
+        if code < 0:
+            q = -code - 1
+        joined = joined_now(P, S, p, q)
+        if joined:
+            if share(S, p, q):
+                unite(S.parent, p, q)
+            return q
+        return -q - 1
 
     @kernel
     def relink(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
@@ -864,24 +886,30 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             G.depth[k // runs, k - (k // runs) * runs] = 0
         P.slots[p, 0] = -1
         if wp.static(not deforming):
-            n = S.npairs[p]
-            if n > 0:
-                pairs = S.pairs[p]
-                root = p
-                for k in range(PAIR_SLOTS):
-                    if k < n:
-                        code = pairs[k]
-                        q = code
-                        if code < 0:
-                            q = -code - 1
-                        joined = joined_now(P, S, p, q)
-                        if joined and share(S, p, q):
-                            root = unite(S.parent, root, q)
-                        if joined:
-                            pairs[k] = q
-                        else:
-                            pairs[k] = -q - 1
-                S.pairs[p] = pairs
+            flipped = bool(False)
+            for k in range(S.npairs[p]):
+                code = S.pairs[p, k]
+                now = relist(P, S, p, code)
+                if now != code:
+                    S.pairs[p, k] = now
+                    flipped = True
+            if p < wp.min(S.flags[FLAG_SPILLED], S.spill.shape[0]):
+                # (a spilled pair (a, q): a = p, or −p − 1 if the domains did not overlap)
+                pair = S.spill[p]
+                first = pair[0]
+                code = pair[1]
+                if first < 0:
+                    first = -first - 1
+                    code = -code - 1
+                now = relist(P, S, first, code)
+                if now != code:
+                    flipped = True
+                    if now < 0:
+                        first = -first - 1
+                    S.spill[p] = wp.vec2i(first, pair[1])
+            if flipped:
+                if S.flags[FLAG_FLIPPED] == 0:  # (for ``judge``: whether the wide lists still change)
+                    S.flags[FLAG_FLIPPED] = 1
 
     @kernel
     def label(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
@@ -925,6 +953,8 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                 here = cx * rows + cy
                 if here != cell:
                     comp = -1
+                    if S.flags[FLAG_STRAYED] == 0:  # (``check`` then compares with S.home)
+                        S.flags[FLAG_STRAYED] = 1
                 S.labels[first + S.rank[p]] = comp
                 S.home[p] = here
 
@@ -994,6 +1024,14 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         if n > 0:
             wp.atomic_max(G.depth, i, j // COPY_RUN, n)
 
+    @wp.func
+    def flips(P: Particles, S: Interaction, p: int, code: int):
+        # whether the overlap test of listed pair (p, q) differs from the one of the last labelling
+        q = code
+        if code < 0:
+            q = -code - 1
+        return joined_now(P, S, p, q) != (code >= 0)
+
     @kernel(max_unroll=WINDOW)
     def check(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
               status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
@@ -1005,29 +1043,39 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             S.parent[p] = S.base[p]  # (back to the forest of the unlisted pairs, for the next relabel)
         if S.flags[FLAG_RANGE] != 0 or S.flags[FLAG_FORCED] > 0:
             return  # a rebuild anyway
-        n = S.npairs[p]
-        if n > 0:
-            # the pairs the last rebuild found within the band of flipping: their overlap tests again,
-            # as a rebuild would make them now; a flip relabels
-            pairs = S.pairs[p]
-            for k in range(PAIR_SLOTS):
-                if k < n:
-                    code = pairs[k]
-                    q = code
-                    if code < 0:
-                        q = -code - 1
-                    if joined_now(P, S, p, q) != (code >= 0):
-                        if S.flags[FLAG_CHANGED] == 0:  # (a load before the store: most find it set)
-                            S.flags[FLAG_CHANGED] = 1
+        # the pairs the last rebuild found within the band of flipping: their overlap tests again,
+        # as a rebuild would make them now; a flip relabels. With the wide lists every step
+        # relabels anyway (``judge``): no test here
+        # (the narrow band lists its few pairs in the spill list alone: no per-point read here)
+        flipped = bool(False)
+        if S.flags[FLAG_WIDE] == 0 and p < wp.min(S.flags[FLAG_SPILLED], S.spill.shape[0]):
+            pair = S.spill[p]
+            first = pair[0]
+            code = pair[1]
+            if first < 0:
+                first = -first - 1
+                code = -code - 1
+            flipped = flipped or flips(P, S, first, code)
+        if flipped:
+            if S.flags[FLAG_CHANGED] == 0:  # (a load before the store: most find it set)
+                S.flags[FLAG_CHANGED] = 1
         released = True
         if wp.static(tent_cells):
             # the tent's node range starts at the point's cell (the stencil's floor(c − 1) + 1 is
             # floor(c) on the grid): it changed iff the cell differs from the one of the last
             # labelling, which needs no read of the stored range. A relabel takes a point in another
             # cell when every domain is granular and under half a cell (S.moves); a rebuild else
+            # (S.home differs from the cell of the rebuild only once a relabel took a point in another
+            # cell, FLAG_STRAYED: until then the rebuild's position tells, which ``check`` reads anyway)
             rows = G.mass.shape[1]
             cx, cy = cell_of(P, D, p, rows)
-            if cx * rows + cy != S.home[p]:
+            home = int(0)
+            if S.flags[FLAG_STRAYED] != 0:
+                home = S.home[p]
+            else:
+                ax, ay = cell_at(reference(S, p), D, rows)
+                home = ax * rows + ay
+            if cx * rows + cy != home:
                 if S.moves != 0:
                     if S.flags[FLAG_CHANGED] == 0:
                         S.flags[FLAG_CHANGED] = 1
@@ -1100,6 +1148,7 @@ def make_rebuild_decision(precision: str):
         forced = S.flags[FLAG_FORCED]
         range_changed = S.flags[FLAG_RANGE] != 0
         changed = S.flags[FLAG_CHANGED] != 0
+        flipped = S.flags[FLAG_FLIPPED] != 0
         streak = S.flags[FLAG_STREAK]
         wide = S.flags[FLAG_WIDE]
         calm = S.flags[FLAG_CALM]
@@ -1117,6 +1166,7 @@ def make_rebuild_decision(precision: str):
             least = wp.min(least, S.slack[k])
         S.flags[FLAG_RANGE] = 0
         S.flags[FLAG_CHANGED] = 0
+        S.flags[FLAG_FLIPPED] = 0
         if forced > 0:
             # a streak of rebuilds: this step's check was skipped, the next step rebuilds anyway
             S.flags[FLAG_FORCED] = forced - 1
@@ -1129,7 +1179,11 @@ def make_rebuild_decision(precision: str):
         keep_absolute = T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < margin
         keep_relative = (T(2.0) * T(relative) + T(cells)) * q + T(7.0) * S.roundoff < margin
         rebuild = range_changed or not (keep_absolute or keep_relative)
-        relabel = rebuild or changed
+        # (with the wide lists ``check`` tests no pair and every step relabels; it counts as calm
+        # when its ``relink`` found no pair flipped and no point changed cells)
+        relabel = rebuild or changed or wide != 0
+        if wide != 0:
+            changed = changed or flipped
         if rebuild:
             streak = streak + 1
             calm = 0
@@ -1141,7 +1195,7 @@ def make_rebuild_decision(precision: str):
                     S.flags[FLAG_FORCED] = wp.min(streak, STREAK_MAX)
         else:
             streak = 0
-            if relabel:
+            if changed:
                 calm = 0
             elif wide != 0:
                 calm = calm + 1
@@ -1199,6 +1253,9 @@ def make_reset_copies(precision: str, deforming: bool):
                 ext_max[k] = wp.float32(0.0)
         else:
             if flags[FLAG_REBUILD] != 0:
+                if k == 0:
+                    flags[FLAG_SPILLED] = 0
+                    flags[FLAG_STRAYED] = 0
                 if k < EXT_SLOTS:
                     slack[k] = NO_MARGIN
                 if k < 3 * EXT_SLOTS:

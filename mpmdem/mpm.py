@@ -38,6 +38,9 @@ _STATE_FIELDS = ("x", "v", "C", "F", "stress", "szz", "vol", "strain_energy", "m
 CRITICAL_BAND = 2.0**-11
 #: The widest band of the pair lists [cells] (kernels/granular.py, WIDE_STEPS).
 WIDE_BAND_CAP = 0.25
+#: Whether the rebuild sits in a conditional graph node of its own inside the relabel's (else its
+#: kernels are launched on every relabel and return at once when there is no rebuild).
+NESTED_REBUILD = True
 
 #: Ghost node layers around the domain, enough for the widest stencil (4 nodes) of a point that
 #: sits on, or slightly beyond, the domain boundary.
@@ -246,8 +249,9 @@ class MPMSolver:
             # than let them set the margin of all; a flip relabels over the lists, on top of the
             # forest of the other pairs (kernels/granular.py)
             listed = 1 if deforming else n
-            S.pairs = wp.zeros(listed, dtype=wp.vec4i, device=dev)
+            S.pairs = wp.zeros((listed, kgran.PAIR_SLOTS), dtype=wp.int32, device=dev)
             S.npairs = wp.zeros(listed, dtype=wp.int32, device=dev)
+            S.spill = wp.zeros(1 if deforming else max(1024, n // 4), dtype=wp.vec2i, device=dev)
             S.base = wp.zeros(listed, dtype=wp.int32, device=dev)
             S.home = wp.zeros(n if tent else 1, dtype=wp.int32, device=dev)
             S.quantum = t.scalar(self.scene.cell_size * 2.0**-20)
@@ -404,8 +408,8 @@ class MPMSolver:
                 # launches; elsewhere each kernel reads its flag and returns at once. ``check`` goes
                 # after the step's last G2P (below).
                 rebuild += [_Launch(settle, n, gin)]
-                seq += [("if", S.flags[kgran.FLAG_RELABEL:],
-                         [reset, ("if", S.flags[kgran.FLAG_REBUILD:], rebuild)] + relabel)]
+                inner = [("if", S.flags[kgran.FLAG_REBUILD:], rebuild)] if NESTED_REBUILD else rebuild
+                seq += [("if", S.flags[kgran.FLAG_RELABEL:], [reset] + inner + relabel)]
                 self._judge = kgran.make_rebuild_decision(prec)
             else:
                 seq += [reset] + rebuild + relabel

@@ -393,10 +393,11 @@ def test_a_streak_of_rebuilds_widens_the_lists_and_stays_exact():
     assert flags[start - 1][kgran.FLAG_BAND] > 16 * flags[0][kgran.FLAG_BAND]
     assert rebuilds < 40 - start  # most wide lists lasted more than a step
     assert relabels > 5
+    assert max(int(f[kgran.FLAG_SPILLED]) for f in flags) > 0  # points listed more than PAIR_SLOTS pairs
     assert labellings >= 2  # grains met (else the components were never at stake)
 
 
-def test_relabels_replayed_from_a_cuda_graph_match_brute_force_graph(device):
+def test_relabels_replayed_from_a_captured_graph_match_brute_force_graph(device):
     """The 100 meeting and parting grains above, stepped as a Simulation does (on CUDA each step
     replays a captured graph, whose relabel and rebuild are nested conditional nodes): the labels
     of every step are those of the O(N²) graph, over steps that rebuild, relabel and keep."""
@@ -418,7 +419,7 @@ def test_relabels_replayed_from_a_cuda_graph_match_brute_force_graph(device):
         x0, reach0 = m.P.x.numpy().copy(), m.node_ranges()
         sim.advance(1)
         np.testing.assert_array_equal(m.P.comp.numpy(), _brute_force_components(x0, *m.interaction_domains(), reach0))
-    assert seen == {(1, 1), (0, 1), (0, 0)}  # rebuilds, relabels and steps that keep everything
+    assert {(1, 1), (0, 1)} <= seen  # steps that rebuilt and steps that relabelled without a rebuild
 
 
 def test_rebuild_decision_backs_off_and_returns():
@@ -454,7 +455,7 @@ def test_rebuild_decision_backs_off_and_returns():
     for left in range(start - 1, -1, -1):
         assert judge(False) == (1, 1, start, left, 1)  # rebuilds without a verdict (check skipped)
     for _ in range(kgran.CALM_STEPS - 1):
-        assert judge(False) == (0, 0, 0, 0, 1)  # the next verdicts keep the labels: the streak is over
+        assert judge(False) == (0, 1, 0, 0, 1)  # the streak is over (wide lists: every step relabels)
     assert judge(False) == (1, 1, 0, 0, 0)  # calm: back to the narrow band, with a rebuild
     assert S.flags.numpy()[kgran.FLAG_BAND] == S.band_min
 
