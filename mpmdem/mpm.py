@@ -698,7 +698,9 @@ class MPMSolver:
         out["energy_total"] = out["energy_kinetic"] + out["energy_strain"] + out["energy_gravity"]
         if self.config.granular:
             out["components"], out["layers"] = (float(v) for v in self.granular_statistics())
-            out["granular_rebuilds"] = float(self.interaction.flags.numpy()[kgran.FLAG_COUNT])
+            flags = self.interaction.flags.numpy()
+            out["granular_rebuilds"] = float(flags[kgran.FLAG_COUNT])
+            out["granular_relabels"] = float(flags[kgran.FLAG_RELABELS])
         return out
 
     def granular_statistics(self) -> tuple[int, int]:
