@@ -167,14 +167,17 @@ FLAG_SLOTS = 15
 
 #: Pairs a point lists (``Interaction.pairs``): the overlap tests of a rebuild that were within the
 #: band of flipping; those past it go to one list for all (``Interaction.spill``), and past its
-#: size they count in the margin instead.
-PAIR_SLOTS = 4
+#: size they count in the margin instead. Eight hold the half neighbourhood of a point in a dense
+#: flow with two by two points a cell (about four pairs each, up to seven), where every pair is
+#: near flipping.
+PAIR_SLOTS = 8
 
 #: A scene whose checks ask for a rebuild STREAK_START steps in a row (a dispersed flow, whose
 #: points change cells and meet at every step) first widens the band of its pair lists
-#: (``FLAG_WIDE``): each rebuild lists the pairs within 2 WIDE_STEPS times the largest move of a
-#: point per step since the last rebuild (at least the narrow band, at most ``band_cap``), so the
-#: lists last about WIDE_STEPS steps, and the steps between relabel over them instead of rebuilding.
+#: (``FLAG_WIDE``): each rebuild lists the pairs within WIDE_STEPS times the growth per step of the
+#: smaller bound on the pairs' moves since the last rebuild (see ``judge``; at least the narrow band,
+#: at most ``band_cap``), so the lists last about WIDE_STEPS steps, and the steps between relabel
+#: over them instead of rebuilding.
 #: CALM_STEPS steps in a row that keep everything end it (a narrow rebuild). If the checks still ask
 #: for a rebuild STREAK_START steps in a row, the scene stops checking: the next
 #: ``min(streak, STREAK_MAX)`` steps rebuild without one, then a check decides again. A rebuild and a
@@ -1208,10 +1211,15 @@ def make_rebuild_decision(precision: str):
         if rebuild:
             band = S.band_min
             if wide != 0:
-                # the largest move of a point per step since the last rebuild (rounded up), so that
-                # 2 max |Δx_p| reaches the band after about WIDE_STEPS steps
-                rate = wp.min((absolute + age - 1) // age, S.band_cap)
-                band = wp.clamp(2 * WIDE_STEPS * rate, S.band_min, S.band_cap)
+                # how fast the smaller of the two bounds grew per step since the last rebuild
+                # (rounded up), so that it reaches the band after about WIDE_STEPS steps: the
+                # absolute one (2 max |Δx_p|) in a dispersed flow, the relative one in a dense body
+                # that flows as a whole, whose points sit near the critical density (nearly every
+                # pair near flipping): there a band that follows the absolute moves would list
+                # every pair, past the slots, and still every step would rebuild
+                grown = wp.min(2 * absolute, 2 * relative + cells)
+                rate = wp.min((grown + age - 1) // age, S.band_cap)
+                band = wp.clamp(WIDE_STEPS * rate, S.band_min, S.band_cap)
             S.flags[FLAG_BAND] = band
             age = 0
         S.flags[FLAG_REBUILD] = 0

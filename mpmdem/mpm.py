@@ -251,7 +251,8 @@ class MPMSolver:
             listed = 1 if deforming else n
             S.pairs = wp.zeros((listed, kgran.PAIR_SLOTS), dtype=wp.int32, device=dev)
             S.npairs = wp.zeros(listed, dtype=wp.int32, device=dev)
-            S.spill = wp.zeros(1 if deforming else max(1024, n // 4), dtype=wp.vec2i, device=dev)
+            # (at most one entry per point: ``check`` and ``relink`` test entry p in thread p)
+            S.spill = wp.zeros(1 if deforming else min(n, max(1024, n // 4)), dtype=wp.vec2i, device=dev)
             S.base = wp.zeros(listed, dtype=wp.int32, device=dev)
             S.home = wp.zeros(n if tent else 1, dtype=wp.int32, device=dev)
             S.quantum = t.scalar(self.scene.cell_size * 2.0**-20)

@@ -397,6 +397,33 @@ def test_a_streak_of_rebuilds_widens_the_lists_and_stays_exact():
     assert labellings >= 2  # grains met (else the components were never at stake)
 
 
+def test_a_dense_body_that_drifts_and_stretches_lists_by_its_relative_moves():
+    """An 8 × 8 block at 2 × 2 points a cell, its critical density 1 part in 1500 under its density
+    (neighbours' domains overlap by 1.7 µm: every pair near flipping, as in a dense flow at the
+    critical state), drifting at 2 m/s and stretching at 10 /s (pairs part at ~0.1 µm a step, the
+    reference points of neighbouring cells at ~4 µm). Its ~200 pairs near flipping outnumber its 64
+    points: the spill list must still be tested whole (it once held more entries than there are
+    threads to test them, and a keep step missed parted pairs). Once the rebuilds streak, the wide
+    band must follow the relative moves: 8 steps of them are ~4200 quanta of h 2^-20, where 8 steps of
+    the absolute moves (2 × 40 µm a step) would be 67 000 and list every pair; a factor of 4 below
+    that separates the two rules with room on both sides."""
+    rng = np.random.default_rng(5)
+    lattice = np.array([[0.0025 + 0.005 * i, 0.0025 + 0.005 * j] for i in range(8) for j in range(8)])
+    x = 0.06 + lattice + rng.uniform(-2.0e-6, 2.0e-6, lattice.shape)
+    centre = x.mean(axis=0)
+    drift, rate, dt = 2.0, 10.0, 2.0e-5  # m/s, 1/s, s (the helper's dt)
+    v = np.column_stack([drift + rate * (x[:, 0] - centre[0]), rate * (x[:, 1] - centre[1])])
+    parts = [(x[k:k + 1], tuple(v[k])) for k in range(len(x))]
+    flags: list[np.ndarray] = []
+    rebuilds, relabels, _ = _reuse_against_rebuild(parts, "linear", 0.0, 40, critical_density=1499.0, flags=flags)
+    assert max(int(f[kgran.FLAG_SPILLED]) for f in flags) > len(x)  # more listed pairs than points
+    wide = [f for f in flags if f[kgran.FLAG_WIDE]]
+    assert wide  # the streak of rebuilds widened the band
+    absolute_band = 2 * kgran.WIDE_STEPS * drift * dt / (H * 2.0**-20)
+    assert int(wide[0][kgran.FLAG_BAND]) < absolute_band / 4
+    assert rebuilds < 40 // 2 and relabels > 0
+
+
 def test_relabels_replayed_from_a_captured_graph_match_brute_force_graph(device):
     """The 100 meeting and parting grains above, stepped as a Simulation does (on CUDA each step
     replays a captured graph, whose relabel and rebuild are nested conditional nodes): the labels
