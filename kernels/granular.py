@@ -857,18 +857,21 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         S.parent[p] = r
 
     @wp.func
-    def relist(P: Particles, S: Interaction, p: int, code: int):
+    def relist(P: Particles, S: Interaction, p: int, code: int, root: int):
         # a listed pair (p, q), q = code or −code − 1 if its domains did not overlap: merged if they
-        # overlap now (and share a node); returns its code for today
+        # overlap now (and share a node); returns its code for today, and an ancestor of p (root: one
+        # it had, which saves walking up from p again on p's next pair)
         q = code
         if code < 0:
             q = -code - 1
         joined = joined_now(P, S, p, q)
+        ancestor = root
+        now = -q - 1
         if joined:
+            now = q
             if share(S, p, q):
-                unite(S.parent, p, q)
-            return q
-        return -q - 1
+                ancestor = unite(S.parent, root, q)
+        return now, ancestor
 
     @kernel
     def relink(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
@@ -890,9 +893,10 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         P.slots[p, 0] = -1
         if wp.static(not deforming):
             flipped = bool(False)
+            root = p
             for k in range(S.npairs[p]):
                 code = S.pairs[p, k]
-                now = relist(P, S, p, code)
+                now, root = relist(P, S, p, code, root)
                 if now != code:
                     S.pairs[p, k] = now
                     flipped = True
@@ -904,7 +908,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                 if first < 0:
                     first = -first - 1
                     code = -code - 1
-                now = relist(P, S, first, code)
+                now, _ = relist(P, S, first, code, first)
                 if now != code:
                     flipped = True
                     if now < 0:
