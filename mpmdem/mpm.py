@@ -716,15 +716,19 @@ class MPMSolver:
         return int(c), int(layers)
 
     def components(self) -> np.ndarray:
-        """Component label of every point in the scene's order (granular mode; −1 otherwise)."""
+        """Component label of every point in the scene's order: the smallest scene index among the
+        points of its component (granular mode; −1 otherwise)."""
         if not self.config.granular:
             return np.full(self.particle_count, -1, np.int64)
         comp = self.P.comp.numpy()
         pid = self.P.pid.numpy()
-        # labels are device indices of the root points; report them as the roots' scene indices
-        out = np.empty(self.particle_count, np.int64)
-        out[pid] = pid[comp]
-        return out
+        # labels are device indices of the root points (kernels/granular.py ``priority``): in the
+        # scene's order, each component named by its smallest member
+        root = np.empty(self.particle_count, np.int64)
+        root[pid] = comp  # the root (a device index) of each point, in the scene's order
+        smallest = np.full(self.particle_count, self.particle_count, np.int64)
+        np.minimum.at(smallest, root, np.arange(self.particle_count))
+        return smallest[root]
 
     def node_ranges(self) -> np.ndarray:
         """(N, 4) int32 range (x0, x1, y0, y1) of grid nodes that each point's stencil reaches now,
