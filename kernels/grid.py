@@ -206,15 +206,19 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         dt = T(clock[1])
         if wp.static(layered):
             if wp.static(clear):
-                G.mass[i, j] = T(0.0)
-                G.mom[i, j] = t.vec2()
-                if wp.static(not fused_impulse):  # (a fused P2G puts its forces into the momentum)
-                    G.force[i, j] = t.vec2()
+                # (a copy that received nothing is zero already: no stores, which in a run as deep
+                # as its busiest node are most of them)
+                if m != T(0.0) or mom[0] != T(0.0) or mom[1] != T(0.0) or fint[0] != T(0.0) or fint[1] != T(0.0):
+                    G.mass[i, j] = T(0.0)
+                    G.mom[i, j] = t.vec2()
+                    if wp.static(not fused_impulse):  # (a fused P2G puts its forces into the momentum)
+                        G.force[i, j] = t.vec2()
         if m <= D.mass_eps:
             if wp.static(remap):
                 G.vm[i, j] = t.vec2()
             else:
-                G.v[i, j] = t.vec2()
+                if wp.static(not fused_impulse):  # (PIC after a fused P2G reads Ṽ alone)
+                    G.v[i, j] = t.vec2()
                 G.vt[i, j] = t.vec2()
             return
         inv_m = T(1.0) / m
