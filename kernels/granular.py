@@ -9,7 +9,7 @@ the rebuild kernels sit in a conditional graph node and are not launched at all)
    a, b), the range of grid nodes its shape function reaches, resets its union–find parent, and
    counts itself into its grid cell (its rank there from the atomic add). For the shapes whose
    domains stay axis-aligned rectangles it keeps one 16-byte record instead (position and
-   half-extents, ``Interaction.box``), so the search reads one record per candidate. The cell
+   half-extents, ``Interaction.records``), so the search reads one record per candidate. The cell
    counts are summed (``kernels.scan``) and ``place`` puts every point at its cell's start plus
    its rank in a cell-sorted list (``Interaction.order``, with the records beside it): the points
    of a column of cells are then one contiguous run, whatever their number (no bin capacity).
@@ -365,12 +365,12 @@ def make_interaction_struct(precision: str):
     entry else) the component of order[k] at k, for ``assign``; slot_bytes (N, 4) uint8 (likewise)
     the bytes of ``Particles.slots`` (the same memory: byte n of a word is bits 8n..8n+7,
     little-endian), which ``assign`` stores one by one; records (N,) vec4 (non-deforming domains;
-    one entry else) the ``box`` record of order[k] at k; parent (N,) int32 union–find links; dom_a,
-    dom_b (N,) vec2 half-vectors of the domains of interaction [m] (deforming domains; one entry
-    else); box (N,) vec4 (non-deforming domains; one entry else): the position at the last rebuild
-    [m] and the half-extents of the axis-aligned domain of interaction [m], −1 for a continuum
-    point, read by the search as one 16-byte record; anchor (N,) vec2 (likewise) the same position
-    alone, which ``check`` reads at every step (8 bytes instead of the record's 16); reach (N,)
+    one entry else) the search record of order[k] at k: its position at the last rebuild [m] and
+    its ``ext``, read as one 16-byte record; parent (N,) int32 union–find links; dom_a, dom_b (N,)
+    vec2 half-vectors of the domains of interaction [m] (deforming domains; one entry else); ext
+    (N,) vec2 (non-deforming domains; one entry else): the half-extents of the axis-aligned domain
+    of interaction [m], −1 for a continuum point (what the tests of listed pairs gather besides the
+    positions); anchor (N,) vec2 (likewise) the position at the last rebuild [m]; reach (N,)
     vec4i node range (x0, x1, y0, y1) (one entry for the tent outside staged scenes, whose range
     follows from its cell); ext_max (2 EXT_SLOTS,) float32 largest half-extent [cells], x and y;
     slack (EXT_SLOTS,) int32: the margin of the last rebuild's pair tests and pruned windows in
@@ -408,7 +408,7 @@ def make_interaction_struct(precision: str):
         parent: wp.array(dtype=wp.int32)
         dom_a: wp.array(dtype=t.vec2)
         dom_b: wp.array(dtype=t.vec2)
-        box: wp.array(dtype=t.vec4)
+        ext: wp.array(dtype=t.vec2)
         anchor: wp.array(dtype=t.vec2)
         reach: wp.array(dtype=wp.vec4i)
         ext_max: wp.array(dtype=wp.float32)
@@ -646,17 +646,19 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         return rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]
 
     @wp.func
-    def joined_now(P: Particles, S: Interaction, p: int, q: int):
-        # the overlap test of a listed pair with today's positions, the operands as a rebuild's
-        # ``link`` would take them (sums and |differences| of the same numbers: the same result
-        # whichever of the two searches)
-        bp = S.box[p]
-        bq = S.box[q]
-        xp = P.x[p]
+    def joined_with(xp: t.vec2, ep: t.vec2, P: Particles, S: Interaction, q: int):
+        # the overlap test of a listed pair (p, q) with today's positions, p's position and
+        # half-extents given, the operands as a rebuild's ``link`` would take them (sums and
+        # |differences| of the same numbers: the same result whichever of the two searches)
+        eq = S.ext[q]
         xq = P.x[q]
-        sx = bp[2] + bq[2] - wp.abs(xq[0] - xp[0])
-        sy = bp[3] + bq[3] - wp.abs(xq[1] - xp[1])
+        sx = ep[0] + eq[0] - wp.abs(xq[0] - xp[0])
+        sy = ep[1] + eq[1] - wp.abs(xq[1] - xp[1])
         return sx > T(0.0) and sy > T(0.0)
+
+    @wp.func
+    def joined_now(P: Particles, S: Interaction, p: int, q: int):
+        return joined_with(P.x[p], S.ext[p], P, S, q)
 
     @kernel
     def prepare(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
@@ -693,7 +695,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             xp = P.x[p]
             S.anchor[p] = xp
             if rho_cr > T(0.0):
-                S.box[p] = t.vec4(xp[0], xp[1], wp.abs(a[0]) + wp.abs(b[0]), wp.abs(a[1]) + wp.abs(b[1]))
+                S.ext[p] = t.vec2(wp.abs(a[0]) + wp.abs(b[0]), wp.abs(a[1]) + wp.abs(b[1]))
                 if S.flags[FLAG_FORCED] == 0:  # (a margin for this step's check: see ``link``)
                     wx, wy, slack = search_window(wp.abs(a[0]) + wp.abs(b[0]), wp.abs(a[1]) + wp.abs(b[1]), S, D)
                     slot = p % EXT_SLOTS
@@ -701,7 +703,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                     if q < S.slack[slot]:  # most points do not beat their slot: no atomic
                         wp.atomic_min(S.slack, slot, q)
             else:
-                S.box[p] = t.vec4(xp[0], xp[1], T(-1.0), T(-1.0))  # a continuum: interacts through its nodes
+                S.ext[p] = t.vec2(T(-1.0), T(-1.0))  # a continuum: interacts through its nodes
         if wp.static(not tent_cells):
             S.reach[p] = node_reach(P, D, p)  # (the tent's follows from its cell: not stored)
         S.rank[p] = wp.atomic_add(S.count, cell_index(P, G, D, p), 1)
@@ -716,7 +718,9 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         k = start(S, cell_index(P, G, D, p)) + S.rank[p]
         S.order[k] = p
         if wp.static(not deforming):
-            S.records[k] = S.box[p]
+            xp = P.x[p]
+            e = S.ext[p]
+            S.records[k] = t.vec4(xp[0], xp[1], e[0], e[1])
 
     @kernel
     def link(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
@@ -740,9 +744,8 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             ep = t.vec2(wp.abs(ap[0]) + wp.abs(bp[0]), wp.abs(ap[1]) + wp.abs(bp[1]))
             continuum_p = materials[P.material[p]][9] <= T(0.0)
         else:
-            box_p = S.box[p]
-            ep = t.vec2(box_p[2], box_p[3])
-            continuum_p = box_p[2] < T(0.0)
+            ep = S.ext[p]
+            continuum_p = ep[0] < T(0.0)
         wx = W
         wy = W
         if not continuum_p:
@@ -874,14 +877,15 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         S.parent[p] = r
 
     @wp.func
-    def relist(P: Particles, S: Interaction, p: int, code: int, root: int):
+    def relist(P: Particles, S: Interaction, p: int, xp: t.vec2, ep: t.vec2, code: int, root: int):
         # a listed pair (p, q), q = code or −code − 1 if its domains did not overlap: merged if they
-        # overlap now (and share a node); returns its code for today, and an ancestor of p (root: one
-        # it had, which saves walking up from p again on p's next pair)
+        # overlap now (and share a node; xp, ep: p's position and half-extents); returns its code for
+        # today, and an ancestor of p (root: one it had, which saves walking up from p again on p's
+        # next pair)
         q = code
         if code < 0:
             q = -code - 1
-        joined = joined_now(P, S, p, q)
+        joined = joined_with(xp, ep, P, S, q)
         ancestor = root
         now = -q - 1
         if joined:
@@ -911,9 +915,11 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         if wp.static(not deforming):
             flipped = bool(False)
             root = p
+            xp = P.x[p]  # (loaded once for all of p's pairs)
+            ep = S.ext[p]
             for k in range(S.npairs[p]):
                 code = S.pairs[p, k]
-                now, root = relist(P, S, p, code, root)
+                now, root = relist(P, S, p, xp, ep, code, root)
                 if now != code:
                     S.pairs[p, k] = now
                     flipped = True
@@ -925,7 +931,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                 if first < 0:
                     first = -first - 1
                     code = -code - 1
-                now, _ = relist(P, S, first, code, first)
+                now, _ = relist(P, S, first, P.x[first], S.ext[first], code, first)
                 if now != code:
                     flipped = True
                     if now < 0:

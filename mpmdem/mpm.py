@@ -236,7 +236,7 @@ class MPMSolver:
             S.dom_a = wp.zeros(n if deforming else 1, dtype=t.vec2, device=dev)
             S.dom_b = wp.zeros(n if deforming else 1, dtype=t.vec2, device=dev)
             # reuse of the labels between rebuilds (kernels/granular.py): a rebuild on the first step
-            S.box = wp.zeros(1 if deforming else n, dtype=t.vec4, device=dev)
+            S.ext = wp.zeros(1 if deforming else n, dtype=t.vec2, device=dev)
             S.anchor = wp.zeros(1 if deforming else n, dtype=t.vec2, device=dev)
             S.records = wp.zeros(1 if deforming else n, dtype=t.vec4, device=dev)
             S.reach = wp.zeros(1 if tent else n, dtype=wp.vec4i, device=dev)
@@ -747,7 +747,7 @@ class MPMSolver:
         S = self.interaction
         if self.config.shape in kgran.DEFORMING_DOMAINS:
             return S.dom_a.numpy().copy(), S.dom_b.numpy().copy()
-        ext = np.maximum(S.box.numpy()[:, 2:], 0.0)  # the search's axis-aligned records
+        ext = np.maximum(S.ext.numpy(), 0.0)  # the half-extents of the search's axis-aligned records
         zero = np.zeros(len(ext))
         return np.column_stack([ext[:, 0], zero]), np.column_stack([zero, ext[:, 1]])
 
