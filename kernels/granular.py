@@ -135,6 +135,10 @@ DEFORMING_DOMAINS = ("cpgimp", "cpdi1")
 #: slot p % EXT_SLOTS, and only when it beats the slot): no million atomics on one address.
 EXT_SLOTS = 32
 
+#: Registers per thread of ``check`` on CUDA: 32 lets a whole block of every warp slot of an SM run
+#: at once (the compiler's 40 leave a quarter of them idle, and a 262k-point step a second wave).
+CHECK_REGISTERS = 32
+
 #: Slots of ``Interaction.motion`` (each reduced over EXT_SLOTS slots): max |Δx_p|, max
 #: |Δx_p − Δx_ref(p)| and max |Δx_ref(c) − Δx_ref(c')| since the last rebuild, in quanta (rounded up).
 #: They are the largest over the steps since the rebuild (zeroed only by ``reset_copies``): never
@@ -360,8 +364,10 @@ def make_interaction_struct(precision: str):
     """The arrays of the interaction graph, bundled for the kernels: count (≥ cells + 1, whole scan
     tiles) int32 points per cell at this rebuild (zero between rebuilds); prefix1, prefix2, prefix3
     its three-level exclusive prefix sums (``kernels.scan``): the start of each cell's run in order;
-    rank (N,) int32 each point's place among its cell's points; order (N,) int32 the points by cell
-    (column-major cells, like the grid); labels (N,) int32 (the tent outside staged scenes; one
+    rank (N,) int32 each point's place among its cell's points (``prepare``), then for the non-deforming
+    domains its place in order (``place``: the start of its cell's run plus that rank); cell0 (N,)
+    int32 (non-deforming domains; one entry else) each point's cell at the last rebuild; order (N,)
+    int32 the points by cell (column-major cells, like the grid); labels (N,) int32 (the tent outside staged scenes; one
     entry else) the component of order[k] at k, for ``assign``; slot_bytes (N, 4) uint8 (likewise)
     the bytes of ``Particles.slots`` (the same memory: byte n of a word is bits 8n..8n+7,
     little-endian), which ``assign`` stores one by one; records (N,) vec4 (non-deforming domains;
@@ -401,6 +407,7 @@ def make_interaction_struct(precision: str):
         prefix2: wp.array(dtype=wp.int32)
         prefix3: wp.array(dtype=wp.int32)
         rank: wp.array(dtype=wp.int32)
+        cell0: wp.array(dtype=wp.int32)
         order: wp.array(dtype=wp.int32)
         labels: wp.array(dtype=wp.int32)
         slot_bytes: wp.array2d(dtype=wp.uint8)
@@ -706,7 +713,10 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                 S.ext[p] = t.vec2(T(-1.0), T(-1.0))  # a continuum: interacts through its nodes
         if wp.static(not tent_cells):
             S.reach[p] = node_reach(P, D, p)  # (the tent's follows from its cell: not stored)
-        S.rank[p] = wp.atomic_add(S.count, cell_index(P, G, D, p), 1)
+        cell = cell_index(P, G, D, p)
+        if wp.static(not deforming):
+            S.cell0[p] = cell
+        S.rank[p] = wp.atomic_add(S.count, cell, 1)
 
     @kernel
     def place(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
@@ -718,6 +728,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         k = start(S, cell_index(P, G, D, p)) + S.rank[p]
         S.order[k] = p
         if wp.static(not deforming):
+            S.rank[p] = k  # (from now on its place in order: ``link`` and ``label`` read it alone)
             xp = P.x[p]
             e = S.ext[p]
             S.records[k] = t.vec4(xp[0], xp[1], e[0], e[1])
@@ -790,7 +801,11 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                     hi = wp.min(cy, rows - 1)
                 if fy >= reach_y:
                     lo = cy
-        own = start(S, cx * rows + cy) + S.rank[p]
+        own = int(0)  # p's place in S.order
+        if wp.static(deforming):
+            own = start(S, cx * rows + cy) + S.rank[p]
+        else:
+            own = S.rank[p]  # (``place`` stored it)
         for ix in range(cx, wp.min(cx + wx + 1, D.layer_rows)):
             first = own + 1
             if ix != cx:
@@ -965,11 +980,9 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             S.count[cell_index(P, G, D, p)] = 0  # (see below)
         else:
             # the point's cell at the last rebuild, where the cell-sorted list has it
-            ax, ay = cell_at(reference(S, p), D, rows)
-            cell = ax * rows + ay
-            first = start(S, cell)
+            cell = S.cell0[p]
             if rebuilt:
-                ref = S.order[first]  # the cell's reference: its first point in order
+                ref = S.order[start(S, cell)]  # the cell's reference: its first point in order
                 S.cell_ref[cell] = ref
                 S.ref[p] = ref
                 # zero this point's cell count for the next rebuild (every point of a cell writes the
@@ -985,7 +998,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                     comp = -1
                     if S.flags[FLAG_STRAYED] == 0:  # (``check`` then compares with S.home)
                         S.flags[FLAG_STRAYED] = 1
-                S.labels[first + S.rank[p]] = comp
+                S.labels[S.rank[p]] = comp  # (its place in order)
                 S.home[p] = here
 
     cache_vec = wp.types.vector(length=ASSIGN_CACHE, dtype=wp.int32)
@@ -1062,7 +1075,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             q = -code - 1
         return joined_now(P, S, p, q) != (code >= 0)
 
-    @kernel(max_unroll=WINDOW)
+    @kernel(max_unroll=WINDOW, max_registers=CHECK_REGISTERS)
     def check(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
               status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
         # after the step's last G2P: whether the next step needs a rebuild (see the module
@@ -1096,15 +1109,14 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             # labelling, which needs no read of the stored range. A relabel takes a point in another
             # cell when every domain is granular and under half a cell (S.moves); a rebuild else
             # (S.home differs from the cell of the rebuild only once a relabel took a point in another
-            # cell, FLAG_STRAYED: until then the rebuild's position tells, which ``check`` reads anyway)
+            # cell, FLAG_STRAYED: until then S.cell0 tells)
             rows = G.mass.shape[1]
             cx, cy = cell_of(P, D, p, rows)
             home = int(0)
             if S.flags[FLAG_STRAYED] != 0:
                 home = S.home[p]
             else:
-                ax, ay = cell_at(reference(S, p), D, rows)
-                home = ax * rows + ay
+                home = S.cell0[p]
             if cx * rows + cy != home:
                 if S.moves != 0:
                     if S.flags[FLAG_CHANGED] == 0:
@@ -1130,7 +1142,9 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             reduce_max(S.motion, MOVE_RELATIVE * EXT_SLOTS, p, quanta(wp.max(wp.abs(e[0]), wp.abs(e[1])), S, True))
             if ref == p:
                 rows = G.mass.shape[1]
-                cx, cy = cell_at(reference(S, p), D, rows)
+                cell = S.cell0[p]  # (its cell at the last rebuild)
+                cx = cell // rows
+                cy = cell - cx * rows
                 # a cell's reference point: how much the references of the cells within the search
                 # reach (W cells: every pair that shares a node) moved relative to it; half the
                 # window, (dx, dy) after (0, 0) column-major. The loop is unrolled and its reads take

@@ -223,6 +223,7 @@ class MPMSolver:
                                  wp.zeros(kscan.SCAN_TILE, dtype=wp.int32, device=dev),
                                  wp.zeros(1, dtype=wp.int32, device=dev))
             S.rank = wp.zeros(n, dtype=wp.int32, device=dev)
+            S.cell0 = wp.zeros(1 if self.config.shape in kgran.DEFORMING_DOMAINS else n, dtype=wp.int32, device=dev)
             S.order = wp.zeros(n, dtype=wp.int32, device=dev)
             tent = self.config.shape == "linear" and not self.staged  # (its node range follows from its cell)
             S.labels = wp.zeros(n if tent else 1, dtype=wp.int32, device=dev)  # (for its node threads)
