@@ -97,6 +97,12 @@ __all__ = [
     "FLAG_SPILLED",
     "FLAG_FLIPPED",
     "FLAG_STRAYED",
+    "FLAG_BINS",
+    "FLAG_MEASURED",
+    "BAND_SAMPLE",
+    "BAND_BINS",
+    "BAND_BUDGET",
+    "NARROW_GROWTH",
     "PAIR_SLOTS",
     "WIDE_STEPS",
     "CALM_STEPS",
@@ -169,7 +175,9 @@ FLAG_AGE = 11  # steps since the last rebuild
 FLAG_SPILLED = 12  # pairs the last rebuild listed in ``Interaction.spill`` (may exceed its size)
 FLAG_FLIPPED = 13  # 1 when this step's ``relink`` found a listed pair flipped
 FLAG_STRAYED = 14  # 1 once a relabel since the last rebuild took a point in another cell (``Interaction.home``)
-FLAG_SLOTS = 15
+FLAG_BINS = 15  # BAND_BINS slots: the sampled pairs of the last rebuild just outside its band (see BAND_SAMPLE)
+FLAG_MEASURED = 23  # 1 when the last rebuild filled FLAG_BINS (a narrow rebuild that kept margins)
+FLAG_SLOTS = 24
 
 #: Pairs a point lists (``Interaction.pairs``): the overlap tests of a rebuild that were within the
 #: band of flipping; those past it go to one list for all (``Interaction.spill``), and past its
@@ -192,6 +200,27 @@ STREAK_START = 8
 STREAK_MAX = 32
 WIDE_STEPS = 16  # (H100, 1M points: 8, 16, 32 steps: cloud 624 / 622 / 622 µs, flowing column 502 / 496 / 494)
 CALM_STEPS = 8
+#: The narrow band follows the scene (``judge``). A rebuild that lists with the narrow band also
+#: counts, over one point in BAND_SAMPLE (pseudo-random, ``priority``), the pairs it left out of
+#: the lists whose overlap test is within 2^(k/4) to 2^((k+1)/4) times the band of flipping (bin
+#: k < BAND_BINS: quarter octaves). The next narrow rebuild widens the band by as many quarter
+#: octaves as keep the lists, estimated from those counts, within 1/BAND_BUDGET of the spill list,
+#: with one more quarter octave to spare (the pairs just outside a band drift into it); it halves
+#: the band when the lists outgrew twice that. A wider band lists more pairs (tested at every
+#: check) and leaves the margin of all the others wider. A dense body settling under gravity, whose
+#: neighbours overlap by 0.17 % of a cell (the paper's ρ_cr) and whose pairs across the load drift
+#: towards parting, kept its margin at the narrow band itself and rebuilt every ~10 steps (CPU,
+#: 262k points, 200 steps: 11 rebuilds with the fixed band, 5 with 2^-9.5 cells, 27 with 2^-9,
+#: past the overlap, which lists every pair).
+SAMPLE_SHIFT = 28
+BAND_SAMPLE = 1 << (32 - SAMPLE_SHIFT)
+BAND_BINS = 8
+BAND_BUDGET = 4
+#: ... and at most NARROW_GROWTH times the narrow band: a dispersed flow, whose pairs are far from
+#: flipping, would widen it at every rebuild and put off the wide lists it needs (CPU, 16k points
+#: of the dispersed cloud, first 100 steps: 19 rebuilds uncapped, 13 with the fixed band).
+NARROW_GROWTH = 16
+bin_vec = wp.types.vector(length=BAND_BINS, dtype=wp.int32)
 #: A margin that nothing limits (no pair, no pruned window), in quanta (``Interaction.quantum``):
 #: margins are reduced as integers, whose atomic minimum is native (a float one is a CAS loop, slow
 #: when a million threads meet on a few slots).
@@ -772,6 +801,11 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             band = T(S.flags[FLAG_BAND]) * S.quantum
             wide = S.flags[FLAG_WIDE] != 0
         listed_p = int(0)  # pairs listed in p's slots
+        # (one point in BAND_SAMPLE of a narrow rebuild counts the pairs just outside the band: those
+        # whose ``priority`` has its top bits zero, scattered over any lattice, which p % BAND_SAMPLE
+        # is not: a 2 × 2 packing sampled by index sees one row of its cells)
+        counting = checked and not wide and (priority(p) >> wp.uint32(SAMPLE_SHIFT)) == wp.uint32(0)
+        bins = bin_vec()
         root = p  # an ancestor of p in the union-find forest: saves walking up from p on each merge
         # half the neighbourhood: the points after p in S.order within its own column of cells (its
         # cell and those above it), and the next columns' cells within the window; the windows are
@@ -861,6 +895,12 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                                         listed = True
                             if not listed:
                                 margin_p = wp.min(margin_p, near)
+                                if counting and near >= band and near < T(4.0) * band:
+                                    # its quarter octave above the band (an unrolled loop: registers)
+                                    b = wp.clamp(int(wp.floor(T(4.0) * wp.log2(near / band))), 0, BAND_BINS - 1)
+                                    for u in range(BAND_BINS):
+                                        if u == b:
+                                            bins[u] = bins[u] + 1
                     if joined and not listed:
                         if wp.static(tent_cells):
                             # the tent's nodes are the corners of its cell and the window reaches
@@ -877,6 +917,10 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                 q = quanta(margin_p, S, False)
                 if q < S.slack[slot]:
                     wp.atomic_min(S.slack, slot, q)
+            if counting:
+                for k in range(BAND_BINS):
+                    if bins[k] > 0:
+                        wp.atomic_add(S.flags, FLAG_BINS + k, bins[k])
 
     @kernel
     def settle(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
@@ -1197,6 +1241,12 @@ def make_rebuild_decision(precision: str):
         wide = S.flags[FLAG_WIDE]
         calm = S.flags[FLAG_CALM]
         age = S.flags[FLAG_AGE] + 1
+        measured = S.flags[FLAG_MEASURED] != 0
+        listed = S.flags[FLAG_SPILLED]
+        bins = bin_vec()
+        for k in range(BAND_BINS):
+            bins[k] = S.flags[FLAG_BINS + k]
+        narrow_band = S.flags[FLAG_BAND]
         # keep the labels if either bound on the change of every pair's offset is below the margin,
         # with the round-off of the displacements (2 or 4) and of the margin
         absolute = int(0)
@@ -1217,6 +1267,7 @@ def make_rebuild_decision(precision: str):
             S.flags[FLAG_REBUILD] = 1
             S.flags[FLAG_RELABEL] = 1
             S.flags[FLAG_AGE] = 0
+            S.flags[FLAG_MEASURED] = 0
             return
         q = S.quantum
         margin = T(least) * q
@@ -1226,6 +1277,7 @@ def make_rebuild_decision(precision: str):
         # (with the wide lists ``check`` tests no pair and every step relabels; it counts as calm
         # when its ``relink`` found no pair flipped and no point changed cells)
         relabel = rebuild or changed or wide != 0
+        unchecked = False  # (the next rebuild starts a window of rebuilds without checks)
         if wide != 0:
             changed = changed or flipped
         if rebuild:
@@ -1237,6 +1289,7 @@ def make_rebuild_decision(precision: str):
                     streak = 0
                 else:
                     S.flags[FLAG_FORCED] = wp.min(streak, STREAK_MAX)
+                    unchecked = True
         else:
             streak = 0
             if changed:
@@ -1251,6 +1304,23 @@ def make_rebuild_decision(precision: str):
                     relabel = True
         if rebuild:
             band = S.band_min
+            if wide == 0 and measured:
+                # the narrow band, from what the last narrow rebuild listed and counted (BAND_SAMPLE):
+                # widened by g quarter octaves where the pairs of bins 0..g (one to spare) keep the
+                # lists within their budget, halved when the lists outgrew twice that
+                budget = S.spill.shape[0] // BAND_BUDGET
+                if listed > 2 * budget:
+                    band = narrow_band // 2
+                else:
+                    estimate = listed
+                    grow = int(0)
+                    for k in range(BAND_BINS):
+                        estimate += BAND_SAMPLE * bins[k]
+                        if estimate <= budget and grow == k:
+                            grow = k + 1
+                    grow = wp.max(grow - 1, 0)
+                    band = int(float(narrow_band) * wp.pow(2.0, 0.25 * float(grow)))
+                band = wp.clamp(band, S.band_min, wp.min(NARROW_GROWTH * S.band_min, S.band_cap))
             if wide != 0:
                 # how fast the smaller of the two bounds grew per step since the last rebuild
                 # (rounded up), so that it reaches the band after about WIDE_STEPS steps: the
@@ -1269,6 +1339,9 @@ def make_rebuild_decision(precision: str):
             S.flags[FLAG_REBUILD] = 1
         if relabel:
             S.flags[FLAG_RELABEL] = 1
+        if rebuild:
+            # (whether the coming rebuild counts the pairs outside its band: a narrow one that keeps margins)
+            S.flags[FLAG_MEASURED] = int(wide == 0 and not unchecked)
         S.flags[FLAG_STREAK] = streak
         S.flags[FLAG_WIDE] = wide
         S.flags[FLAG_CALM] = calm
@@ -1305,6 +1378,8 @@ def make_reset_copies(precision: str, deforming: bool):
                 if k == 0:
                     flags[FLAG_SPILLED] = 0
                     flags[FLAG_STRAYED] = 0
+                if k < BAND_BINS:
+                    flags[FLAG_BINS + k] = 0
                 if k < EXT_SLOTS:
                     slack[k] = NO_MARGIN
                 if k < 3 * EXT_SLOTS:

@@ -272,6 +272,7 @@ class MPMSolver:
             flags[kgran.FLAG_REBUILD] = 1  # the first step builds the graph
             flags[kgran.FLAG_RELABEL] = 1
             flags[kgran.FLAG_BAND] = S.band_min
+            flags[kgran.FLAG_MEASURED] = 1  # (a narrow rebuild that keeps margins: it counts for the next band)
             S.flags = wp.array(flags, dtype=wp.int32, device=dev)
             # round-off of one displacement, offset or margin: every one is a difference of two
             # nearby coordinates (exact when they are within a factor 2 of each other, Sterbenz;

@@ -498,6 +498,101 @@ def test_rebuild_decision_backs_off_and_returns():
     assert S.flags.numpy()[kgran.FLAG_BAND] == S.band_min
 
 
+def test_narrow_band_follows_the_pairs_counted_outside_it():
+    """The judge kernel alone: a narrow rebuild's counts of the pairs just outside its band (one
+    point in BAND_SAMPLE, quarter octaves) set the next narrow band: widened by as many quarter
+    octaves as keep the estimated lists within their budget with one to spare, halved when the lists
+    outgrew twice the budget, the narrow band itself after a rebuild that did not count."""
+    sim = _granular_sim(BLOCK + 0.1, "linear")
+    mpm = sim.mpm
+    mpm.step()
+    S = mpm.interaction
+    low = S.band_min
+    budget = S.spill.shape[0] // kgran.BAND_BUDGET
+
+    def next_band(band: int, listed: int, bins, measured: int = 1) -> int:
+        flags = S.flags.numpy()
+        flags[:] = 0
+        flags[kgran.FLAG_RANGE] = 1  # a node range changed: a rebuild
+        flags[kgran.FLAG_BAND] = band
+        flags[kgran.FLAG_SPILLED] = listed
+        flags[kgran.FLAG_MEASURED] = measured
+        flags[kgran.FLAG_BINS:kgran.FLAG_BINS + kgran.BAND_BINS] = bins
+        S.flags.assign(flags)
+        wp.launch(mpm._judge, 1, inputs=[S, mpm.clock, mpm.steps], device="cpu")
+        f = S.flags.numpy()
+        assert f[kgran.FLAG_REBUILD] == 1 and f[kgran.FLAG_MEASURED] == 1  # a narrow rebuild that counts
+        return int(f[kgran.FLAG_BAND])
+
+    empty = [0] * kgran.BAND_BINS
+    # nothing near: seven quarter octaves (the eighth is the one to spare)
+    assert next_band(low, 0, empty) == int(low * 2.0**1.75)
+    # one sampled pair in the fourth quarter octave is BAND_SAMPLE pairs, past this scene's budget:
+    # the band grows by two quarter octaves and keeps the third to spare
+    assert kgran.BAND_SAMPLE > budget
+    assert next_band(low, 0, [0, 0, 0, 1, 0, 0, 0, 0]) == int(low * 2.0**0.5)
+    assert next_band(low, 0, [1, 0, 0, 0, 0, 0, 0, 0]) == low  # no room at all: as it was
+    assert next_band(4 * low, 2 * budget + 1, empty) == 2 * low  # the lists outgrew their budget
+    assert next_band(low, 2 * budget + 1, empty) == low  # never below the narrow band
+    assert next_band(8 * low, 0, empty) == kgran.NARROW_GROWTH * low  # nor past NARROW_GROWTH times it
+    assert next_band(4 * low, 0, empty, measured=0) == low  # nothing counted: the narrow band
+
+
+def test_a_rebuild_counts_the_pairs_just_outside_its_band():
+    """A 32 × 32 lattice at half a cell, its critical density set so that neighbouring domains of
+    interaction overlap by 1.5e-3 of a cell, three times the narrow band: every neighbour pair sits
+    in one quarter octave above the band (floor(4 log2 3.07) = 6), and the first rebuild's sampled
+    counts, times BAND_SAMPLE, estimate how many pairs the brute force finds there. Within 20 %: one
+    point in BAND_SAMPLE counts the pairs it visits, 3 or 4 inside the lattice and fewer on its edges."""
+    rho, overlap = 1500.0, 1.5e-3
+    rho_cr = rho / (1.0 + 2.0 * overlap) ** 2  # half-extent h/4 sqrt(ρ/ρ_cr) = h/4 (1 + 2 overlap)
+    lattice = np.array([[0.0025 + 0.005 * i, 0.0025 + 0.005 * j] for i in range(32) for j in range(32)])
+    scene = Scene(domain=((0.0, 0.0), (0.2, 0.2)), cell_size=H, gravity=(0.0, 0.0),
+                  boundaries={s: "free" for s in ("left", "right", "bottom", "top")})
+    scene.add_points(0.02 + lattice, LinearElastic(1.0e5, 0.3, rho, critical_density=rho_cr), size=0.5 * H)
+    sim = Simulation(scene, SolverConfig(granular=True, shape="linear", precision="f64", dt=2.0e-5), device="cpu")
+    mpm = sim.mpm
+    mpm.step()
+    S = mpm.interaction
+    bins = S.flags.numpy()[kgran.FLAG_BINS:kgran.FLAG_BINS + kgran.BAND_BINS]
+    band = S.band_min * float(S.quantum)
+    x, e = S.anchor.numpy(), S.ext.numpy()
+    i, j = np.triu_indices(len(x), 1)
+    cells = np.floor(x / H).astype(int)
+    adjacent = np.abs(cells[i] - cells[j]).max(axis=1) <= 1
+    sx = e[i, 0] + e[j, 0] - np.abs(x[i, 0] - x[j, 0])
+    sy = e[i, 1] + e[j, 1] - np.abs(x[i, 1] - x[j, 1])
+    near = np.abs(np.minimum(sx, sy))
+    counted = adjacent & (near >= band) & (near < 4.0 * band)
+    expected_bins = np.floor(4.0 * np.log2(near[counted] / band)).astype(int)
+    assert set(expected_bins) == {6}
+    assert bins[6] > 0 and bins.sum() == bins[6]
+    assert counted.sum() > 2000  # 3 neighbours a point (right, above, two diagonals, less the edges)
+    assert kgran.BAND_SAMPLE * bins.sum() == pytest.approx(counted.sum(), rel=0.2)
+
+
+def test_a_stretching_dense_block_widens_its_narrow_band_and_stays_exact():
+    """A 12 × 12 block at half a cell whose neighbours overlap by 1.5e-3 of a cell (three narrow
+    bands), stretched along x at 2 /s: its horizontal pairs drift towards parting. The first
+    rebuild counts every pair outside the narrow band, so the next narrow band is wider (the margin
+    of all the others with it); the pairs that then drift into it are listed, the band halves when
+    they outgrow the budget, and the run still has the components and bit-identical positions and
+    velocities of a run that rebuilds every step."""
+    rho_cr = 1500.0 / (1.0 + 2.0 * 1.5e-3) ** 2
+    lattice = np.array([[0.0025 + 0.005 * i, 0.0025 + 0.005 * j] for i in range(12) for j in range(12)])
+    x = 0.06 + lattice
+    v = np.column_stack([2.0 * (x[:, 0] - x[:, 0].mean()), np.zeros(len(x))])
+    parts = [(x[k:k + 1], tuple(v[k])) for k in range(len(x))]
+    flags: list[np.ndarray] = []
+    rebuilds, relabels, labellings = _reuse_against_rebuild(parts, "linear", 0.0, 100, critical_density=rho_cr,
+                                                            flags=flags)
+    narrow = [int(f[kgran.FLAG_BAND]) for f in flags if f[kgran.FLAG_AGE] == 0 and not f[kgran.FLAG_WIDE]]
+    low = int(CRITICAL_BAND * 2.0**20)
+    assert narrow[0] > 2 * low  # widened after the first rebuild's counts
+    assert min(narrow) == low  # and narrowed when the drifting pairs filled the lists
+    assert labellings >= 2 and relabels > 0  # pairs parted
+
+
 def test_layer_overflow_stops_with_a_message():
     """More components on a node than copies: the run stops and names granular_layers."""
     sim = _granular_sim(_random_islands(5), "linear", layers=1)
