@@ -99,6 +99,7 @@ __all__ = [
     "FLAG_STRAYED",
     "FLAG_BINS",
     "FLAG_MEASURED",
+    "FLAG_ABSOLUTE",
     "BAND_SAMPLE",
     "BAND_BINS",
     "BAND_BUDGET",
@@ -177,7 +178,8 @@ FLAG_FLIPPED = 13  # 1 when this step's ``relink`` found a listed pair flipped
 FLAG_STRAYED = 14  # 1 once a relabel since the last rebuild took a point in another cell (``Interaction.home``)
 FLAG_BINS = 15  # BAND_BINS slots: the sampled pairs of the last rebuild just outside its band (see BAND_SAMPLE)
 FLAG_MEASURED = 23  # 1 when the last rebuild filled FLAG_BINS (a narrow rebuild that kept margins)
-FLAG_SLOTS = 24
+FLAG_ABSOLUTE = 24  # 1 when ``check`` keeps the absolute moves alone until the next rebuild (see ``judge``)
+FLAG_SLOTS = 25
 
 #: Pairs a point lists (``Interaction.pairs``): the overlap tests of a rebuild that were within the
 #: band of flipping; those past it go to one list for all (``Interaction.spill``), and past its
@@ -1181,6 +1183,8 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         if released:
             d = moved(P, S, p)
             reduce_max(S.motion, MOVE_ABSOLUTE * EXT_SLOTS, p, quanta(wp.max(wp.abs(d[0]), wp.abs(d[1])), S, True))
+            if S.flags[FLAG_ABSOLUTE] != 0:
+                return  # (the moves relative to the references bound nothing tighter here: see ``judge``)
             ref = S.ref[p]  # (kept per point: no gather through the cell on the way)
             e = d - moved(P, S, ref)
             reduce_max(S.motion, MOVE_RELATIVE * EXT_SLOTS, p, quanta(wp.max(wp.abs(e[0]), wp.abs(e[1])), S, True))
@@ -1247,6 +1251,7 @@ def make_rebuild_decision(precision: str):
         for k in range(BAND_BINS):
             bins[k] = S.flags[FLAG_BINS + k]
         narrow_band = S.flags[FLAG_BAND]
+        absolute_only = S.flags[FLAG_ABSOLUTE] != 0
         # keep the labels if either bound on the change of every pair's offset is below the margin,
         # with the round-off of the displacements (2 or 4) and of the margin
         absolute = int(0)
@@ -1273,6 +1278,8 @@ def make_rebuild_decision(precision: str):
         margin = T(least) * q
         keep_absolute = T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < margin
         keep_relative = (T(2.0) * T(relative) + T(cells)) * q + T(7.0) * S.roundoff < margin
+        if absolute_only:
+            keep_relative = False  # (not measured: ``check`` skipped it)
         rebuild = range_changed or not (keep_absolute or keep_relative)
         # (with the wide lists ``check`` tests no pair and every step relabels; it counts as calm
         # when its ``relink`` found no pair flipped and no point changed cells)
@@ -1328,7 +1335,9 @@ def make_rebuild_decision(precision: str):
                 # that flows as a whole, whose points sit near the critical density (nearly every
                 # pair near flipping): there a band that follows the absolute moves would list
                 # every pair, past the slots, and still every step would rebuild
-                grown = wp.min(2 * absolute, 2 * relative + cells)
+                grown = 2 * absolute
+                if not absolute_only:
+                    grown = wp.min(grown, 2 * relative + cells)
                 rate = wp.min((grown + age - 1) // age, S.band_cap)
                 band = wp.clamp(WIDE_STEPS * rate, S.band_min, S.band_cap)
             S.flags[FLAG_BAND] = band
@@ -1342,6 +1351,16 @@ def make_rebuild_decision(precision: str):
         if rebuild:
             # (whether the coming rebuild counts the pairs outside its band: a narrow one that keeps margins)
             S.flags[FLAG_MEASURED] = int(wide == 0 and not unchecked)
+        # the moves relative to the references cost ``check`` its gathers; where they bound the
+        # pairs' offsets twice as loosely as the absolute moves (a dispersed flow: the neighbours of
+        # a point move their own ways, ~3 times) it keeps the absolute ones alone until the next
+        # rebuild, which measures both again (twice: the first steps of a body at rest that starts
+        # to settle have both bounds alike, and then the relative one alone lasts)
+        if rebuild:
+            absolute_only = False
+        elif 0 < absolute and 4 * absolute < 2 * relative + cells:
+            absolute_only = True
+        S.flags[FLAG_ABSOLUTE] = int(absolute_only)
         S.flags[FLAG_STREAK] = streak
         S.flags[FLAG_WIDE] = wide
         S.flags[FLAG_CALM] = calm

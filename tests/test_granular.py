@@ -342,8 +342,10 @@ def test_reused_labels_follow_a_body_that_moves_as_a_whole():
     relabelled: their copies claimed anew. Still exact."""
     grain = np.array([[0.105, 0.1175]])  # 1.5 mm from the block's domains: apart
     parts = [(BLOCK + [0.08, 0.1], (0.0, -1.0)), (grain, (0.0, -1.0))]
-    rebuilds, relabels, labellings = _reuse_against_rebuild(parts, "linear", -9.81, 160)
+    flags: list[np.ndarray] = []
+    rebuilds, relabels, labellings = _reuse_against_rebuild(parts, "linear", -9.81, 160, flags=flags)
     assert rebuilds == 1  # the absolute bound alone would rebuild about every 5 steps
+    assert not any(f[kgran.FLAG_ABSOLUTE] for f in flags)  # so the check kept measuring the relative moves
     assert relabels >= 1  # points crossed cell lines
     assert labellings == 1
 
@@ -405,6 +407,32 @@ def test_a_streak_of_rebuilds_widens_the_lists_and_stays_exact():
     assert relabels > 5
     assert max(int(f[kgran.FLAG_SPILLED]) for f in flags) > 0  # points listed more than PAIR_SLOTS pairs
     assert labellings >= 2  # grains met (else the components were never at stake)
+
+
+def test_a_dispersed_cloud_checks_the_absolute_moves_alone_and_stays_exact():
+    """A 24 × 24 jittered lattice of grains 0.65 cells apart, their domains of interaction half a
+    cell wide (apart by 0.15 cells), each moving at 0.5–1.5 m/s in its own direction, as the bench's
+    dispersed cloud. A point's neighbours move their own ways, so the moves relative to the cells'
+    reference points bound the pairs' offsets about three times as loosely as the absolute moves
+    (2 max|Δx_p − Δx_ref| + the references' spread against 2 max|Δx_p|): after the first steps the
+    checks skip the relative moves and their gathers (FLAG_ABSOLUTE) until each rebuild, and the run
+    still has the components and bit-identical positions and velocities of one that rebuilds every
+    step."""
+    rng = np.random.default_rng(11)
+    side, spacing = 24, 0.65 * H
+    ii, jj = np.divmod(np.arange(side * side), side)
+    x = 0.02 + spacing * np.column_stack([jj + 0.5, ii + 0.5]) + rng.uniform(-0.05 * H, 0.05 * H, (side * side, 2))
+    speed = rng.uniform(0.5, 1.5, len(x))
+    angle = rng.uniform(0.0, 2.0 * np.pi, len(x))
+    # (point size 0.5 H in the helper; ρ_cr = ρ keeps the domains of interaction that size)
+    parts = [(x[k:k + 1], (speed[k] * math.cos(angle[k]), speed[k] * math.sin(angle[k]))) for k in range(len(x))]
+    flags: list[np.ndarray] = []
+    steps = 40
+    rebuilds, relabels, labellings = _reuse_against_rebuild(parts, "linear", 0.0, steps, critical_density=1500.0,
+                                                            flags=flags)
+    absolute = [int(f[kgran.FLAG_ABSOLUTE]) for f in flags]
+    assert sum(absolute) > steps // 2
+    assert labellings >= 2  # grains met
 
 
 def test_a_dense_body_that_drifts_and_stretches_lists_by_its_relative_moves():
