@@ -100,6 +100,7 @@ __all__ = [
     "FLAG_BINS",
     "FLAG_MEASURED",
     "FLAG_ABSOLUTE",
+    "FLAG_STAMP",
     "BAND_SAMPLE",
     "BAND_BINS",
     "BAND_BUDGET",
@@ -179,7 +180,8 @@ FLAG_STRAYED = 14  # 1 once a relabel since the last rebuild took a point in ano
 FLAG_BINS = 15  # BAND_BINS slots: the sampled pairs of the last rebuild just outside its band (see BAND_SAMPLE)
 FLAG_MEASURED = 23  # 1 when the last rebuild filled FLAG_BINS (a narrow rebuild that kept margins)
 FLAG_ABSOLUTE = 24  # 1 when ``check`` keeps the absolute moves alone until the next rebuild (see ``judge``)
-FLAG_SLOTS = 25
+FLAG_STAMP = 25  # labellings so far (``judge``): ``label`` marks the cells whose labels changed with it (S.dirty)
+FLAG_SLOTS = 26
 
 #: Pairs a point lists (``Interaction.pairs``): the overlap tests of a rebuild that were within the
 #: band of flipping; those past it go to one list for all (``Interaction.spill``), and past its
@@ -459,6 +461,7 @@ def make_interaction_struct(precision: str):
         spill: wp.array(dtype=wp.vec2i)
         base: wp.array(dtype=wp.int32)
         home: wp.array(dtype=wp.int32)
+        dirty: wp.array(dtype=wp.int32)
         band_min: int
         band_cap: int
         moves: int
@@ -968,11 +971,17 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         p = wp.tid()
         # reset_copies has freed the copies by the depths of their runs (Grid.depth); no copy is
         # claimed now, so the depths start again from zero, here because reset_copies reads them
-        # (the nodes of one run may sit in different thread blocks)
-        runs = G.depth.shape[1]
-        for k in range(p, G.depth.shape[0] * runs, P.x.shape[0]):
-            G.depth[k // runs, k - (k // runs) * runs] = 0
-        P.slots[p, 0] = -1
+        # (the nodes of one run may sit in different thread blocks). The tent's relabels without a
+        # rebuild keep the copies of the nodes whose points kept their labels (``assign``), and
+        # their depths, and ``label`` voids the layers of the points that left their cells
+        fresh = True
+        if wp.static(tent_cells):
+            fresh = S.flags[FLAG_REBUILD] != 0
+        if fresh:
+            runs = G.depth.shape[1]
+            for k in range(p, G.depth.shape[0] * runs, P.x.shape[0]):
+                G.depth[k // runs, k - (k // runs) * runs] = 0
+            P.slots[p, 0] = -1
         if wp.static(not deforming):
             flipped = bool(False)
             root = p
@@ -1044,7 +1053,14 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                     comp = -1
                     if S.flags[FLAG_STRAYED] == 0:  # (``check`` then compares with S.home)
                         S.flags[FLAG_STRAYED] = 1
-                S.labels[S.rank[p]] = comp  # (its place in order)
+                    P.slots[p, 0] = -1  # (it claims its copies in P2G: void the layers it had)
+                k = S.rank[p]  # (its place in order)
+                if not rebuilt:
+                    # a relabel: the nodes of a cell whose points all kept their labels keep their
+                    # copies (``assign`` gives them out only where a label changed)
+                    if S.labels[k] != comp:
+                        S.dirty[cell] = S.flags[FLAG_STAMP]
+                S.labels[k] = comp
                 S.home[p] = here
 
     cache_vec = wp.types.vector(length=ASSIGN_CACHE, dtype=wp.int32)
@@ -1066,6 +1082,21 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         i, j = wp.tid()
         rows = G.mass.shape[1]
         lr = D.layer_rows
+        rebuilt = S.flags[FLAG_REBUILD] != 0
+        if not rebuilt:
+            # a relabel without a rebuild: the same points in the same order as at the last
+            # labelling, so a node whose four cells kept every label keeps its copies and the
+            # layers its points hold (the points that left their cells claim theirs in P2G)
+            stamp = S.flags[FLAG_STAMP]
+            changed = False
+            for dx in range(2):
+                for dy in range(2):
+                    cx = wp.clamp(i - 1 + dx, 0, lr - 1)
+                    cy = wp.clamp(j - 1 + dy, 0, rows - 1)
+                    if S.dirty[cx * rows + cy] == stamp:
+                        changed = True
+            if not changed:
+                return
         # the components of the first ASSIGN_CACHE copies, in layer order (−2 where none: no label)
         seen = cache_vec()
         for u in range(ASSIGN_CACHE):
@@ -1110,6 +1141,11 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                                 # this node's byte of the point's slots (prepare left it NO_LAYER):
                                 # the four nodes of a point store to the four bytes of one word
                                 S.slot_bytes[q, corner] = wp.uint8(s)
+        if not rebuilt:
+            # the copies this node gave out before, past the ones it gives out now, are free
+            # (reset_copies freed them on a rebuild)
+            for s in range(n, G.depth[i, j // COPY_RUN]):
+                G.owner[s * lr + i, j] = -1
         if n > 0:
             wp.atomic_max(G.depth, i, j // COPY_RUN, n)
 
@@ -1252,6 +1288,7 @@ def make_rebuild_decision(precision: str):
             bins[k] = S.flags[FLAG_BINS + k]
         narrow_band = S.flags[FLAG_BAND]
         absolute_only = S.flags[FLAG_ABSOLUTE] != 0
+        stamp = S.flags[FLAG_STAMP]
         # keep the labels if either bound on the change of every pair's offset is below the margin,
         # with the round-off of the displacements (2 or 4) and of the margin
         absolute = int(0)
@@ -1273,6 +1310,7 @@ def make_rebuild_decision(precision: str):
             S.flags[FLAG_RELABEL] = 1
             S.flags[FLAG_AGE] = 0
             S.flags[FLAG_MEASURED] = 0
+            S.flags[FLAG_STAMP] = stamp + 1
             return
         q = S.quantum
         margin = T(least) * q
@@ -1348,6 +1386,7 @@ def make_rebuild_decision(precision: str):
             S.flags[FLAG_REBUILD] = 1
         if relabel:
             S.flags[FLAG_RELABEL] = 1
+            S.flags[FLAG_STAMP] = stamp + 1
         if rebuild:
             # (whether the coming rebuild counts the pairs outside its band: a narrow one that keeps margins)
             S.flags[FLAG_MEASURED] = int(wide == 0 and not unchecked)
@@ -1370,12 +1409,14 @@ def make_rebuild_decision(precision: str):
 
 
 @functools.cache
-def make_reset_copies(precision: str, deforming: bool):
+def make_reset_copies(precision: str, deforming: bool, incremental: bool = False):
     """Kernel ``reset_copies(G, D, ext_max, slack, cell_ref, flags, motion)`` over the nodes of one
     layer, on the steps that relabel (every step for deforming domains): frees the copies the
     previous steps claimed (as deep as ``Grid.depth`` says, so a node without claims costs one read
     instead of a memset of every layer; ``relink`` then zeroes the depths) and, on a rebuild, resets
-    ``ext_max`` (deforming domains) or ``slack``, ``cell_ref`` and ``motion`` (the others)."""
+    ``ext_max`` (deforming domains) or ``slack``, ``cell_ref`` and ``motion`` (the others).
+    incremental (the tent outside staged scenes): a relabel without a rebuild frees nothing here;
+    ``assign`` gives out anew the copies of the nodes whose points changed labels, and frees theirs."""
     Particles, Grid, Domain = make_state_structs(precision)
 
     @kernel
@@ -1386,6 +1427,9 @@ def make_reset_copies(precision: str, deforming: bool):
         # at the last labelling are the ones this step claims again: they stay
         if wp.static(not deforming):
             if flags[FLAG_RELABEL] == 0:
+                return
+        if wp.static(incremental):
+            if flags[FLAG_REBUILD] == 0:
                 return
         i, j = wp.tid()
         k = i * G.owner.shape[1] + j

@@ -256,6 +256,9 @@ class MPMSolver:
             S.spill = wp.zeros(1 if deforming else min(n, max(1024, n // 4)), dtype=wp.vec2i, device=dev)
             S.base = wp.zeros(listed, dtype=wp.int32, device=dev)
             S.home = wp.zeros(n if tent else 1, dtype=wp.int32, device=dev)
+            # the tent's relabels give out anew only the copies of nodes whose points changed labels:
+            # the cells where one did, marked with the labelling's stamp (FLAG_STAMP)
+            S.dirty = wp.full(cells if tent else 1, -1, dtype=wp.int32, device=dev)
             S.quantum = t.scalar(self.scene.cell_size * 2.0**-20)
             S.band_min = int(CRITICAL_BAND * 2.0**20)  # (in quanta of h 2^-20)
             S.band_cap = int(WIDE_BAND_CAP * 2.0**20)
@@ -381,7 +384,8 @@ class MPMSolver:
             gin = [P, G, D, mats, S, self.status, clock]
             check, prepare, place, link, settle, relink, label, assign = kgran.make_granular_kernels(
                 c.shape, prec, staged=self.staged)
-            reset = _Launch(kgran.make_reset_copies(prec, deforming), grid_dim,
+            incremental = c.shape == "linear" and not self.staged  # (the tent's ``assign``)
+            reset = _Launch(kgran.make_reset_copies(prec, deforming, incremental), grid_dim,
                             [G, D, S.ext_max, S.slack, S.cell_ref, S.flags, S.motion])
             rebuild = [_Launch(prepare, n, gin)]
             # the start of each cell's run in the cell-sorted list: prefix sums of the counts (gated

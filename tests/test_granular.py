@@ -385,6 +385,49 @@ def test_reused_labels_see_a_pair_at_the_threshold_meet(shape):
     assert relabels == 1  # the step after the pair met
 
 
+def test_a_relabel_gives_out_anew_only_the_copies_near_changed_labels():
+    """The tent's relabel without a rebuild: two grains at the threshold meet (one component fewer)
+    while a block rests 6 cells away. ``label`` marks the cells whose points changed labels with
+    the labelling's stamp, and ``assign`` gives out the copies of those cells' nodes alone: the
+    marked cells are the grains' own, and the block's nodes keep their copies (the runs above
+    check that the result is the one of a rebuild at every step)."""
+    reach = 0.5 * H * math.sqrt(1500.0 / 1400.0)
+    a = np.array([[0.1025, 0.1025]])
+    b = a + np.array([reach + 1.0e-6, 0.0])
+    scene = Scene(domain=((0.0, 0.0), (0.2, 0.2)), cell_size=H, gravity=(0.0, 0.0),
+                  boundaries={s: "free" for s in ("left", "right", "bottom", "top")})
+    mat = LinearElastic(1.0e5, 0.3, 1500.0, critical_density=1400.0)
+    for x, v in ((a, (0.005, 0.0)), (b, (-0.005, 0.0)), (BLOCK + [0.03, 0.03], (0.0, 0.0))):
+        scene.add_points(x, mat, size=0.5 * H, velocity=v)
+    sim = Simulation(scene, SolverConfig(granular=True, shape="linear", precision="f64", dt=2.0e-5), device="cpu")
+    mpm = sim.mpm
+    mpm.set_stop_time(1.0)
+    S = mpm.interaction
+    for _ in range(12):
+        before = mpm.G.owner.numpy().copy()
+        mpm.step()
+        f = S.flags.numpy()
+        if f[kgran.FLAG_RELABELS] == 1:
+            break
+    assert f[kgran.FLAG_RELABELS] == 1 and f[kgran.FLAG_COUNT] == 1  # the meeting step relabelled
+    stamp = f[kgran.FLAG_STAMP] - 1 if f[kgran.FLAG_RELABEL] else f[kgran.FLAG_STAMP]
+    rows = mpm.G.mass.shape[1]
+    marked = {divmod(int(c), rows) for c in np.flatnonzero(S.dirty.numpy() == stamp)}
+    origin = np.array(mpm.D.origin)
+    grains = {tuple(np.floor((x - origin) / H).astype(int)) for x in (a[0], b[0])}
+    assert marked and marked <= grains
+    # the block's nodes: the corners of the cells of its points
+    lo = np.floor((BLOCK.min(axis=0) + 0.03 - origin) / H).astype(int)
+    hi = np.floor((BLOCK.max(axis=0) + 0.03 - origin) / H).astype(int) + 1
+    lr = mpm.D.layer_rows
+    after = mpm.G.owner.numpy()
+    for layer in range(2):
+        rows_l = slice(layer * lr + lo[0], layer * lr + hi[0] + 1)
+        np.testing.assert_array_equal(after[rows_l, lo[1]:hi[1] + 1], before[rows_l, lo[1]:hi[1] + 1])
+    assert (after[lo[0]:hi[0] + 1, lo[1]:hi[1] + 1] >= 0).all()  # (copies in use there: kept, not freed)
+    assert len(set(mpm.components().tolist())) == 2  # the grains merged; the block apart
+
+
 def test_a_streak_of_rebuilds_widens_the_lists_and_stays_exact():
     """Grains that move apart and together at every step (3 × 3 cm spread, 2–4 m/s: about 0.006
     cells a step each, 100 of them, so ~11 to a cell: more pairs than PAIR_SLOTS near a point) make
