@@ -101,7 +101,6 @@ __all__ = [
     "FLAG_MEASURED",
     "FLAG_ABSOLUTE",
     "FLAG_STAMP",
-    "FLAG_DIRTY",
     "BAND_SAMPLE",
     "BAND_BINS",
     "BAND_BUDGET",
@@ -181,9 +180,8 @@ FLAG_STRAYED = 14  # 1 once a relabel since the last rebuild took a point in ano
 FLAG_BINS = 15  # BAND_BINS slots: the sampled pairs of the last rebuild just outside its band (see BAND_SAMPLE)
 FLAG_MEASURED = 23  # 1 when the last rebuild filled FLAG_BINS (a narrow rebuild that kept margins)
 FLAG_ABSOLUTE = 24  # 1 when ``check`` keeps the absolute moves alone until the next rebuild (see ``judge``)
-FLAG_STAMP = 25  # labellings so far (``judge``): ``label`` marks with it the nodes whose points changed labels
-FLAG_DIRTY = 26  # nodes listed in S.dirty by this relabel's ``label`` (``assign`` gives out their copies)
-FLAG_SLOTS = 27
+FLAG_STAMP = 25  # labellings so far (``judge``): ``label`` marks the cells whose labels changed with it (S.dirty)
+FLAG_SLOTS = 26
 
 #: Pairs a point lists (``Interaction.pairs``): the overlap tests of a rebuild that were within the
 #: band of flipping; those past it go to one list for all (``Interaction.spill``), and past its
@@ -463,7 +461,6 @@ def make_interaction_struct(precision: str):
         spill: wp.array(dtype=wp.vec2i)
         base: wp.array(dtype=wp.int32)
         home: wp.array(dtype=wp.int32)
-        marked: wp.array(dtype=wp.int32)
         dirty: wp.array(dtype=wp.int32)
         band_min: int
         band_cap: int
@@ -1059,21 +1056,10 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                     P.slots[p, 0] = -1  # (it claims its copies in P2G: void the layers it had)
                 k = S.rank[p]  # (its place in order)
                 if not rebuilt:
-                    # a relabel: only the nodes of a point whose label changed give out their copies
-                    # anew (``assign``), listed once each (marked with this labelling's stamp)
+                    # a relabel: the nodes of a cell whose points all kept their labels keep their
+                    # copies (``assign`` gives them out only where a label changed)
                     if S.labels[k] != comp:
-                        stamp = S.flags[FLAG_STAMP]
-                        ccx = cell // rows
-                        ccy = cell - ccx * rows
-                        for dx in range(2):
-                            for dy in range(2):
-                                nx = ccx + dx
-                                ny = ccy + dy
-                                if nx < D.layer_rows and ny < rows:
-                                    node = nx * rows + ny
-                                    if S.marked[node] != stamp:
-                                        if wp.atomic_exch(S.marked, node, stamp) != stamp:
-                                            S.dirty[wp.atomic_add(S.flags, FLAG_DIRTY, 1)] = node
+                        S.dirty[cell] = S.flags[FLAG_STAMP]
                 S.labels[k] = comp
                 S.home[p] = here
 
@@ -1100,14 +1086,17 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         if not rebuilt:
             # a relabel without a rebuild: the same points in the same order as at the last
             # labelling, so a node whose four cells kept every label keeps its copies and the
-            # layers its points hold (the points that left their cells claim theirs in P2G); the
-            # threads take the nodes ``label`` listed instead, one each
-            t = i * rows + j
-            if t >= S.flags[FLAG_DIRTY]:
+            # layers its points hold (the points that left their cells claim theirs in P2G)
+            stamp = S.flags[FLAG_STAMP]
+            changed = False
+            for dx in range(2):
+                for dy in range(2):
+                    cx = wp.clamp(i - 1 + dx, 0, lr - 1)
+                    cy = wp.clamp(j - 1 + dy, 0, rows - 1)
+                    if S.dirty[cx * rows + cy] == stamp:
+                        changed = True
+            if not changed:
                 return
-            node = S.dirty[t]
-            i = node // rows
-            j = node - i * rows
         # the components of the first ASSIGN_CACHE copies, in layer order (−2 where none: no label)
         seen = cache_vec()
         for u in range(ASSIGN_CACHE):
@@ -1322,7 +1311,6 @@ def make_rebuild_decision(precision: str):
             S.flags[FLAG_AGE] = 0
             S.flags[FLAG_MEASURED] = 0
             S.flags[FLAG_STAMP] = stamp + 1
-            S.flags[FLAG_DIRTY] = 0
             return
         q = S.quantum
         margin = T(least) * q
@@ -1399,7 +1387,6 @@ def make_rebuild_decision(precision: str):
         if relabel:
             S.flags[FLAG_RELABEL] = 1
             S.flags[FLAG_STAMP] = stamp + 1
-            S.flags[FLAG_DIRTY] = 0
         if rebuild:
             # (whether the coming rebuild counts the pairs outside its band: a narrow one that keeps margins)
             S.flags[FLAG_MEASURED] = int(wide == 0 and not unchecked)

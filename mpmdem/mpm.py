@@ -257,9 +257,8 @@ class MPMSolver:
             S.base = wp.zeros(listed, dtype=wp.int32, device=dev)
             S.home = wp.zeros(n if tent else 1, dtype=wp.int32, device=dev)
             # the tent's relabels give out anew only the copies of nodes whose points changed labels:
-            # those nodes, listed once each (marked with the labelling's stamp, FLAG_STAMP)
-            S.marked = wp.full(cells if tent else 1, -1, dtype=wp.int32, device=dev)
-            S.dirty = wp.zeros(cells if tent else 1, dtype=wp.int32, device=dev)
+            # the cells where one did, marked with the labelling's stamp (FLAG_STAMP)
+            S.dirty = wp.full(cells if tent else 1, -1, dtype=wp.int32, device=dev)
             S.quantum = t.scalar(self.scene.cell_size * 2.0**-20)
             S.band_min = int(CRITICAL_BAND * 2.0**20)  # (in quanta of h 2^-20)
             S.band_cap = int(WIDE_BAND_CAP * 2.0**20)
