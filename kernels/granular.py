@@ -53,12 +53,14 @@ or 2 max|Δx_p − Δx_ref(p)| + max|Δx_ref(c) − Δx_ref(c')| over cells c, c
 labels). When a listed pair flipped, or a point changed cells in a scene where that cannot change
 the graph (``S.moves``: the tent, every point granular, every domain under half a cell), the step
 relabels instead: ``relink`` and ``label`` over the forest and the lists, ``assign`` over the
-rebuild's cell-sorted list, the points that left their cell since claiming their copies in P2G.
+rebuild's cell-sorted list (only at the nodes whose points changed labels: the others keep their
+copies), the points that left their cell since claiming their copies in P2G.
 Steps that keep or relabel get exactly the labels a rebuild would give. The check runs at the end
 of a step, on the positions the next step starts from, and its verdict goes out with the clock's
 advance (``judge``: one launch for both). The band is narrow (``mpm.CRITICAL_BAND``: one pair at
 the threshold, as in a dense packing that dilates, where the paper's ρ_cr lets neighbours overlap
-by only 0.17 % of a cell, does not make every step rebuild while it crosses); a scene that
+by only 0.17 % of a cell, does not make every step rebuild while it crosses), and each narrow
+rebuild widens it as far as the pairs it counted just outside it allow (``BAND_SAMPLE``); a scene that
 rebuilds at STREAK_START steps in a row (a dispersed flow) widens it so that the lists last about
 WIDE_STEPS steps and relabels at every step between (``FLAG_WIDE``), and if it still rebuilds at
 every step it skips the check for a while and just rebuilds (``FLAG_FORCED``). Deforming domains
