@@ -943,6 +943,17 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         S.parent[p] = r
 
     @wp.func
+    def spilled(pair: wp.vec2i):
+        # a spill entry (a, q), a = p or −p − 1 if the domains did not overlap: (p, code of q as in
+        # S.pairs: q, or −q − 1 if apart)
+        first = pair[0]
+        code = pair[1]
+        if first < 0:
+            first = -first - 1
+            code = -code - 1
+        return first, code
+
+    @wp.func
     def relist(P: Particles, S: Interaction, p: int, xp: t.vec2, ep: t.vec2, code: int, root: int):
         # a listed pair (p, q), q = code or −code − 1 if its domains did not overlap: merged if they
         # overlap now (and share a node; xp, ep: p's position and half-extents); returns its code for
@@ -996,13 +1007,8 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                     S.pairs[p, k] = now
                     flipped = True
             if p < wp.min(S.flags[FLAG_SPILLED], S.spill.shape[0]):
-                # (a spilled pair (a, q): a = p, or −p − 1 if the domains did not overlap)
                 pair = S.spill[p]
-                first = pair[0]
-                code = pair[1]
-                if first < 0:
-                    first = -first - 1
-                    code = -code - 1
+                first, code = spilled(pair)
                 now, _ = relist(P, S, first, P.x[first], S.ext[first], code, first)
                 if now != code:
                     flipped = True
@@ -1176,12 +1182,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         # (the narrow band lists its few pairs in the spill list alone: no per-point read here)
         flipped = bool(False)
         if S.flags[FLAG_WIDE] == 0 and p < wp.min(S.flags[FLAG_SPILLED], S.spill.shape[0]):
-            pair = S.spill[p]
-            first = pair[0]
-            code = pair[1]
-            if first < 0:
-                first = -first - 1
-                code = -code - 1
+            first, code = spilled(S.spill[p])
             flipped = flipped or flips(P, S, first, code)
         if flipped:
             if S.flags[FLAG_CHANGED] == 0:  # (a load before the store: most find it set)
