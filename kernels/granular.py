@@ -418,7 +418,8 @@ def make_interaction_struct(precision: str):
     whole quanta (rounded down), reduced in slots; flags (FLAG_SLOTS,) int32; motion (3 EXT_SLOTS,)
     int32 (``MOVE_*``); cell_ref (cells,) int32: each cell's reference point at the last rebuild, −1
     for none; ref (N,) int32: the reference point of each point's cell at the last rebuild
-    (non-deforming domains); pairs (N, PAIR_SLOTS) int32 and npairs (N,) int32 (non-deforming
+    (non-deforming domains); pairs (PAIR_SLOTS, N) int32 (slot-major: the points of a warp read
+    one slot in one coalesced load) and npairs (N,) int32 (non-deforming
     domains; one entry else): the partners q of the first ``npairs[p]`` of point p's overlap tests
     at the last rebuild that were within the band (``FLAG_BAND``) of flipping, each stored as q if
     the domains overlapped at the last labelling, −q − 1 if not; spill (capacity,) vec2i: those past
@@ -889,7 +890,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                                 if not joined:
                                     code = -q - 1
                                 if listed_p < PAIR_SLOTS and wide:
-                                    S.pairs[p, listed_p] = code
+                                    S.pairs[listed_p, p] = code
                                     listed_p += 1
                                     listed = True
                                 else:
@@ -1001,10 +1002,10 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             xp = P.x[p]  # (loaded once for all of p's pairs)
             ep = S.ext[p]
             for k in range(S.npairs[p]):
-                code = S.pairs[p, k]
+                code = S.pairs[k, p]
                 now, root = relist(P, S, p, xp, ep, code, root)
                 if now != code:
-                    S.pairs[p, k] = now
+                    S.pairs[k, p] = now
                     flipped = True
             if p < wp.min(S.flags[FLAG_SPILLED], S.spill.shape[0]):
                 pair = S.spill[p]

@@ -250,7 +250,7 @@ class MPMSolver:
             # than let them set the margin of all; a flip relabels over the lists, on top of the
             # forest of the other pairs (kernels/granular.py)
             listed = 1 if deforming else n
-            S.pairs = wp.zeros((listed, kgran.PAIR_SLOTS), dtype=wp.int32, device=dev)
+            S.pairs = wp.zeros((kgran.PAIR_SLOTS, listed), dtype=wp.int32, device=dev)
             S.npairs = wp.zeros(listed, dtype=wp.int32, device=dev)
             # (at most one entry per point: ``check`` and ``relink`` test entry p in thread p)
             S.spill = wp.zeros(1 if deforming else min(n, max(1024, n // 4)), dtype=wp.vec2i, device=dev)
@@ -415,8 +415,14 @@ class MPMSolver:
                 # launches; elsewhere each kernel reads its flag and returns at once. ``check`` goes
                 # after the step's last G2P (below).
                 rebuild += [_Launch(settle, n, gin)]
-                inner = [("if", S.flags[kgran.FLAG_REBUILD:], rebuild)] if NESTED_REBUILD else rebuild
-                seq += [("if", S.flags[kgran.FLAG_RELABEL:], [reset] + inner + relabel)]
+                if NESTED_REBUILD and incremental:
+                    # (the tent's relabels without a rebuild free no copies: ``reset_copies`` only
+                    # runs with the rebuild, not as an empty launch over the grid at every relabel)
+                    inner = [("if", S.flags[kgran.FLAG_REBUILD:], [reset] + rebuild)]
+                    seq += [("if", S.flags[kgran.FLAG_RELABEL:], inner + relabel)]
+                else:
+                    inner = [("if", S.flags[kgran.FLAG_REBUILD:], rebuild)] if NESTED_REBUILD else rebuild
+                    seq += [("if", S.flags[kgran.FLAG_RELABEL:], [reset] + inner + relabel)]
                 self._judge = kgran.make_rebuild_decision(prec)
             else:
                 seq += [reset] + rebuild + relabel
