@@ -1035,7 +1035,11 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             else:
                 S.flags[FLAG_RELABELS] = S.flags[FLAG_RELABELS] + 1
         comp = find(S.parent, p)
-        P.comp[p] = comp
+        before = int(-1)
+        if wp.static(tent_cells):
+            before = P.comp[p]  # (the label of the last labelling)
+        if before != comp:
+            P.comp[p] = comp
         if wp.static(staged):
             if clock[0] < P.release[p]:
                 return
@@ -1063,14 +1067,22 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
                     if S.flags[FLAG_STRAYED] == 0:  # (``check`` then compares with S.home)
                         S.flags[FLAG_STRAYED] = 1
                     P.slots[p, 0] = -1  # (it claims its copies in P2G: void the layers it had)
-                k = S.rank[p]  # (its place in order)
-                if not rebuilt:
+                if rebuilt:
+                    S.labels[S.rank[p]] = comp  # (its place in order)
+                    S.home[p] = here
+                else:
                     # a relabel: the nodes of a cell whose points all kept their labels keep their
-                    # copies (``assign`` gives them out only where a label changed)
-                    if S.labels[k] != comp:
+                    # copies (``assign`` gives them out only where a label changed). What S.labels
+                    # holds for the point follows from P.comp and S.home of the last labelling (−1 if
+                    # it had left its cell then): no gather through S.rank, and no store if unchanged
+                    home = S.home[p]
+                    if home != cell:
+                        before = -1
+                    if before != comp:
                         S.dirty[cell] = S.flags[FLAG_STAMP]
-                S.labels[k] = comp
-                S.home[p] = here
+                        S.labels[S.rank[p]] = comp
+                    if home != here:
+                        S.home[p] = here
 
     cache_vec = wp.types.vector(length=ASSIGN_CACHE, dtype=wp.int32)
 
