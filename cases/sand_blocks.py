@@ -154,7 +154,10 @@ def build(args) -> CaseSetup:
     _check(args)
     h = _cell(args)
     s = h / POINTS_PER_CELL
-    scene = Scene(domain=((0.0, -GROUND_THICKNESS), (BOX_LENGTH, BOX_HEIGHT)), cell_size=h, gravity=(0.0, -GRAVITY),
+    # the right and top walls on grid lines: the box rounded up to whole cells
+    length = h * math.ceil(BOX_LENGTH / h - 1e-9)
+    top = -GROUND_THICKNESS + h * math.ceil((BOX_HEIGHT + GROUND_THICKNESS) / h - 1e-9)
+    scene = Scene(domain=((0.0, -GROUND_THICKNESS), (length, top)), cell_size=h, gravity=(0.0, -GRAVITY),
                   boundaries={"left": "slip", "right": "slip", "bottom": "free", "top": "slip"},
                   contact=ContactLaw(args.normal_stiffness, args.normal_stiffness * KT / KN, restitution=RESTITUTION))
     rp = h * POINTS_PER_CELL ** -0.5  # eq. 45's geometric middle h n^(-1/4), n = 4 points per cell

@@ -68,6 +68,37 @@ WORK_PLASTIC = 2
 WORK_INFLOW = 3  # energy (kinetic + gravity) that released points bring into the scene
 WORK_SLOTS = 1024
 
+
+@functools.cache
+def make_keep_inside_walls(precision: str):
+    """``keep_inside_walls(x, D) -> x``: a point position [m] clamped to the domain box on every
+    side that is a wall (fixed, slip or friction); free sides are left open.
+
+    With image points the interpolated normal velocity vanishes on a wall, so in exact arithmetic a
+    point approaching a wall under a stable step never reaches it; in floating point it can land a
+    rounding error past it, and an unstable step can carry it across. Neither may put material
+    beyond a wall: the position is projected back onto the wall line (Coulomb walls included:
+    material may leave them, not pass them).
+    """
+    t = scalar_types(precision)
+    Domain = make_state_structs(precision)[2]
+
+    @wp.func
+    def keep_inside_walls(x: t.vec2, D: Domain):
+        y = x
+        if D.bc_kind[0] != BC_FREE:
+            y[0] = wp.max(y[0], D.lo[0])
+        if D.bc_kind[1] != BC_FREE:
+            y[0] = wp.min(y[0], D.hi[0])
+        if D.bc_kind[2] != BC_FREE:
+            y[1] = wp.max(y[1], D.lo[1])
+        if D.bc_kind[3] != BC_FREE:
+            y[1] = wp.min(y[1], D.hi[1])
+        return y
+
+    return keep_inside_walls
+
+
 #: Cumulative impulse [N s/m] that the material exerts on the obstacles (x, y), stored after the
 #: work terms in the same array: a load cell's reading is its change over a frame divided by the
 #: frame's duration. Obstacle nodes are plain fixed nodes, so the impulse of their constraint is

@@ -11,7 +11,7 @@ import warp as wp
 
 from .constitutive import make_point_update
 from .granular import NO_LAYER, STATUS_LAYER_OVERFLOW, make_layer_row, slot_words
-from .grid import WORK_INFLOW, WORK_PLASTIC, work_slot
+from .grid import WORK_INFLOW, WORK_PLASTIC, make_keep_inside_walls, work_slot
 from .reductions import make_speed_check
 from .shape_functions import CPGIMP_MAX_HALF, SUPPORT_NODES, make_weights_1d
 from .state import make_state_structs
@@ -322,6 +322,7 @@ def make_g2p(
     fused_grad = stress == "vt"
     has_stress = stress != "none"
     speed_check = make_speed_check(precision)
+    keep_inside_walls = make_keep_inside_walls(precision)
 
     @kernel
     def g2p(
@@ -458,6 +459,8 @@ def make_g2p(
                 P.x[p] = x_old + dt * P.v[p]  # eq. 36 / 38
         if wp.static(position and xpic and not velocity):
             P.x[p] = x_old + P.tmp[p]
+        if wp.static(position):
+            P.x[p] = keep_inside_walls(P.x[p], D)  # no material past a wall, not even by round-off
         if wp.static(has_stress):
             diss = point_update(P, p, materials[P.material[p]], L, dt * T(stress_dt))
             if wp.static(dissipative):

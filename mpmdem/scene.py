@@ -162,6 +162,28 @@ class Scene:
         if unknown:
             raise InputError("boundaries", sorted(unknown), f"sides among {', '.join(SIDES)}")
         self.boundaries = {s: _as_boundary(s, self.boundaries.get(s, "slip")) for s in SIDES}
+        if self.cell_size is not None:
+            self._check_walls_on_grid_lines()
+
+    def _check_walls_on_grid_lines(self) -> None:
+        """A wall (fixed, slip or friction side) must lie on a grid line: the grid starts at the
+        lower corner, so the right and top walls need a whole number of cells across. Rounding the
+        grid up instead would put the wall up to a cell beyond the side the user gave."""
+        (x0, y0), (x1, y1) = self.domain
+        h = self.cell_size
+        for side, lo, hi, axis in (("right", x0, x1, "x"), ("top", y0, y1, "y")):
+            if self.boundaries[side].kind == "free":
+                continue
+            cells = (hi - lo) / h
+            if abs(cells - round(cells)) <= 1e-6 * max(1.0, cells):
+                continue
+            n_lo, n_hi = max(1, math.floor(cells)), math.ceil(cells)
+            raise InputError(
+                "domain", self.domain,
+                f"a {side} wall on a grid line: {axis}1 - {axis}0 = {hi - lo:g} m is {cells:.4g} cells of "
+                f"cell_size {h:g} m, so the wall would sit at {axis} = {lo + n_hi * h:.6g} m; use {axis}1 = "
+                f"{lo + n_lo * h:.6g} or {lo + n_hi * h:.6g} m, cell_size {(hi - lo) / n_hi:.6g} or "
+                f"{(hi - lo) / n_lo:.6g} m, or a free {side} side")
 
     @property
     def cell_counts(self) -> tuple[int, int]:
