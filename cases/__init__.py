@@ -27,6 +27,7 @@ CASES = {
     "friction-force": "friction_force",
     "rod-collision": "rod_collision",
     "sand-blocks": "sand_blocks",
+    "silo-discharge": "silo_discharge",
 }
 
 DEFAULT_CASE = "sulsky-disks"

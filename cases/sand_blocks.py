@@ -59,6 +59,18 @@ import math
 import sys
 
 import numpy as np
+from mpmdem.cases._table3 import (
+    CM,
+    GRAVITY,
+    GRAVITY_TABLE,
+    GRID_TABLE,
+    KN_TABLE,
+    KT_TABLE,
+    MU_TABLE,
+    SPHERO_RADIUS,
+    VERLET,
+    sand,
+)
 
 from mpmdem import ContactLaw, DruckerPrager, InputError, Scene, rounded_rectangle
 from mpmdem.runner import CaseSetup
@@ -69,33 +81,14 @@ DESCRIPTION = "a sand column flows into three stacked wooden blocks, the bottom 
 # cases/column_collapse.py)
 DEFAULTS = {"granular": True, "shape": "bspline2", "transfer": "APIC", "precision": "f64"}
 
-# -- Table 3 in the paper's units, converted once ---------------------------------------------
-CM = 1.0e-2  # m
-KN_TABLE = 6.0e6 / CM  # 6.0e6 N/cm → N/m per m
-KT_TABLE = 3.0e5 / CM  # 3.0e5 N/cm → N/m per m
-MU_TABLE = 0.2  # Coulomb μ of the DEM contacts
-DT_TABLE = 2.0e-4  # s
-VERLET = 0.2 * CM  # V_d
-SPHERO_RADIUS = 0.5 * CM  # r_d
-GRID_TABLE = 0.35 * CM  # dg
-R_P_TABLE = 0.1 * CM  # r_p
-K_BULK = 5.0e2 * 1.0e3  # 5.0e2 kPa → Pa
-G_SHEAR = 3.2e2 * 1.0e3  # 3.2e2 kPa → Pa
-NU_TABLE = 0.2358
-DENSITY = 1.5e-3 / CM**3  # 1.5 g/cm³ → kg/m³ (= 1500)
-GRAVITY_TABLE = 10.0 * CM  # 10.0 cm/s² as printed → 0.1 m/s² (not used, see the header)
-# §6 changes
-GRAVITY = 10.0  # m/s², §6's "g = 10 m/s"
+# -- Table 3 (cases/_table3.py) and §6's changes ----------------------------------------------
+
 FRICTION_ANGLE = 22.0  # deg
 DILATANCY_ANGLE = 0.0  # deg
 POINTS_PAPER = 8000
 # §6 times as printed [s] and as read here at g = 10 m/s² (tenths, see the header)
 T_PAPER_PRINTED = {"reach": 2.5, "block2_ground": 4.0, "block1_ground": 4.5}
 T_PAPER = {k: 0.1 * v for k, v in T_PAPER_PRINTED.items()}
-
-YOUNGS = 9.0 * K_BULK * G_SHEAR / (3.0 * K_BULK + G_SHEAR)  # 3D relations (plane strain), 791 kPa
-POISSON = (3.0 * K_BULK - 2.0 * G_SHEAR) / (2.0 * (3.0 * K_BULK + G_SHEAR))  # 0.2363 (Table 3: 0.2358)
-CRITICAL_DENSITY_RATIO = 0.99
 
 # -- our choices (see the header) -------------------------------------------------------------
 KN = 1.0e6  # N/m per m
@@ -139,8 +132,7 @@ def _cell(args) -> float:
 
 
 def material() -> DruckerPrager:
-    return DruckerPrager(YOUNGS, POISSON, DENSITY, FRICTION_ANGLE, DILATANCY_ANGLE, 0.0,
-                         critical_density=CRITICAL_DENSITY_RATIO * DENSITY)
+    return sand(FRICTION_ANGLE, DILATANCY_ANGLE)
 
 
 def block_positions(gap: float) -> dict[str, tuple[float, float]]:

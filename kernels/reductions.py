@@ -22,6 +22,7 @@ __all__ = [
     "cap_dt",
     "compute_dt",
     "make_diagnostics",
+    "make_probe_mass",
     "make_speed_check",
     "make_wave_speed",
 ]
@@ -190,6 +191,29 @@ def make_diagnostics(precision: str, material_kinds: tuple = (0,), staged: bool 
         wp.atomic_add(out, 6, m)
 
     return diagnostics
+
+
+@functools.cache
+def make_probe_mass(precision: str, staged: bool = False):
+    """Mass [kg/m] of the points inside each probe box lo ≤ x < hi (boxes as vec4 (x0, y0, x1, y1))
+    into ``out[k]``; points not yet released are left out."""
+    Particles, Grid, Domain = make_state_structs(precision)
+
+    @kernel
+    def probe_mass(P: Particles, boxes: wp.array(dtype=wp.vec4d), out: wp.array(dtype=wp.float64),
+                   t_now: wp.float64):
+        p = wp.tid()
+        if wp.static(staged):
+            if t_now < P.release[p]:
+                return
+        x = wp.float64(P.x[p][0])
+        y = wp.float64(P.x[p][1])
+        for k in range(boxes.shape[0]):
+            b = boxes[k]
+            if x >= b[0] and y >= b[1] and x < b[2] and y < b[3]:
+                wp.atomic_add(out, k, wp.float64(P.mass[p]))
+
+    return probe_mass
 
 
 @kernel

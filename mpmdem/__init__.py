@@ -30,7 +30,7 @@ from .config import SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverCon
 from .errors import BlowUpError, InputError
 from .granular_materials import DruckerPrager, MohrCoulomb
 from .materials import LinearElastic, Material, NeoHookean
-from .scene import Boundary, MPMBody, Scene
+from .scene import Boundary, MassProbe, MPMBody, Scene
 from .shapes import Shape, disk, polygon, rectangle, seed_points
 from .simulation import RunResult, Simulation, default_device
 from .spheropolygons import (
@@ -55,6 +55,7 @@ __all__ = [
     "InputError",
     "LinearElastic",
     "MPMBody",
+    "MassProbe",
     "Material",
     "MohrCoulomb",
     "NeoHookean",

@@ -297,6 +297,10 @@ class MPMSolver:
         self.max_speed = wp.zeros(kred.SPEED_SLOTS, dtype=wp.float32, device=dev)
         self.status = wp.zeros(3, dtype=wp.int32, device=dev)
         self.diag = wp.zeros(len(kred.DIAG_NAMES), dtype=wp.float64, device=dev)
+        probes = scene.mass_probes
+        self.probe_boxes = wp.array(np.array([[*p.lo, *p.hi] for p in probes], dtype=np.float64).reshape(-1, 4),
+                                    dtype=wp.vec4d, device=dev)
+        self.probe_mass = wp.zeros(max(1, len(probes)), dtype=wp.float64, device=dev)
         self.work = wp.zeros((len(kgrid.WORK_TERMS) + 2 * len(kgrid.WALLS)) * kgrid.WORK_SLOTS, dtype=wp.float64,
                              device=dev)
         self._impulse_mark = (0.0, np.zeros(2 * len(kgrid.WALLS)))
@@ -465,6 +469,7 @@ class MPMSolver:
                 seq += [_Launch(check, n, gin)]
         self._sequence = seq
         self._diagnostics = kred.make_diagnostics(prec, self.material_kinds, staged=self.staged)
+        self._probe_mass = kred.make_probe_mass(prec, staged=self.staged)
         # speeds of the initial state, for the first step's dt (later steps: inside G2P)
         wp.launch(kred.make_wave_speed(prec), n, inputs=[P, D, mats, self.max_speed, self.status], device=self.device)
 
@@ -695,6 +700,12 @@ class MPMSolver:
                   device=self.device)
         vals = self.diag.numpy()
         out = {name: float(v) for name, v in zip(kred.DIAG_NAMES, vals, strict=True)}
+        if self.scene.mass_probes:
+            self.probe_mass.zero_()
+            wp.launch(self._probe_mass, self.particle_count, inputs=[self.P, self.probe_boxes, self.probe_mass, t_now],
+                      device=self.device)
+            for probe, m in zip(self.scene.mass_probes, self.probe_mass.numpy(), strict=True):
+                out[f"mass_{probe.name}"] = float(m)
         sums = self.work.numpy().reshape(-1, kgrid.WORK_SLOTS).sum(axis=1)
         works = sums[: len(kgrid.WORK_TERMS)]
         out.update({name: float(w) for name, w in zip(kgrid.WORK_TERMS, works, strict=True)})

@@ -60,6 +60,16 @@ class Obstacle:
 
 
 @dataclass(frozen=True)
+class MassProbe:
+    """An axis-aligned box [m] whose material-point mass [kg/m] is summed on the device at every
+    output frame (Scene.add_mass_probe): diagnostics ``mass_<name>``."""
+
+    name: str
+    lo: tuple[float, float]
+    hi: tuple[float, float]
+
+
+@dataclass(frozen=True)
 class MPMBody:
     """A continuum body: a shape filled with material points."""
 
@@ -128,6 +138,7 @@ class Scene:
     bodies: list[MPMBody] = field(default_factory=list)
     rigid_bodies: list[RigidBody] = field(default_factory=list)
     obstacles: list[Obstacle] = field(default_factory=list)
+    mass_probes: list[MassProbe] = field(default_factory=list)
     #: (material, rigid body name) → Coulomb μ of material points against that body
     coupling_friction: dict = field(default_factory=dict)
 
@@ -356,6 +367,29 @@ class Scene:
         self.obstacles.append(obstacle)
         return obstacle
 
+    def add_mass_probe(self, name: str, lo=(-math.inf, -math.inf), hi=(math.inf, math.inf)) -> MassProbe:
+        """Measure the mass of the material points inside the box lo ≤ x < hi [m] at every frame.
+
+        The sum runs on the device with the other diagnostics and is written as ``mass_<name>``
+        [kg/m] (per unit thickness) to the HDF5 diagnostics and energy.csv. A bound may be ±inf: the
+        mass below a line y = y0 is ``add_mass_probe("below", hi=(inf, y0))`` (a silo's discharge).
+        """
+        if not (isinstance(name, str) and name.isidentifier()):
+            raise InputError("name", name, "a probe name made of letters, digits and _ (it names mass_<name>)")
+        if any(p.name == name for p in self.mass_probes):
+            raise InputError("name", name, "a probe name not used by another probe")
+        try:
+            lo = tuple(float(v) for v in lo)
+            hi = tuple(float(v) for v in hi)
+        except (TypeError, ValueError):
+            raise InputError("lo, hi", (lo, hi), "two (x, y) corners [m]") from None
+        if len(lo) != 2 or len(hi) != 2 or any(math.isnan(v) for v in lo + hi) or not all(
+                a < b for a, b in zip(lo, hi, strict=True)):
+            raise InputError("lo, hi", (lo, hi), "two (x, y) corners [m] with lo < hi in x and y (±inf allowed)")
+        probe = MassProbe(name, lo, hi)
+        self.mass_probes.append(probe)
+        return probe
+
     def add_points(
         self,
         positions,
@@ -564,6 +598,8 @@ class Scene:
             "rigid_bodies": [b.to_dict() for b in self.rigid_bodies],
             "boundaries": {s: {"kind": b.kind, "friction": b.friction} for s, b in self.boundaries.items()},
             "obstacles": [{"kind": o.kind, "shape": o.shape.to_dict()} for o in self.obstacles],
+            **({"mass_probes": [{"name": p.name, "lo": p.lo, "hi": p.hi} for p in self.mass_probes]}
+               if self.mass_probes else {}),
             "bodies": [
                 {"name": b.name, "shape": b.shape.to_dict(), "material": b.material.to_dict(),
                  "velocity": getattr(b.velocity, "__name__", "field") if callable(b.velocity) else b.velocity,

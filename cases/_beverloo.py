@@ -1,0 +1,193 @@
+"""The Beverloo study's analysis: fits of the discharge rates of `silo-discharge` runs, and charts.
+
+Every run folder holds the case's summary.json (W = ``rate`` [kg/(m s)], M(t), the orifice D0 and
+the grid h). From the runs of the finest grid this fits
+
+(a) the free power law W = A (D0 − D*)^β (a 2D silo: β = 3/2 by dimensional analysis, Mankoc et
+    al. 2007), reporting β with its standard error;
+(b) the paper's form W = C ρ sqrt(g) (D0 − k r_p)^(3/2) (MPM-SDEM Fig. 16) with C and k free, and C
+    alone with the paper's k = 2.2, against the paper's C = 0.58, k = 2.2, r_p = 0.1 cm.
+
+Standard errors come from the fit's covariance (the residual scatter), so with five orifices they
+say how well the form holds, not the scatter of a laboratory silo.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+from mpmdem.cases._table3 import DENSITY, GRAVITY, R_P_TABLE
+from mpmdem.cases.silo_discharge import BEVERLOO_C, BEVERLOO_K, ORIFICES_PAPER, beverloo
+
+PREFACTOR = DENSITY * math.sqrt(GRAVITY)  # ρ sqrt(g) [kg/(m³) m^0.5/s]
+
+
+def fit_power_law(d0: np.ndarray, w: np.ndarray) -> dict:
+    """W = A (D0 − D*)^β by least squares: A, D* [m], β and their standard errors."""
+    from scipy.optimize import curve_fit
+
+    def model(d, a, dstar, beta):
+        return a * np.clip(d - dstar, 1e-9, None) ** beta
+
+    p0 = (PREFACTOR * 0.6, 0.002, 1.5)
+    p, cov = curve_fit(model, d0, w, p0=p0, bounds=([0.0, -0.05, 0.3], [np.inf, 0.99 * d0.min(), 4.0]), maxfev=20000)
+    err = np.sqrt(np.diag(cov)) if np.all(np.isfinite(cov)) else np.full(3, np.nan)
+    return {"A": p[0], "D_star_m": p[1], "beta": p[2], "A_err": err[0], "D_star_err_m": err[1], "beta_err": err[2],
+            "rms_residual": float(np.sqrt(np.mean((model(d0, *p) - w) ** 2)))}
+
+
+def fit_beverloo(d0: np.ndarray, w: np.ndarray, r_p: float = R_P_TABLE) -> dict:
+    """W = C ρ sqrt(g) (D0 − k r_p)^(3/2): (C, k) both free, and C with the paper's k."""
+    from scipy.optimize import curve_fit
+
+    def model(d, c, k):
+        return c * PREFACTOR * np.clip(d - k * r_p, 1e-9, None) ** 1.5
+
+    p, cov = curve_fit(model, d0, w, p0=(0.6, 2.0), bounds=([0.0, -20.0], [10.0, 0.99 * d0.min() / r_p]))
+    err = np.sqrt(np.diag(cov))
+    # C with k fixed: linear in C, so the least-squares C is closed-form
+    basis = PREFACTOR * np.clip(d0 - BEVERLOO_K * r_p, 0.0, None) ** 1.5
+    c_fixed = float(basis @ w / (basis @ basis))
+    resid = w - c_fixed * basis
+    c_fixed_err = float(np.sqrt(resid @ resid / max(len(w) - 1, 1) / (basis @ basis)))
+    return {"C": p[0], "k": p[1], "C_err": err[0], "k_err": err[1], "C_k_paper": c_fixed, "C_k_paper_err": c_fixed_err,
+            "r_p_m": r_p, "C_paper": BEVERLOO_C, "k_paper": BEVERLOO_K}
+
+
+def load_runs(out: Path) -> list[dict]:
+    """Every run's summary.json under OUT/runs/ (status and all)."""
+    runs = []
+    for path in sorted(Path(out).glob("runs/*/summary.json")):
+        s = json.loads(path.read_text())
+        s["run"] = path.parent.name
+        runs.append(s)
+    return runs
+
+
+def analyze(runs: list[dict], out: Path) -> dict:
+    """Fits, the resolution spread and the charts of a Beverloo study; writes OUT/beverloo_fit.json
+    and OUT/beverloo_*.png and returns the fit."""
+    out = Path(out)
+    ok = [r for r in runs if r.get("status") == "completed" and r.get("rate") is not None
+          and r.get("walls", "sdem") == "sdem"]
+    grids = sorted({r["cell_size"] for r in ok})
+    report: dict = {"grids_m": grids, "runs": len(runs), "completed": len(ok),
+                    "paper_rates": {f"{d:g}": beverloo(d) for d in ORIFICES_PAPER}}
+    by_grid = {h: sorted((r["orifice_m"], r["rate"]) for r in ok if r["cell_size"] == h) for h in grids}
+    fits = {}
+    for h, pts in by_grid.items():
+        if len(pts) >= 4:
+            d0, w = (np.array(v, dtype=float) for v in zip(*pts, strict=True))
+            fits[f"{h:g}"] = {"power_law": fit_power_law(d0, w), "beverloo": fit_beverloo(d0, w)}
+    report["fits"] = fits
+    # spread of W over the grids, per orifice: (max − min) / mean
+    spread = {}
+    for d in sorted({r["orifice_m"] for r in ok}):
+        ws = [r["rate"] for r in ok if r["orifice_m"] == d]
+        if len(ws) >= 2:
+            spread[f"{d:g}"] = {"rates": ws, "relative_spread": (max(ws) - min(ws)) / float(np.mean(ws))}
+    report["resolution_spread"] = spread
+    report["failed"] = [{"run": r.get("run"), "status": r.get("status"), "message": r.get("message", "")}
+                        for r in runs if r.get("status") != "completed"]
+    (out / "beverloo_fit.json").write_text(json.dumps(report, indent=2, default=float) + "\n")
+    plot(runs, report, out)
+    return report
+
+
+def plot(runs: list[dict], report: dict, out: Path) -> list[Path]:
+    """W against D0 (with the fits and the paper's curve), W^(2/3) against D0, M(t) of every run,
+    and each run's wall time against its rate's deviation from the finest grid."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ok = [r for r in runs if r.get("status") == "completed" and r.get("rate") is not None]
+    grids = sorted({r["cell_size"] for r in ok if r.get("walls", "sdem") == "sdem"})
+    colours = dict(zip(grids, plt.cm.viridis(np.linspace(0.15, 0.85, max(len(grids), 1))), strict=False))
+    markers = dict(zip(grids, "os^Dv", strict=False))
+    dd = np.linspace(0.015, 0.065, 200)
+    paper = np.array([beverloo(d) for d in dd])
+    written = []
+
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
+    for h in grids:
+        pts = sorted((r["orifice_m"], r["rate"]) for r in ok
+                     if r["cell_size"] == h and r.get("walls", "sdem") == "sdem")
+        if pts:
+            d0, w = zip(*pts, strict=True)
+            lab = f"h = {100 * h:.3g} cm"
+            ax.plot(np.array(d0) * 100, w, markers[h], color=colours[h], label=lab)
+            ax2.plot(np.array(d0) * 100, np.array(w) ** (2 / 3), markers[h], color=colours[h], label=lab)
+    for ax_, y in ((ax, paper), (ax2, paper ** (2 / 3))):
+        ax_.plot(dd * 100, y, "k--", label=f"paper: C = {BEVERLOO_C}, k = {BEVERLOO_K}, r_p = 0.1 cm")
+    if grids and f"{grids[0]:g}" in report["fits"]:
+        f = report["fits"][f"{grids[0]:g}"]
+        pl, bv = f["power_law"], f["beverloo"]
+        y = pl["A"] * np.clip(dd - pl["D_star_m"], 0, None) ** pl["beta"]
+        ax.plot(dd * 100, y, "-", color=colours[grids[0]], lw=1,
+                label=f"fit (finest): β = {pl['beta']:.2f} ± {pl['beta_err']:.2f}")
+        y2 = bv["C"] * PREFACTOR * np.clip(dd - bv["k"] * bv["r_p_m"], 0, None) ** 1.5
+        ax2.plot(dd * 100, y2 ** (2 / 3), "-", color=colours[grids[0]], lw=1,
+                 label=f"fit (finest): C = {bv['C']:.2f}, k = {bv['k']:.1f}")
+    ax.set(xlabel="orifice D0 [cm]", ylabel="discharge rate W [kg/(m s)]", title="silo discharge vs 2D Beverloo")
+    ax2.set(xlabel="orifice D0 [cm]", ylabel="W^(2/3) [(kg/(m s))^(2/3)]", title="2D Beverloo: W^(2/3) linear in D0")
+    for a in (ax, ax2):
+        a.grid(alpha=0.3)
+        a.legend(fontsize=7)
+    fig.tight_layout()
+    p = out / "beverloo_rate.png"
+    fig.savefig(p, dpi=120)
+    plt.close(fig)
+    written.append(p)
+
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for r in ok:
+        if "times" not in r:
+            continue
+        h = r["cell_size"]
+        ax.plot(r["times"], r["discharged_mass"], color=colours.get(h, "grey"), lw=1,
+                ls="-" if r.get("walls", "sdem") == "sdem" else ":")
+    for h in grids:
+        ax.plot([], [], color=colours[h], label=f"h = {100 * h:.3g} cm")
+    ax.set(xlabel="t [s]", ylabel="discharged mass M [kg/m]", title="M(t) of every run (D0 = 2-6 cm bottom to top)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    p = out / "beverloo_mass.png"
+    fig.savefig(p, dpi=120)
+    plt.close(fig)
+    written.append(p)
+
+    # speed × accuracy: wall time against the deviation of W from the finest grid's at the same D0
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    finest = {r["orifice_m"]: r["rate"] for r in ok if grids and r["cell_size"] == grids[0]
+              and r.get("walls", "sdem") == "sdem"}
+    for r in runs:
+        d = r.get("orifice_m")
+        ref = finest.get(d)
+        t = r.get("wall_seconds")
+        if t is None or ref is None:
+            continue
+        if r.get("status") == "completed" and r.get("rate") is not None:
+            dev = abs(r["rate"] / ref - 1.0)
+            h = r.get("cell_size")
+            ax.plot(t, max(dev, 1e-3), markers.get(h, "o"), color=colours.get(h, "grey"))
+        else:
+            ax.plot(t, 1.0, "x", color="red")
+    for h in grids:
+        ax.plot([], [], markers[h], color=colours[h], label=f"h = {100 * h:.3g} cm")
+    ax.plot([], [], "x", color="red", label="failed (detected)")
+    ax.set(xscale="log", yscale="log", xlabel="wall time of the run [s]",
+           ylabel="|W / W(finest grid) − 1| (floor 1e-3)", title="speed × accuracy of the silo runs")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    p = out / "beverloo_speed_accuracy.png"
+    fig.savefig(p, dpi=120)
+    plt.close(fig)
+    written.append(p)
+    return written

@@ -1,0 +1,295 @@
+# Silo discharge through a flat-bottom orifice: "MPM-SDEM" §5.3, Table 3, Fig. 15-16.
+# Dry sand (Drucker–Prager, Granular MPM, APIC) fills a flat-bottomed silo whose walls and floor are
+# fixed spheropolygons; it drains through a centred orifice of width D0 into a spheropolygon
+# container below. The discharge rate W [kg/(m s)] is compared with the 2D Beverloo law the paper
+# plots in Fig. 16 (its ref. 44, Mankoc et al. 2007):
+#
+#     W = C ρ sqrt(g) (D0 − k r_p)^(3/2),  C = 0.58, k = 2.2, r_p = Table 3's 0.1 cm,
+#
+# per metre of thickness (ρ = 1500 kg/m³, g = 10 m/s²): 6.5, 12.8, 20.2, 28.8, 38.2 kg/(m s) for
+# D0 = 2 ... 6 cm. `mpmdem study beverloo` runs the five orifices at three grids and fits the law.
+#
+# Geometry (the paper gives none; SI, every number a flag):
+# * silo: inner width 0.20 m (--width), fill 0.30 m (--fill-height), walls and floor plates 2 cm
+#   thick with Table 3's sphero radius r_d = 0.5 cm (the orifice's edges are rounded by r_d; its
+#   narrowest width is D0 exactly). The width is > 2.5 D0 for every D0 ≤ 6 cm, so the walls do not
+#   set the rate (an orifice wider than 0.4 × the width is allowed but flagged in the summary).
+# * container: 0.5 m wide (inner), its floor 0.25 m below the silo floor (--drop), walls 0.15 m
+#   high; the grid covers both, its sides are slip walls far from the sand and its top is free.
+# * the sand starts at rest (no gate; the orifice is open at t = 0), filled in 2 × 2 points per
+#   cell with the outermost points at r_p from the walls and floor (touching, zero overlap).
+#
+# Units: Table 3 in cases/_table3.py (1.5 g/cm² read as 1500 kg/m³ over 1 m of thickness; g = 10
+# m/s², the experiments' gravity: Table 3's printed 10 cm/s² is discussed in cases/sand_blocks.py;
+# at 10 cm/s² every rate would be 10 × smaller and every time 10 × longer).
+#
+# Departures from Table 3, and why (as in cases/sand_blocks.py):
+# * k_n = 1e6 N/m per m (k_t = k_n / 20, Table 3's ratio) instead of 6e8: the coupled step is
+#   bounded by the lightest point on a contact spring (MPM-SDEM eq. 51 with the point term, README
+#   "Time step"); at 6e8 it is ~1e-6 s, 1.6e6 steps per run. At 1e6 the deepest overlap is a bottom
+#   point under the full fill, ρ g H × s = 1500 × 10 × 0.3 × 1.75 mm = 7.9 N/m → 7.9 µm ≪ r_p.
+# * r_p: Table 3's 0.1 cm lies below eq. 45's lower bound (the point spacing h/2); the library's
+#   default h n^(-1/4) = h/√2 is used. The Beverloo curve keeps the paper's r_p = 0.1 cm (it is the
+#   law the paper plots, not a property of our discretisation).
+# * Δt: the library's step (CFL 0.4 and eq. 51 with the point term), not Table 3's 2e-4 s.
+# * restitution 0.5 for the normal dashpot (the paper's law is elastic; damping not given).
+#
+# The rate W: the discharged mass M(t) is the mass below the orifice line (the floor's top), summed
+# on the device at every frame (Scene.add_mass_probe). W is the slope of a least-squares line through
+# M(t) over the steady window [T_START, t_end]: T_START = 0.4 s leaves out the start (the elastic
+# settling of the fill, ~H/c = 12 ms, and the establishment of the flow, a few sqrt(D0/g) ≈ 0.06 s,
+# with a margin, checked on M(t) of every run), and t_end is the end of the run or the time 40 % of
+# the fill has left, whichever is first: 60 % of the fill (≥ 18 cm ≥ 3 D0) then stands over the
+# orifice, a head beyond which the rate of a silo does not depend on the fill (Janssen screening;
+# Beverloo's law has no head). The summary gives the window, the fit's RMS residual relative to
+# the mass discharged in the window, and W from the two halves of the window (a steadiness check).
+"""Silo discharge (MPM-SDEM §5.3): sand drains through an orifice into a container; rate vs 2D Beverloo."""
+
+import math
+import sys
+
+import numpy as np
+from mpmdem.cases._table3 import (
+    DENSITY,
+    GRAVITY,
+    GRID_TABLE,
+    KN_TABLE,
+    KT_TABLE,
+    MU_TABLE,
+    R_P_TABLE,
+    SPHERO_RADIUS,
+    VERLET,
+    sand,
+)
+
+from mpmdem import ContactLaw, InputError, Scene, rectangle, rounded_rectangle
+from mpmdem.runner import CaseSetup
+
+NAME = "silo-discharge"
+DESCRIPTION = "sand drains from a silo through an orifice into a container: flow rate vs 2D Beverloo (MPM-SDEM §5.3)"
+# Table 3: APIC; quadratic B-splines keep APIC stable (cases/column_collapse.py); f32 is enough for
+# a rate measured to a few per cent and halves the memory traffic on a GPU
+DEFAULTS = {"granular": True, "shape": "bspline2", "transfer": "APIC", "precision": "f32"}
+
+# -- the 2D Beverloo law of Fig. 16 ------------------------------------------------------------
+BEVERLOO_C = 0.58
+BEVERLOO_K = 2.2
+ORIFICES_PAPER = (0.02, 0.03, 0.04, 0.05, 0.06)  # m, the five D0 of Fig. 16
+
+# -- our geometry and choices (see the header) ---------------------------------------------------
+WIDTH = 0.20  # m, inner width of the silo
+FILL = 0.30  # m, initial fill height
+ORIFICE = 0.04  # m, D0 (the paper's Fig. 15)
+WALL = 0.02  # m, thickness of the silo's walls and floor plates and of the container's
+DROP = 0.25  # m, from the container's floor up to the silo floor's underside
+CONTAINER = 0.50  # m, inner width of the container
+CONTAINER_WALL = 0.15  # m, height of the container's walls
+HEADROOM = 0.02  # m of grid above the fill
+KN = 1.0e6  # N/m per m
+KT = KN * KT_TABLE / KN_TABLE  # Table 3's ratio k_t / k_n = 1/20
+RESTITUTION = 0.5
+POINTS_PER_CELL = 2
+T_START = 0.4  # s, start of the steady window
+DRAINED_END = 0.4  # fraction of the fill discharged that ends the steady window
+END = 1.6  # s, default run length
+#: --quick, and the default on a machine without a GPU: 4.7k points, ~40 s on 2 CPU cores
+QUICK = {"cell_size": 0.005, "fill_height": 0.15, "end": 0.8}
+WALL_MODES = ("sdem", "obstacle-slip", "obstacle-fixed")
+
+
+def add_arguments(parser):
+    parser.add_argument("--orifice", type=float, default=ORIFICE, help=f"orifice width D0 [m] (default {ORIFICE})")
+    parser.add_argument("--width", type=float, default=WIDTH, help=f"inner width of the silo [m] (default {WIDTH})")
+    parser.add_argument("--fill-height", type=float, default=None,
+                        help=f"initial fill height [m] (default {FILL}; {QUICK['fill_height']} with --quick or "
+                             "without a GPU)")
+    parser.add_argument("--cell-size", type=float, default=None,
+                        help=f"grid spacing [m] (default Table 3's {GRID_TABLE}; {QUICK['cell_size']} with --quick "
+                             "or without a GPU)")
+    parser.add_argument("--drop", type=float, default=DROP,
+                        help=f"height of the silo floor above the container floor [m] (default {DROP})")
+    parser.add_argument("--domain-height", type=float, default=None,
+                        help="height of the grid above the container floor [m] (default: the fill's top + "
+                             f"{HEADROOM} m)")
+    parser.add_argument("--normal-stiffness", type=float, default=KN,
+                        help=f"k_n of every contact [N/m per m] (default {KN:g}; Table 3: {KN_TABLE:g}); k_t = k_n/20")
+    parser.add_argument("--walls", default="sdem", choices=WALL_MODES,
+                        help="silo and container as fixed spheropolygons (sdem, the paper's) or as grid obstacles "
+                             "(obstacle-slip: rollers, obstacle-fixed: no slip; no DEM stage at all)")
+
+
+def coarse(args) -> bool:
+    """Whether the run takes the coarse size: --quick, or no GPU and no size given (the README's
+    first command then finishes in about a minute on a laptop CPU instead of an hour)."""
+    if args.quick:
+        return True
+    if args.cell_size is not None or args.fill_height is not None or args.end_time is not None:
+        return False
+    from mpmdem.simulation import default_device
+
+    return (args.device or default_device()) == "cpu"
+
+
+def geometry(args) -> dict:
+    """Every length of the scene [m], from the flags; raises InputError for an impossible silo."""
+    small = coarse(args)
+    h = args.cell_size or (QUICK["cell_size"] if small else GRID_TABLE)
+    fill = args.fill_height or (QUICK["fill_height"] if small else FILL)
+    for name, v, lo, hi in (("--cell-size", h, 1e-3, 0.02), ("--width", args.width, 0.02, 1.0),
+                            ("--fill-height", fill, 0.01, 2.0), ("--drop", args.drop, 0.05, 2.0),
+                            ("--orifice", args.orifice, 1e-3, 1.0)):
+        if not (math.isfinite(v) and lo <= v <= hi):
+            raise InputError(name, v, f"a length in [{lo}, {hi}] m")
+    if not args.orifice < args.width:
+        raise InputError("--orifice", args.orifice, f"an orifice narrower than the silo (--width {args.width} m)")
+    if not (math.isfinite(args.normal_stiffness) and args.normal_stiffness > 0.0):
+        raise InputError("--normal-stiffness", args.normal_stiffness, "k_n > 0 [N/m per m]")
+    rp = h * (POINTS_PER_CELL**2) ** -0.25  # eq. 45's geometric middle h n^(-1/4)
+    if args.orifice <= 2.0 * rp:
+        raise InputError("--orifice", args.orifice, f"an orifice wider than two contact radii 2 r_p = {2 * rp:.4g} m "
+                         "(a finer --cell-size lets a smaller orifice pass)")
+    container = max(CONTAINER, args.width + 2.0 * WALL)
+    floor = args.drop + WALL  # top of the silo floor = the orifice line
+    top_needed = floor + fill + HEADROOM
+    top = args.domain_height or top_needed
+    if not top >= floor + fill:
+        raise InputError("--domain-height", args.domain_height,
+                         f"a grid at least as high as the fill's top, {floor + fill:.4g} m above the container floor")
+    # grid: x from the container's outer left face, y from the container floor's underside; the
+    # right and top sides on grid lines (Scene requires it of walls)
+    x_len = h * math.ceil((container + 2.0 * WALL) / h - 1e-9)
+    y_len = h * math.ceil((top + WALL) / h - 1e-9)
+    xc = 0.5 * x_len
+    return dict(h=h, rp=rp, fill=fill, floor=floor, xc=xc, x_len=x_len, y_len=y_len, container=container,
+                width=args.width, orifice=args.orifice)
+
+
+def beverloo(orifice, c=BEVERLOO_C, k=BEVERLOO_K, r_p=R_P_TABLE, density=DENSITY, gravity=GRAVITY):
+    """The 2D Beverloo rate C ρ sqrt(g) (D0 − k r_p)^(3/2) [kg/(m s)] of MPM-SDEM Fig. 16."""
+    return c * density * math.sqrt(gravity) * max(orifice - k * r_p, 0.0) ** 1.5
+
+
+def _solids(g: dict):
+    """(name, width, height, centre) of every wall plate [m]: silo walls, silo floor plates either
+    side of the orifice, container floor and walls."""
+    xc, w, d0, f = g["xc"], g["width"], g["orifice"], g["floor"]
+    wall_h = g["fill"] + HEADROOM + WALL
+    plate = 0.5 * (w - d0) + WALL  # from the wall's outer face to the orifice's edge
+    c = g["container"]
+    return [
+        ("silo_left", WALL, wall_h, (xc - 0.5 * w - 0.5 * WALL, f - WALL + 0.5 * wall_h)),
+        ("silo_right", WALL, wall_h, (xc + 0.5 * w + 0.5 * WALL, f - WALL + 0.5 * wall_h)),
+        ("floor_left", plate, WALL, (xc - 0.5 * d0 - 0.5 * plate, f - 0.5 * WALL)),
+        ("floor_right", plate, WALL, (xc + 0.5 * d0 + 0.5 * plate, f - 0.5 * WALL)),
+        ("container_floor", c + 2.0 * WALL, WALL, (xc, -0.5 * WALL)),
+        ("container_left", WALL, CONTAINER_WALL, (xc - 0.5 * c - 0.5 * WALL, 0.5 * CONTAINER_WALL)),
+        ("container_right", WALL, CONTAINER_WALL, (xc + 0.5 * c + 0.5 * WALL, 0.5 * CONTAINER_WALL)),
+    ]
+
+
+def fill_points(g: dict) -> np.ndarray:
+    """The fill's points [m]: a lattice of spacing h/2 whose outermost points sit r_p from the walls
+    and the floor (touching, no overlap)."""
+    s = g["h"] / POINTS_PER_CELL
+    rp, w = g["rp"], g["width"]
+    nx = int(math.floor((w - 2.0 * rp) / s + 1e-9)) + 1
+    x = g["xc"] - 0.5 * (nx - 1) * s + s * np.arange(nx)
+    ny = max(1, round(g["fill"] / s))
+    y = g["floor"] + rp + s * np.arange(ny)
+    gx, gy = np.meshgrid(x, y, indexing="xy")
+    return np.stack([gx.ravel(), gy.ravel()], axis=1)
+
+
+def build(args) -> CaseSetup:
+    g = geometry(args)
+    h = g["h"]
+    sdem = args.walls == "sdem"
+    contact = ContactLaw(args.normal_stiffness, args.normal_stiffness * KT / KN, restitution=RESTITUTION)
+    scene = Scene(domain=((0.0, -WALL), (g["x_len"], g["y_len"] - WALL)), cell_size=h, gravity=(0.0, -GRAVITY),
+                  boundaries={"left": "slip", "right": "slip", "bottom": "slip", "top": "free"},
+                  contact=contact if sdem else None)
+    x = fill_points(g)
+    scene.add_points(x, sand(), size=h / POINTS_PER_CELL, contact_radius=g["rp"] if sdem else None, name="sand")
+    for name, w, hh, (cx, cy) in _solids(g):
+        if sdem:
+            scene.add_rigid_body(rounded_rectangle(w, hh, SPHERO_RADIUS), density=DENSITY, position=(cx, cy),
+                                 motion="fixed", friction=MU_TABLE, name=name)
+        else:
+            # the same plates as grid obstacles: the nodes inside them are fixed or rollers
+            scene.add_obstacle(rectangle(cx - 0.5 * w, cy - 0.5 * hh, cx + 0.5 * w, cy + 0.5 * hh),
+                               kind=args.walls.removeprefix("obstacle-"))
+    inf = math.inf
+    scene.add_mass_probe("discharged", hi=(inf, g["floor"]))
+    scene.add_mass_probe("silo", lo=(g["xc"] - 0.5 * g["width"], g["floor"]), hi=(g["xc"] + 0.5 * g["width"], inf))
+    small = coarse(args)
+    if small and not args.quick and not getattr(args, "quiet", False):
+        print(f"silo-discharge: no GPU, so the coarse size (grid {100 * h:g} cm, fill {100 * g['fill']:g} cm, "
+              f"{QUICK['end']} s, {len(x)} points; about a minute on 2 cores); the paper's grid: --cell-size "
+              f"{GRID_TABLE}", file=sys.stderr)
+    end = QUICK["end"] if small else END
+    config = {"imp_skin": VERLET, "imp_cell_capacity": 64} if sdem else {}
+    return CaseSetup(scene, end_time=end, frames=round(end / 0.02), config=config)
+
+
+def steady_rate(times: np.ndarray, mass: np.ndarray, fill_mass: float) -> dict:
+    """Slope of M(t) [kg/(m s)] by least squares over the steady window (see the header), with the
+    window [s], the RMS residual relative to the mass discharged in it, and the slopes of its halves."""
+    drained = np.flatnonzero(mass >= DRAINED_END * fill_mass)
+    t_end = float(times[drained[0]]) if len(drained) else float(times[-1])
+    sel = (times >= T_START - 1e-9) & (times <= t_end + 1e-9)
+    out = {"window_s": [T_START, t_end], "window_frames": int(sel.sum())}
+    if sel.sum() < 4:
+        out.update(rate=None, rate_residual=None, rate_halves=None)
+        return out
+    t, m = times[sel], mass[sel]
+    slope, icpt = np.polyfit(t, m, 1)
+    resid = m - (slope * t + icpt)
+    span = max(m[-1] - m[0], 1e-30)
+    half = len(t) // 2
+    halves = [float(np.polyfit(t[a], m[a], 1)[0]) for a in (slice(0, half + 1), slice(half, None))]
+    out.update(rate=float(slope), rate_residual=float(np.sqrt(np.mean(resid**2)) / span), rate_halves=halves)
+    return out
+
+
+def summarize(sim, result, args) -> dict:
+    g = geometry(args)
+    d = result.diagnostics
+    times = result.times
+    discharged = np.asarray(d["mass_discharged"])
+    in_silo = np.asarray(d["mass_silo"])
+    fill_mass = float(in_silo[0])
+    out = {
+        "orifice_m": g["orifice"], "width_m": g["width"], "fill_height_m": g["fill"], "cell_size": g["h"],
+        "contact_radius": g["rp"], "walls": args.walls, "points": int(sim.particle_count),
+        "fill_mass": fill_mass,
+        "walls_may_set_rate": bool(g["width"] < 2.5 * g["orifice"]),
+        "times": times.tolist(),
+        "discharged_mass": discharged.tolist(),
+        # equivalent fill level: the mass still in the silo over ρ0 × width
+        "fill_level_m": (in_silo / (DENSITY * g["width"])).tolist(),
+        "beverloo_paper": beverloo(g["orifice"]),
+    }
+    out.update(steady_rate(times, discharged, fill_mass))
+    if out["rate"] is not None:
+        out["rate_over_paper"] = out["rate"] / out["beverloo_paper"] if out["beverloo_paper"] > 0 else None
+    # no point may end beyond a plate of the silo or container: the deepest penetration of a point
+    # centre into a plate's core rectangle (rounded corners ignored: conservative) at the last frame
+    x = sim.fields()["x"]
+    x = x[np.isfinite(x[:, 0])]
+    deepest = 0.0
+    for _, w, hh, (cx, cy) in _solids(g):
+        dx = 0.5 * w - np.abs(x[:, 0] - cx)
+        dy = 0.5 * hh - np.abs(x[:, 1] - cy)
+        inside = np.minimum(dx, dy)
+        deepest = max(deepest, float(inside.max(initial=0.0)))
+    out["deepest_penetration_m"] = deepest
+    mass = d.get("points_mass", d["mass"])
+    out["mass_max_relative_change"] = float(np.abs(np.asarray(mass) / mass[0] - 1.0).max())
+    out["dt"] = float(d["dt"][-1])
+    return out
+
+
+if __name__ == "__main__":
+    from mpmdem.runner import run_case
+
+    sys.exit(run_case(sys.modules[__name__], prog="python cases/silo_discharge.py"))
