@@ -63,14 +63,14 @@ def test_fill_level_falls_with_the_discharge(summary):
     assert np.all(np.abs(left - m) <= silo.DENSITY * summary["orifice_m"] * silo.WALL + 1e-9)
 
 
-def test_mass_probe_sums_the_points_in_its_box():
+def test_mass_probe_sums_the_points_in_its_box(device):
     """Scene.add_mass_probe: the mass of the points inside a box, summed on the device, against
     ρ × the area of the part of a seeded square inside the box (4 × 4 points per cell: exact)."""
     s = Scene(domain=((0, 0), (1, 1)), cell_size=0.1, boundaries={"top": "free"})
     s.add_body(rectangle(0.2, 0.2, 0.6, 0.6), LinearElastic(1e5, 0.3, 1000.0), points_per_cell=4)
     s.add_mass_probe("left", hi=(0.4, math.inf))
     s.add_mass_probe("corner", lo=(0.5, 0.5), hi=(2.0, 2.0))
-    d = Simulation(s, device="cpu").diagnostics()
+    d = Simulation(s, device=device).diagnostics()
     assert d["mass_left"] == pytest.approx(1000.0 * 0.2 * 0.4, rel=1e-6)
     assert d["mass_corner"] == pytest.approx(1000.0 * 0.1 * 0.1, rel=1e-6)
 

@@ -25,7 +25,7 @@ def test_free_side_may_end_anywhere():
 
 @pytest.mark.parametrize("granular", [False, True])
 @pytest.mark.parametrize("wall", ["fixed", "slip", "friction"])
-def test_points_never_pass_a_wall(wall, granular):
+def test_points_never_pass_a_wall(wall, granular, device):
     """Points thrown at the right wall at 60 m/s with a fixed step of three times the Courant bound
     (without the projection onto the wall such a step carries points up to a cell past it) still
     end every step on or inside the wall."""
@@ -39,7 +39,7 @@ def test_points_never_pass_a_wall(wall, granular):
     c = np.sqrt(1.0e6 * 0.7 / (1.3 * 0.4) / 1500.0) if granular else np.sqrt(1.0e6 * 0.7 / (1.3 * 0.4) / 1000.0)
     dt = 3.0 * h / (c + 60.0)
     sim = Simulation(scene, SolverConfig(granular=granular, transfer="PIC", dt=dt, allow_unstable=True,
-                                         blowup_energy_factor=1e9), device="cpu")
+                                         blowup_energy_factor=1e9), device=device)
     sim.stage.set_stop_time(1.0)
     for _ in range(12):
         sim.advance(1)
