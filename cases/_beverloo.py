@@ -72,7 +72,7 @@ def analyze(runs: list[dict], out: Path) -> dict:
     and OUT/beverloo_*.png and returns the fit."""
     out = Path(out)
     ok = [r for r in runs if r.get("status") == "completed" and r.get("rate") is not None
-          and r.get("walls", "sdem") == "sdem"]
+          and r.get("method", "granular") == "granular"]
     grids = sorted({r["cell_size"] for r in ok})
     report: dict = {"grids_m": grids, "runs": len(runs), "completed": len(ok),
                     "paper_rates": {f"{d:g}": beverloo(d) for d in ORIFICES_PAPER}}
@@ -106,7 +106,7 @@ def plot(runs: list[dict], report: dict, out: Path) -> list[Path]:
     import matplotlib.pyplot as plt
 
     ok = [r for r in runs if r.get("status") == "completed" and r.get("rate") is not None]
-    grids = sorted({r["cell_size"] for r in ok if r.get("walls", "sdem") == "sdem"})
+    grids = sorted({r["cell_size"] for r in ok if r.get("method", "granular") == "granular"})
     colours = dict(zip(grids, plt.cm.viridis(np.linspace(0.15, 0.85, max(len(grids), 1))), strict=False))
     markers = dict(zip(grids, "os^Dv", strict=False))
     dd = np.linspace(0.015, 0.065, 200)
@@ -116,7 +116,7 @@ def plot(runs: list[dict], report: dict, out: Path) -> list[Path]:
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
     for h in grids:
         pts = sorted((r["orifice_m"], r["rate"]) for r in ok
-                     if r["cell_size"] == h and r.get("walls", "sdem") == "sdem")
+                     if r["cell_size"] == h and r.get("method", "granular") == "granular")
         if pts:
             d0, w = zip(*pts, strict=True)
             lab = f"h = {100 * h:.3g} cm"
@@ -150,7 +150,7 @@ def plot(runs: list[dict], report: dict, out: Path) -> list[Path]:
             continue
         h = r["cell_size"]
         ax.plot(r["times"], r["discharged_mass"], color=colours.get(h, "grey"), lw=1,
-                ls="-" if r.get("walls", "sdem") == "sdem" else ":")
+                ls="-" if r.get("method", "granular") == "granular" else ":")
     for h in grids:
         ax.plot([], [], color=colours[h], label=f"h = {100 * h:.3g} cm")
     ax.set(xlabel="t [s]", ylabel="discharged mass M [kg/m]", title="M(t) of every run (D0 = 2-6 cm bottom to top)")
@@ -165,7 +165,7 @@ def plot(runs: list[dict], report: dict, out: Path) -> list[Path]:
     # speed × accuracy: wall time against the deviation of W from the finest grid's at the same D0
     fig, ax = plt.subplots(figsize=(7, 4.5))
     finest = {r["orifice_m"]: r["rate"] for r in ok if grids and r["cell_size"] == grids[0]
-              and r.get("walls", "sdem") == "sdem"}
+              and r.get("method", "granular") == "granular"}
     for r in runs:
         d = r.get("orifice_m")
         ref = finest.get(d)

@@ -95,6 +95,22 @@ END = 1.6  # s, default run length
 #: --quick, and the default on a machine without a GPU: 4.7k points, ~40 s on 2 CPU cores
 QUICK = {"cell_size": 0.005, "fill_height": 0.15, "end": 0.8}
 WALL_MODES = ("sdem", "obstacle-slip", "obstacle-fixed")
+#: the model choices the method comparison sets (--method), each (MPM variant, coupling, walls):
+#: Granular MPM ("Granular MPM" §3: critical density, density control, a grid per component),
+#: stress-free MPM (stress-free below the critical density, one grid, no density control), original
+#: MPM (a continuum at any density); `grid` coupling (MPM-SDEM's MPM-GRID) is refused with Granular
+#: MPM, so it is compared with `imp` on original MPM
+METHODS = {
+    "granular": ("granular", "imp", "sdem"),
+    "stress-free": ("stress-free", "imp", "sdem"),
+    "original": ("original", "imp", "sdem"),
+    "original-grid": ("original", "grid", "sdem"),
+    "obstacle-slip": ("granular", None, "obstacle-slip"),
+    "obstacle-fixed": ("granular", None, "obstacle-fixed"),
+}
+MPM_VARIANTS = {"granular": {"granular": True, "density_control": "revert"},
+                "stress-free": {"granular": False, "density_control": "none"},
+                "original": {"granular": False, "density_control": "none"}}
 
 
 def add_arguments(parser):
@@ -113,7 +129,11 @@ def add_arguments(parser):
                              f"{HEADROOM} m)")
     parser.add_argument("--normal-stiffness", type=float, default=KN,
                         help=f"k_n of every contact [N/m per m] (default {KN:g}; Table 3: {KN_TABLE:g}); k_t = k_n/20")
-    parser.add_argument("--walls", default="sdem", choices=WALL_MODES,
+    parser.add_argument("--method", default="granular", choices=tuple(METHODS),
+                        help="model of the comparison: granular (Granular MPM, imp coupling, SDEM walls: the "
+                             "default), stress-free or original MPM, original-grid (original MPM, MPM-GRID coupling), "
+                             "obstacle-slip/-fixed (Granular MPM, walls as grid obstacles, no DEM)")
+    parser.add_argument("--walls", default=None, choices=WALL_MODES,
                         help="silo and container as fixed spheropolygons (sdem, the paper's) or as grid obstacles "
                              "(obstacle-slip: rollers, obstacle-fixed: no slip; no DEM stage at all)")
 
@@ -200,16 +220,24 @@ def fill_points(g: dict) -> np.ndarray:
     return np.stack([gx.ravel(), gy.ravel()], axis=1)
 
 
+def walls(args) -> str:
+    """The wall model: --walls, else the one --method implies."""
+    return args.walls or METHODS[args.method][2]
+
+
 def build(args) -> CaseSetup:
     g = geometry(args)
     h = g["h"]
-    sdem = args.walls == "sdem"
+    variant, coupling, wall_mode = METHODS[args.method]
+    wall_mode = walls(args)
+    sdem = wall_mode == "sdem"
     contact = ContactLaw(args.normal_stiffness, args.normal_stiffness * KT / KN, restitution=RESTITUTION)
     scene = Scene(domain=((0.0, -WALL), (g["x_len"], g["y_len"] - WALL)), cell_size=h, gravity=(0.0, -GRAVITY),
                   boundaries={"left": "slip", "right": "slip", "bottom": "slip", "top": "free"},
                   contact=contact if sdem else None)
     x = fill_points(g)
-    scene.add_points(x, sand(), size=h / POINTS_PER_CELL, contact_radius=g["rp"] if sdem else None, name="sand")
+    scene.add_points(x, sand(critical=variant != "original"), size=h / POINTS_PER_CELL,
+                     contact_radius=g["rp"] if sdem else None, name="sand")
     for name, w, hh, (cx, cy) in _solids(g):
         if sdem:
             scene.add_rigid_body(rounded_rectangle(w, hh, SPHERO_RADIUS), density=DENSITY, position=(cx, cy),
@@ -217,7 +245,7 @@ def build(args) -> CaseSetup:
         else:
             # the same plates as grid obstacles: the nodes inside them are fixed or rollers
             scene.add_obstacle(rectangle(cx - 0.5 * w, cy - 0.5 * hh, cx + 0.5 * w, cy + 0.5 * hh),
-                               kind=args.walls.removeprefix("obstacle-"))
+                               kind=wall_mode.removeprefix("obstacle-"))
     inf = math.inf
     scene.add_mass_probe("discharged", hi=(inf, g["floor"]))
     scene.add_mass_probe("silo", lo=(g["xc"] - 0.5 * g["width"], g["floor"]), hi=(g["xc"] + 0.5 * g["width"], inf))
@@ -227,7 +255,9 @@ def build(args) -> CaseSetup:
               f"{QUICK['end']} s, {len(x)} points; about a minute on 2 cores); the paper's grid: --cell-size "
               f"{GRID_TABLE}", file=sys.stderr)
     end = QUICK["end"] if small else END
-    config = {"imp_skin": VERLET, "imp_cell_capacity": 64} if sdem else {}
+    config = dict(MPM_VARIANTS[variant])
+    if sdem:
+        config.update(imp_skin=VERLET, imp_cell_capacity=64, coupling=coupling)
     return CaseSetup(scene, end_time=end, frames=round(end / 0.02), config=config)
 
 
@@ -260,7 +290,7 @@ def summarize(sim, result, args) -> dict:
     fill_mass = float(in_silo[0])
     out = {
         "orifice_m": g["orifice"], "width_m": g["width"], "fill_height_m": g["fill"], "cell_size": g["h"],
-        "contact_radius": g["rp"], "walls": args.walls, "points": int(sim.particle_count),
+        "contact_radius": g["rp"], "walls": walls(args), "method": args.method, "points": int(sim.particle_count),
         "fill_mass": fill_mass,
         "walls_may_set_rate": bool(g["width"] < 2.5 * g["orifice"]),
         "times": times.tolist(),
