@@ -30,4 +30,4 @@ CASES = {
     "silo-discharge": "silo_discharge",
 }
 
-DEFAULT_CASE = "sulsky-disks"
+DEFAULT_CASE = "silo-discharge"
