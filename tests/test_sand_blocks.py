@@ -1,6 +1,6 @@
-"""cases/sand_blocks.py --quick: a sand column flows into three stacked wooden blocks (MPM-SDEM §6).
+"""cases/sand_blocks.py --quick: the block impact of MPM-SDEM §6 on the experiment's geometry.
 
-One coarse run (1 cm grid, 980 points, 0.6 s of flow) shared by all checks.
+One coarse run (6.25 mm grid, 2048 points, 0.6 s; ~15 s on 2 CPU cores) shared by all checks.
 """
 
 import math
@@ -8,11 +8,18 @@ import math
 import pytest
 from helpers import run_script
 
-# the case's geometry, restated so that a change there has to be looked at here too
-BLOCK_W, BLOCK_H = 0.02, 0.03  # m
-# A block standing on a flat support tips over once it has turned about its lower corner by more
-# than atan(w/h): its centre of mass is then beyond the pivot and gravity keeps turning it.
-TIP_ANGLE = math.degrees(math.atan(BLOCK_W / BLOCK_H))  # 33.7°
+# the experiment, restated so that a change in the case has to be looked at here too
+BLOCK_W, BLOCK_H = 0.020, 0.018  # m
+COLUMN_W, COLUMN_H, SAND_RHO = 0.10, 0.20, 1500.0  # m, m, kg/m³
+# MPM-SDEM §6 at g = 10 m/s² (see the case header for the ×10 of its printed times)
+PAPER = {"reach": 0.25, "block2_ground": 0.40, "block1_ground": 0.45}
+# The paper gives its times to 0.05 s (printed 2.5, 4.0, 4.5 s), i.e. each ±0.025 s; our frames are
+# 0.01 s apart. The quick grid is half the default resolution (2048 against 8192 points): we allow
+# twice the paper's reading resolution, ±0.05 s. A wrong g reading (sqrt(10) or 10 × in time), a
+# stalled flow or a block that does not fall misses by far more.
+TOLERANCE = 0.05  # s
+# A block standing on a flat face tips once it has turned about its lower corner by atan(w/h).
+TIP_ANGLE = math.degrees(math.atan(BLOCK_W / BLOCK_H))  # 48°
 
 
 @pytest.fixture(scope="module")
@@ -22,37 +29,36 @@ def summary(tmp_path_factory):
 
 def test_completed(summary):
     assert summary["status"] == "completed"
-    assert summary["points"] == 980  # 14 × 17.5 cells of 1 cm, 2 × 2 points each
+    assert summary["points"] == 2048  # 16 × 32 cells of 6.25 mm, 2 × 2 points each
 
 
-def test_flow_reaches_blocks(summary):
-    # The paper's arrival, read at g = 10 m/s² (see the case header), is 0.25 s; the gap was chosen
-    # for that. ±40 % leaves room for the coarse grid but fails if the front stalls (None) or the
-    # collapse runs at a wrong time scale (the sqrt(L/g) scale of a g-reading mix-up is a factor 10).
-    t = summary["reach_time"]
-    assert t is not None
-    assert 0.15 <= t <= 0.35
+@pytest.mark.parametrize("event", list(PAPER))
+def test_event_times_against_the_paper(summary, event):
+    t = summary["event_times_s"][event]
+    assert t is not None, f"{event} never happened"
+    assert abs(t - PAPER[event]) <= TOLERANCE, f"{event} at {t:.3f} s, paper {PAPER[event]} s"
+
+
+def test_block2_ends_on_its_side(summary):
+    """The paper's block 2 turns from 90° (upright) to about 0° (on its side). Lying on the floor it
+    is at 0°; on a sand layer or against block 3 it may lean: ±15° is a block's height over a grain
+    layer of a third of its width, far from the 90° of a block that was not toppled."""
+    assert summary["block2_max_abs_angle_deg"] > TIP_ANGLE
+    assert abs(summary["block2_final_orientation_deg"]) < 15.0
 
 
 def test_blocks_move_only_after_the_flow_arrives(summary):
-    # The stack stands in equilibrium on the glued block; a free block that moved (> 1 mm) before
-    # the sand reached the pile would mean a spurious contact force (overlap, list or IMP error).
+    # the stack stands in equilibrium on the glued block; a free block that moved (> 1 mm) before
+    # the sand reached the pile would mean a spurious contact force (overlap, list or IMP error)
     reach = summary["reach_time"]
     for name in ("block1", "block2"):
         moved = summary[f"{name}_move_time"]
         assert moved is not None and moved >= reach
 
 
-def test_free_blocks_pushed_over(summary):
-    # Both free blocks turn past their tipping angle, so they are pushed over, not just nudged.
-    for name in ("block1", "block2"):
-        assert summary[f"{name}_max_abs_angle_deg"] > TIP_ANGLE
-    # Block 2 is pushed away from the column (to +x), so it turns clockwise (negative angle), and
-    # lands on the ground within the run (its surface within 2.5 mm of the floor). Measured: it
-    # rests on its side at −90°, landing at 0.48 s (the paper's 0.40 s).
-    assert summary["block2_final_angle_deg"] < -TIP_ANGLE
-    assert summary["block2_ground_time"] is not None
-    assert summary["block2_ground_time"] > summary["reach_time"]
+def test_no_sand_inside_a_block(summary):
+    # the contact keeps every point centre r_p outside a block at every frame
+    assert summary["deepest_penetration_m"] == 0.0
 
 
 def test_glued_block_does_not_move(summary):
@@ -63,15 +69,14 @@ def test_glued_block_does_not_move(summary):
 
 def test_no_energy_gain(summary):
     # W_num = ΔE_total − Σ works (plastic, contact damping and friction, walls): what the scheme
-    # itself made or lost. APIC and the contacts only dissipate; any gain above 0.5 % of the
-    # released potential energy (round-off is ~1e-12 of it) would be spurious work, e.g. of the
-    # coupling forces.
+    # itself made or lost. APIC and the contacts only dissipate; a gain above 0.5 % of the released
+    # potential energy (round-off is ~1e-7 of it in f32) would be spurious work of the coupling.
     released = summary["released_potential_energy"]
     assert released > 0.0
     assert summary["work_numerical_max"] <= 0.005 * released
 
 
 def test_mass_conserved(summary):
-    # points carry fixed masses and none is released or removed: the sum is exact up to round-off
-    assert summary["mass_max_relative_change"] <= 1.0e-12
-    assert summary["mass_initial"] == pytest.approx(1500.0 * 0.14 * 0.175, rel=1.0e-12)
+    # points carry fixed masses and none is released or removed
+    assert summary["mass_max_relative_change"] <= 1.0e-6
+    assert summary["mass_initial"] == pytest.approx(SAND_RHO * COLUMN_W * COLUMN_H, rel=1.0e-6)
