@@ -19,8 +19,9 @@ import math
 from pathlib import Path
 
 import numpy as np
-from mpmdem.cases._table3 import DENSITY, GRAVITY, R_P_TABLE
-from mpmdem.cases.silo_discharge import BEVERLOO_C, BEVERLOO_K, ORIFICES_PAPER, beverloo
+
+from ..cases._table3 import DENSITY, GRAVITY, R_P_TABLE
+from ..cases.silo_discharge import BEVERLOO_C, BEVERLOO_K, ORIFICES_PAPER, beverloo
 
 PREFACTOR = DENSITY * math.sqrt(GRAVITY)  # ρ sqrt(g) [kg/(m³) m^0.5/s]
 
@@ -57,16 +58,6 @@ def fit_beverloo(d0: np.ndarray, w: np.ndarray, r_p: float = R_P_TABLE) -> dict:
             "r_p_m": r_p, "C_paper": BEVERLOO_C, "k_paper": BEVERLOO_K}
 
 
-def load_runs(out: Path) -> list[dict]:
-    """Every run's summary.json under OUT/runs/ (status and all)."""
-    runs = []
-    for path in sorted(Path(out).glob("runs/*/summary.json")):
-        s = json.loads(path.read_text())
-        s["run"] = path.parent.name
-        runs.append(s)
-    return runs
-
-
 def analyze(runs: list[dict], out: Path) -> dict:
     """Fits, the resolution spread and the charts of a Beverloo study; writes OUT/beverloo_fit.json
     and OUT/beverloo_*.png and returns the fit."""
@@ -81,7 +72,11 @@ def analyze(runs: list[dict], out: Path) -> dict:
     for h, pts in by_grid.items():
         if len(pts) >= 4:
             d0, w = (np.array(v, dtype=float) for v in zip(*pts, strict=True))
-            fits[f"{h:g}"] = {"power_law": fit_power_law(d0, w), "beverloo": fit_beverloo(d0, w)}
+            rp = next(r["contact_radius"] for r in ok if r["cell_size"] == h)
+            # the paper's form with its r_p = 0.1 cm, and with our contact radius h/√2 (the empty
+            # annulus our contacts leave along the orifice's edges)
+            fits[f"{h:g}"] = {"power_law": fit_power_law(d0, w), "beverloo": fit_beverloo(d0, w),
+                              "beverloo_our_contact_radius": fit_beverloo(d0, w, r_p=rp)}
     report["fits"] = fits
     # spread of W over the grids, per orifice: (max − min) / mean
     spread = {}
@@ -191,3 +186,54 @@ def plot(runs: list[dict], report: dict, out: Path) -> list[Path]:
     plt.close(fig)
     written.append(p)
     return written
+
+
+def methods_report(runs: list[dict], out: Path) -> dict:
+    """The method comparison: W, wall time and status per (method, κ2); writes OUT/methods.json and
+    OUT/beverloo_methods.png (W per method, failures marked, wall time beside each bar)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out)
+    rows = []
+    for r in runs:
+        kappa = (r.get("config") or {}).get("dem_kappa")
+        rows.append({"method": r.get("method", r.get("run")), "dem_kappa": kappa, "status": r.get("status"),
+                     "rate": r.get("rate"), "wall_seconds": r.get("wall_seconds"), "steps": r.get("steps"),
+                     "message": r.get("message", "")})
+    ref = next((x["rate"] for x in rows if x["method"] == "granular" and x["dem_kappa"] == 0.1
+                and x["status"] == "completed"), None)
+    for x in rows:
+        x["rate_over_granular"] = x["rate"] / ref if ref and x["rate"] is not None else None
+        x["beverloo_paper"] = beverloo(0.04)
+    rows.sort(key=lambda x: (str(x["method"]), x["dem_kappa"] or 0.0))
+    (out / "methods.json").write_text(json.dumps(rows, indent=2, default=float) + "\n")
+
+    kappas = sorted({x["dem_kappa"] for x in rows if x["dem_kappa"] is not None})
+    methods = list(dict.fromkeys(x["method"] for x in rows))
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    width = 0.8 / max(len(kappas), 1)
+    for j, kappa in enumerate(kappas):
+        for i, m in enumerate(methods):
+            x = next((y for y in rows if y["method"] == m and y["dem_kappa"] == kappa), None)
+            if x is None:
+                continue
+            pos = i + (j - 0.5 * (len(kappas) - 1)) * width
+            if x["status"] == "completed" and x["rate"] is not None:
+                ax.bar(pos, x["rate"], width, color=plt.cm.tab10(j), label=f"κ2 = {kappa:g}" if i == 0 else None)
+                ax.text(pos, x["rate"], f"{x['wall_seconds']:.0f} s", ha="center", va="bottom", fontsize=7)
+            else:
+                seen = "failed (detected)" in ax.get_legend_handles_labels()[1]
+                ax.plot(pos, 1.0, "x", color="red", ms=10, label=None if seen else "failed (detected)")
+                ax.text(pos, 2.0, str(x["status"]), ha="center", va="bottom", fontsize=7, rotation=90, color="red")
+    ax.axhline(beverloo(0.04), color="k", ls="--", lw=1, label="paper's Beverloo curve at 4 cm")
+    ax.set_xticks(range(len(methods)), methods, rotation=20, fontsize=8)
+    ax.set(ylabel="discharge rate W [kg/(m s)]", title="silo D0 = 4 cm, h = 3.5 mm: W and wall time per model")
+    ax.grid(alpha=0.3, axis="y")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out / "beverloo_methods.png", dpi=120)
+    plt.close(fig)
+    return {"rows": rows}

@@ -1,0 +1,48 @@
+"""The Beverloo studies of `silo-discharge` (MPM-SDEM §5.3, Fig. 16).
+
+``BEVERLOO``: D0 = 2 ... 6 cm at the grids 2.5, 3.5 (Table 3) and 5 mm (≈ 38k, 19k and 9k points at
+a 30 cm fill; the paper's runs had 8-10 thousand); the fits of the free power law and of the
+paper's Beverloo form, and the charts (``beverloo_analysis``).
+
+``METHODS``: the D0 = 4 cm silo on Table 3's grid under every model choice: Granular MPM against
+stress-free and original MPM; `imp` against `grid` coupling (on original MPM, as `grid` is refused
+with Granular MPM); the silo as SDEM bodies against the same plates as grid obstacles (rollers or
+no-slip nodes, no DEM stage); each at the default DEM step and at 3 × it (``--dem-kappa``), where
+the coupled step may fail. A failed run is a row with its status, marked in the chart.
+"""
+
+from pathlib import Path
+
+from mpmdem.study import Study
+
+from .beverloo_analysis import analyze, methods_report
+from .run_summaries import load_runs
+
+
+def analyze_rates(rows: list[dict], out: Path) -> dict:
+    """Fits and charts from every run's summary.json (the rows keep scalars only; M(t) is there)."""
+    return analyze(load_runs(out), out)
+
+
+def analyze_methods(rows: list[dict], out: Path) -> dict:
+    return methods_report(load_runs(out), out)
+
+
+BEVERLOO = Study(
+    name="beverloo",
+    case="silo-discharge",
+    description="silo discharge rate vs orifice at three grids, fitted to the 2D Beverloo law (MPM-SDEM Fig. 16)",
+    grid={"--orifice": [0.02, 0.03, 0.04, 0.05, 0.06], "--cell-size": [0.0025, 0.0035, 0.005]},
+    analyze=analyze_rates,
+)
+
+METHODS = Study(
+    name="beverloo-methods",
+    case="silo-discharge",
+    description="the D0 = 4 cm silo under each model (Granular/stress-free/original MPM, imp/grid coupling, "
+                "SDEM walls/grid obstacles) at the default and 3 x the DEM step",
+    grid={"--method": ["granular", "stress-free", "original", "original-grid", "obstacle-slip", "obstacle-fixed"],
+          "--dem-kappa": [0.1, 0.3]},
+    fixed={"--orifice": 0.04, "--cell-size": 0.0035},
+    analyze=analyze_methods,
+)
