@@ -42,8 +42,10 @@ def test_quick_runout_against_lube(quick):
     s, _ = quick
     assert s["predicted_normalized_runout"] == pytest.approx(1.2)
     assert 1.0 / 1.6 < s["runout_ratio_to_prediction"] < 1.6
-    # the voxelized width of eq. 70-71 agrees with the point extent to a cell
-    assert abs(s["runout_voxel_m"] - s["runout_m"]) <= s["cell_size_m"]
+    # the voxelized width of eq. 70-71 agrees with the farthest point to a cell, and the deposit's
+    # front (the continuous deposit) lies at or inside the farthest point
+    assert abs(s["runout_voxel_m"] - s["runout_farthest_point_m"]) <= s["cell_size_m"]
+    assert s["runout_m"] <= s["runout_farthest_point_m"] + 1e-12
 
 
 def test_quick_final_height(quick):
@@ -78,3 +80,17 @@ def test_bad_aspect_ratio_is_refused(tmp_path):
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120, env=ENV)
     assert proc.returncode == 2
     assert "--aspect-ratio" in proc.stderr
+
+
+def test_deposit_front_leaves_out_thrown_grains_and_thin_feet():
+    """A deposit 0.1 m thick up to x = 0.3 m, then a foot 2 mm thick to 0.4 m, then one grain at 0.6 m:
+    with a 5 mm threshold the front is at 0.3 m; with 1 mm it includes the foot (0.4 m); never 0.6."""
+    s, rho = 0.001, 1000.0
+    centres = (np.arange(400) + 0.5) * s
+    body = np.array([[x, y] for x in centres[:300] for y in (np.arange(100) + 0.5) * s])
+    foot = np.array([[x, y] for x in centres[300:] for y in (0.5 * s, 1.5 * s)])
+    grain = np.array([[0.6, 0.0005]])
+    x = np.vstack([body, foot, grain])
+    m = np.full(len(x), rho * s * s)
+    assert cc.deposit_front(x, m, rho, s, 0.0, 0.005) == pytest.approx(0.3)
+    assert cc.deposit_front(x, m, rho, s, 0.0, 0.001) == pytest.approx(0.4)
