@@ -1,0 +1,78 @@
+"""Column-collapse runout under refinement ("Motion integration" §5, `column-collapse`): aspect ratios
+a = 0.5, 1, 2, 4, 8 at 10, 20 and 40 cells across the column, against Lube et al. (2005).
+
+The runout is the deposit's front (the edge of the continuous deposit, as the experiments read it),
+the farthest point is kept beside it; the chart shows both with the spread over the three grids.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+from mpmdem.study import Study
+
+from ..cases.column_collapse import lube_height, lube_runout
+from .run_summaries import load_runs
+
+
+def analyze(rows: list[dict], out: Path) -> dict:
+    """Writes OUT/column_collapse_runout.json and .png: per a and grid, the runout (front and
+    farthest point) and the final height, normalised by L0, with Lube's fits."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out)
+    runs = [r for r in load_runs(out) if r.get("status") == "completed"]
+    failed = [{"run": r["run"], "status": r.get("status"), "message": r.get("message", "")}
+              for r in load_runs(out) if r.get("status") != "completed"]
+    table = sorted(({"a": r["aspect_ratio"], "cells": r["cells_per_width"], "runout": r["normalized_runout"],
+                     "runout_farthest_point": r["normalized_runout_farthest_point"],
+                     "final_height": r["normalized_final_height"], "lube_runout": r["predicted_normalized_runout"],
+                     "lube_height": r["predicted_normalized_final_height"], "wall_seconds": r.get("wall_seconds"),
+                     "points": r.get("particles")} for r in runs), key=lambda x: (x["a"], x["cells"]))
+    (out / "column_collapse_runout.json").write_text(json.dumps({"runs": table, "failed": failed}, indent=2) + "\n")
+
+    cells = sorted({x["cells"] for x in table})
+    ratios = sorted({x["a"] for x in table})
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
+    aa = np.geomspace(0.4, 10, 200)
+    ax.plot(aa, [lube_runout(v) for v in aa], "k--", lw=1, label="Lube et al. 2005")
+    ax2.plot(aa, [lube_height(v) for v in aa], "k--", lw=1, label="Lube et al. 2005")
+    for j, c in enumerate(cells):
+        sel = [x for x in table if x["cells"] == c]
+        shift = 1.0 + 0.04 * (j - 0.5 * (len(cells) - 1))
+        col = plt.cm.viridis(0.15 + 0.7 * j / max(len(cells) - 1, 1))
+        ax.plot([x["a"] * shift for x in sel], [x["runout"] for x in sel], "os^"[j % 3], color=col,
+                label=f"front, {c} cells across")
+        ax.plot([x["a"] * shift for x in sel], [x["runout_farthest_point"] for x in sel], "os^"[j % 3], color=col,
+                mfc="none", alpha=0.5, label=f"farthest point, {c} cells" if j == len(cells) - 1 else None)
+        ax2.plot([x["a"] * shift for x in sel], [x["final_height"] for x in sel], "os^"[j % 3], color=col,
+                 label=f"{c} cells across")
+    for a in ratios:  # the spread over the grids as a bar
+        v = [x["runout"] for x in table if x["a"] == a]
+        ax.vlines(a, min(v), max(v), color="0.5", lw=3, alpha=0.4)
+        hv = [x["final_height"] for x in table if x["a"] == a]
+        ax2.vlines(a, min(hv), max(hv), color="0.5", lw=3, alpha=0.4)
+    for a_, lab in ((ax, "(L_f − L0) / L0"), (ax2, "H_f / L0")):
+        a_.set(xscale="log", yscale="log", xlabel="aspect ratio a", ylabel=lab)
+        a_.grid(alpha=0.3, which="both")
+        a_.legend(fontsize=7)
+    ax.set_title("runout: deposit front (filled) and farthest point (open)")
+    ax2.set_title("final height at the wall")
+    fig.tight_layout()
+    fig.savefig(out / "column_collapse_runout.png", dpi=120)
+    plt.close(fig)
+    return {"runs": table}
+
+
+STUDY = Study(
+    name="column-collapse",
+    case="column-collapse",
+    description="column-collapse runout and final height at a = 0.5-8 and three grids vs Lube et al. (2005)",
+    grid={"--aspect-ratio": [0.5, 1.0, 2.0, 4.0, 8.0], "--cells-per-width": [10, 20, 40]},
+    analyze=analyze,
+)
