@@ -11,7 +11,6 @@ appends one row per run to ``OUT/results.jsonl`` as each finishes, and writes ``
 from __future__ import annotations
 
 import itertools
-import json
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -114,18 +113,18 @@ def load_study(name_or_path: str) -> Study:
 
 
 def study_case(case: str) -> ModuleType:
-    """The case module: a name of ``mpmdem list`` or an importable module path (``pkg.my_case``)."""
+    """The case module: a name of ``mpmdem list`` or an importable module (``my_package.my_case``)."""
     import importlib
 
     from .cases import CASES
     from .runner import case_module
 
-    if case in CASES or "." not in case:
+    if case in CASES or not all(part.isidentifier() for part in case.split(".")):
         return case_module(case)
     try:
         return importlib.import_module(case)
     except ImportError as e:
-        raise InputError("case", case, f"a case name of mpmdem list or an importable module ({e})") from None
+        raise InputError("case", case, f"a case of mpmdem list or an importable case module ({e})") from None
 
 
 def _argv_of(flags: Mapping[str, object], parser) -> list[str]:

@@ -73,7 +73,8 @@ def execute_run(case: str, run_id: str, values: dict, argv: list[str], run_dir: 
         with contextlib.redirect_stderr(stderr):
             code = run_case(study_case(case), [*argv, "--out", str(folder), "--quiet"], prog=f"mpmdem run {case}")
         summary = _read_summary(folder)
-        lines = [ln for ln in stderr.getvalue().splitlines() if ln.strip()]
+        lines = [ln.removeprefix("mpmdem: ").removeprefix("error: ") for ln in stderr.getvalue().splitlines()
+                 if ln.strip()]
         row["status"] = STATUS_OF_EXIT_CODE.get(code, summary.get("status", "error"))
         row["message"] = summary.get("message") or (lines[-1] if code != 0 and lines else "")
     except Exception as e:  # a bug or a case's own failure: a row, never the end of the study
