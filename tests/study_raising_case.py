@@ -10,9 +10,14 @@ DEFAULTS = {}
 
 def add_arguments(parser):
     parser.add_argument("--fail", action="store_true", help="raise RuntimeError in build")
+    parser.add_argument("--crash", action="store_true", help="end the process in build (a lost worker)")
 
 
 def build(args) -> CaseSetup:
+    if args.crash:
+        import os
+
+        os._exit(1)
     if args.fail:
         raise RuntimeError("this case was told to fail")
     scene = Scene(domain=((-1.0, -1.0), (1.0, 1.0)), contact=ContactLaw(1e6))

@@ -2,6 +2,10 @@
 
 import json
 import os
+import signal
+import subprocess
+import sys
+import time
 
 import pytest
 
@@ -101,6 +105,39 @@ def test_failing_runs_are_rows(tmp_path, monkeypatch):
     assert rows[0]["message"] == "RuntimeError: this case was told to fail"
     assert (tmp_path / "raising" / "runs" / "fail=true" / "error.txt").is_file()
     assert rows[1]["steps_run"] > 0 and "a_list" not in rows[1]  # scalars only
+
+
+def test_killed_study_resumes_without_losing_a_finished_run(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    command = [sys.executable, "-m", "mpmdem.cli", "study", "disk-restitution", "--workers", "1", "--device", "cpu",
+               "--out", str(out)]
+    study = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        while study.poll() is None and not (out / "results.jsonl").is_file():
+            time.sleep(0.05)
+    finally:
+        study.send_signal(signal.SIGKILL)
+        study.wait()
+    finished = [r["id"] for r in jsonl_rows(out)]
+    assert finished  # the first run's row was on disk before the kill
+    executed = count_executions(monkeypatch)
+    rows = run_study(load_study("disk-restitution"), out, workers=0, device="cpu", progress=False)
+    assert len(executed) == 3 - len(finished) and not set(executed) & set(finished)
+    assert [r["status"] for r in rows] == ["completed"] * 3
+
+
+def test_lost_worker_is_a_row(tmp_path):
+    crash = Study("crash", "study_raising_case", grid={"--crash": [True, False]}, fixed={"--end-time": 0.005})
+    rows = run_study(crash, tmp_path, workers=2, device="cpu", progress=False)
+    assert [r["status"] for r in rows] == ["error", "completed"]
+    assert rows[0]["message"].startswith("worker lost: KilledWorker")
+
+
+def test_missing_dask_is_one_line_unless_serial(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(study_cluster, "dask_available", lambda: False)
+    assert main(["study", "disk-restitution", "--out", str(tmp_path / "out")]) == 2
+    assert 'pip install "mpmdem[study]"' in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
 
 
 @pytest.mark.parametrize("grid, fixed, complaint", [
