@@ -35,6 +35,14 @@ def format_value(value) -> str:
     return str(value).lower() if isinstance(value, bool) else str(value)
 
 
+def toml_value(text: str):
+    """``"0.5"`` → 0.5, ``"true"`` → True, ``"APIC"`` → "APIC": a TOML value, else the text itself."""
+    try:
+        return tomllib.loads(f"v = {text.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text.strip()
+
+
 @dataclass(frozen=True)
 class Study:
     """A sweep: ``case`` run at every combination of ``grid`` values, with the ``fixed`` flags.
@@ -52,21 +60,22 @@ class Study:
     analyze: Callable[[list[dict], Path], object] | None = None
 
     def __post_init__(self):
-        grid = {flag_name(k): tuple(v) if isinstance(v, list | tuple) else (v,) for k, v in self.grid.items()}
+        grid = {flag_name(k): (v,) if isinstance(v, str | bytes) or not hasattr(v, "__iter__") else tuple(v)
+                for k, v in self.grid.items()}
         fixed = {flag_name(k): v for k, v in self.fixed.items()}
         object.__setattr__(self, "grid", MappingProxyType(grid))
         object.__setattr__(self, "fixed", MappingProxyType(fixed))
 
     def with_settings(self, settings: Mapping[str, str]) -> Study:
         """A copy with ``--set FLAG=VALUE`` applied: a grid flag takes the comma-separated values, any
-        other flag becomes fixed (``true`` / ``false`` turn a switch on / off)."""
+        other flag becomes fixed; values read as in a study file (``0.5``, ``true``), else as text."""
         grid, fixed = dict(self.grid), dict(self.fixed)
         for key, text in settings.items():
             flag = flag_name(key)
             if flag in grid:
-                grid[flag] = [v.strip() for v in text.split(",") if v.strip()]
+                grid[flag] = [toml_value(v) for v in text.split(",") if v.strip()]
             else:
-                fixed[flag] = {"true": True, "false": False}.get(text.strip().lower(), text)
+                fixed[flag] = toml_value(text)
         return Study(self.name, self.case, grid, fixed, self.description, self.analyze)
 
 
