@@ -72,7 +72,10 @@ def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | 
         return
     if workers == 0 and not scheduler and gpus == 0:
         for run in runs:
-            yield execute_run(*args(run))
+            row = execute_run(*args(run))
+            yield row
+            if row["status"] == "interrupted":  # Ctrl-C reached run_case: stop the study, keep its row
+                raise KeyboardInterrupt
         return
     from distributed import as_completed
 

@@ -1,8 +1,8 @@
 """One run of a study, as a worker executes it: ``run_case`` into the run's folder, then its table row.
 
 ``execute_run`` never raises: a run that fails (bad input found by the case, a blow-up, an exception
-anywhere) is a row with its status and message. Each call builds a fresh ``Simulation``, so runs on
-the same worker process share nothing but Warp's loaded kernels.
+anywhere) is a row with its status and message. Each call builds a fresh ``Simulation``, and a
+process runs one at a time, so runs on the same worker share nothing but Warp's loaded kernels.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ import io
 import json
 import os
 import socket
+import threading
 import time
 import traceback
 from pathlib import Path
@@ -24,6 +25,8 @@ FINAL_STATUSES = ("completed", "blown-up", "bad-input")
 #: summary.json keys the row takes from elsewhere (or, for config, keeps only in the run folder)
 SUMMARY_SKIPPED = ("case", "status", "message", "device", "config", "output")
 STATUS_OF_EXIT_CODE = {0: "completed", 2: "bad-input", 3: "blown-up", 130: "interrupted"}
+#: one run at a time per process, also on a worker of several threads (Warp's state and sys.stderr are per process)
+RUN_LOCK = threading.Lock()
 
 
 def worker_name() -> str:
@@ -70,7 +73,7 @@ def execute_run(case: str, run_id: str, values: dict, argv: list[str], run_dir: 
     stderr = io.StringIO()
     row = {"id": run_id, **values}
     try:
-        with contextlib.redirect_stderr(stderr):
+        with RUN_LOCK, contextlib.redirect_stderr(stderr):
             code = run_case(study_case(case), [*argv, "--out", str(folder), "--quiet"], prog=f"mpmdem run {case}")
         summary = _read_summary(folder)
         lines = [ln.removeprefix("mpmdem: ").removeprefix("error: ") for ln in stderr.getvalue().splitlines()
