@@ -89,22 +89,38 @@ class Run:
 
 
 def study_from_toml(path: Path) -> Study:
-    """A study from a TOML file: ``case``, optional ``name`` (default: the file's stem) and
-    ``description``, a ``[grid]`` table of value lists and a ``[fixed]`` table."""
+    """A study from a TOML file: ``case``, optional ``name`` (default: the file's stem),
+    ``description`` and ``analyze = "module:function"``, a ``[grid]`` table of value lists and a
+    ``[fixed]`` table."""
     try:
         data = tomllib.loads(path.read_text())
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
         raise InputError("study file", str(path), f"a readable TOML file ({e})") from None
-    unknown = sorted(set(data) - {"name", "case", "description", "grid", "fixed"})
+    unknown = sorted(set(data) - {"name", "case", "description", "analyze", "grid", "fixed"})
     if unknown:
-        raise InputError("study file key", unknown[0], "name, case, description, [grid], [fixed]")
+        raise InputError("study file key", unknown[0], "name, case, description, analyze, [grid], [fixed]")
     if not isinstance(data.get("case"), str):
         raise InputError("case", data.get("case"), f"a case name in {path} (mpmdem list shows them)")
     for table in ("grid", "fixed"):
         if not isinstance(data.get(table, {}), dict):
             raise InputError(f"[{table}]", data[table], f"a TOML table in {path}")
+    analyze = imported_function(data["analyze"]) if "analyze" in data else None
     return Study(data.get("name", path.stem), data["case"], data.get("grid", {}), data.get("fixed", {}),
-                 data.get("description", ""))
+                 data.get("description", ""), analyze)
+
+
+def imported_function(spec: str) -> Callable:
+    """``"package.module:function"`` → that function."""
+    import importlib
+
+    module, _, name = str(spec).partition(":")
+    try:
+        function = getattr(importlib.import_module(module), name)
+    except (ImportError, AttributeError, ValueError) as e:
+        raise InputError("analyze", spec, f"an importable 'module:function' ({e})") from None
+    if not callable(function):
+        raise InputError("analyze", spec, "a function analyze(rows, out_dir)")
+    return function
 
 
 def load_study(name_or_path: str) -> Study:

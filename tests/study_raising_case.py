@@ -1,4 +1,5 @@
-"""A test-only case for the study runner: one DEM disk at rest; ``--fail`` makes ``build`` raise."""
+"""A test-only case for the study runner: one DEM disk at rest; ``--fail`` makes ``build`` raise,
+``--crash`` end its process. ``count_rows`` is an ``analyze`` for a study file's test."""
 
 from mpmdem import ContactLaw, Scene, sphero_disk
 from mpmdem.runner import CaseSetup
@@ -27,3 +28,8 @@ def build(args) -> CaseSetup:
 
 def summarize(sim, result, args) -> dict:
     return {"steps_run": result.steps, "a_list": [1, 2, 3]}
+
+
+def count_rows(rows, out):
+    """An ``analyze``: writes the number of rows to OUT/rows.txt."""
+    (out / "rows.txt").write_text(f"{len(rows)}\n")

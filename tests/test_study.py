@@ -140,15 +140,20 @@ def test_missing_dask_is_one_line_unless_serial(tmp_path, monkeypatch, capsys):
     assert not (tmp_path / "out").exists()
 
 
-@pytest.mark.parametrize("grid, fixed, complaint", [
-    ("angle = [30.0]", "no-such-flag = 1", "flag='--no-such-flag'"),
-    ("angle = [30.0, \"steep\"]", "", "--angle='steep'"),
-    ("angle = []", "", "at least one value"),
-    ("angle = [30.0]", "out = \"elsewhere\"", "set by the study runner"),
+CASE = 'case = "block-on-incline"'
+
+
+@pytest.mark.parametrize("top, grid, fixed, complaint", [
+    (CASE, "angle = [30.0]", "no-such-flag = 1", "flag='--no-such-flag'"),
+    (CASE, "angle = [30.0, \"steep\"]", "", "--angle='steep'"),
+    (CASE, "angle = []", "", "at least one value"),
+    (CASE, "angle = [30.0]", "out = \"elsewhere\"", "set by the study runner"),
+    ('case = "no-such-case"', "angle = [30.0]", "", "case='no-such-case'"),
+    (CASE + '\nanalyze = "no_such_module:fit"', "angle = [30.0]", "", "analyze='no_such_module:fit'"),
 ])
-def test_bad_study_file_exits_2_and_runs_nothing(tmp_path, capsys, grid, fixed, complaint):
+def test_bad_study_file_exits_2_and_runs_nothing(tmp_path, capsys, top, grid, fixed, complaint):
     path = tmp_path / "sweep.toml"
-    path.write_text(f'case = "block-on-incline"\n[grid]\n{grid}\n[fixed]\n{fixed}\n')
+    path.write_text(f"{top}\n[grid]\n{grid}\n[fixed]\n{fixed}\n")
     assert main(["study", str(path), "--workers", "0", "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert complaint in err and len(err.strip().splitlines()) == 1
@@ -167,14 +172,15 @@ def test_bad_command_line_exits_2_and_runs_nothing(tmp_path, capsys, argv):
 
 def test_study_file_runs_from_the_command_line(tmp_path, capsys):
     path = tmp_path / "incline.toml"
-    path.write_text('case = "block-on-incline"\n[grid]\nangle = [30.0]\nfriction = [0.1, 0.2]\n'
-                    '[fixed]\nquick = true\n')
+    path.write_text('case = "block-on-incline"\nanalyze = "study_raising_case:count_rows"\n'
+                    '[grid]\nangle = [30.0]\nfriction = [0.1, 0.2]\n[fixed]\nquick = true\n')
     out = tmp_path / "out"
     assert main(["study", str(path), "--workers", "0", "--device", "cpu", "--out", str(out),
                  "--set", "friction=0.25"]) == 0
     assert "1 completed" in capsys.readouterr().out
     assert [r["id"] for r in jsonl_rows(out)] == ["angle=30.0,friction=0.25"]
     assert json.loads((out / "study.json").read_text())["name"] == "incline"
+    assert (out / "rows.txt").read_text() == "1\n"
 
 
 def _visible_devices():
