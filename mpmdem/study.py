@@ -179,6 +179,14 @@ def _check_parses(parser, argv: list[str], flag: str, value) -> None:
         raise InputError(flag, value, "a value the case's parser accepts") from None
 
 
+def fixed_flags(study: Study, device: str | None) -> dict:
+    """The study's fixed flags, with ``--device`` set to ``device`` unless the grid sweeps devices."""
+    fixed = dict(study.fixed)
+    if device is not None and "--device" not in study.grid:
+        fixed["--device"] = device
+    return fixed
+
+
 def plan_runs(study: Study, device: str | None = None) -> list[Run]:
     """Every run of the study in grid order, each argv checked by the case's parser first.
 
@@ -198,9 +206,7 @@ def plan_runs(study: Study, device: str | None = None) -> list[Run]:
             raise InputError(flag, study.grid.get(flag, study.fixed.get(flag)), "set by the study runner, not a study")
         if flag not in known:
             raise InputError("flag", flag, f"a flag of case {study.case} (mpmdem run {study.case} --help)")
-    fixed = dict(study.fixed)
-    if device is not None and "--device" not in study.grid:
-        fixed["--device"] = device
+    fixed = fixed_flags(study, device)
     fixed_argv = _argv_of(fixed, parser)
     for flag, value in fixed.items():
         _check_parses(parser, _argv_of({flag: value}, parser), flag, value)
@@ -227,9 +233,7 @@ def safe_id(text: str) -> str:
 
 def study_spec(study: Study, device: str | None) -> dict:
     """What ``OUT/study.json`` records: enough to tell whether a folder's rows belong to this study."""
-    fixed = {k: format_value(v) for k, v in study.fixed.items()}
-    if device is not None and "--device" not in study.grid:
-        fixed["--device"] = device
+    fixed = {k: format_value(v) for k, v in fixed_flags(study, device).items()}
     return {"name": study.name, "case": study.case, "fixed": fixed,
             "grid": {k: [format_value(v) for v in vs] for k, vs in study.grid.items()}}
 
