@@ -21,8 +21,8 @@ from .errors import InputError
 
 __all__ = ["Run", "Study", "load_study", "plan_runs", "run_study"]
 
-#: flags the study runner sets itself
-RESERVED_FLAGS = ("--out", "--quiet", "--help")
+#: flags the study runner sets itself (every run also gets --quiet; a study may name it, to no effect)
+RESERVED_FLAGS = ("--out", "--help")
 
 
 def flag_name(key: str) -> str:

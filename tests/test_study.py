@@ -16,7 +16,8 @@ from mpmdem.study import Study, load_study, plan_runs, run_study
 from mpmdem.study_cluster import study_client
 from mpmdem.study_table import ResultsTable
 
-INCLINE = Study("incline", "block-on-incline", grid={"--angle": [20.0, 30.0]}, fixed={"quick": True, "friction": 0.2})
+INCLINE = Study("incline", "block-on-incline", grid={"--angle": [20.0, 30.0]},
+                fixed={"quick": True, "friction": 0.2, "--quiet": True})
 
 
 def jsonl_rows(out):
