@@ -1,7 +1,8 @@
-"""``mpmdem`` command line: run | list | info | plot — a thin layer over the Python API."""
+"""``mpmdem`` command line: run | list | study | info | plot — a thin layer over the Python API."""
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 __all__ = ["main"]
@@ -11,6 +12,9 @@ USAGE = """usage: mpmdem COMMAND ...
 commands:
   run CASE [flags]     run a case (mpmdem run CASE --help lists its flags)
   list                 the cases, with a line each
+  study NAME|FILE [--out DIR] [--workers N] [--gpus N] [--workers-per-gpu K] [--scheduler ADDR]
+        [--device cpu|cuda] [--rerun-failed] [--set FLAG=VALUE ...]
+                       run a case over a grid of flag values on a Dask cluster (mpmdem study --help)
   info FILE            summary of a result file (.h5)
   plot FILE [--out DIR] [--field NAME]
                        PNGs: energy and momentum vs time, snapshots coloured by a field
@@ -76,6 +80,69 @@ def _plot(argv: list[str]) -> int:
     return 0
 
 
+def _count(least: int):
+    def parse(text):
+        try:
+            n = int(text)
+        except ValueError:
+            n = least - 1
+        if n < least:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {least}, got {text!r}")
+        return n
+
+    return parse
+
+
+def _setting(text: str) -> tuple[str, str]:
+    if "=" not in text:
+        raise argparse.ArgumentTypeError(f"expected FLAG=VALUE, got {text!r}")
+    flag, value = text.split("=", 1)
+    return flag.strip(), value
+
+
+def _study(argv: list[str]) -> int:
+    from .runner import OneLineParser
+    from .studies import STUDIES
+
+    p = OneLineParser(prog="mpmdem study", description="Run a case over a grid of flag values; one row per run in "
+                      "OUT/results.jsonl (streamed) and OUT/results.csv. Re-running resumes.",
+                      epilog="built-in studies: " + ", ".join(STUDIES))
+    p.add_argument("study", help="a built-in study's name or a .toml study file")
+    p.add_argument("--out", default=None, help="output folder (default results/study-NAME)")
+    p.add_argument("--workers", type=_count(0), default=None,
+                   help="CPU worker processes of a local Dask cluster (default: one per core; 0: serial, here)")
+    p.add_argument("--gpus", type=_count(0), default=0, help="a local cluster of workers pinned one GPU each instead")
+    p.add_argument("--workers-per-gpu", type=_count(1), default=1, help="workers sharing each GPU (default 1)")
+    p.add_argument("--scheduler", default=None, help="address of a running Dask scheduler to use instead")
+    p.add_argument("--device", default=None, help="passed to every run: cpu, cuda (default: cuda with --gpus)")
+    p.add_argument("--rerun-failed", action="store_true", help="run again every run not completed")
+    p.add_argument("--set", type=_setting, action="append", default=[], metavar="FLAG=VALUE",
+                   help="a fixed flag (true/false for switches), or a grid flag's comma-separated values")
+    try:
+        args = p.parse_args(argv)
+    except SystemExit as e:  # a bad flag (one line on stderr) or --help
+        return e.code
+    from .errors import InputError
+    from .study import load_study, run_study
+
+    try:
+        study = load_study(args.study).with_settings(dict(args.set))
+        rows = run_study(study, args.out, workers=args.workers, gpus=args.gpus, workers_per_gpu=args.workers_per_gpu,
+                         scheduler=args.scheduler, device=args.device, rerun_failed=args.rerun_failed)
+    except (InputError, ImportError) as e:
+        print(f"mpmdem: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("mpmdem: interrupted; the finished runs are in the table (run the same command to resume)",
+              file=sys.stderr)
+        return 130
+    counts = {}
+    for row in rows:
+        counts[row["status"]] = counts.get(row["status"], 0) + 1
+    print(f"study {study.name}: " + ", ".join(f"{n} {s}" for s, n in counts.items()))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mpmdem`` console script."""
     argv = sys.argv[1:] if argv is None else argv
@@ -89,6 +156,8 @@ def main(argv: list[str] | None = None) -> int:
         return _info(rest)
     if cmd == "plot":
         return _plot(rest)
+    if cmd == "study":
+        return _study(rest)
     if cmd == "run":
         from .cases import DEFAULT_CASE
         from .errors import InputError
@@ -102,7 +171,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"mpmdem: error: {e}", file=sys.stderr)
             return 2
         return run_case(module, flags, prog=f"mpmdem run {name}")
-    print(f"mpmdem: error: unknown command {cmd!r}; allowed: run, list, info, plot", file=sys.stderr)
+    print(f"mpmdem: error: unknown command {cmd!r}; allowed: run, list, study, info, plot", file=sys.stderr)
     return 2
 
 
