@@ -1,19 +1,27 @@
-"""Built-in studies (``mpmdem study NAME``), one module each defining ``STUDY = Study(...)``.
+"""Built-in studies (``mpmdem study NAME``), each a ``Study`` in a module of this package.
 
-To add one: write ``mpmdem/studies/<module>.py`` with a ``STUDY`` (and, if wanted, the function its
-``analyze`` names), then list it here.
+To add one: write ``mpmdem/studies/<module>.py`` with a ``STUDY = Study(...)`` (and, if wanted, the
+function its ``analyze`` names), then list it here; a module holding several studies names each as
+``"module:ATTRIBUTE"``.
 """
 
 from __future__ import annotations
 
 import importlib
 
-#: study name → module name, in the order the usage text lists them
+#: study name → "module" (its ``STUDY``) or "module:ATTRIBUTE", in the order the usage text lists them
 STUDIES = {
+    "beverloo": "beverloo:BEVERLOO",
+    "beverloo-methods": "beverloo:METHODS",
+    "block-impact": "block_impact:GRIDS",
+    "block-impact-coupling": "block_impact:COUPLING",
+    "block-impact-rounding": "block_impact:ROUNDING",
+    "column-collapse": "column_collapse",
     "disk-restitution": "disk_restitution",
 }
 
 
 def study_by_name(name: str):
     """The ``Study`` of a built-in study."""
-    return importlib.import_module(f"mpmdem.studies.{STUDIES[name]}").STUDY
+    module, _, attribute = STUDIES[name].partition(":")
+    return getattr(importlib.import_module(f"mpmdem.studies.{module}"), attribute or "STUDY")

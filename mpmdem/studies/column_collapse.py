@@ -11,6 +11,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+
 from mpmdem.study import Study
 
 from ..cases.column_collapse import lube_height, lube_runout
