@@ -8,7 +8,7 @@ gpus=${1:-1}; k=${2:-4}; studies=${3:-"beverloo beverloo-methods block-impact bl
 out=${OUT:-/tmp/out}; root=/tmp/studies; mkdir -p "$root" "$out"
 for s in $studies; do
   t0=$(date +%s.%N)
-  mpmdem study "$s" --gpus "$gpus" --workers-per-gpu "$k" --out "$root/$s" > "$root/$s.log" 2>&1
+  python -m mpmdem.cli study "$s" --gpus "$gpus" --workers-per-gpu "$k" --out "$root/$s" > "$root/$s.log" 2>&1
   rc=$?
   t1=$(date +%s.%N)
   python - "$s" "$gpus" "$k" "$t0" "$t1" "$rc" "$root/$s" <<'PY' | tee -a "$out/study_times.jsonl"
