@@ -34,9 +34,9 @@ CRITICAL_DENSITY_RATIO = 0.99
 
 
 def sand(friction_angle: float = FRICTION_ANGLE, dilatancy_angle: float = DILATANCY_ANGLE,
-         critical: bool = True) -> DruckerPrager:
+         critical_ratio: float | None = CRITICAL_DENSITY_RATIO) -> DruckerPrager:
     """Table 3's dry sand: Drucker–Prager matched to Mohr–Coulomb in plane strain (MPM-SDEM eq. 35),
-    no cohesion, no tension; with ``critical``, Granular MPM's critical density at 0.99 ρ (without:
-    original MPM, a continuum at any density)."""
+    no cohesion, no tension; Granular MPM's critical density at ``critical_ratio`` × ρ (None: original
+    MPM, a continuum at any density)."""
     return DruckerPrager(YOUNGS, POISSON, DENSITY, friction_angle, dilatancy_angle, TENSILE_STRENGTH,
-                         critical_density=CRITICAL_DENSITY_RATIO * DENSITY if critical else None)
+                         critical_density=critical_ratio * DENSITY if critical_ratio else None)

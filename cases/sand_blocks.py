@@ -87,7 +87,8 @@ POINTS_PER_CELL = 2
 SLAB = 0.02  # m, thickness of the floor slab and the right wall body
 END_FULL = 0.6  # s: past the paper's 0.45 s
 END_QUICK = 0.6  # s
-LAND = 0.001  # m: a block whose lowest point is this close to the floor has landed (1/18 of its height)
+LAND = 0.001  # m: a block whose lowest point is this close to the floor touches it (1/18 of its height)
+FLAT = 10.0  # deg: a block turned within this of a multiple of 90° lies on a face
 
 
 def add_arguments(parser):
@@ -229,7 +230,11 @@ def summarize(sim, result, args) -> dict:
         out[f"{n}_x_m"] = bx[:, i, 0].tolist()
         out[f"{n}_y_m"] = bx[:, i, 1].tolist()
         out[f"{n}_lowest_point_m"] = lowest.tolist()
-        out[f"{n}_ground_time"] = first_time(times, lowest <= LAND)
+        # it touches the floor when its lowest point (a corner, while it tips) reaches it, and it has
+        # landed once it lies on a face on the floor, as a block that has fallen over does
+        face_down = np.abs((deg + 45.0) % 90.0 - 45.0) <= FLAT
+        out[f"{n}_touch_time"] = first_time(times, lowest <= LAND)
+        out[f"{n}_ground_time"] = first_time(times, (lowest <= LAND) & face_down)
         out[f"{n}_move_time"] = first_time(times, np.hypot(*(bx[:, i] - bx[0, i]).T) > 1.0e-3)
     i3 = idx["block3"]
     out["block3_displacement_m"] = float(np.abs(bx[:, i3] - bx[0, i3]).max())

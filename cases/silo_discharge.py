@@ -50,6 +50,7 @@ import sys
 
 import numpy as np
 from mpmdem.cases._table3 import (
+    CRITICAL_DENSITY_RATIO,
     DENSITY,
     GRAVITY,
     GRID_TABLE,
@@ -133,6 +134,9 @@ def add_arguments(parser):
                         help="model of the comparison: granular (Granular MPM, imp coupling, SDEM walls: the "
                              "default), stress-free or original MPM, original-grid (original MPM, MPM-GRID coupling), "
                              "obstacle-slip/-fixed (Granular MPM, walls as grid obstacles, no DEM)")
+    parser.add_argument("--critical-density-ratio", type=float, default=CRITICAL_DENSITY_RATIO,
+                        help="ρ_cr / ρ0 of Granular and stress-free MPM: looser points are stress-free (default "
+                             f"{CRITICAL_DENSITY_RATIO})")
     parser.add_argument("--walls", default=None, choices=WALL_MODES,
                         help="silo and container as fixed spheropolygons (sdem, the paper's) or as grid obstacles "
                              "(obstacle-slip: rollers, obstacle-fixed: no slip; no DEM stage at all)")
@@ -164,6 +168,8 @@ def geometry(args) -> dict:
         raise InputError("--orifice", args.orifice, f"an orifice narrower than the silo (--width {args.width} m)")
     if not (math.isfinite(args.normal_stiffness) and args.normal_stiffness > 0.0):
         raise InputError("--normal-stiffness", args.normal_stiffness, "k_n > 0 [N/m per m]")
+    if not (math.isfinite(args.critical_density_ratio) and 0.5 <= args.critical_density_ratio <= 1.0):
+        raise InputError("--critical-density-ratio", args.critical_density_ratio, "a ratio ρ_cr / ρ0 in [0.5, 1]")
     rp = h * (POINTS_PER_CELL**2) ** -0.25  # eq. 45's geometric middle h n^(-1/4)
     if args.orifice <= 2.0 * rp:
         raise InputError("--orifice", args.orifice, f"an orifice wider than two contact radii 2 r_p = {2 * rp:.4g} m "
@@ -236,7 +242,8 @@ def build(args) -> CaseSetup:
                   boundaries={"left": "slip", "right": "slip", "bottom": "slip", "top": "free"},
                   contact=contact if sdem else None)
     x = fill_points(g)
-    scene.add_points(x, sand(critical=variant != "original"), size=h / POINTS_PER_CELL,
+    ratio = None if variant == "original" else args.critical_density_ratio
+    scene.add_points(x, sand(critical_ratio=ratio), size=h / POINTS_PER_CELL,
                      contact_radius=g["rp"] if sdem else None, name="sand")
     for name, w, hh, (cx, cy) in _solids(g):
         if sdem:
@@ -257,7 +264,10 @@ def build(args) -> CaseSetup:
     end = QUICK["end"] if small else END
     config = dict(MPM_VARIANTS[variant])
     if sdem:
-        config.update(imp_skin=VERLET, imp_cell_capacity=64, coupling=coupling)
+        # the sand landing in the container packs in thin layers against its plates (each point held
+        # r_p off a face while the grid keeps bringing more): more than 64 points in a cell at the
+        # 2.5 and 3.5 mm grids with D0 ≥ 5 cm, against the default 16
+        config.update(imp_skin=VERLET, imp_cell_capacity=256, coupling=coupling)
     return CaseSetup(scene, end_time=end, frames=round(end / 0.02), config=config)
 
 
@@ -291,7 +301,7 @@ def summarize(sim, result, args) -> dict:
     out = {
         "orifice_m": g["orifice"], "width_m": g["width"], "fill_height_m": g["fill"], "cell_size": g["h"],
         "contact_radius": g["rp"], "walls": walls(args), "method": args.method, "points": int(sim.particle_count),
-        "fill_mass": fill_mass,
+        "fill_mass": fill_mass, "critical_density_ratio": args.critical_density_ratio,
         "walls_may_set_rate": bool(g["width"] < 2.5 * g["orifice"]),
         "times": times.tolist(),
         "discharged_mass": discharged.tolist(),
