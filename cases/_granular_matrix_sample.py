@@ -2,9 +2,13 @@
 
 Skeleton: random convex pentagons (MPM-SDEM §7, "randomly generated pentagons") on a hexagonal
 lattice with random rotations. The lattice pitch is twice the largest bounding radius of the
-generated pentagons, so no two pentagons can overlap at any rotation; the gaps this leaves are
-closed by gravity during the settling phase and by the bar. The lattice fills the container's
-width and stops at the highest row that fits under a target height.
+generated pentagons, so no two pentagons can overlap at any rotation. The lattice fills the
+container's width and stops at the highest row that fits under a target height. The lattice is
+loose (void fraction ~0.46) and collapses under gravity by a fifth of its height, so it is packed
+first: a DEM-only run on the CPU (``settle``, the pentagons alone in the container under gravity)
+lets it fall and come to rest; the fines are then seeded in the voids of the packed skeleton.
+The same seed gives the same packed skeleton for every fines content, as in the paper ("the basic
+skeleton structure of the SDEM is preserved in each case").
 
 Fines: material points on the lattice of spacing s = h/2 (2 × 2 points per grid cell) over the
 container, minus every point whose centre lies within r_p (1 + margin) of a pentagon, a wall or
@@ -27,7 +31,7 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon
 
-from mpmdem import InputError, random_convex_polygon
+from mpmdem import ContactLaw, InputError, Scene, Simulation, random_convex_polygon, rounded_rectangle
 
 #: points closer than r_p (1 + CLEARANCE) to a body are not seeded: no spring force at t = 0
 CLEARANCE = 0.05
@@ -82,6 +86,56 @@ def skeleton(rng: np.random.Generator, width: float, height: float, size: float,
             out.append(Pentagon(shapes[k], (x0 + i * pitch, y), float(rng.uniform(0.0, 2.0 * math.pi))))
             k += 1
     return out
+
+
+def container(width: float, height: float, thickness: float, sphero: float) -> list[tuple]:
+    """(name, Spheropolygon, centre) of the floor and the two side walls [m]: fixed rounded rectangles
+    ``thickness`` thick whose inner faces are y = 0, x = 0 and x = width, the walls ``height`` high."""
+    return [
+        ("floor", rounded_rectangle(width + 2.0 * thickness, thickness, sphero), (0.5 * width, -0.5 * thickness)),
+        ("wall_left", rounded_rectangle(thickness, height + thickness, sphero),
+         (-0.5 * thickness, 0.5 * (height - thickness))),
+        ("wall_right", rounded_rectangle(thickness, height + thickness, sphero),
+         (width + 0.5 * thickness, 0.5 * (height - thickness))),
+    ]
+
+
+def settle(pentagons: list[Pentagon], walls: list[tuple], width: float, height: float, density: float,
+           friction: float, contact: ContactLaw, gravity: float, duration: float) -> tuple[list[Pentagon], float]:
+    """The skeleton after ``duration`` [s] of falling under ``gravity`` [m/s²] in the container (DEM
+    only, CPU, no output), at rest again: (the moved pentagons, kinetic / released potential energy at
+    the end, a measure of how settled they are)."""
+    scene = Scene(domain=((0.0, 0.0), (width, height)), gravity=(0.0, -gravity), contact=contact)
+    for name, shape, pos in walls:
+        scene.add_rigid_body(shape, density=density, position=pos, motion="fixed", friction=friction, name=name)
+    for k, p in enumerate(pentagons):
+        scene.add_rigid_body(p.shape, density=density, position=p.position, angle=p.angle, friction=friction,
+                             name=f"pentagon{k}")
+    sim = Simulation(scene, device="cpu")
+    result = sim.run(duration, frames=1, quiet=True)
+    d = result.diagnostics
+    released = float(d["energy_gravity"][0] - d["energy_gravity"][-1])
+    f = sim.body_fields()
+    first = len(walls)
+    moved = [Pentagon(p.shape, (float(f["x"][first + k, 0]), float(f["x"][first + k, 1])),
+                      float(f["angle"][first + k])) for k, p in enumerate(pentagons)]
+    return moved, float(d["energy_kinetic"][-1]) / max(released, 1e-300)
+
+
+def deepest_overlap(shapes: list, positions: np.ndarray, angles: np.ndarray, moving: np.ndarray) -> float:
+    """The largest overlap a_i + a_j − |core_i − core_j| [m] between two of the rounded bodies at these
+    centroids [m] and angles [rad], at least one of them ``moving`` (the fixed walls meet at the
+    corners by construction); 0 when none touch. The DEM stays meaningful while it is well below the
+    sphero radius."""
+    cores = [Polygon(s.world_vertices(x, a)) for s, x, a in zip(shapes, positions, angles, strict=True)]
+    radius = np.array([s.radius for s in shapes])
+    j, i = shapely.STRtree(cores).query(cores, predicate="dwithin", distance=2.0 * radius.max())
+    sel = (i < j) & (moving[i] | moving[j])
+    i, j = i[sel], j[sel]
+    if len(i) == 0:
+        return 0.0
+    gap = shapely.distance(np.array(cores, dtype=object)[i], np.array(cores, dtype=object)[j])
+    return float(max(0.0, (radius[i] + radius[j] - gap).max()))
 
 
 def solid_area(pentagons: list[Pentagon]) -> float:

@@ -63,13 +63,22 @@
 # overlaps approach r_d).
 """Uniaxial compression of a granular matrix (MPM-SDEM §7): pentagon skeleton + MPM fines; force–settlement, modulus."""
 
+import functools
 import math
 import sys
 
 import numpy as np
-from mpmdem.cases._granular_matrix_sample import pick_fines, skeleton, solid_area, void_area, void_lattice
+from mpmdem.cases._granular_matrix_sample import (
+    container,
+    deepest_overlap,
+    pick_fines,
+    settle,
+    skeleton,
+    solid_area,
+    void_area,
+    void_lattice,
+)
 from mpmdem.cases._table3 import CM, GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, SPHERO_RADIUS, VERLET, sand
-from mpmdem.cases._table3 import DENSITY as FINES_DENSITY
 
 from mpmdem import ContactLaw, InputError, Scene, rounded_rectangle
 from mpmdem.runner import CaseSetup
@@ -98,10 +107,11 @@ FINES = 0.2  # default fines content (fraction of the void area)
 FINES_STUDY = (0.0, 0.1, 0.2, 0.3)
 CONTACT_FORCE = 0.05  # first contact: mean bar force above this fraction of the sample's weight
 MODULUS_STRAIN = (0.01, 0.04)  # strain window of the modulus fit, after first contact
-FULL = {"cell_size": 0.5 * CM, "size": 2.5 * CM, "height": 0.55, "settle": 0.3, "settlement": SETTLEMENT_PAPER}
+FULL = {"cell_size": 0.5 * CM, "size": 2.5 * CM, "height": 0.55, "settle": 0.3, "settlement": 4.0 * CM}
 #: --quick: 17 pentagons, ~580 points at F = 0.3 on a 1.27 cm grid, 4 cm of settlement
-QUICK = {"cell_size": CONTAINER / 48, "size": 4.0 * CM, "height": 0.30, "settle": 0.2, "settlement": 4.0 * CM}
-FRAME_TRAVEL = 1.0e-3  # m of bar travel between frames
+QUICK = {"cell_size": CONTAINER / 48, "size": 4.0 * CM, "height": 0.30, "settle": 0.2, "settlement": 1.5 * CM}
+SKELETON_SETTLE = 0.6  # s of the DEM-only packing run (cases/_granular_matrix_sample.py)
+FRAME_TRAVEL = 0.5e-3  # m of bar travel between frames
 
 
 def add_arguments(parser):
@@ -153,15 +163,27 @@ def params(args) -> dict:
 
 
 def sample(args, p: dict) -> dict:
-    """The skeleton, the fines' points and the areas [m, m²] of this run (deterministic in --seed)."""
-    rng = np.random.default_rng(args.seed)
-    pents = skeleton(rng, CONTAINER, p["height"], p["size"], SPHERO_RADIUS)
+    """The packed skeleton, the fines' points and the areas [m, m²] of this run (deterministic in --seed)."""
+    return _sample(args.seed, p["size"], p["height"], p["h"], p["rp"], args.fines, float(args.normal_stiffness))
+
+
+@functools.lru_cache(maxsize=4)
+def _sample(seed, size, height, h, rp, fines, kn) -> dict:
+    rng = np.random.default_rng(seed)
+    lattice = skeleton(rng, CONTAINER, height, size, SPHERO_RADIUS)
+    pents, residual = settle(lattice, container(CONTAINER, CONTAINER, WALL, SPHERO_RADIUS), CONTAINER, CONTAINER,
+                             PENTAGON_DENSITY, MU_TABLE, contact_law(kn), GRAVITY, SKELETON_SETTLE)
     top = max(q.top() for q in pents)
     voids = void_area(pents, CONTAINER)
-    cand = void_lattice(pents, CONTAINER, top, p["h"], p["rp"])
-    fines = pick_fines(cand, args.fines, voids, p["h"], np.random.default_rng(args.seed + 1))
-    return {"pentagons": pents, "top": top, "void_area": voids, "solid_area": solid_area(pents), "fines": fines,
-            "candidates": len(cand)}
+    cand = void_lattice(pents, CONTAINER, top, h, rp)
+    chosen = pick_fines(cand, fines, voids, h, np.random.default_rng(seed + 1))
+    return {"pentagons": pents, "lattice_top": max(q.top() for q in lattice), "top": top, "void_area": voids,
+            "solid_area": solid_area(pents), "fines": chosen, "candidates": len(cand), "settle_residual": residual}
+
+
+def contact_law(kn: float) -> ContactLaw:
+    """Every contact (body–body and point–body): k_n [N/m per m], k_t = k_n / 20, restitution 0.5."""
+    return ContactLaw(kn, kn * KT / KN, restitution=RESTITUTION)
 
 
 def build(args) -> CaseSetup:
@@ -172,15 +194,12 @@ def build(args) -> CaseSetup:
     top = -h + h * math.ceil((bar_y + 0.5 * WALL + h) / h)
     scene = Scene(domain=((-h, -h), (CONTAINER + h, top)), cell_size=h, gravity=(0.0, -GRAVITY),
                   boundaries={"left": "slip", "right": "slip", "bottom": "slip", "top": "free"},
-                  contact=ContactLaw(args.normal_stiffness, args.normal_stiffness * KT / KN, restitution=RESTITUTION))
+                  contact=contact_law(args.normal_stiffness))
     if len(s["fines"]):
         scene.add_points(s["fines"], sand(), size=h / POINTS_PER_CELL, contact_radius=p["rp"], name="fines")
-    walls = (("floor", CONTAINER + 2.0 * WALL, WALL, (0.5 * CONTAINER, -0.5 * WALL)),
-             ("wall_left", WALL, CONTAINER + WALL, (-0.5 * WALL, 0.5 * (CONTAINER - WALL))),
-             ("wall_right", WALL, CONTAINER + WALL, (CONTAINER + 0.5 * WALL, 0.5 * (CONTAINER - WALL))))
-    for name, w, hh, pos in walls:
-        scene.add_rigid_body(rounded_rectangle(w, hh, SPHERO_RADIUS), density=PENTAGON_DENSITY, position=pos,
-                             motion="fixed", friction=MU_TABLE, name=name)
+    for name, shape, pos in container(CONTAINER, CONTAINER, WALL, SPHERO_RADIUS):
+        scene.add_rigid_body(shape, density=PENTAGON_DENSITY, position=pos, motion="fixed", friction=MU_TABLE,
+                             name=name)
     for k, q in enumerate(s["pentagons"]):
         scene.add_rigid_body(q.shape, density=PENTAGON_DENSITY, position=q.position, angle=q.angle,
                              friction=MU_TABLE, name=f"pentagon{k}")
@@ -237,6 +256,9 @@ def loading_curve(times, bar_y, force_y, work, kinetic, bar_speed, weight, bar_h
     after = np.arange(len(d)) >= c
     late = after & (d_mid >= 0.5 * (dc + d[-1]))  # second half of the loading after contact
     out["kinetic_over_work_final"] = float(ratio[-1])
+    # the kinetic energy averaged over the loading after contact (slip bursts included) over the
+    # bar's whole work: the share of the work that the run kept in motion on average
+    out["kinetic_mean_over_work"] = float(np.mean(kinetic[c:]) / work[-1]) if work[-1] > 0.0 else None
     out["kinetic_over_work_max_late"] = float(np.nanmax(ratio[late])) if late.any() else None
     out["force_final_n_per_m"] = float(np.nanmean(mean[-3:]))
     return out
@@ -252,6 +274,8 @@ def summarize(sim, result, args) -> dict:
         b = names.index("bar")
         bx = np.array([rf.body_field("x", k)[b] for k in range(rf.frame_count)])
         bf = np.array([rf.body_field("force", k)[b] for k in range(rf.frame_count)])
+        last = rf.frame_count - 1
+        final_x, final_angle = rf.body_field("x", last), rf.body_field("angle", last)
         diag = rf.diagnostics
     bodies = sim.scene.rigid_bodies
     pent_mass = float(sum(q.mass for q in bodies if q.motion == "free"))
@@ -268,7 +292,9 @@ def summarize(sim, result, args) -> dict:
         "pentagons": int(sum(1 for q in bodies if q.motion == "free")),
         "cell_size": p["h"], "contact_radius": p["rp"], "pentagon_size": p["size"],
         "bar_speed": args.bar_speed, "settle_time": p["settle"], "normal_stiffness": float(args.normal_stiffness),
-        "skeleton_top_m": s["top"], "void_area_m2": voids, "solid_area_m2": s["solid_area"],
+        "lattice_top_m": s["lattice_top"], "skeleton_top_m": s["top"],
+        "skeleton_settle_kinetic_over_released": s["settle_residual"],
+        "void_area_m2": voids, "solid_area_m2": s["solid_area"],
         "void_ratio_initial": voids / s["solid_area"],
         "sample_weight_n_per_m": weight,
         "modulus_strain_window": list(MODULUS_STRAIN),
@@ -276,6 +302,9 @@ def summarize(sim, result, args) -> dict:
     work = np.asarray(diag["work_driven"], dtype=float)
     kinetic = np.asarray(diag["energy_kinetic"], dtype=float)
     out.update(loading_curve(np.asarray(times), bx[:, 1], bf[:, 1], work, kinetic, args.bar_speed, weight))
+    moving = np.array([q.motion != "fixed" for q in bodies])
+    out["deepest_overlap_final_m"] = deepest_overlap([q.shape for q in bodies], final_x, final_angle, moving)
+    out["sphero_radius"] = SPHERO_RADIUS
     if "points_mass" in diag:
         m = np.asarray(diag["points_mass"])
         out["mass_max_relative_change"] = float(np.abs(m / m[0] - 1.0).max())
