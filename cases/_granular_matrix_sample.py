@@ -1,14 +1,14 @@
 """The granular-matrix sample of cases/granular_matrix.py: a pentagon skeleton and the fines in its voids.
 
-Skeleton: random convex pentagons (MPM-SDEM §7, "randomly generated pentagons") on a hexagonal
+Skeleton: random convex pentagons (MPM-SDEM §7 builds its skeleton of random pentagons) on a hexagonal
 lattice with random rotations. The lattice pitch is twice the largest bounding radius of the
 generated pentagons, so no two pentagons can overlap at any rotation. The lattice fills the
 container's width and stops at the highest row that fits under a target height. The lattice is
-loose (void fraction ~0.46) and collapses under gravity by a fifth of its height, so it is packed
+loose (void fraction ~0.46) and collapses under gravity by about a third of its height, so it is packed
 first: a DEM-only run on the CPU (``settle``, the pentagons alone in the container under gravity)
 lets it fall and come to rest; the fines are then seeded in the voids of the packed skeleton.
-The same seed gives the same packed skeleton for every fines content, as in the paper ("the basic
-skeleton structure of the SDEM is preserved in each case").
+The same seed gives the same packed skeleton for every fines content (MPM-SDEM §7 keeps one
+skeleton across its fines contents).
 
 Fines: material points on the lattice of spacing s = h/2 (2 × 2 points per grid cell) over the
 container, minus every point whose centre lies within r_p (1 + margin) of a pentagon, a wall or
@@ -17,7 +17,7 @@ the first, the second would start with a spring force). The fines content F is t
 the void area A_v = W × H0 − Σ A_pentagon (the container's inner width W, the skeleton's top H0)
 that the points cover (each point s²): F A_v / s² points. They are whole grid cells of candidate
 points picked at random, so every height of the sample holds the same share of fines on average;
-the clumps fall into the bottoms of their pores while the skeleton settles.
+the clumps fall into the bottoms of their pores while the bar waits.
 
 All lengths in m, areas in m² (per metre of thickness).
 """

@@ -12,55 +12,65 @@
 #   one cell on each side (its sides are slip walls there, never reached: the SDEM walls hold every
 #   point at r_p), its top is free; W is a whole number of cells (the cell size is rounded to fit).
 # * skeleton (cases/_granular_matrix_sample.py): random convex pentagons, circumradius 2.5 cm ± 10 %
-#   (4 cm with --quick), rounded by r_d, on a hexagonal lattice with random rotations, pitch twice the
-#   largest bounding radius (so none overlap), rows up to a sample height of 0.55 m (0.30 m quick):
-#   77 pentagons, top at 0.53 m, void fraction 0.46 (quick: 17, 0.27 m). Settling them under gravity
-#   from a loose rain would cost more than the loading itself; on the lattice they only drop the few
-#   mm to their neighbours while the bar waits (SETTLE, 0.3 s; 0.2 s quick), and the bar closes the
-#   rest of the gaps as it comes down: the first part of the curve is the skeleton's rearrangement
-#   (the paper's own description of the early loading), the modulus is read after it (below).
+#   (4 cm with --quick), rounded by r_d, placed on a hexagonal lattice with random rotations, pitch
+#   twice the largest bounding radius (none overlap), rows up to 0.60 m (0.30 m quick). That lattice is
+#   loose (void fraction 0.46) and would collapse by a third of its height under gravity, most of it
+#   while the bar comes down, so it is packed first: a DEM-only run (SKELETON_SETTLE = 0.6 s, CPU, a
+#   second or two; the kinetic energy left is < 1e-3 of the released potential energy, in the summary)
+#   lets it fall and come to rest, and the packed skeleton is the sample: 85 pentagons, top at 0.41 m,
+#   void ratio 0.28 (quick: 17, 0.20 m). A rain of pentagons settled from far above would give a
+#   looser, more random packing but cost a long free fall; the lattice drop is short and the same seed
+#   gives the same skeleton for every fines content (the paper keeps one skeleton across its fines
+#   contents). The fines are seeded in the packed voids and settle into their pores while the bar waits
+#   (SETTLE, 0.3 s; 0.2 s quick).
 # * bar: a kinematic rounded rectangle 2 cm thick, 2 mm clear of each wall (no bar–wall contact) and
-#   2 mm above the skeleton's top, at rest until SETTLE, then moving down at --bar-speed.
+#   2 mm above the packed skeleton's top, at rest until SETTLE, then moving down at --bar-speed.
 #
 # Fines content F (--fines): the fraction of the void area A_v = W × H0 − Σ A_pentagon (H0 the
-# skeleton's top) that the fines cover; the paper does not define its "fine percentage", and by
-# area of the voids it reads directly as how full the voids are ("the void space is not saturated
-# by fines" in every case of Fig. 23). The summary also gives the fines' share of the solid mass
-# (the geotechnical fines content, by mass). The fines are whole grid cells of the void lattice (2 × 2
-# points each) taken at random, not the lower part of the voids: a bottom layer of fines would make
-# a layered sample (a fines-free top above a filled base, two springs in series), while random cells
-# give every height the same share; the clumps fall into the bottoms of their pores during the
-# settling, as fines do. Points start r_p (1 + 5 %) clear of every body. Variants: 0, 0.1, 0.2, 0.3
-# (bench/granular_matrix.py); the most that fits is ~0.6 on the 0.5 cm grid, ~0.35 on the quick one.
+# packed skeleton's top) that the fines cover; the paper does not define its "fine percentage", and
+# by area of the voids it reads directly as how full the voids are (the paper's voids are never full
+# in Fig. 23's cases). The summary also gives the fines' share of the solid mass (the
+# geotechnical fines content, by mass: 5.5 % at F = 0.3). The fines are whole grid cells of the void
+# lattice (2 × 2 points each) taken at random, not the lower part of the voids: a bottom layer of
+# fines would make a layered sample (a fines-free top over a filled base, two springs in series),
+# while random cells give every height the same share; the clumps fall into the bottoms of their
+# pores during the settling, as fines do. Points start r_p (1 + 5 %) clear of every body. Variants:
+# 0, 0.1, 0.2, 0.3 (bench/granular_matrix.py); the most that fits clear of the pentagons is printed
+# by a refused --fines (about 0.35-0.4 on both grids).
 #
 # Departures from Table 3, and why (as in cases/silo_discharge.py):
 # * k_n = 1e6 N/m per m, k_t = k_n / 20 (Table 3's ratio) instead of 6e8: the coupled step is bounded by
 #   the lightest point on a contact spring (MPM-SDEM eq. 51 with the point term, README "Time step"),
-#   ~1e-6 s at 6e8, 2e6 steps for 2.2 s of loading. At 1e6 the skeleton's contacts are about as stiff as
-#   the fines (k_n ~ E × 1 m, E = 0.79 MPa): the apparent modulus is a property of this k_n, compared
-#   between fines contents, not an absolute number. Overlaps grow as F / k_n: at the 11 cm settlement a
-#   force of ~1e4 N/m over ~10 contacts per row is ~1 mm of overlap, below r_d.
+#   ~1e-6 s at 6e8. At 1e6 the skeleton's contacts are about as stiff as the fines (k_n ~ E × 1 m,
+#   E = 0.79 MPa): the apparent modulus belongs to this k_n and is compared between fines contents, not
+#   read as an absolute number. The overlaps grow with the load as F / k_n, and the rounded-body contact
+#   holds while they stay below r_d: the summary gives the deepest one at the end. A packed skeleton
+#   with these contacts reaches r_d at about 8 % strain, so the bar travels 3 cm (--settlement; 7 % of
+#   the 0.41 m sample), not the paper's 11 cm (22 s × 0.5 cm/s, a stiffer skeleton).
 # * grid 0.5 cm (W = 122 cells) instead of Table 3's 0.35 cm: half the points and 1.4 × the step, for a
-#   study of four contents plus a half-rate check (--cell-size 0.0035 gives Table 3's).
+#   study of four contents plus half-rate checks (--cell-size 0.0035 gives Table 3's).
 # * r_p: the library's h/√2 (eq. 45's geometric middle; Table 3's 0.1 cm is below eq. 45's bound).
-# * loading rate: 5 cm/s (--bar-speed) instead of 0.5 cm/s, the same 11 cm settlement (--settlement) in
-#   2.2 s instead of 22 s. It is quasi-static when the kinetic energy of the sample stays small against
-#   the work of the bar (per frame in the summary: the share of the bar's work still in motion bounds
-#   the inertial share of the mean force) and when the force–settlement curve is nearly the same at
-#   half the speed (bench/granular_matrix.py runs that check).
+# * loading rate: 5 cm/s (--bar-speed) instead of 0.5 cm/s. It is quasi-static when the kinetic energy
+#   of the sample stays small against the work of the bar (over any stretch of the loading the inertial
+#   part of the force times the settlement is at most the change of kinetic energy, so KE / W_bar
+#   bounds the inertial share of the mean force) and when the force–settlement curve is nearly the same
+#   at half the speed (bench/granular_matrix.py runs that check).
 # * Δt: the library's step (CFL 0.4 and eq. 51 with the point term), not Table 3's 2e-4 s.
 # * restitution 0.5 for the normal dashpot (the paper's law is elastic; damping not given).
 # * g = 10 m/s² (cases/_table3.py).
 #
-# Measured (summary.json): per frame the bar's displacement d, the force on it (vertical reaction,
-# compression positive) as sampled at the frame and as the mean over the frame interval (ΔW_bar / Δd,
-# W_bar the bar's work `work_driven`: steadier than a DEM contact force sampled at one step), the
-# kinetic energy of points and pentagons and its ratio to W_bar. First contact: the first frame whose
-# mean force exceeds 5 % of the sample's weight (a few pentagons' weight: the bar presses on the
-# skeleton rather than grazing one top). Apparent modulus: σ = F / W against ε = (d − d_c) / H_c (d_c,
-# H_c the bar's displacement and its height above the floor at first contact), the least-squares slope
-# over MODULUS_STRAIN = 1-4 % after contact (after the first closing of the top gaps, well before the
-# overlaps approach r_d).
+# Measured (summary.json): per frame the bar's displacement d (its settlement, from its start), the
+# force on it (vertical reaction, compression positive) as sampled at the frame and as the mean over
+# the frame interval (ΔW_bar / Δd, W_bar the bar's work `work_driven`: steadier than a DEM contact force
+# sampled at one step), the kinetic energy of points and pentagons (the bar's is not counted) and its
+# ratio to W_bar. First contact: the first frame whose mean force exceeds 5 % of the sample's weight
+# (a few pentagons' weight: the bar presses on the skeleton rather than grazing one top). Apparent
+# modulus: σ = F / W against ε = (d − d_c) / H_c (d_c, H_c the bar's displacement and its height above
+# the floor at first contact), the least-squares slope over MODULUS_STRAIN = 1-4 % after contact (past
+# the seating on the highest pentagons, before the overlaps approach r_d).
+#
+# Runs (2 CPU cores): --quick (17 pentagons, 195 points at F = 0.2, 1.5 cm of travel) ~4 s; the full
+# size (85 pentagons, 2653 points at F = 0.3, 22k steps) ~45 s.
 """Uniaxial compression of a granular matrix (MPM-SDEM §7): pentagon skeleton + MPM fines; force–settlement, modulus."""
 
 import functools
@@ -107,8 +117,8 @@ FINES = 0.2  # default fines content (fraction of the void area)
 FINES_STUDY = (0.0, 0.1, 0.2, 0.3)
 CONTACT_FORCE = 0.05  # first contact: mean bar force above this fraction of the sample's weight
 MODULUS_STRAIN = (0.01, 0.04)  # strain window of the modulus fit, after first contact
-FULL = {"cell_size": 0.5 * CM, "size": 2.5 * CM, "height": 0.55, "settle": 0.3, "settlement": 4.0 * CM}
-#: --quick: 17 pentagons, ~580 points at F = 0.3 on a 1.27 cm grid, 4 cm of settlement
+FULL = {"cell_size": 0.5 * CM, "size": 2.5 * CM, "height": 0.60, "settle": 0.3, "settlement": 3.0 * CM}
+#: --quick: 17 pentagons, ~290 points at F = 0.3 on a 1.27 cm grid, 1.5 cm of travel
 QUICK = {"cell_size": CONTAINER / 48, "size": 4.0 * CM, "height": 0.30, "settle": 0.2, "settlement": 1.5 * CM}
 SKELETON_SETTLE = 0.6  # s of the DEM-only packing run (cases/_granular_matrix_sample.py)
 FRAME_TRAVEL = 0.5e-3  # m of bar travel between frames
@@ -121,8 +131,8 @@ def add_arguments(parser):
     parser.add_argument("--bar-speed", type=float, default=BAR_SPEED,
                         help=f"speed of the bar [m/s] (default {BAR_SPEED}; the paper's {BAR_SPEED_PAPER})")
     parser.add_argument("--settlement", type=float, default=None,
-                        help=f"travel of the bar [m] (default the paper's {SETTLEMENT_PAPER:g}; "
-                             f"{QUICK['settlement']} with --quick)")
+                        help=f"travel of the bar [m] (default {FULL['settlement']}, the paper's {SETTLEMENT_PAPER:g} "
+                             f"is beyond these contacts; {QUICK['settlement']} with --quick)")
     parser.add_argument("--cell-size", type=float, default=None,
                         help=f"grid spacing [m], rounded so that the container is whole cells (default "
                              f"{FULL['cell_size']}; {QUICK['cell_size']:.4g} with --quick)")
