@@ -22,7 +22,8 @@ modulus against the fines content (half-rate runs as open markers).
     python bench/granular_matrix.py --device cuda          # the study: bench/results/granular_matrix.*
     python bench/granular_matrix.py --quick --device cpu   # the quick size, about 15 s on 2 CPU cores
 
-Each run's own files (HDF5, summary.json) go to PREFIX_runs/<label>/. Nothing is asserted.
+Each run's own files (HDF5, summary.json) go to results/<name>_runs/<label>/ (PREFIX_runs/<label>/
+with --out). Nothing is asserted.
 """
 
 from __future__ import annotations
@@ -147,7 +148,8 @@ def main(argv=None) -> int:
     name = "granular_matrix_quick" if args.quick else "granular_matrix"
     prefix = Path(args.out or ROOT / "bench" / "results" / name)
     prefix.parent.mkdir(parents=True, exist_ok=True)
-    runs = prefix.parent / f"{prefix.name}_runs"
+    # the runs' own files (HDF5, summary.json, energy.csv): beside --out, else in the ignored results/
+    runs = prefix.parent / f"{prefix.name}_runs" if args.out else ROOT / "results" / f"{name}_runs"
     half = {"ends": [min(fines), max(fines)], "all": fines, "none": []}[args.half_rate]
     jobs = [(f, args.bar_speed) for f in fines] + [(f, 0.5 * args.bar_speed) for f in dict.fromkeys(half)]
     rows, full = [], {}
