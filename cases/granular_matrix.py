@@ -36,7 +36,7 @@
 # while random cells give every height the same share; the clumps fall into the bottoms of their
 # pores during the settling, as fines do. Points start r_p (1 + 5 %) clear of every body. Variants:
 # 0, 0.1, 0.2, 0.3 (bench/granular_matrix.py); the most that fits clear of the pentagons is printed
-# by a refused --fines (about 0.35-0.4 on both grids).
+# by a refused --fines (0.45 on the 0.5 cm grid, 0.43 on the quick one).
 #
 # Departures from Table 3, and why (as in cases/silo_discharge.py):
 # * k_n = 1e6 N/m per m, k_t = k_n / 20 (Table 3's ratio) instead of 6e8: the coupled step is bounded by
