@@ -180,7 +180,7 @@ def pick_fines(candidates: np.ndarray, fines: float, voids: float, cell: float,
         most = len(candidates) * s * s / voids
         raise InputError("--fines", fines, f"a fines content of at most {most:.3f} for this skeleton and grid (the "
                          f"points that fit in the voids clear of the pentagons cover {most:.1%} of the void area; "
-                         "a finer --cell-size or smaller --sphero-radius leaves more room)")
+                         "a finer --cell-size or larger --pentagon-size leaves more room)")
     if need == 0:
         return np.zeros((0, 2))
     ij = np.floor(candidates / cell).astype(np.int64)
