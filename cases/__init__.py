@@ -28,6 +28,7 @@ CASES = {
     "rod-collision": "rod_collision",
     "sand-blocks": "sand_blocks",
     "silo-discharge": "silo_discharge",
+    "granular-matrix": "granular_matrix",
 }
 
 DEFAULT_CASE = "silo-discharge"

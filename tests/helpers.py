@@ -41,4 +41,12 @@ def run_script(name, out, *flags, timeout=600):
     return json.loads((out / "summary.json").read_text())
 
 
-__all__ = ["ENV", "ROOT", "LinearElastic", "free_disk_scene", "random_velocity", "run_script"]
+def run_refused(name, out, *flags, timeout=120):
+    """Run ``cases/<name>.py --quick`` on the CPU with flags it should refuse; return (exit code, the
+    lines of stderr other than Warp's note that there is no CUDA driver)."""
+    cmd = [sys.executable, str(ROOT / "cases" / f"{name}.py"), "--quick", "--device", "cpu", "--out", str(out), *flags]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=ENV)
+    return proc.returncode, [ln for ln in proc.stderr.strip().splitlines() if "CUDA driver" not in ln]
+
+
+__all__ = ["ENV", "ROOT", "LinearElastic", "free_disk_scene", "random_velocity", "run_refused", "run_script"]
