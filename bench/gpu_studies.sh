@@ -7,11 +7,12 @@ set -uo pipefail
 gpus=${1:-1}; k=${2:-4}; studies=${3:-"beverloo beverloo-methods block-impact block-impact-coupling block-impact-rounding column-collapse"}
 out=${OUT:-/tmp/out}; root=/tmp/studies; mkdir -p "$root" "$out"
 for s in $studies; do
+  name=$(basename "$s" .toml)
   t0=$(date +%s.%N)
-  python -m mpmdem.cli study "$s" --gpus "$gpus" --workers-per-gpu "$k" --out "$root/$s" > "$root/$s.log" 2>&1
+  python -m mpmdem.cli study "$s" --gpus "$gpus" --workers-per-gpu "$k" --out "$root/$name" > "$root/$name.log" 2>&1
   rc=$?
   t1=$(date +%s.%N)
-  python - "$s" "$gpus" "$k" "$t0" "$t1" "$rc" "$root/$s" <<'PY' | tee -a "$out/study_times.jsonl"
+  python - "$name" "$gpus" "$k" "$t0" "$t1" "$rc" "$root/$name" <<'PY' | tee -a "$out/study_times.jsonl"
 import json, subprocess, sys
 s, g, k, t0, t1, rc, d = sys.argv[1:]
 rows = [json.loads(l) for l in open(f"{d}/results.jsonl")] if rc == "0" else []
