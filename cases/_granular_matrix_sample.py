@@ -101,9 +101,10 @@ def container(width: float, height: float, thickness: float, sphero: float) -> l
 
 
 def settle(pentagons: list[Pentagon], walls: list[tuple], width: float, height: float, density: float,
-           friction: float, contact: ContactLaw, gravity: float, duration: float) -> tuple[list[Pentagon], float]:
+           friction: float, contact: ContactLaw, gravity: float, duration: float,
+           device: str = "cpu") -> tuple[list[Pentagon], float]:
     """The skeleton after ``duration`` [s] of falling under ``gravity`` [m/s²] in the container (DEM
-    only, CPU, no output), at rest again: (the moved pentagons, kinetic / released potential energy at
+    only, on the run's device, no output), at rest again: (the moved pentagons, kinetic / released potential energy at
     the end, a measure of how settled they are)."""
     scene = Scene(domain=((0.0, 0.0), (width, height)), gravity=(0.0, -gravity), contact=contact)
     for name, shape, pos in walls:
@@ -111,7 +112,7 @@ def settle(pentagons: list[Pentagon], walls: list[tuple], width: float, height: 
     for k, p in enumerate(pentagons):
         scene.add_rigid_body(p.shape, density=density, position=p.position, angle=p.angle, friction=friction,
                              name=f"pentagon{k}")
-    sim = Simulation(scene, device="cpu")
+    sim = Simulation(scene, device=device)
     result = sim.run(duration, frames=1, quiet=True)
     d = result.diagnostics
     released = float(d["energy_gravity"][0] - d["energy_gravity"][-1])

@@ -179,15 +179,18 @@ def params(args) -> dict:
 
 def sample(args, p: dict) -> dict:
     """The packed skeleton, the fines' points and the areas [m, m²] of this run (deterministic in --seed)."""
-    return _sample(args.seed, p["size"], p["height"], p["h"], p["rp"], args.fines, float(args.normal_stiffness))
+    from mpmdem.simulation import default_device
+
+    return _sample(args.seed, p["size"], p["height"], p["h"], p["rp"], args.fines, float(args.normal_stiffness),
+                   args.device or default_device())
 
 
 @functools.lru_cache(maxsize=4)
-def _sample(seed, size, height, h, rp, fines, kn) -> dict:
+def _sample(seed, size, height, h, rp, fines, kn, device) -> dict:
     rng = np.random.default_rng(seed)
     lattice = skeleton(rng, CONTAINER, height, size, SPHERO_RADIUS)
     pents, residual = settle(lattice, container(CONTAINER, CONTAINER, WALL, SPHERO_RADIUS), CONTAINER, CONTAINER,
-                             PENTAGON_DENSITY, MU_TABLE, contact_law(kn), GRAVITY, SKELETON_SETTLE)
+                             PENTAGON_DENSITY, MU_TABLE, contact_law(kn), GRAVITY, SKELETON_SETTLE, device)
     top = max(q.top() for q in pents)
     voids = void_area(pents, CONTAINER)
     cand = void_lattice(pents, CONTAINER, top, h, rp)
