@@ -199,8 +199,9 @@ def methods_report(runs: list[dict], out: Path) -> dict:
     out = Path(out)
     rows = []
     for r in runs:
-        kappa = (r.get("config") or {}).get("dem_kappa")
-        rows.append({"method": r.get("method", r.get("run")), "dem_kappa": kappa, "status": r.get("status"),
+        flags = r.get("flags", {})
+        kappa = float(flags["dem-kappa"]) if "dem-kappa" in flags else (r.get("config") or {}).get("dem_kappa")
+        rows.append({"method": flags.get("method", r.get("method")), "dem_kappa": kappa, "status": r.get("status"),
                      "rate": r.get("rate"), "wall_seconds": r.get("wall_seconds"), "steps": r.get("steps"),
                      "message": r.get("message", "")})
     ref = next((x["rate"] for x in rows if x["method"] == "granular" and x["dem_kappa"] == 0.1
