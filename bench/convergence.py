@@ -28,8 +28,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
-import mpmdem.cases.axial_bar as ab
 
+import mpmdem.cases.axial_bar as ab
 from mpmdem import SHAPE_FUNCTIONS, Simulation, SolverConfig
 
 RESULTS = Path(__file__).resolve().parent / "results"

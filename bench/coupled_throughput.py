@@ -61,11 +61,11 @@ from pathlib import Path
 
 import numpy as np
 import warp as wp
-from mpmdem.kernels import reductions as kred
 
 from mpmdem import ContactLaw, MohrCoulomb, Scene, Simulation, SolverConfig, regular_polygon
 from mpmdem.coupling import contact_time_step_bound
 from mpmdem.dem import dem_time_step_bound
+from mpmdem.kernels import reductions as kred
 from mpmdem.mpm import initial_dt_bound
 
 MATERIAL = MohrCoulomb(1.0e7, 0.3, 2000.0, 30.0, 0.0)

@@ -36,8 +36,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-from mpmdem.cases import granular_matrix as case
 
+from mpmdem.cases import granular_matrix as case
 from mpmdem.runner import run_case
 
 ROOT = Path(__file__).resolve().parents[1]

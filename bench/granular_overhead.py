@@ -66,9 +66,9 @@ from pathlib import Path
 
 import numpy as np
 import warp as wp
-from mpmdem.kernels import granular as kgran
 
 from mpmdem import MohrCoulomb, Scene, Simulation, SolverConfig, rectangle
+from mpmdem.kernels import granular as kgran
 from mpmdem.mpm import initial_dt_bound
 
 #: "Granular MPM" sand, E lowered from 1 GPa to 10 MPa (a 10× larger stable step).

@@ -13,9 +13,9 @@ import math
 import sys
 
 import numpy as np
-from mpmdem.cases._variants import VARIANTS, plot_variants, run_variant
 
 from mpmdem import MohrCoulomb, Scene, rectangle
+from mpmdem.cases._variants import VARIANTS, plot_variants, run_variant
 from mpmdem.runner import CaseSetup
 
 NAME = "avalanche"

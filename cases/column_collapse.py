@@ -44,13 +44,19 @@
 #   The top of the box is a slip lid two cells above the column, which the flow never reaches; it
 #   only keeps a point thrown up by FLIP noise from leaving the box and stopping the run.
 #
-# What it gives (bench/results/column_collapse_runout.json, 10 cells across L0): the runout is within
-# 25 % of Lube's fits for a = 0.5 to 8 (0.75 × at a = 0.5, 1.0 × at a = 1, 1.25 × from a = 2 on),
-# but it grows with resolution (a = 1: 1.09, 1.21, 1.61, 1.78 L0 at 8, 10, 20, 40 cells), so the
-# match at 10 cells is partly luck: the converged plane-strain runout is ~1.5 × Lube's at a = 1, in
-# line with the paper's MPM running past the experiments (§5.4). The final height matches for
-# a ≤ 1 but stays near 1.2-1.3 L0 for a ≥ 2, where Lube has a^(2/5) (1.74 at a = 4, 2.30 at a = 8),
-# whatever the resolution, the step or the floor: the deposits are flatter than the experiments'.
+# The runout is the deposit's front, as the experiments read it: the far edge of the continuous
+# deposit, where it thins below FRONT_THICKNESS × L0 (1 %, 2 mm at L0 = 0.2 m); the farthest point,
+# which one thrown grain sets, is reported beside it (`runout_farthest_point_m`).
+#
+# What it gives (`mpmdem study column-collapse` on an H200, bench/results/studies/column-collapse/,
+# 10, 20 and 40 cells across L0): the front converges (a = 1: 1.20, 1.62, 1.79 L0; a = 2: 3.10, 3.45,
+# 3.54; a = 4: 5.90, 6.28, 6.44), where the farthest point did not (a = 0.5 at 20 cells: 1.72 against
+# a front of 0.57). Converged, it runs 1.3-1.5 × Lube's fits, as the paper's MPM runs past the
+# walled experiments (§5.4: 34 % past Lajeunesse et al. at a = 3). The final height converges too
+# (a = 1: 0.97, 0.98, 0.95 L0) and matches Lube for a ≤ 1, but stays at 1.2-1.5 L0 for a ≥ 2, where
+# Lube has a^(2/5) (1.74 at a = 4, 2.30 at a = 8): the deposits are flatter than the experiments'.
+# a = 0.5 has not converged at 40 cells (0.45, 0.57, 0.79 against Lube's 0.6): its deposit is a thin
+# sheet a few points thick. a = 8 at 40 cells needs more than the default 16 grid layers.
 """Granular column collapse (Motion integration §5): runout, final height and stop time against Lube et al. 2005."""
 
 import math

@@ -18,6 +18,8 @@ import math
 import sys
 
 import numpy as np
+
+from mpmdem import InputError, Scene, disk, rounded_rectangle
 from mpmdem.cases import momentum_exchange
 from mpmdem.cases.momentum_exchange import (
     DENSITY,
@@ -30,8 +32,6 @@ from mpmdem.cases.momentum_exchange import (
     resolution,
     table1_material,
 )
-
-from mpmdem import InputError, Scene, disk, rounded_rectangle
 from mpmdem.runner import CaseSetup
 
 NAME = "disk-drop"

@@ -21,8 +21,8 @@ import math
 import sys
 
 import numpy as np
-from mpmdem.cases import normal_force as nf
 
+from mpmdem.cases import normal_force as nf
 from mpmdem.runner import CaseSetup
 
 NAME = "friction-force"

@@ -83,6 +83,8 @@ import math
 import sys
 
 import numpy as np
+
+from mpmdem import ContactLaw, InputError, Scene, rounded_rectangle
 from mpmdem.cases._granular_matrix_sample import (
     container,
     deepest_overlap,
@@ -94,8 +96,6 @@ from mpmdem.cases._granular_matrix_sample import (
     void_lattice,
 )
 from mpmdem.cases._table3 import CM, GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, SPHERO_RADIUS, VERLET, sand
-
-from mpmdem import ContactLaw, InputError, Scene, rounded_rectangle
 from mpmdem.runner import CaseSetup
 
 NAME = "granular-matrix"

@@ -6,6 +6,7 @@ import sys
 import numpy as np
 import pytest
 from helpers import ENV, ROOT, run_script
+
 from mpmdem.cases import column_collapse as cc
 
 

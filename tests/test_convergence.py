@@ -3,9 +3,9 @@
 import math
 from types import SimpleNamespace
 
-import mpmdem.cases.axial_bar as bar
 import pytest
 
+import mpmdem.cases.axial_bar as bar
 from mpmdem import SHAPE_FUNCTIONS, Simulation, SolverConfig
 
 

@@ -9,9 +9,9 @@ kernels for real.
 
 import numpy as np
 import warp as wp
-from mpmdem.kernels import granular as kgran
 
 import mpmdem as M
+from mpmdem.kernels import granular as kgran
 
 
 def _compile(kernels, tmp_path) -> int:

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 import warp as wp
 from helpers import run_script
-from mpmdem.kernels import granular as kgran
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from mpmdem import BlowUpError, InputError, LinearElastic, MohrCoulomb, Scene, Simulation, SolverConfig, rectangle
+from mpmdem.kernels import granular as kgran
 from mpmdem.mpm import CRITICAL_BAND
 
 H = 0.01  # m

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 import shapely
 from helpers import ENV, ROOT, run_refused, run_script
+
 from mpmdem.cases import _granular_matrix_sample as smp
 from mpmdem.cases import granular_matrix as gm
 

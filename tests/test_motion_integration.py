@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 import warp as wp
 from helpers import free_disk_scene, random_velocity
+
+from mpmdem import Boundary, NeoHookean, Scene, Simulation, SolverConfig, disk
 from mpmdem.kernels.shape_functions import SUPPORT_NODES
 from mpmdem.kernels.transfer import CORNERS, make_stencil
 from mpmdem.kernels.types import kernel
-
-from mpmdem import Boundary, NeoHookean, Scene, Simulation, SolverConfig, disk
 
 
 def test_cpdi1_partition_of_unity_and_linear_reproduction():

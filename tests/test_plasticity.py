@@ -11,10 +11,10 @@ import math
 import numpy as np
 import pytest
 import warp as wp
-from mpmdem.kernels.plasticity import PARAM_LEN, make_point_driver, param_vector
 
 from mpmdem.errors import InputError
 from mpmdem.granular_materials import DruckerPrager, MohrCoulomb
+from mpmdem.kernels.plasticity import PARAM_LEN, make_point_driver, param_vector
 
 MAT22 = wp.types.matrix((2, 2), wp.float64)
 F_TOL = 1e-11  # relative to the stress scale, see the module docstring

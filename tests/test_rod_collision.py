@@ -10,6 +10,7 @@ import functools
 
 import pytest
 from helpers import run_script
+
 from mpmdem.cases import rod_collision as rc
 
 COARSE = 1.0  # cm: dg = L, L/dg = 1, the paper's hardest case

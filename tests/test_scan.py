@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 import warp as wp
+
 from mpmdem.kernels import scan as kscan
 
 

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 import warp as wp
+
 from mpmdem.kernels.shape_functions import SUPPORT_NODES, make_weights_1d
 from mpmdem.kernels.types import kernel
 

@@ -11,9 +11,9 @@ import sys
 import numpy as np
 import pytest
 from helpers import ENV, ROOT, run_script
-from mpmdem.cases import silo_discharge as silo
 
 from mpmdem import InputError, LinearElastic, Scene, Simulation, rectangle
+from mpmdem.cases import silo_discharge as silo
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +48,9 @@ def test_rate_against_beverloo_at_our_contact_radius(summary):
     the contact radius of this grid (r_p = h/√2 = 3.5 mm, not Table 3's 1 mm: k r_p is the empty
     annulus the contacts leave along the orifice's edges). At D0 = 4 cm = 8 cells the quick grid is
     coarse: the rate moves by tens of per cent between 0.7 and 0.5 cm grids, so the check is ±25 %
-    (it fails on a jammed orifice, a rate set by the walls, or a g or ρ unit slip, each a factor ≥ 2)."""
+    (it fails on a jammed orifice, a rate set by the walls, or a g or ρ unit slip, each a factor ≥ 2).
+    Under refinement the rate keeps growing past the law (1.7 × the paper's C on a 2.5 mm grid):
+    tests/test_study_results.py holds that gap as a strict xfail."""
     expected = silo.beverloo(summary["orifice_m"], r_p=summary["contact_radius"])
     assert 0.75 < summary["rate"] / expected < 1.25
 
