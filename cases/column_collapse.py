@@ -49,14 +49,13 @@
 # which one thrown grain sets, is reported beside it (`runout_farthest_point_m`).
 #
 # What it gives (`mpmdem study column-collapse` on an H200, bench/results/studies/column-collapse/,
-# 10, 20 and 40 cells across L0): the front converges (a = 1: 1.20, 1.62, 1.79 L0; a = 2: 3.10, 3.45,
-# 3.54; a = 4: 5.90, 6.28, 6.44), where the farthest point did not (a = 0.5 at 20 cells: 1.72 against
-# a front of 0.57). Converged, it runs 1.3-1.5 × Lube's fits, as the paper's MPM runs past the
-# walled experiments (§5.4: 34 % past Lajeunesse et al. at a = 3). The final height converges too
-# (a = 1: 0.97, 0.98, 0.95 L0) and matches Lube for a ≤ 1, but stays at 1.2-1.5 L0 for a ≥ 2, where
-# Lube has a^(2/5) (1.74 at a = 4, 2.30 at a = 8): the deposits are flatter than the experiments'.
-# a = 0.5 has not converged at 40 cells (0.45, 0.57, 0.79 against Lube's 0.6): its deposit is a thin
-# sheet a few points thick. a = 8 at 40 cells needs more than the default 16 grid layers.
+# 10, 20, 40 and 80 cells across L0): the front converges, moving by less than 7 % from 40 to 80
+# cells at every a (a = 1: 1.20, 1.62, 1.79, 1.68 L0; a = 4: 5.90, 6.28, 6.44, 6.39), where the
+# farthest point did not (a = 8 at 80 cells: 14.3 against a front of 10.1). Converged, it runs
+# 1.23-1.44 × Lube's fits, as the paper's MPM runs past the walled experiments (§5.4: 34 % past
+# Lajeunesse et al. at a = 3). The final height converges too and matches Lube for a ≤ 1, but stays
+# at 1.2-1.5 L0 for a ≥ 2, where Lube has a^(2/5) (1.74 at a = 4, 2.30 at a = 8): the deposits are
+# flatter than the experiments'.
 """Granular column collapse (Motion integration §5): runout, final height and stop time against Lube et al. 2005."""
 
 import math

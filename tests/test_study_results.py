@@ -147,21 +147,23 @@ def test_events_do_not_depend_on_the_corner_rounding():
 
 # -- the column collapse ("Motion integration" §5) ---------------------------------------------------
 def front(a, cells):
-    r = next(r for r in rows("column-collapse") if r["aspect-ratio"] == a and r["cells-per-width"] == cells)
+    """The normalised runout (deposit front) of the last row of that run (a failed run may have been
+    re-run: the table keeps both rows)."""
+    r = [r for r in rows("column-collapse") if r["aspect-ratio"] == a and r["cells-per-width"] == cells][-1]
     return r["normalized_runout"] if r["status"] == "completed" else math.nan
 
 
-@pytest.mark.parametrize("a", [1.0, 2.0, 4.0])
+@pytest.mark.parametrize("a", [0.5, 1.0, 2.0, 4.0, 8.0])
 def test_runout_front_converges(a):
-    """The deposit's front changes less from 20 to 40 cells than from 10 to 20 (the farthest point did
-    not: at a = 0.5 it read 0.45, 1.72, 0.78)."""
-    assert abs(front(a, 40) - front(a, 20)) < abs(front(a, 20) - front(a, 10))
+    """From 40 to 80 cells across the column the deposit's front moves by less than 10 % (the
+    farthest point did not settle: at a = 0.5 it read 0.45, 1.72, 0.78 at 10, 20, 40 cells)."""
+    assert abs(front(a, 80) / front(a, 40) - 1.0) < 0.1
 
 
-@pytest.mark.xfail(strict=True, reason="40 cells: (L_f − L0)/L0 = 1.79, 3.54, 6.44 at a = 1, 2, 4, i.e. 1.49, 1.43, "
-                   "1.34 x Lube's fits: plane-strain MPM runs past the walled experiments, as 'Motion integration' "
-                   "§5.4 finds (34 % wider than Lajeunesse et al. at a = 3)")
-@pytest.mark.parametrize("a", [1.0, 2.0, 4.0])
+@pytest.mark.xfail(strict=True, reason="80 cells: (L_f − L0)/L0 = 0.74, 1.68, 3.55, 6.39, 10.09 at a = 0.5-8, "
+                   "i.e. 1.23-1.44 x Lube's fits: plane-strain MPM runs past the walled experiments, as 'Motion "
+                   "integration' §5.4 finds (34 % wider than Lajeunesse et al. at a = 3)")
+@pytest.mark.parametrize("a", [0.5, 1.0, 2.0, 4.0, 8.0])
 def test_converged_runout_against_lube(a):
     """Within 20 % of Lube et al.'s fit, about the scatter of their channel data around it."""
-    assert abs(front(a, 40) / lube_runout(a) - 1.0) < 0.2
+    assert abs(front(a, 80) / lube_runout(a) - 1.0) < 0.2

@@ -1,5 +1,5 @@
 """Column-collapse runout under refinement ("Motion integration" §5, `column-collapse`): aspect ratios
-a = 0.5, 1, 2, 4, 8 at 10, 20 and 40 cells across the column, against Lube et al. (2005).
+a = 0.5, 1, 2, 4, 8 at 10, 20, 40 and 80 cells across the column, against Lube et al. (2005).
 
 The runout is the deposit's front (the edge of the continuous deposit, as the experiments read it),
 the farthest point is kept beside it; the chart shows both with the spread over the three grids.
@@ -45,13 +45,13 @@ def analyze(rows: list[dict], out: Path) -> dict:
     ax2.plot(aa, [lube_height(v) for v in aa], "k--", lw=1, label="Lube et al. 2005")
     for j, c in enumerate(cells):
         sel = [x for x in table if x["cells"] == c]
-        shift = 1.0 + 0.04 * (j - 0.5 * (len(cells) - 1))
+        shift = 1.0 + 0.03 * (j - 0.5 * (len(cells) - 1))
         col = plt.cm.viridis(0.15 + 0.7 * j / max(len(cells) - 1, 1))
-        ax.plot([x["a"] * shift for x in sel], [x["runout"] for x in sel], "os^"[j % 3], color=col,
+        ax.plot([x["a"] * shift for x in sel], [x["runout"] for x in sel], "os^D"[j % 4], color=col,
                 label=f"front, {c} cells across")
-        ax.plot([x["a"] * shift for x in sel], [x["runout_farthest_point"] for x in sel], "os^"[j % 3], color=col,
+        ax.plot([x["a"] * shift for x in sel], [x["runout_farthest_point"] for x in sel], "os^D"[j % 4], color=col,
                 mfc="none", alpha=0.5, label=f"farthest point, {c} cells" if j == len(cells) - 1 else None)
-        ax2.plot([x["a"] * shift for x in sel], [x["final_height"] for x in sel], "os^"[j % 3], color=col,
+        ax2.plot([x["a"] * shift for x in sel], [x["final_height"] for x in sel], "os^D"[j % 4], color=col,
                  label=f"{c} cells across")
     for a in ratios:  # the spread over the grids as a bar
         v = [x["runout"] for x in table if x["a"] == a]
@@ -73,7 +73,7 @@ def analyze(rows: list[dict], out: Path) -> dict:
 STUDY = Study(
     name="column-collapse",
     case="column-collapse",
-    description="column-collapse runout and final height at a = 0.5-8 and three grids vs Lube et al. (2005)",
-    grid={"--aspect-ratio": [0.5, 1.0, 2.0, 4.0, 8.0], "--cells-per-width": [10, 20, 40]},
+    description="column-collapse runout and final height at a = 0.5-8 and four grids vs Lube et al. (2005)",
+    grid={"--aspect-ratio": [0.5, 1.0, 2.0, 4.0, 8.0], "--cells-per-width": [10, 20, 40, 80]},
     analyze=analyze,
 )
