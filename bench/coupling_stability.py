@@ -67,10 +67,8 @@ about 3 min on 2 CPU cores (``--jobs 2``, one process per core); ``--quick`` (2 
 from __future__ import annotations
 
 import argparse
-import concurrent.futures
 import json
 import math
-import multiprocessing
 import os
 import sys
 import time
@@ -78,6 +76,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from mpmdem.study_cluster import map_tasks
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SCENES = ("disk-drop", "hard-exchange", "lone-point")
@@ -299,19 +299,14 @@ def _task(args, name: str, ppc: int, kn: float, rp: float, factor: float, refine
     return dict(scene=name, kn=kn, rp=rp, factor=factor, device=args.device, sizes=sizes, cost=cost, refined=refined)
 
 
-def _run_all(tasks: list[dict], jobs: int) -> list[dict]:
+def _run_all(tasks: list[dict], args) -> list[dict]:
+    """Every task on the study runner's clusters (mpmdem.study_cluster): ``--jobs`` CPU processes,
+    ``--gpus`` pinned GPU workers or ``--scheduler``; one JSON line per run as it finishes."""
     tasks = sorted(tasks, key=lambda t: -t["cost"])  # longest first: the processes end together
     rows = []
-    if jobs <= 1:
-        for t in tasks:
-            rows.append(run_one(t))
-            print(json.dumps(rows[-1]), flush=True)
-        return rows
-    ctx = multiprocessing.get_context("spawn")
-    with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
-        for row in pool.map(run_one, tasks, chunksize=1):
-            rows.append(row)
-            print(json.dumps(row), flush=True)
+    for row in map_tasks(run_one, tasks, workers=args.jobs, gpus=args.gpus, scheduler=args.scheduler):
+        rows.append(row)
+        print(json.dumps(row), flush=True)
     return rows
 
 
@@ -338,9 +333,9 @@ def sweep(args) -> list[dict]:
     print(f"sweep: {len(tasks)} runs, then one refinement per map column at its edge; {args.jobs} process(es)",
           file=sys.stderr, flush=True)
     run_one(dict(tasks[-1], factor=2.0))  # compiles (or loads) the kernels once, before the workers share the cache
-    rows = _run_all(tasks, args.jobs)
+    rows = _run_all(tasks, args)
     if args.refine:
-        rows += _run_all(refinements(args, rows), args.jobs)
+        rows += _run_all(refinements(args, rows), args)
     key = {n: i for i, n in enumerate(SCENES)}
     rows.sort(key=lambda r: (key.get(r["scene"], 9), r["ppc"], r["rp"], r["kn"], r["factor"]))
     return rows
@@ -522,7 +517,9 @@ def main(argv=None) -> int:
     p.add_argument("--precision", default=Sizes.precision, choices=("f32", "f64"))
     p.add_argument("--no-refine", dest="refine", action="store_false",
                    help="skip the extra run per column between its last stable and first non-stable dt")
-    p.add_argument("--jobs", type=int, default=None, help="processes (default: 2 on cpu, 1 on cuda)")
+    p.add_argument("--jobs", type=int, default=None, help="CPU processes (default: 2 on cpu, 1 on cuda)")
+    p.add_argument("--gpus", type=int, default=0, help="one worker per GPU, pinned (the study runner's cluster)")
+    p.add_argument("--scheduler", default=None, help="a running Dask cluster's address (e.g. dask-jobqueue)")
     p.add_argument("--out", type=Path, default=RESULTS / "coupling_stability.json")
     p.add_argument("--png", type=Path, default=RESULTS / "coupling_stability.png")
     p.add_argument("--replot", type=Path, default=None, help="draw the map from this JSON; run nothing")

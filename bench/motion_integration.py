@@ -52,13 +52,11 @@ stable runs, each scheme's Pareto front highlighted) to ``--pareto`` and a stabi
 from __future__ import annotations
 
 import argparse
-import concurrent.futures
 import dataclasses
 import functools
 import importlib
 import json
 import math
-import multiprocessing
 import os
 import tempfile
 import time
@@ -77,6 +75,7 @@ import mpmdem.io
 from mpmdem import BlowUpError, InputError, Simulation, SolverConfig
 from mpmdem.mpm import initial_dt_bound
 from mpmdem.runner import make_case_parser
+from mpmdem.study_cluster import map_tasks
 
 RESULTS = Path(__file__).resolve().parent / "results"
 DEFAULT_CASES = ("rotating-disk", "bouncing-disk")
@@ -370,14 +369,10 @@ def sweep(args) -> list[dict]:
                 out.write(line + "\n")
             out.flush()
 
-        if args.jobs <= 1:
-            for task in tasks:
-                emit(run_group(task))
-        else:
-            ctx = multiprocessing.get_context("spawn")
-            with concurrent.futures.ProcessPoolExecutor(args.jobs, mp_context=ctx) as pool:
-                for group in pool.map(run_group, tasks):
-                    emit(group)
+        # the study runner's clusters (mpmdem.study_cluster): --jobs CPU processes, --gpus pinned GPU
+        # workers or --scheduler; a group's rows as soon as it ends
+        for group in map_tasks(run_group, tasks, workers=args.jobs, gpus=args.gpus, scheduler=args.scheduler):
+            emit(group)
     print(f"\nsweep: {len(rows)} runs in {time.perf_counter() - start:.1f} s", flush=True)
     return rows
 
@@ -547,6 +542,8 @@ def main(argv=None) -> None:
     parser.add_argument("--jobs", type=int, default=None,
                         help="worker processes, each running whole groups (default 1 on a GPU, 2 on a CPU "
                              "with 2 or more cores: Warp's CPU kernels use one core)")
+    parser.add_argument("--gpus", type=int, default=0, help="one worker per GPU, pinned (the study runner's cluster)")
+    parser.add_argument("--scheduler", default=None, help="a running Dask cluster's address (e.g. dask-jobqueue)")
     parser.add_argument("--end-time-scale", type=float, default=1.0, help="multiplies the cases' end times")
     parser.add_argument("--smoke", action="store_true",
                         help="2 schemes × 2 orders × κ 0.5, 2.5 × quick only (writes *_smoke files)")

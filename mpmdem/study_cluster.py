@@ -17,7 +17,7 @@ from pathlib import Path
 
 from .study_worker import execute_run, failed_row
 
-__all__ = ["DASK_MISSING", "dask_available", "execute_runs"]
+__all__ = ["DASK_MISSING", "dask_available", "execute_runs", "map_tasks"]
 
 DASK_MISSING = 'the study runner needs Dask: pip install "mpmdem[study]" (or run serially with --workers 0)'
 
@@ -89,3 +89,24 @@ def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | 
                 yield future.result()
             except Exception as e:  # the worker itself died (a crash, killed for memory, ...)
                 yield failed_row(run.id, run.values, f"worker lost: {type(e).__name__}: {e}", device=device)
+
+
+def map_tasks(fn, tasks: list, workers: int = 1, gpus: int = 0, workers_per_gpu: int = 1,
+              scheduler: str | None = None) -> Iterator:
+    """``fn(task)`` of every task, in the order they finish, on the same clusters as a study's runs:
+    in this process (``workers`` ≤ 1, no GPUs, no scheduler), on ``workers`` local CPU processes, on
+    ``gpus × workers_per_gpu`` pinned GPU workers, or on the cluster at ``scheduler``. For sweeps
+    that are not a case × flags (the benches' own scenes); ``fn`` must be picklable (Dask's
+    cloudpickle also takes a script's own functions)."""
+    if workers <= 1 and gpus == 0 and not scheduler:
+        for task in tasks:
+            yield fn(task)
+        return
+    if not dask_available():
+        raise ImportError(DASK_MISSING)
+    from distributed import as_completed
+
+    with study_client(workers, gpus, workers_per_gpu, scheduler) as client:
+        futures = client.map(fn, tasks, pure=False)
+        for future in as_completed(futures):
+            yield future.result()

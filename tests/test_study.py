@@ -193,3 +193,17 @@ def test_gpu_workers_are_pinned_one_card_each(monkeypatch):
     with study_client(0, gpus=2, workers_per_gpu=2) as client:
         client.wait_for_workers(4)
         assert sorted(client.run(_visible_devices).values()) == ["0", "0", "1", "1"]
+
+
+def _square_and_pid(x):
+    return x * x, os.getpid()
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_bench_sweeps_map_their_tasks_on_the_study_clusters(workers):
+    """map_tasks (the benches' sweeps): every task's result, in this process or on two worker
+    processes of a local cluster."""
+    out = list(study_cluster.map_tasks(_square_and_pid, [1, 2, 3, 4], workers=workers))
+    assert sorted(r for r, _ in out) == [1, 4, 9, 16]
+    pids = {p for _, p in out}
+    assert (pids == {os.getpid()}) if workers == 1 else (os.getpid() not in pids)
