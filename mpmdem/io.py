@@ -14,14 +14,17 @@ fixed count M >= 0 of rigid DEM bodies (spheropolygons):
   arrays the writer was given;
 * ``/time``: the simulated time of each frame [s], float64;
 * ``/diagnostics/<name>``: one float64 scalar per frame (energies, momenta, dt, ...);
+* ``/xdmf/...``: what the XDMF sidecars point at (per-frame virtual views of the fields, the
+  bodies' world outlines, connectivities; see ``mpmdem.xdmf``); readers of the run ignore it;
 * root attributes: every entry of the writer's ``attrs`` as a JSON string, plus ``format``
   and, once the run ends, ``status`` and ``status_message`` (plain strings).
 
 The file is flushed after every frame and is never opened with the SWMR / "latest" file format,
 so a writer that crashes or is killed leaves a file that ``RunFile`` (or any HDF5 tool) reads up
-to the last complete frame. Next to it the writer keeps ``<name>.xdmf`` (rewritten atomically
-after every frame) so ParaView can open the run as time series of point clouds: a temporal
-collection "particles" (when N > 0) and one "bodies" of the body centroids (when M > 0).
+to the last complete frame. Next to it the writer keeps the XDMF 3 sidecars ``<name>.xdmf`` (the
+particles, when N > 0) and ``<name>_bodies.xdmf`` (the bodies' outlines, when M > 0), rewritten
+atomically after every frame, which ParaView (Xdmf3 and legacy XDMF readers) and meshio's
+``TimeSeriesReader`` open as time series.
 """
 
 from __future__ import annotations
@@ -34,10 +37,11 @@ from collections.abc import Mapping
 from pathlib import Path
 from types import TracebackType
 from typing import Any
-from xml.sax.saxutils import quoteattr
 
 import h5py
 import numpy as np
+
+from .xdmf import XdmfSidecars, bodies_xdmf_path, particles_xdmf_path
 
 __all__ = ["BODY_GEOMETRY_KEYS", "FORMAT", "FrameWriter", "RunFile", "default_body_field_specs",
            "default_field_specs"]
@@ -228,30 +232,6 @@ def _resolve_dtype(name: str, float_dtype: type) -> np.dtype:
         ) from None
 
 
-def _component_suffixes(shape: tuple[int, ...]) -> list[tuple[str, tuple[int, ...]]]:
-    """Names and index tuples of the scalar components of a per-particle shape.
-
-    (2,) → _x, _y; (2, 2) → _xx, _xy, _yx, _yy; other shapes → _i_j... by index.
-    """
-    if shape == ():
-        return [("", ())]
-    if all(n <= 3 for n in shape):
-        axes = "xyz"
-        return [("_" + "".join(axes[i] for i in idx), idx) for idx in np.ndindex(*shape)]
-    return [("_" + "_".join(str(i) for i in idx), idx) for idx in np.ndindex(*shape)]
-
-
-def _xdmf_number_type(dtype: np.dtype) -> tuple[str, int]:
-    """XDMF NumberType and Precision of a numpy dtype."""
-    if dtype.kind == "f":
-        return "Float", dtype.itemsize
-    if dtype.kind == "u":
-        return "UInt", dtype.itemsize
-    if dtype.kind in "ib":
-        return "Int", dtype.itemsize
-    raise ValueError(f"dtype {dtype} cannot be described in XDMF")
-
-
 class FrameWriter:
     """Write a run frame by frame to HDF5, with an XDMF sidecar and an optional energy CSV.
 
@@ -305,7 +285,8 @@ class FrameWriter:
             if int(count) != count or count < 0:
                 raise ValueError(f"{what} must be a non-negative integer, got {count!r}")
         self.path = Path(path)
-        self.xdmf_path = self.path.with_suffix(".xdmf")
+        self.xdmf_path = particles_xdmf_path(self.path)
+        self.bodies_xdmf_path = bodies_xdmf_path(self.path)
         self.csv_path = Path(csv_path) if csv_path is not None else None
         self.particle_count = int(particle_count)
         self.body_count = int(body_count)
@@ -324,8 +305,9 @@ class FrameWriter:
         }
 
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        # A sidecar left by an earlier run of the same name would describe frames that no longer exist.
+        # Sidecars left by an earlier run of the same name would describe frames that no longer exist.
         self.xdmf_path.unlink(missing_ok=True)
+        self.bodies_xdmf_path.unlink(missing_ok=True)
         self._frames = 0
         self._times: list[float] = []
         self._diag_names: list[str] | None = None
@@ -360,6 +342,7 @@ class FrameWriter:
                     else:
                         ds = geo.create_dataset(key, data=value)
                     self._geometry_dtypes[key] = ds.dtype
+            self._xdmf = XdmfSidecars(self._file, particle_count=n, body_count=m, body_geometry=geometry)
             self._time_ds = self._file.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64)
             self._diag_group = self._file.create_group("diagnostics", track_order=True)
             self._diag_ds: dict[str, h5py.Dataset] = {}
@@ -443,6 +426,7 @@ class FrameWriter:
             ds = self._diag_ds[k]
             ds.resize(i + 1, axis=0)
             ds[i] = diag[k]
+        self._xdmf.add_frame(i)
         self._time_ds.resize(i + 1, axis=0)
         self._time_ds[i] = time
         self._file.flush()
@@ -502,124 +486,8 @@ class FrameWriter:
         self._csv_file.flush()
 
     def _write_xdmf(self) -> None:
-        """Rewrite the XDMF sidecar for all frames so far (tmp file + os.replace)."""
-        static = {k: dt for k, dt in self._geometry_dtypes.items() if k in ("radius", "motion", "mass")}
-        text = _xdmf_document(
-            self.path.name, self.particle_count, self._times, self._specs,
-            body_count=self.body_count, body_specs=self._body_specs, body_static=static,
-        )
-        tmp = self.xdmf_path.with_name(self.xdmf_path.name + ".tmp")
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, self.xdmf_path)
-
-
-def _xdmf_collection(
-    h5: str,
-    group: str,
-    n: int,
-    times: list[float],
-    specs: Mapping[str, tuple[tuple[int, ...], np.dtype]],
-    static: Mapping[str, np.dtype] | None = None,
-) -> list[str]:
-    """XDMF lines of one temporal collection of Polyvertex grids over ``/<group>/<field>``.
-
-    Geometry is the XY hyperslab of /<group>/x; every field becomes Scalar attributes, one per
-    component. ``static`` names per-point datasets of /<group>/geometry (shape (n,)) added to
-    every frame as attributes, unless a field component already has that name.
-    """
-    n_frames = len(times)
-
-    def source(name: str, shape: tuple[int, ...], dtype: np.dtype) -> str:
-        number, prec = _xdmf_number_type(dtype)
-        dims = " ".join(str(d) for d in (n_frames, n, *shape))
-        return (
-            f'<DataItem Dimensions="{dims}" NumberType="{number}" Precision="{prec}" Format="HDF">'
-            f"{h5}:/{group}/{name}</DataItem>"
-        )
-
-    def slab(frame: int, idx: tuple[int, ...], src: str, count_tail: tuple[int, ...], out_dims: str) -> str:
-        rank = 2 + len(idx)
-        start = " ".join(str(v) for v in (frame, 0, *idx))
-        stride = " ".join(["1"] * rank)
-        count = " ".join(str(v) for v in (1, n, *count_tail))
-        return (
-            f'<DataItem ItemType="HyperSlab" Dimensions="{out_dims}" Type="HyperSlab">'
-            f'<DataItem Dimensions="3 {rank}" Format="XML">{start} {stride} {count}</DataItem>'
-            f"{src}</DataItem>"
-        )
-
-    # Per-field pieces that do not depend on the frame.
-    x_src = source("x", *specs["x"]) if "x" in specs else None
-    attr_parts: list[tuple[str, tuple[int, ...], str]] = []
-    for name, (shape, dtype) in specs.items():
-        src = source(name, shape, dtype)
-        for suffix, idx in _component_suffixes(shape):
-            attr_parts.append((name + suffix, idx, src))
-    static_parts: list[tuple[str, str]] = []
-    taken = {a for a, _, _ in attr_parts}
-    for name, dtype in (static or {}).items():
-        if name in taken:
-            continue
-        number, prec = _xdmf_number_type(dtype)
-        static_parts.append((
-            name,
-            f'<DataItem Dimensions="{n}" NumberType="{number}" Precision="{prec}" Format="HDF">'
-            f"{h5}:/{group}/geometry/{name}</DataItem>",
-        ))
-
-    lines = [f'  <Grid Name="{group}" GridType="Collection" CollectionType="Temporal">']
-    for k, t in enumerate(times):
-        lines.append(f'   <Grid Name="frame_{k:06d}" GridType="Uniform">')
-        lines.append(f'    <Time Value="{t!r}"/>')
-        lines.append(f'    <Topology TopologyType="Polyvertex" NumberOfElements="{n}" NodesPerElement="1"/>')
-        if x_src is not None:
-            lines.append(f'    <Geometry GeometryType="XY">{slab(k, (0,), x_src, (2,), f"{n} 2")}</Geometry>')
-        for aname, idx, src in attr_parts:
-            ones = tuple(1 for _ in idx)
-            lines.append(
-                f"    <Attribute Name={quoteattr(aname)} AttributeType=\"Scalar\" Center=\"Node\">"
-                f"{slab(k, idx, src, ones, str(n))}</Attribute>"
-            )
-        for aname, item in static_parts:
-            lines.append(
-                f"    <Attribute Name={quoteattr(aname)} AttributeType=\"Scalar\" Center=\"Node\">{item}</Attribute>"
-            )
-        lines.append("   </Grid>")
-    lines.append("  </Grid>")
-    return lines
-
-
-def _xdmf_document(
-    h5_name: str,
-    n: int,
-    times: list[float],
-    specs: Mapping[str, tuple[tuple[int, ...], np.dtype]],
-    *,
-    body_count: int = 0,
-    body_specs: Mapping[str, tuple[tuple[int, ...], np.dtype]] | None = None,
-    body_static: Mapping[str, np.dtype] | None = None,
-) -> str:
-    """XDMF 2 text: temporal collections "particles" (when n > 0) and "bodies" (when body_count > 0).
-
-    Each is a sequence of Polyvertex grids, one per frame, with the XY hyperslab of x as geometry
-    and every field as Scalar attributes, one per component (v → v_x, v_y; stress → stress_xx,
-    stress_xy, stress_yx, stress_yy). The bodies' grids also carry the static radius, motion and
-    mass of /bodies/geometry.
-    """
-    h5 = h5_name.replace("&", "&amp;").replace("<", "&lt;")
-    lines = [
-        '<?xml version="1.0" encoding="utf-8"?>',
-        '<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>',
-        '<Xdmf Version="2.0" xmlns:xi="http://www.w3.org/2001/XInclude">',
-        " <Domain>",
-    ]
-    if n > 0:
-        lines += _xdmf_collection(h5, "particles", n, times, specs)
-    if body_count > 0:
-        lines += _xdmf_collection(h5, "bodies", body_count, times, body_specs or {}, body_static)
-    lines += [" </Domain>", "</Xdmf>", ""]
-    return "\n".join(lines)
+        """Rewrite the XDMF sidecars for all frames so far (see ``mpmdem.xdmf``)."""
+        self._xdmf.write(self._times)
 
 
 class RunFile:

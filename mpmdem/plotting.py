@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .io import RunFile
+from .outlines import body_outlines
 
 __all__ = ["BODY_SNAPSHOT_FIELDS", "SNAPSHOT_FIELDS", "body_outlines", "plot_run"]
 
@@ -90,61 +91,6 @@ PARTICLE_COLOR = "tab:blue"
 
 def _allowed_fields() -> list[str]:
     return [*SNAPSHOT_FIELDS, *(k for k in BODY_SNAPSHOT_FIELDS if k not in SNAPSHOT_FIELDS)]
-
-
-def body_outlines(geometry: dict, x: np.ndarray, angle: np.ndarray | None, quad_segs: int = 8) -> list:
-    """Shapely outlines of spheropolygon bodies in world coordinates.
-
-    Each body's core vertices (body frame) are rotated by its angle and translated to its centroid,
-    then dilated by its radius: one vertex gives a disk, two a stadium, more a rounded polygon;
-    radius 0 leaves the bare polygon (and nothing for one or two vertices).
-
-    Args:
-        geometry: ``RunFile.body_geometry()``: vertex_start, vertex_count, vertices [m], radius [m].
-        x: Centroids, shape (M, 2) [m].
-        angle: Rotations, shape (M,) [rad]; None for no rotation.
-        quad_segs: Segments per quarter circle of the rounded corners.
-
-    Returns:
-        M shapely geometries (empty where the centroid or angle is not finite).
-    """
-    import shapely
-
-    start = np.asarray(geometry["vertex_start"], dtype=np.int64)
-    count = np.asarray(geometry["vertex_count"], dtype=np.int64)
-    verts = np.asarray(geometry["vertices"], dtype=np.float64).reshape(-1, 2)
-    radius = np.asarray(geometry["radius"], dtype=np.float64)
-    m = len(count)
-    x = np.asarray(x, dtype=np.float64).reshape(m, 2)
-    theta = np.zeros(m) if angle is None else np.asarray(angle, dtype=np.float64).reshape(m)
-    ok = np.isfinite(x).all(axis=1) & np.isfinite(theta)
-    out = np.array([shapely.Polygon()] * m, dtype=object)
-    # World coordinates of every core vertex, with its body index (sorted by body).
-    body_of = np.repeat(np.arange(m), count)
-    offset = np.arange(len(body_of)) - np.repeat(np.cumsum(count) - count, count)
-    local = verts[np.repeat(start, count) + offset]
-    c, s = np.cos(theta[body_of]), np.sin(theta[body_of])
-    world = x[body_of] + np.stack([c * local[:, 0] - s * local[:, 1], s * local[:, 0] + c * local[:, 1]], axis=1)
-    for kind in (1, 2, 3):
-        sel = ok & ((count == kind) if kind < 3 else (count >= 3))
-        if not sel.any():
-            continue
-        ids = np.flatnonzero(sel)
-        vmask = sel[body_of]
-        _, idx = np.unique(body_of[vmask], return_inverse=True)
-        coords = world[vmask]
-        if kind == 1:
-            core = shapely.points(coords)
-        elif kind == 2:
-            core = shapely.linestrings(coords, indices=idx)
-        else:
-            core = shapely.polygons(shapely.linearrings(coords, indices=idx))
-        a = radius[ids]
-        dilated = np.where(a > 0, shapely.buffer(core, np.maximum(a, 0.0), quad_segs=quad_segs), core)
-        if kind < 3:
-            dilated = np.where(a > 0, dilated, shapely.Polygon())
-        out[ids] = dilated
-    return list(out)
 
 
 def _geometry_path(geom) -> object | None:

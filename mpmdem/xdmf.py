@@ -1,0 +1,207 @@
+"""XDMF 3 sidecars of a run file, for ParaView (both XDMF readers) and meshio.
+
+Beside ``<run>.h5`` the writer keeps two small XML files, rewritten atomically after every frame:
+
+* ``<run>.xdmf`` (when the run has particles): a temporal collection "particles" of uniform grids,
+  one per frame: Polyvertex topology (N elements of one node, connectivity 0..N-1), XYZ geometry
+  (z = 0) and every particle field as a node attribute: scalars as Scalar, (d,) fields with d <= 3
+  as Vector (padded to 3 components with 0), (a, b) fields with a, b <= 3 as Tensor (3 x 3, row
+  major, padded with 0), any other shape as one Scalar per component (``name_i_j``).
+* ``<run>_bodies.xdmf`` (when the run has rigid bodies with a centroid field x): a temporal
+  collection "bodies": each body's dilated outline as a closed Polyline of K + 1 nodes (K points,
+  the same count for every body, and the first again); every body field and the static radius,
+  motion and mass as cell attributes, one value per body.
+
+Every DataItem names a whole HDF5 dataset of exactly its dimensions (no HyperSlab: ParaView's Xdmf3
+reader crashes on one, and meshio reads none). The frame-stacked datasets ``/particles/<f>`` and
+``/bodies/<f>`` (n_frames, count, ...) are exposed per frame as HDF5 virtual datasets
+``/xdmf/<group>/frame_<k>/<f>``, which store no data, only the mapping; the bodies' world outlines
+are real datasets ``/xdmf/bodies/frame_<k>/outline`` (M K, 3) [m]. The connectivities are written
+once. Only frames whose datasets were flushed are listed, so the sidecars are valid whenever the
+run stops.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from xml.sax.saxutils import escape, quoteattr
+
+import h5py
+import numpy as np
+
+from .outlines import outline_rings, place_rings
+
+__all__ = ["GROUP", "XdmfSidecars", "bodies_xdmf_path", "particles_xdmf_path"]
+
+GROUP = "xdmf"
+"""HDF5 group holding the per-frame views and outlines the sidecars point at."""
+
+#: Static per-body arrays of /bodies/geometry given to every bodies grid as cell attributes.
+_STATIC_BODY_ATTRS = ("radius", "motion", "mass")
+
+
+def particles_xdmf_path(h5_path: str | os.PathLike) -> Path:
+    """The particles sidecar of a run file: ``run.h5`` → ``run.xdmf``."""
+    return Path(h5_path).with_suffix(".xdmf")
+
+
+def bodies_xdmf_path(h5_path: str | os.PathLike) -> Path:
+    """The bodies sidecar of a run file: ``run.h5`` → ``run_bodies.xdmf``."""
+    p = Path(h5_path)
+    return p.with_name(p.stem + "_bodies.xdmf")
+
+
+def _number_type(dtype: np.dtype) -> tuple[str, int]:
+    """XDMF NumberType and Precision of a numpy dtype."""
+    kinds = {"f": "Float", "u": "UInt", "i": "Int", "b": "Int"}
+    if dtype.kind not in kinds:
+        raise ValueError(f"dtype {dtype} cannot be described in XDMF")
+    return kinds[dtype.kind], dtype.itemsize
+
+
+def _views(name: str, shape: tuple[int, ...]) -> list[tuple[str, str, tuple[int, ...], list]]:
+    """How a field of per-item ``shape`` is shown: (attribute name, AttributeType, per-item view shape,
+    [(view columns, source index)]), a source index selecting from one item's value."""
+    if shape == ():
+        return [(name, "Scalar", (), [((), ())])]
+    if len(shape) == 1 and shape[0] <= 3:
+        return [(name, "Vector", (3,), [((slice(0, shape[0]),), (slice(None),))])]
+    if len(shape) == 2 and max(shape) <= 3:
+        rows = [((slice(3 * i, 3 * i + shape[1]),), (i, slice(None))) for i in range(shape[0])]
+        return [(name, "Tensor", (9,), rows)]
+    return [(name + "_" + "_".join(str(i) for i in idx), "Scalar", (), [((), idx)]) for idx in np.ndindex(*shape)]
+
+
+class XdmfSidecars:
+    """Keep the XDMF sidecars of an HDF5 run file being written.
+
+    Args:
+        file: The run file, open for writing; its /particles and /bodies datasets must exist.
+        particle_count: N (0: no particles sidecar).
+        body_count: M (0: no bodies sidecar).
+        body_geometry: The stored /bodies/geometry arrays (vertex_start, vertex_count, vertices,
+            radius, ...); needed when M > 0.
+        quad_segs: Segments per quarter circle of the bodies' rounded corners.
+    """
+
+    def __init__(self, file: h5py.File, *, particle_count: int, body_count: int = 0,
+                 body_geometry: Mapping | None = None, quad_segs: int = 8) -> None:
+        self._file = file
+        self._h5 = Path(file.filename)
+        self._n = int(particle_count)
+        self._m = int(body_count)
+        self._times: list[float] = []
+        bodies = file.get("bodies")
+        self._has_bodies = self._m > 0 and bodies is not None and "x" in bodies
+        root = file.require_group(GROUP)
+        if self._n > 0:
+            g = root.create_group("particles")
+            g.create_dataset("connectivity", data=np.arange(self._n, dtype=np.int32).reshape(-1, 1))
+        if self._has_bodies:
+            self._rings = outline_rings(body_geometry, quad_segs=quad_segs)
+            k = self._rings.shape[1]
+            ids = np.arange(self._m * k, dtype=np.int32).reshape(self._m, k)
+            g = root.create_group("bodies")
+            g.create_dataset("connectivity", data=np.concatenate([ids, ids[:, :1]], axis=1))
+
+    @property
+    def particles_path(self) -> Path:
+        """The particles sidecar (``run.xdmf``)."""
+        return particles_xdmf_path(self._h5)
+
+    @property
+    def bodies_path(self) -> Path:
+        """The bodies sidecar (``run_bodies.xdmf``)."""
+        return bodies_xdmf_path(self._h5)
+
+    def add_frame(self, k: int) -> None:
+        """Create frame k's views (and the bodies' world outlines) in the HDF5 file; call before its flush."""
+        if self._n > 0:
+            self._add_views("particles", k)
+        if self._has_bodies:
+            g = self._add_views("bodies", k)
+            bodies = self._file["bodies"]
+            angle = bodies["angle"][k] if "angle" in bodies else None
+            ring = place_rings(self._rings, bodies["x"][k], angle).reshape(-1, 2)
+            g.create_dataset("outline", data=np.column_stack([ring, np.zeros(len(ring))]))
+
+    def _add_views(self, group: str, k: int) -> h5py.Group:
+        """Virtual datasets /xdmf/<group>/frame_<k>/<view> of frame k of every /<group>/<field>."""
+        out = self._file[GROUP][group].create_group(f"frame_{k:06d}")
+        for name, ds in self._file[group].items():
+            if not isinstance(ds, h5py.Dataset):
+                continue
+            count = ds.shape[1]
+            source = h5py.VirtualSource(".", ds.name, shape=ds.shape, dtype=ds.dtype)
+            for view, _, shape, parts in _views(name, ds.shape[2:]):
+                layout = h5py.VirtualLayout(shape=(count, *shape), dtype=ds.dtype)
+                for columns, index in parts:
+                    layout[(slice(None), *columns)] = source[(k, slice(None), *index)]
+                out.create_virtual_dataset(view, layout, fillvalue=0)
+        return out
+
+    def write(self, times: list[float]) -> None:
+        """Rewrite the sidecars for the frames at ``times`` [s] (temporary file, then ``os.replace``)."""
+        if self._n > 0:
+            _replace(self.particles_path, self._document("particles", times))
+        if self._has_bodies:
+            _replace(self.bodies_path, self._document("bodies", times))
+
+    def _item(self, path: str, dims: tuple[int, ...], dtype: np.dtype) -> str:
+        """A DataItem naming the whole dataset ``path`` of the run file."""
+        number, precision = _number_type(np.dtype(dtype))
+        return (f'<DataItem Dimensions="{" ".join(str(d) for d in dims)}" NumberType="{number}" '
+                f'Precision="{precision}" Format="HDF">{escape(self._h5.name)}:{path}</DataItem>')
+
+    def _document(self, group: str, times: list[float]) -> str:
+        """XDMF 3 text of one temporal collection over frames 0..len(times)-1."""
+        src = self._file[group]
+        fields = {k: ds for k, ds in src.items() if isinstance(ds, h5py.Dataset)}
+        base = f"/{GROUP}/{group}"
+        conn = self._file[base]["connectivity"]
+        if group == "particles":
+            count, center = self._n, "Node"
+            topology = f'<Topology TopologyType="Polyvertex" NumberOfElements="{count}" NodesPerElement="1">'
+            geometry = ("x", (count, 3), fields["x"].dtype) if "x" in fields else None
+        else:
+            count, center = self._m, "Cell"
+            topology = (f'<Topology TopologyType="Polyline" NumberOfElements="{count}" '
+                        f'NodesPerElement="{conn.shape[1]}">')
+            geometry = ("outline", (count * self._rings.shape[1], 3), np.dtype(np.float64))
+        topology += self._item(f"{base}/connectivity", conn.shape, conn.dtype) + "</Topology>"
+        attrs = []
+        for name, ds in fields.items():
+            for view, kind, shape, _ in _views(name, ds.shape[2:]):
+                attrs.append((view, kind, (count, *shape), ds.dtype, None))
+        if group == "bodies":
+            geo = src["geometry"]
+            for name in _STATIC_BODY_ATTRS:
+                if name in geo and name not in {a[0] for a in attrs}:
+                    attrs.append((name, "Scalar", (count,), geo[name].dtype, geo[name].name))
+        lines = ['<?xml version="1.0" encoding="utf-8"?>', '<Xdmf Version="3.0">', " <Domain>",
+                 f'  <Grid Name="{group}" GridType="Collection" CollectionType="Temporal">']
+        for k, t in enumerate(times):
+            frame = f"{base}/frame_{k:06d}"
+            lines += [f'   <Grid Name="frame_{k:06d}" GridType="Uniform">', f'    <Time Value="{float(t)!r}"/>',
+                      f"    {topology}"]
+            if geometry is not None:
+                gname, dims, dtype = geometry
+                item = self._item(f"{frame}/{gname}", dims, dtype)
+                lines.append(f'    <Geometry GeometryType="XYZ">{item}</Geometry>')
+            for view, kind, dims, dtype, static in attrs:
+                item = self._item(static or f"{frame}/{view}", dims, dtype)
+                lines.append(f'    <Attribute Name={quoteattr(view)} AttributeType="{kind}" Center="{center}">'
+                             f"{item}</Attribute>")
+            lines.append("   </Grid>")
+        lines += ["  </Grid>", " </Domain>", "</Xdmf>", ""]
+        return "\n".join(lines)
+
+
+def _replace(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` atomically: a temporary file beside it, then ``os.replace``."""
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(text)
+    os.replace(tmp, path)
