@@ -1,4 +1,4 @@
-"""``mpmdem`` command line: run | list | study | info | plot — a thin layer over the Python API."""
+"""``mpmdem`` command line: run | list | study | info | plot | animate — a thin layer over the Python API."""
 
 from __future__ import annotations
 
@@ -18,6 +18,9 @@ commands:
   info FILE            summary of a result file (.h5)
   plot FILE [--out DIR] [--field NAME]
                        PNGs: energy and momentum vs time, snapshots coloured by a field
+  animate FILE [--out FILE.mp4|FILE.gif] [--field NAME] [--fps N] [--frames START:STOP:STEP|I,J,...]
+                       a movie of the run: points coloured by a field, body outlines, the time
+                       (MP4 with ffmpeg, else GIF)
 """
 
 
@@ -77,6 +80,30 @@ def _plot(argv: list[str]) -> int:
         return 2
     for w in written:
         print(w)
+    return 0
+
+
+def _animate(argv: list[str]) -> int:
+    from .runner import OneLineParser
+
+    p = OneLineParser(prog="mpmdem animate")
+    p.add_argument("file")
+    p.add_argument("--out", default=None, help="FILE.mp4 (needs ffmpeg) or FILE.gif (default: RUN_FIELD.mp4 beside "
+                   "the run with ffmpeg, else .gif)")
+    p.add_argument("--field", default="speed", help="colour (speed, pressure, stress_yy, J, body, omega, ...)")
+    p.add_argument("--fps", type=float, default=10.0, help="frames per second (default 10)")
+    p.add_argument("--frames", default=None, help="START:STOP:STEP (::5 every fifth) or comma-separated frames "
+                   "(default all)")
+    args = p.parse_args(argv)
+    from .animation import animate_run
+    from .errors import InputError
+
+    try:
+        written = animate_run(args.file, args.out, field=args.field, fps=args.fps, frames=args.frames)
+    except (InputError, OSError) as e:
+        print(f"mpmdem: error: {e}", file=sys.stderr)
+        return 2
+    print(written)
     return 0
 
 
@@ -158,6 +185,8 @@ def main(argv: list[str] | None = None) -> int:
         return _plot(rest)
     if cmd == "study":
         return _study(rest)
+    if cmd == "animate":
+        return _animate(rest)
     if cmd == "run":
         from .cases import DEFAULT_CASE
         from .errors import InputError
@@ -171,7 +200,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"mpmdem: error: {e}", file=sys.stderr)
             return 2
         return run_case(module, flags, prog=f"mpmdem run {name}")
-    print(f"mpmdem: error: unknown command {cmd!r}; allowed: run, list, study, info, plot", file=sys.stderr)
+    print(f"mpmdem: error: unknown command {cmd!r}; allowed: run, list, study, info, plot, animate", file=sys.stderr)
     return 2
 
 
