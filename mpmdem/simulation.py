@@ -165,7 +165,7 @@ class Simulation:
     ) -> RunResult:
         """Run to ``end_time`` [s], writing ``frames`` frames (plus the initial one).
 
-        With ``out``, writes OUT/<name>.h5 (+ .xdmf) and OUT/energy.csv frame by frame, flushed
+        With ``out``, writes OUT/<name>.h5 (+ the XDMF sidecars) and OUT/energy.csv frame by frame, flushed
         each frame. A blow-up stops the run with BlowUpError after marking the file; Ctrl-C
         marks the file "interrupted" and re-raises KeyboardInterrupt. Either way the frames
         already written stay readable.
