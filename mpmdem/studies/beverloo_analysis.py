@@ -92,6 +92,16 @@ def analyze(runs: list[dict], out: Path) -> dict:
     return report
 
 
+def _save(fig, path: Path) -> Path:
+    """Write a chart as a PNG and close it."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
 def plot(runs: list[dict], report: dict, out: Path) -> list[Path]:
     """W against D0 (with the fits and the paper's curve), W^(2/3) against D0, M(t) of every run,
     and each run's wall time against its rate's deviation from the finest grid."""
@@ -133,11 +143,7 @@ def plot(runs: list[dict], report: dict, out: Path) -> list[Path]:
     for a in (ax, ax2):
         a.grid(alpha=0.3)
         a.legend(fontsize=7)
-    fig.tight_layout()
-    p = out / "beverloo_rate.png"
-    fig.savefig(p, dpi=120)
-    plt.close(fig)
-    written.append(p)
+    written.append(_save(fig, out / "beverloo_rate.png"))
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for r in ok:
@@ -151,11 +157,7 @@ def plot(runs: list[dict], report: dict, out: Path) -> list[Path]:
     ax.set(xlabel="t [s]", ylabel="discharged mass M [kg/m]", title="M(t) of every run (D0 = 2-6 cm bottom to top)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    p = out / "beverloo_mass.png"
-    fig.savefig(p, dpi=120)
-    plt.close(fig)
-    written.append(p)
+    written.append(_save(fig, out / "beverloo_mass.png"))
 
     # speed × accuracy: wall time against the deviation of W from the finest grid's at the same D0
     fig, ax = plt.subplots(figsize=(7, 4.5))
@@ -180,11 +182,7 @@ def plot(runs: list[dict], report: dict, out: Path) -> list[Path]:
            ylabel="|W / W(finest grid) − 1| (floor 1e-3)", title="speed × accuracy of the silo runs")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    p = out / "beverloo_speed_accuracy.png"
-    fig.savefig(p, dpi=120)
-    plt.close(fig)
-    written.append(p)
+    written.append(_save(fig, out / "beverloo_speed_accuracy.png"))
     return written
 
 
@@ -234,7 +232,5 @@ def methods_report(runs: list[dict], out: Path) -> dict:
     ax.set(ylabel="discharge rate W [kg/(m s)]", title="silo D0 = 4 cm, h = 3.5 mm: W and wall time per model")
     ax.grid(alpha=0.3, axis="y")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(out / "beverloo_methods.png", dpi=120)
-    plt.close(fig)
+    _save(fig, out / "beverloo_methods.png")
     return {"rows": rows}
