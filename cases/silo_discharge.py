@@ -126,7 +126,7 @@ def add_arguments(parser):
                         help=f"initial fill height [m] (default {FILL}; {QUICK['fill_height']} with --quick or "
                              "without a GPU)")
     parser.add_argument("--cell-size", type=float, default=None,
-                        help=f"grid spacing [m] (default Table 3's {GRID_TABLE}; {QUICK['cell_size']} with --quick "
+                        help=f"grid spacing [m] (default Table 3's {GRID_TABLE:.4g}; {QUICK['cell_size']} with --quick "
                              "or without a GPU)")
     parser.add_argument("--drop", type=float, default=DROP,
                         help=f"height of the silo floor above the container floor [m] (default {DROP})")
@@ -265,7 +265,7 @@ def build(args) -> CaseSetup:
     if small and not args.quick and not getattr(args, "quiet", False):
         print(f"silo-discharge: no GPU, so the coarse size (grid {100 * h:g} cm, fill {100 * g['fill']:g} cm, "
               f"{QUICK['end']} s, {len(x)} points; about a minute on 2 cores); the paper's grid: --cell-size "
-              f"{GRID_TABLE}", file=sys.stderr)
+              f"{GRID_TABLE:.4g}", file=sys.stderr)
     end = QUICK["end"] if small else END
     config = dict(MPM_VARIANTS[variant])
     if sdem:
