@@ -1,0 +1,90 @@
+"""Step latency of the small scenes users wait on (issue 27): µs per step of whole cases.
+
+The studies users run (a Beverloo sweep, a block impact, a compression test) are scenes of a few
+thousand to a few tens of thousands of points stepped 1e5-1e6 times; there a step costs launches
+and host round trips more than memory traffic. This bench builds each case at its default size
+(`sand-blocks`, `normal-force`, `silo-filling`, `silo-discharge`), exactly as `mpmdem run` does,
+steps it ``--warmup`` steps (kernel compilation, CUDA-graph capture, the first list builds:
+excluded), then times ``--steps`` steps between two device synchronisations, with the stepping
+``Simulation.advance`` does (one captured graph per step on CUDA, no output, no host reads). The
+targets of issue 27 are per step, so a fixed number of steps measures them; a case's full run is
+``steps`` of its own end time.
+
+One JSON line per case to stdout and to ``--out`` (default bench/results/small_scenes.jsonl,
+appended): case, device, points, bodies, granular, steps, seconds (stepping only), us_per_step,
+the case's end time and dt (so its full run is end_time / dt steps). Nothing is asserted.
+
+    python bench/small_scenes.py --device cuda
+    python bench/small_scenes.py --device cpu --steps 200 --cases silo-discharge
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import warp as wp
+
+from mpmdem import Simulation
+from mpmdem.runner import case_module, config_from_args, make_case_parser
+
+CASES = ("sand-blocks", "normal-force", "silo-filling", "silo-discharge")
+RESULTS = Path(__file__).resolve().parent / "results"
+
+
+def commit() -> str:
+    try:
+        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                              cwd=Path(__file__).parent).stdout.strip()
+    except OSError:
+        return ""
+
+
+def time_case(name: str, device: str, warmup: int, steps: int, flags: list[str]) -> dict:
+    """µs per step of case ``name`` at its default size on ``device``."""
+    module = case_module(name)
+    args = make_case_parser(module).parse_args(["--device", device, "--quiet", *flags])
+    setup = module.build(args)
+    sim = Simulation(setup.scene, config_from_args(setup, module, args), device=device)
+    sim._capture()
+    sim.stage.set_stop_time(1.0e9)  # never reached: the timed steps all step
+    sim.advance(warmup)
+    wp.synchronize_device(device)
+    start = time.perf_counter()
+    sim.advance(steps)
+    wp.synchronize_device(device)
+    seconds = time.perf_counter() - start
+    t, dt, bound, done, status = sim.stage.read_clock()
+    sim.stage.check_status(t, dt, bound, status)
+    return {"case": name, "device": str(wp.get_device(device).name if device != "cpu" else "cpu"),
+            "points": sim.particle_count, "bodies": sim.body_count, "granular": sim.config.granular,
+            "steps": steps, "seconds": seconds, "us_per_step": 1e6 * seconds / steps,
+            "end_time": setup.end_time, "dt": dt, "commit": commit()}
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--device", default="cuda" if wp.get_cuda_device_count() else "cpu")
+    p.add_argument("--cases", default=",".join(CASES), help="comma-separated cases")
+    p.add_argument("--warmup", type=int, default=200, help="steps before timing")
+    p.add_argument("--steps", type=int, default=5000, help="timed steps per case")
+    p.add_argument("--out", type=Path, default=RESULTS / "small_scenes.jsonl")
+    args, flags = p.parse_known_args(argv)
+    rows = []
+    for name in [c.strip() for c in args.cases.split(",") if c.strip()]:
+        row = time_case(name, args.device, args.warmup, args.steps, flags)
+        print(json.dumps(row), flush=True)
+        rows.append(row)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    with args.out.open("a") as f:
+        for row in rows:
+            f.write(json.dumps(row) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
