@@ -135,7 +135,7 @@ def _checked_polygon(poly: Polygon, name: str, value: object) -> Polygon:
 
 
 def polygon(vertices) -> Shape:
-    """Simple polygon from its vertices [(x, y), ...] [m], in either orientation, unclosed or closed."""
+    """Simple polygon from its vertices [(x, y), ...] (in m), in either orientation, unclosed or closed."""
     v = np.asarray(vertices, dtype=np.float64)
     if v.ndim != 2 or v.shape[1] != 2 or not np.isfinite(v).all():
         raise InputError("vertices", vertices, "a list of finite (x, y) pairs [m]")

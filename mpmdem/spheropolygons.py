@@ -509,7 +509,7 @@ def _normalised(v: np.ndarray, a: float, name: str, value: object) -> np.ndarray
 
 
 def spheropolygon(vertices, radius: float = 0.0) -> Spheropolygon:
-    """Spheropolygon of a simple core outline (convex or not) [(x, y), ...] [m], dilated by ``radius`` [m].
+    """Spheropolygon of a simple core outline (convex or not) [(x, y), ...] (in m), dilated by ``radius`` [m].
 
     Either orientation; a closing repeat of the first vertex is dropped. One vertex (a disk) or two (a
     rod) need radius > 0; collinear vertices with radius > 0 become the rod of their segment. ``origin``
