@@ -1,7 +1,7 @@
 """MPM-SDEM Table 3 (the granular-flow runs of §5.3 and §6), in the paper's units, converted once.
 
 The paper works in 2D and mixes cm, g, N and kPa. Densities in g/cm² and stiffnesses in N/cm are
-read as a slice one metre thick (README, Units): 1.5 g/cm² → 1500 kg/m³, 6.0e6 N/cm → 6.0e8 N/m
+read as a slice one metre thick (docs/concepts/units.md): 1.5 g/cm² → 1500 kg/m³, 6.0e6 N/cm → 6.0e8 N/m
 per m. Gravity: Table 3 prints 10.0 cm/s², §6 says g = 10 m/s²; both runs here use 10 m/s², the
 gravity of the experiments (cases/sand_blocks.py gives the argument from the paper's own times).
 """

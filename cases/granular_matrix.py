@@ -40,7 +40,7 @@
 #
 # Departures from Table 3, and why (as in cases/silo_discharge.py):
 # * k_n = 1e6 N/m per m, k_t = k_n / 20 (Table 3's ratio) instead of 6e8: the coupled step is bounded by
-#   the lightest point on a contact spring (MPM-SDEM eq. 51 with the point term, README "Time step"),
+#   the lightest point on a contact spring (MPM-SDEM eq. 51 with the point term, docs/concepts/time-step.md),
 #   ~1e-6 s at 6e8. At 1e6 the skeleton's contacts are about as stiff as the fines (k_n ~ E × 1 m,
 #   E = 0.79 MPa): the apparent modulus belongs to this k_n and is compared between fines contents, not
 #   read as an absolute number. The overlaps grow with the load as F / k_n, and the rounded-body contact

@@ -41,7 +41,7 @@
 #   turns stress-free).
 # * --quick (tests, CPU): grid 6.25 mm (2048 points), 0.6 s.
 #
-# What it gives (`mpmdem study block-impact` on an H200, bench/results/studies/, README): the sand
+# What it gives (`mpmdem study block-impact` on an H200, bench/results/studies/, docs/studies/index.md): the sand
 # reaches the blocks at 0.22-0.23 s and block 2 lies on its side on the floor at 0.39-0.40 s at every
 # grid with Table 3's friction (0.35 s with the reproduction's), turned from 90° to 0° to −4°; block
 # 1 lands with it at 0.39-0.40 s on the fine grids (paper 0.45 s). No sand point ever ends a frame

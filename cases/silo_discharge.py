@@ -25,8 +25,8 @@
 #
 # Departures from Table 3, and why (as in cases/sand_blocks.py):
 # * k_n = 1e6 N/m per m (k_t = k_n / 20, Table 3's ratio) instead of 6e8: the coupled step is
-#   bounded by the lightest point on a contact spring (MPM-SDEM eq. 51 with the point term, README
-#   "Time step"); at 6e8 it is ~1e-6 s, 1.6e6 steps per run. At 1e6 the deepest overlap is a bottom
+#   bounded by the lightest point on a contact spring (MPM-SDEM eq. 51 with the point term,
+#   docs/concepts/time-step.md); at 6e8 it is ~1e-6 s, 1.6e6 steps per run. At 1e6 the deepest overlap is a bottom
 #   point under the full fill, ρ g H × s = 1500 × 10 × 0.3 × 1.75 mm = 7.9 N/m → 7.9 µm ≪ r_p.
 # * r_p: Table 3's 0.1 cm lies below eq. 45's lower bound (the point spacing h/2); the library's
 #   default h n^(-1/4) = h/√2 is used. The Beverloo curve keeps the paper's r_p = 0.1 cm (it is the
@@ -44,7 +44,7 @@
 # Beverloo's law has no head). The summary gives the window, the fit's RMS residual relative to
 # the mass discharged in the window, and W from the two halves of the window (a steadiness check).
 #
-# What it gives (`mpmdem study beverloo` on an H200, bench/results/studies/beverloo/, README): the 2D
+# What it gives (`mpmdem study beverloo` on an H200, bench/results/studies/beverloo/, docs/studies/index.md): the 2D
 # law's form holds (W^(2/3) linear in D0 on every grid), but W grows under refinement and on the
 # finest grid (2.5 mm) is 1.7 × the paper's curve: C = 1.00 ± 0.02 with k = 2.2 (paper 0.58). At 5 mm,
 # about the paper's point count, C = 0.68. Original and stress-free MPM blow up as the jet lands.

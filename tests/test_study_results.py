@@ -79,7 +79,7 @@ def test_the_2d_law_holds_in_form_on_the_finest_grid():
 
 @pytest.mark.xfail(strict=True, reason="finest grid (2.5 mm): C = 1.00 ± 0.02 with k = 2.2 (C = 1.13, k = 6.0 with "
                    "both free), 1.7 x the paper's 0.58; the rate still grows under refinement (D0 = 4 cm: 18.1, "
-                   "28.8, 34.2 kg/(m s) at 5, 3.5, 2.5 mm): README, 'Silo discharge'")
+                   "28.8, 34.2 kg/(m s) at 5, 3.5, 2.5 mm): docs/studies/index.md")
 def test_beverloo_prefactor_against_the_paper():
     """C with the paper's k = 2.2 within 20 % of its 0.58: the scatter of its own Fig. 16 points about
     the curve and of 2D prefactors between granular materials (Mankoc et al. 2007) is of that order."""
