@@ -18,7 +18,7 @@ from shapely.geometry import LineString, Point, Polygon
 from .bodies import ContactLaw, RigidBody, make_rigid_body
 from .errors import InputError
 from .materials import Material
-from .shapes import SeededPoints, Shape, rectangle, seed_points
+from .shapes import SEEDINGS, SeededPoints, Shape, rectangle, seed_points
 from .spheropolygons import Spheropolygon, rounded_rectangle
 
 __all__ = ["SIDES", "Boundary", "MPMBody", "Obstacle", "Scene"]
@@ -82,6 +82,7 @@ class MPMBody:
     points: SeededPoints | None = None  # explicit points (Scene.add_points) instead of a seeded shape
     release_times: np.ndarray | None = None  # [s] per point: when it enters the scene (add_points)
     contact_radius: float | None = None  # r_p of its points against rigid bodies [m] (MPM-SDEM eq. 45)
+    seeding: str = "clipped"  # point volumes: "clipped" to the shape or "full" sub-cells (seed_points)
 
     def initial_velocity(self, x: np.ndarray) -> np.ndarray:
         """Velocity [m/s] of points at positions x (N, 2): the field, or the rigid motion."""
@@ -212,6 +213,7 @@ class Scene:
         angular_velocity: float = 0.0,
         points_per_cell: int = 2,
         contact_radius: float | None = None,
+        seeding: str = "clipped",
         name: str | None = None,
     ) -> MPMBody:
         """Fill ``shape`` with points_per_cell² points per cell of ``material``.
@@ -220,7 +222,10 @@ class Scene:
         rigid motion of the body; velocity may instead be a function of the positions (N, 2)
         returning the velocities (N, 2), for an initial velocity field. contact_radius: r_p [m]
         of the body's points against rigid bodies, inside h sqrt(1/n) < r_p < h (MPM-SDEM
-        eq. 45, n points per cell); None picks the geometric middle h n^(-1/4).
+        eq. 45, n points per cell); None picks the geometric middle h n^(-1/4). seeding: "clipped"
+        (default: a point on the outline carries the part of its sub-cell inside the shape, so the
+        body's mass is ρ × the shape's area at any resolution) or "full" (every point a whole
+        sub-cell: the staircase outline's mass, as before 0.x; ``seed_points``).
         """
         if self.cell_size is None:
             raise InputError("cell_size", None, "a grid spacing h > 0 [m] in Scene(...) before adding MPM bodies")
@@ -236,10 +241,13 @@ class Scene:
             raise InputError("angular_velocity", angular_velocity, "a finite number [rad/s]")
         if not isinstance(points_per_cell, int) or not 1 <= points_per_cell <= 8:
             raise InputError("points_per_cell", points_per_cell, "an integer in 1..8 (points per cell per direction)")
+        if seeding not in SEEDINGS:
+            raise InputError("seeding", seeding, " or ".join(repr(k) for k in SEEDINGS))
         name = name or f"body{len(self.bodies)}"
-        body = MPMBody(name, shape, material, vel, points_per_cell, float(angular_velocity))
+        body = MPMBody(name, shape, material, vel, points_per_cell, float(angular_velocity), seeding=seeding)
         pts = self._seed(body)
-        body = self._with_contact_radius(body, contact_radius, pts.volumes)
+        # n for eq. 45 is the seeding's points per cell, whatever the outline points' volumes
+        body = self._with_contact_radius(body, contact_radius, np.array([(self.cell_size / points_per_cell) ** 2]))
         (x0, y0), (x1, y1) = self.domain
         x = pts.positions
         if callable(vel):
@@ -546,7 +554,7 @@ class Scene:
         if body.points is not None:
             return body.points
         return seed_points(body.shape, cell_size=self.cell_size, points_per_cell=body.points_per_cell,
-                           origin=self.domain[0])
+                           origin=self.domain[0], seeding=body.seeding)
 
     @property
     def has_mpm(self) -> bool:
@@ -604,7 +612,7 @@ class Scene:
                 {"name": b.name, "shape": b.shape.to_dict(), "material": b.material.to_dict(),
                  "velocity": getattr(b.velocity, "__name__", "field") if callable(b.velocity) else b.velocity,
                  "angular_velocity": b.angular_velocity,
-                 "points_per_cell": b.points_per_cell, "contact_radius": b.contact_radius}
+                 "points_per_cell": b.points_per_cell, "contact_radius": b.contact_radius, "seeding": b.seeding}
                 for b in self.bodies
             ],
         }
