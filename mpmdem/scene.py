@@ -84,13 +84,15 @@ class MPMBody:
     contact_radius: float | None = None  # r_p of its points against rigid bodies [m] (MPM-SDEM eq. 45)
     seeding: str = "clipped"  # point volumes: "clipped" to the shape or "full" sub-cells (seed_points)
 
-    def initial_velocity(self, x: np.ndarray) -> np.ndarray:
-        """Velocity [m/s] of points at positions x (N, 2): the field, or the rigid motion."""
+    def initial_velocity(self, x: np.ndarray, volumes: np.ndarray | None = None) -> np.ndarray:
+        """Velocity [m/s] of points at positions x (N, 2): the field, or the rigid motion, turning
+        about the points' centroid weighted by their volumes [m²] (their mass centroid: the
+        outline points of a clipped seeding are lighter)."""
         if callable(self.velocity):
             return np.asarray(self.velocity(x), dtype=float).reshape(len(x), 2)
         v = np.tile(np.asarray(self.velocity, dtype=float), (len(x), 1))
         if self.angular_velocity != 0.0:
-            r = x - x.mean(axis=0)
+            r = x - np.average(x, axis=0, weights=volumes)
             v = v + self.angular_velocity * np.stack([-r[:, 1], r[:, 0]], 1)
         return v
 
@@ -575,7 +577,7 @@ class Scene:
             pts = self._seed(b)
             n = len(pts.volumes)
             x = pts.positions
-            v = b.initial_velocity(x)
+            v = b.initial_velocity(x, pts.volumes)
             parts.append(dict(
                 x=x, v=v, vol=pts.volumes, half=pts.half_sizes,
                 mass=pts.volumes * b.material.density,
