@@ -13,11 +13,11 @@ from typing import Literal
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString, Point, Polygon
 
 from .bodies import ContactLaw, RigidBody, make_rigid_body
 from .errors import InputError
 from .materials import Material
+from .overlaps import body_overlaps, core_geometry, depth_inside, overlap_tolerance
 from .shapes import SEEDINGS, SeededPoints, Shape, rectangle, seed_points
 from .spheropolygons import Spheropolygon, rounded_rectangle
 
@@ -97,13 +97,6 @@ class MPMBody:
         return v
 
 
-def _core_geometry(body: RigidBody):
-    """Shapely core of a rigid body at its initial position and angle (world frame) [m]: a point,
-    a segment or a polygon, as ``Spheropolygon.to_shapely`` builds it before dilating."""
-    v = body.world_vertices()
-    return Point(v[0]) if len(v) == 1 else LineString(v) if len(v) == 2 else Polygon(v)
-
-
 def _as_boundary(side: str, b) -> Boundary:
     if isinstance(b, Boundary):
         return b
@@ -129,6 +122,9 @@ class Scene:
         contact: the DEM contact law (needed once there are rigid bodies).
         coupling_contact: the contact law between material points and rigid bodies (MPM-SDEM
             eq. 44-46); None uses ``contact``, as the paper does.
+        allow_initial_overlap: let rigid bodies start overlapping each other (a deliberately
+            pre-stressed pack); by default an overlap deeper than 1 % of the smaller body's size
+            is an error (``validate``), since the first steps turn it into speed.
     """
 
     domain: tuple[tuple[float, float], tuple[float, float]]
@@ -138,6 +134,7 @@ class Scene:
     gravity_ramp: float = 0.0
     contact: ContactLaw | None = None
     coupling_contact: ContactLaw | None = None
+    allow_initial_overlap: bool = False
     bodies: list[MPMBody] = field(default_factory=list)
     rigid_bodies: list[RigidBody] = field(default_factory=list)
     obstacles: list[Obstacle] = field(default_factory=list)
@@ -467,7 +464,15 @@ class Scene:
         release_time > 0) are checked against the fixed bodies only: the others will have moved.
         The error names the first rigid body (scene order) with points inside, how many, and
         the total.
+
+        Rigid bodies must not start overlapping each other (pairs that can meet: one of them free)
+        by more than ``overlaps.overlap_tolerance``: round-off plus the larger of 1 % of the smaller
+        body's bounding radius and 3 × the overlap k_n gives under the weight of a column as tall as
+        the domain (bodies built exactly touching, or resting as a settled pack leaves them, pass). The error
+        names the deepest pair and its overlap; ``Scene(allow_initial_overlap=True)`` lets a
+        deliberately pre-stressed pack through.
         """
+        self._check_initial_overlaps()
         if not (self.bodies and self.rigid_bodies):
             return
         seeded = [self._seed(b).positions for b in self.bodies]
@@ -475,7 +480,7 @@ class Scene:
         owner = np.repeat(np.arange(len(seeded)), [len(p) for p in seeded])
         released = np.concatenate([b.release_times if b.release_times is not None else np.zeros(len(p))
                                    for b, p in zip(self.bodies, seeded, strict=True)]) > 0.0
-        cores = np.array([_core_geometry(b) for b in self.rigid_bodies], dtype=object)
+        cores = np.array([core_geometry(b) for b in self.rigid_bodies], dtype=object)
         radius = np.array([b.shape.radius for b in self.rigid_bodies])
         points = shapely.points(x)
         # candidates: points within a of the core (closed); the exact depth below decides
@@ -485,16 +490,8 @@ class Scene:
         fixed = np.array([b.motion == "fixed" for b in self.rigid_bodies])
         keep = ~released[i] | fixed[j]
         j, i = j[keep], i[keep]
-        # depth of the centre inside the rounded body: a − distance to the core outside the core,
-        # a + distance to the core's outline inside a polygon core
-        dist = shapely.distance(cores[j], points[i])
-        polygon = shapely.get_type_id(cores[j]) == shapely.GeometryType.POLYGON
-        inner = np.zeros(len(j))
-        sel = polygon & (dist == 0.0)
-        inner[sel] = shapely.distance(shapely.boundary(cores[j[sel]]), points[i[sel]])
-        depth = radius[j] + np.where(dist > 0.0, -dist, inner)
-        (x0, y0), (x1, y1) = self.domain
-        inside = depth > 1e-9 * max(x1 - x0, y1 - y0)
+        depth = depth_inside(cores[j], radius[j], points[i])
+        inside = depth > self._roundoff
         if not inside.any():
             return
         j, i = j[inside], i[inside]
@@ -514,6 +511,47 @@ class Scene:
                          f"inside it ({n_points(total)} start inside {hit} rigid bod{'y' if hit == 1 else 'ies'} in "
                          "all). Move the points or the bodies apart: points may touch a body (overlap it by up to "
                          "their contact radius), not start inside it")
+
+    @property
+    def _roundoff(self) -> float:
+        """A length [m] below round-off of the scene's coordinates: 1e-9 × the domain size."""
+        (x0, y0), (x1, y1) = self.domain
+        return 1e-9 * max(x1 - x0, y1 - y0)
+
+    def _overlap_tolerance(self, i: int, j: int) -> float:
+        """The overlap [m] rigid bodies i and j may start with (``overlaps.overlap_tolerance``)."""
+        (x0, y0), (x1, y1) = self.domain
+        gx, gy = self.gravity
+        g = math.hypot(gx, gy)
+        height = (abs(gx) * (x1 - x0) + abs(gy) * (y1 - y0)) / g if g > 0.0 else 0.0
+        return overlap_tolerance(self.rigid_bodies[i], self.rigid_bodies[j], roundoff=self._roundoff, gravity=g,
+                                 height=height, normal_stiffness=self.contact.normal_stiffness)
+
+    def initial_overlaps(self) -> list[tuple[str, str, float]]:
+        """(body, body, depth [m]) of every pair of rigid bodies that can meet and start overlapping
+        by more than they may (``validate``), deepest first."""
+        bodies = self.rigid_bodies
+        if self.contact is None:
+            return []
+        return [(bodies[o.i].name, bodies[o.j].name, o.depth) for o in body_overlaps(bodies)
+                if o.depth > self._overlap_tolerance(o.i, o.j)]
+
+    def _check_initial_overlaps(self) -> None:
+        if self.allow_initial_overlap:
+            return
+        deep = self.initial_overlaps()
+        if not deep:
+            return
+        a, b, depth = deep[0]
+        k = [o.name for o in self.rigid_bodies]
+        tol = self._overlap_tolerance(k.index(a), k.index(b))
+        more = f" ({len(deep)} pairs overlap in all)" if len(deep) > 1 else ""
+        raise InputError(f"rigid bodies {a!r} and {b!r}", f"overlapping by {depth:.4g} m",
+                         f"bodies that start apart or touching, overlapping by at most {tol:.3g} m (the larger of 1 % "
+                         "of the smaller body's size and 3 x the overlap under the weight of a column as tall as the "
+                         f"domain){more}: the first steps would turn the overlap into speed. "
+                         "Move them apart, or pass Scene(allow_initial_overlap=True) for a deliberately "
+                         "pre-stressed pack")
 
     def contact_radius_interval(self, volumes: np.ndarray) -> tuple[float, float]:
         """(h sqrt(1/n), h) [m]: MPM-SDEM eq. 45's open interval for the contact radius r_p of
@@ -605,6 +643,7 @@ class Scene:
             "contact": self.contact.to_dict() if self.contact is not None else None,
             "coupling_contact": self.coupling_contact.to_dict() if self.coupling_contact is not None else None,
             "coupling_friction": [[m.to_dict(), name, mu] for (m, name), mu in self.coupling_friction.items()],
+            **({"allow_initial_overlap": True} if self.allow_initial_overlap else {}),
             "rigid_bodies": [b.to_dict() for b in self.rigid_bodies],
             "boundaries": {s: {"kind": b.kind, "friction": b.friction} for s, b in self.boundaries.items()},
             "obstacles": [{"kind": o.kind, "shape": o.shape.to_dict()} for o in self.obstacles],

@@ -316,12 +316,13 @@ class Simulation:
 
     def _likely_cause(self, dt: float, bound: float) -> str:
         if self.coupling:
-            return (self.mpm._likely_cause(dt, bound) + f"; the contact stiffness against the point masses (dt = "
-                    f"{dt:.3g} s, contact bound {self.coupling.contact_bound:.3g} s): lower dem_kappa or dt")
+            overlap = self.dem.overlap_cause()
+            return ((f"{overlap}; else " if overlap else "") + self.mpm._likely_cause(dt, bound)
+                    + f"; the contact stiffness against the point masses (dt = {dt:.3g} s, contact bound "
+                    f"{self.coupling.contact_bound:.3g} s): lower dem_kappa or dt")
         if self.mpm:
             return self.mpm._likely_cause(dt, bound)
-        return (f"the time step (dt = {dt:.3g} s against the bound {bound:.3g} s of mpmdem.dem): "
-                "lower dem_kappa or dt")
+        return self.dem.likely_cause(dt)
 
     # -- checkpoints -------------------------------------------------------------------------------
     def save_checkpoint(self, path: str | Path) -> Path:
