@@ -20,7 +20,6 @@ import functools
 
 import warp as wp
 
-from .reductions import stop_step
 from .types import kernel, scalar_types
 
 __all__ = [
@@ -572,11 +571,13 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
     @kernel
     def dem_dt(clock: wp.array(dtype=wp.float64)):
         """dt = the fixed dt, or the factor × the bound (both set once: they depend on masses and k_n
-        only), shortened to end on t_stop (``stop_step``); 0 once the clock has reached t_stop."""
+        only); 0 once the clock has reached t_stop."""
         dt = clock[4]
         if dt <= wp.float64(0.0):
             dt = clock[5] * clock[3]
-        clock[1] = stop_step(clock, dt)
+        if clock[0] >= clock[2]:
+            dt = wp.float64(0.0)
+        clock[1] = dt
 
     # -- diagnostics ----------------------------------------------------------------------------
     @kernel

@@ -25,7 +25,6 @@ __all__ = [
     "make_probe_mass",
     "make_speed_check",
     "make_wave_speed",
-    "stop_step",
 ]
 
 CLOCK_SIZE = 6
@@ -105,21 +104,6 @@ def make_wave_speed(precision: str):
     return wave_speed
 
 
-@wp.func
-def stop_step(clock: wp.array(dtype=wp.float64), dt: wp.float64):
-    """dt [s] shortened so that the steps end exactly on t_stop (clock[2]): the step that would
-    cross it ends on it, and when less than two steps are left they share the rest equally (no
-    sliver step); 0 once the clock has reached t_stop."""
-    left = clock[2] - clock[0]
-    if left <= wp.float64(0.0):
-        return wp.float64(0.0)
-    if left <= dt:
-        return left
-    if left < wp.float64(2.0) * dt:
-        return wp.float64(0.5) * left
-    return dt
-
-
 @kernel
 def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.float32), h: wp.float64):
     """dt = κ h / max(c+|v|) (CFL) or the fixed dt; 0 once the clock has reached t_stop.
@@ -127,9 +111,9 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
     max(c+|v|) comes from the speed slots filled at the end of the previous step (or by the
     initial wave_speed pass); they are cleared here for this step.
 
-    The steps end exactly on t_stop (``stop_step``), so frames land on their nominal times; the
-    last one or two steps before a frame are shorter (at least half a step: the CFL step itself
-    varies from step to step, and a shorter step is stable).
+    The step that crosses t_stop is not shortened: a sudden change of dt breaks the staggering of
+    the explicit central-difference update (MPM-SDEM eq. 17) and costs a first-order error, so
+    output frames land up to one step after their nominal time and record the time reached.
     """
     s = wp.float64(0.0)
     for k in range(wp.static(SPEED_SLOTS)):  # unrolled: independent loads
@@ -143,8 +127,9 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
     dt = clock[4]
     if dt <= wp.float64(0.0):
         dt = clock[5] * bound
-    dt = stop_step(clock, dt)
-    if dt > wp.float64(0.0):
+    if clock[0] >= clock[2]:
+        dt = wp.float64(0.0)
+    else:
         for k in range(wp.static(SPEED_SLOTS)):
             max_speed[k] = wp.float32(0.0)  # refilled by this step's G2P
     clock[1] = dt
@@ -152,13 +137,10 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
 
 @wp.func
 def advance(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
-    """t += dt; count steps taken (the end of a step). The step that reaches t_stop ends exactly on it."""
+    """t += dt; count steps taken (the end of a step)."""
     dt = clock[1]
     if dt > wp.float64(0.0):
-        if dt >= clock[2] - clock[0]:
-            clock[0] = clock[2]
-        else:
-            clock[0] = clock[0] + dt
+        clock[0] = clock[0] + dt
         steps[0] = steps[0] + wp.int64(1)
 
 
@@ -238,7 +220,7 @@ def make_probe_mass(precision: str, staged: bool = False):
 def cap_dt(clock: wp.array(dtype=wp.float64), cap: wp.float64, bound: wp.float64):
     """dt = min(dt, cap) unless dt was fixed by the user (coupled scenes: MPM-SDEM eq. 51 takes the
     smallest of the MPM, DEM and contact terms); ``bound`` [s], the stable step of the contacts,
-    lowers the reported bound. The capped step still ends on t_stop (``stop_step``)."""
+    lowers the reported bound."""
     if clock[4] <= wp.float64(0.0) and clock[1] > cap:
-        clock[1] = stop_step(clock, cap)
+        clock[1] = cap
     clock[3] = wp.min(clock[3], bound)

@@ -51,11 +51,13 @@ def test_run_in_a_log_reports_progress_lines_and_every_file(tmp_path):
     Warp driver warning (one line of ours instead when there is no driver), and ends naming all
     the files it wrote: summary, HDF5, XDMF and CSV."""
     proc = subprocess.run(CLI + ["run", "axial-bar", "--quick", "--device", "cpu", "--out", str(tmp_path),
-                                 "--end-time", "0.05"], capture_output=True, text=True, env=ENV, timeout=300)
+                                 "--end-time", "1.0", "--frames", "10"], capture_output=True, text=True, env=ENV,
+                          timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert "\r" not in proc.stderr and DRIVER_WARNING not in proc.stderr
     progress = [ln for ln in proc.stderr.splitlines() if ln.startswith("sim time")]
-    # one line per 5 % of the run, the last at 100 %
+    # a line each time a batch of steps passes the next 5 % (ten frames: at least one per frame),
+    # the last at 100 %
     assert 10 <= len(progress) <= 21 and "(100 %)" in progress[-1]
     assert ("running on the CPU" in proc.stderr) == cpu_only()
     last = proc.stdout.strip().splitlines()[-1]
