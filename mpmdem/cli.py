@@ -78,6 +78,9 @@ def _plot(argv: list[str]) -> int:
     except ValueError as e:
         print(f"mpmdem: error: {e}", file=sys.stderr)
         return 2
+    except OSError as e:
+        print(f"mpmdem: error: FILE={str(path)!r} is not a readable mpmdem HDF5 file ({e})", file=sys.stderr)
+        return 2
     for w in written:
         print(w)
     return 0
@@ -107,19 +110,6 @@ def _animate(argv: list[str]) -> int:
     return 0
 
 
-def _count(least: int):
-    def parse(text):
-        try:
-            n = int(text)
-        except ValueError:
-            n = least - 1
-        if n < least:
-            raise argparse.ArgumentTypeError(f"expected an integer >= {least}, got {text!r}")
-        return n
-
-    return parse
-
-
 def _setting(text: str) -> tuple[str, str]:
     if "=" not in text:
         raise argparse.ArgumentTypeError(f"expected FLAG=VALUE, got {text!r}")
@@ -129,6 +119,7 @@ def _setting(text: str) -> tuple[str, str]:
 
 def _study(argv: list[str]) -> int:
     from .runner import OneLineParser
+    from .runner import count_at_least as _count
     from .studies import STUDIES
 
     p = OneLineParser(prog="mpmdem study", description="Run a case over a grid of flag values; one row per run in "

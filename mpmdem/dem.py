@@ -94,6 +94,8 @@ class DEMSolver:
                 f"{math.pi * config.dem_kappa * self.dt_bound:.6g} s); leave dt unset to use it",
             )
         self.body_count = len(scene.rigid_bodies)
+        #: (body, body, depth [m]) of the pairs let start overlapping (Scene(allow_initial_overlap=True))
+        self.initial_overlaps = scene.initial_overlaps()
         self._layout()
         self._allocate()
 
@@ -320,9 +322,7 @@ class DEMSolver:
     def check_status(self, t: float, dt: float, bound: float, status: np.ndarray) -> None:
         """Raise BlowUpError for non-finite or escaped bodies and overflowing lists."""
         cfg = self.config
-        cause = (f"the time step (dt = {dt:.3g} s against the bound 2 sqrt(m*/k_n) (sqrt(1+ζ²)−ζ) = "
-                 f"{self.dt_bound:.3g} s; lower dem_kappa or dt) or a contact stiffness too low for the "
-                 "loads (bodies pass through each other)")
+        cause = self.likely_cause(dt)
         if status[kdem.STATUS_NONFINITE] > 0 or not math.isfinite(t):
             raise BlowUpError("non-finite", f"the DEM blew up at t = {t:.6g} s: "
                               f"{int(status[kdem.STATUS_NONFINITE])} bodies have NaN/inf values. "
@@ -338,6 +338,24 @@ class DEMSolver:
         if status[kdem.STATUS_CELL_OVERFLOW] > 0:
             raise BlowUpError("cell-overflow", f"a DEM broad-phase cell held more than {self.cell_cap} bodies at "
                               f"t = {t:.6g} s: bodies are piled into each other. Likely cause: {cause}.", t)
+
+    def overlap_cause(self) -> str:
+        """The initial overlaps as a cause of a blow-up ("" when the bodies started apart)."""
+        if not self.initial_overlaps:
+            return ""
+        a, b, depth = self.initial_overlaps[0]
+        n = len(self.initial_overlaps)
+        return (f"the initial overlap of rigid bodies {a!r} and {b!r} ({depth:.3g} m deep"
+                f"{f'; {n} pairs start overlapping' if n > 1 else ''}, let through by "
+                "Scene(allow_initial_overlap=True)): the first steps turn it into speed; move the bodies apart")
+
+    def likely_cause(self, dt: float) -> str:
+        """What most likely made the DEM blow up: initial overlaps, the step, or soft contacts."""
+        step = (f"the time step (dt = {dt:.3g} s against the bound 2 sqrt(m*/k_n) (sqrt(1+ζ²)−ζ) = "
+                f"{self.dt_bound:.3g} s; lower dem_kappa or dt) or a contact stiffness too low for the "
+                "loads (bodies pass through each other)")
+        overlap = self.overlap_cause()
+        return f"{overlap}; else {step}" if overlap else step
 
     def diagnostics(self) -> dict[str, float]:
         """Energies [J/m], momenta and mass of the free bodies; contact energy and dissipation."""

@@ -19,6 +19,7 @@ from .config import COUPLING_SCHEMES, SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_
 from .errors import BlowUpError, InputError
 from .kernels.constitutive import DENSITY_CONTROLS
 from .scene import Scene
+from .warp_init import cpu_only
 
 __all__ = ["CaseSetup", "case_module", "make_case_parser", "run_case"]
 
@@ -53,6 +54,20 @@ def _positive(name):
     return parse
 
 
+def count_at_least(least: int):
+    """argparse type: an integer >= least (a one-line error otherwise)."""
+    def parse(text):
+        try:
+            n = int(text)
+        except ValueError:
+            n = least - 1
+        if n < least:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {least}, got {text!r}")
+        return n
+
+    return parse
+
+
 def _choice(name, allowed):
     lower = {a.lower(): a for a in allowed}
 
@@ -71,7 +86,7 @@ def make_case_parser(module: ModuleType, prog: str | None = None) -> argparse.Ar
     p.add_argument("--out", default=None, help=f"output folder (default results/{module.NAME})")
     p.add_argument("--quick", action="store_true", help="a coarse, short run (for tests and a first look)")
     p.add_argument("--end-time", type=_positive("--end-time"), default=None, help="simulated time [s]")
-    p.add_argument("--frames", type=int, default=None, help="output frames")
+    p.add_argument("--frames", type=count_at_least(1), default=None, help="output frames (an integer >= 1)")
     p.add_argument("--dt", type=_positive("--dt"), default=None, help="fixed time step [s] (default: CFL)")
     p.add_argument("--cfl", type=_positive("--cfl"), default=None, help="CFL factor in (0, 1]")
     p.add_argument("--shape", type=_choice("shape", SHAPE_FUNCTIONS), default=None,
@@ -122,6 +137,12 @@ def config_from_args(setup: CaseSetup, module: ModuleType, args) -> SolverConfig
     return SolverConfig(**fields)
 
 
+def written_since(folder: Path, since: float) -> list[str]:
+    """Names of the files in ``folder`` written at or after ``since`` (time.time() [s]), sorted
+    (a second of slack for file systems with coarse modification times)."""
+    return sorted(p.name for p in folder.iterdir() if p.is_file() and p.stat().st_mtime >= since - 1.0)
+
+
 def run_case(module: ModuleType, argv: list[str] | None = None, prog: str | None = None) -> int:
     """Parse flags, run the case, write OUT/summary.json; returns the exit code."""
     from .simulation import Simulation
@@ -138,15 +159,27 @@ def run_case(module: ModuleType, argv: list[str] | None = None, prog: str | None
     except InputError as e:
         print(f"mpmdem: error: {e}", file=sys.stderr)
         return 2
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        print(f"mpmdem: error: --out={str(out)!r} is invalid: a folder that can be created ({e.strerror})",
+              file=sys.stderr)
+        return 2
+    if not args.quiet and sim.device == "cpu" and cpu_only():
+        print("mpmdem: no NVIDIA CUDA driver found: running on the CPU", file=sys.stderr)
     summary.update(device=sim.device, particles=sim.particle_count, bodies=sim.body_count, config=config.to_dict(),
                    end_time=end_time)
     t0 = time.perf_counter()
+    started = time.time()
     code = 0
     try:
         result = sim.run(end_time, out=out, frames=frames, quiet=args.quiet, name=module.NAME.replace("-", "_"))
         summary.update(status=result.status, steps=result.steps, wall_seconds=time.perf_counter() - t0,
                        output=str(result.path))
         summary.update(module.summarize(sim, result, args))
+    except InputError as e:
+        print(f"mpmdem: error: {e}", file=sys.stderr)
+        return 2
     except BlowUpError as e:
         summary.update(status="blown-up", reason=e.reason, message=str(e), time=e.time)
         print(f"mpmdem: {e}", file=sys.stderr)
@@ -158,6 +191,6 @@ def run_case(module: ModuleType, argv: list[str] | None = None, prog: str | None
     out.mkdir(parents=True, exist_ok=True)
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
     if code == 0 and not args.quiet:
-        print(f"wrote {out / 'summary.json'} and {summary.get('output')}")
+        print(f"wrote in {out}: " + ", ".join(written_since(out, started)))
     return code
 

@@ -13,12 +13,12 @@ from typing import Literal
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString, Point, Polygon
 
 from .bodies import ContactLaw, RigidBody, make_rigid_body
 from .errors import InputError
 from .materials import Material
-from .shapes import SeededPoints, Shape, rectangle, seed_points
+from .overlaps import body_overlaps, core_geometry, depth_inside, overlap_tolerance
+from .shapes import SEEDINGS, SeededPoints, Shape, rectangle, seed_points
 from .spheropolygons import Spheropolygon, rounded_rectangle
 
 __all__ = ["SIDES", "Boundary", "MPMBody", "Obstacle", "Scene"]
@@ -82,23 +82,19 @@ class MPMBody:
     points: SeededPoints | None = None  # explicit points (Scene.add_points) instead of a seeded shape
     release_times: np.ndarray | None = None  # [s] per point: when it enters the scene (add_points)
     contact_radius: float | None = None  # r_p of its points against rigid bodies [m] (MPM-SDEM eq. 45)
+    seeding: str = "clipped"  # point volumes: "clipped" to the shape or "full" sub-cells (seed_points)
 
-    def initial_velocity(self, x: np.ndarray) -> np.ndarray:
-        """Velocity [m/s] of points at positions x (N, 2): the field, or the rigid motion."""
+    def initial_velocity(self, x: np.ndarray, volumes: np.ndarray | None = None) -> np.ndarray:
+        """Velocity [m/s] of points at positions x (N, 2): the field, or the rigid motion, turning
+        about the points' centroid weighted by their volumes [m²] (their mass centroid: the
+        outline points of a clipped seeding are lighter)."""
         if callable(self.velocity):
             return np.asarray(self.velocity(x), dtype=float).reshape(len(x), 2)
         v = np.tile(np.asarray(self.velocity, dtype=float), (len(x), 1))
         if self.angular_velocity != 0.0:
-            r = x - x.mean(axis=0)
+            r = x - np.average(x, axis=0, weights=volumes)
             v = v + self.angular_velocity * np.stack([-r[:, 1], r[:, 0]], 1)
         return v
-
-
-def _core_geometry(body: RigidBody):
-    """Shapely core of a rigid body at its initial position and angle (world frame) [m]: a point,
-    a segment or a polygon, as ``Spheropolygon.to_shapely`` builds it before dilating."""
-    v = body.world_vertices()
-    return Point(v[0]) if len(v) == 1 else LineString(v) if len(v) == 2 else Polygon(v)
 
 
 def _as_boundary(side: str, b) -> Boundary:
@@ -126,6 +122,9 @@ class Scene:
         contact: the DEM contact law (needed once there are rigid bodies).
         coupling_contact: the contact law between material points and rigid bodies (MPM-SDEM
             eq. 44-46); None uses ``contact``, as the paper does.
+        allow_initial_overlap: let rigid bodies start overlapping each other (a deliberately
+            pre-stressed pack); by default an overlap deeper than 1 % of the smaller body's size
+            is an error (``validate``), since the first steps turn it into speed.
     """
 
     domain: tuple[tuple[float, float], tuple[float, float]]
@@ -135,6 +134,7 @@ class Scene:
     gravity_ramp: float = 0.0
     contact: ContactLaw | None = None
     coupling_contact: ContactLaw | None = None
+    allow_initial_overlap: bool = False
     bodies: list[MPMBody] = field(default_factory=list)
     rigid_bodies: list[RigidBody] = field(default_factory=list)
     obstacles: list[Obstacle] = field(default_factory=list)
@@ -212,6 +212,7 @@ class Scene:
         angular_velocity: float = 0.0,
         points_per_cell: int = 2,
         contact_radius: float | None = None,
+        seeding: str = "clipped",
         name: str | None = None,
     ) -> MPMBody:
         """Fill ``shape`` with points_per_cell² points per cell of ``material``.
@@ -220,7 +221,10 @@ class Scene:
         rigid motion of the body; velocity may instead be a function of the positions (N, 2)
         returning the velocities (N, 2), for an initial velocity field. contact_radius: r_p [m]
         of the body's points against rigid bodies, inside h sqrt(1/n) < r_p < h (MPM-SDEM
-        eq. 45, n points per cell); None picks the geometric middle h n^(-1/4).
+        eq. 45, n points per cell); None picks the geometric middle h n^(-1/4). seeding: "clipped"
+        (default: a point on the outline carries the part of its sub-cell inside the shape, so the
+        body's mass is ρ × the shape's area at any resolution) or "full" (every point a whole
+        sub-cell: the staircase outline's mass, as before 0.x; ``seed_points``).
         """
         if self.cell_size is None:
             raise InputError("cell_size", None, "a grid spacing h > 0 [m] in Scene(...) before adding MPM bodies")
@@ -236,10 +240,13 @@ class Scene:
             raise InputError("angular_velocity", angular_velocity, "a finite number [rad/s]")
         if not isinstance(points_per_cell, int) or not 1 <= points_per_cell <= 8:
             raise InputError("points_per_cell", points_per_cell, "an integer in 1..8 (points per cell per direction)")
+        if seeding not in SEEDINGS:
+            raise InputError("seeding", seeding, " or ".join(repr(k) for k in SEEDINGS))
         name = name or f"body{len(self.bodies)}"
-        body = MPMBody(name, shape, material, vel, points_per_cell, float(angular_velocity))
+        body = MPMBody(name, shape, material, vel, points_per_cell, float(angular_velocity), seeding=seeding)
         pts = self._seed(body)
-        body = self._with_contact_radius(body, contact_radius, pts.volumes)
+        # n for eq. 45 is the seeding's points per cell, whatever the outline points' volumes
+        body = self._with_contact_radius(body, contact_radius, np.array([(self.cell_size / points_per_cell) ** 2]))
         (x0, y0), (x1, y1) = self.domain
         x = pts.positions
         if callable(vel):
@@ -457,7 +464,15 @@ class Scene:
         release_time > 0) are checked against the fixed bodies only: the others will have moved.
         The error names the first rigid body (scene order) with points inside, how many, and
         the total.
+
+        Rigid bodies must not start overlapping each other (pairs that can meet: one of them free)
+        by more than ``overlaps.overlap_tolerance``: round-off plus the larger of 1 % of the smaller
+        body's bounding radius and 3 × the overlap k_n gives under the weight of a column as tall as
+        the domain (bodies built exactly touching, or resting as a settled pack leaves them, pass). The error
+        names the deepest pair and its overlap; ``Scene(allow_initial_overlap=True)`` lets a
+        deliberately pre-stressed pack through.
         """
+        self._check_initial_overlaps()
         if not (self.bodies and self.rigid_bodies):
             return
         seeded = [self._seed(b).positions for b in self.bodies]
@@ -465,7 +480,7 @@ class Scene:
         owner = np.repeat(np.arange(len(seeded)), [len(p) for p in seeded])
         released = np.concatenate([b.release_times if b.release_times is not None else np.zeros(len(p))
                                    for b, p in zip(self.bodies, seeded, strict=True)]) > 0.0
-        cores = np.array([_core_geometry(b) for b in self.rigid_bodies], dtype=object)
+        cores = np.array([core_geometry(b) for b in self.rigid_bodies], dtype=object)
         radius = np.array([b.shape.radius for b in self.rigid_bodies])
         points = shapely.points(x)
         # candidates: points within a of the core (closed); the exact depth below decides
@@ -475,16 +490,8 @@ class Scene:
         fixed = np.array([b.motion == "fixed" for b in self.rigid_bodies])
         keep = ~released[i] | fixed[j]
         j, i = j[keep], i[keep]
-        # depth of the centre inside the rounded body: a − distance to the core outside the core,
-        # a + distance to the core's outline inside a polygon core
-        dist = shapely.distance(cores[j], points[i])
-        polygon = shapely.get_type_id(cores[j]) == shapely.GeometryType.POLYGON
-        inner = np.zeros(len(j))
-        sel = polygon & (dist == 0.0)
-        inner[sel] = shapely.distance(shapely.boundary(cores[j[sel]]), points[i[sel]])
-        depth = radius[j] + np.where(dist > 0.0, -dist, inner)
-        (x0, y0), (x1, y1) = self.domain
-        inside = depth > 1e-9 * max(x1 - x0, y1 - y0)
+        depth = depth_inside(cores[j], radius[j], points[i])
+        inside = depth > self._roundoff
         if not inside.any():
             return
         j, i = j[inside], i[inside]
@@ -504,6 +511,47 @@ class Scene:
                          f"inside it ({n_points(total)} start inside {hit} rigid bod{'y' if hit == 1 else 'ies'} in "
                          "all). Move the points or the bodies apart: points may touch a body (overlap it by up to "
                          "their contact radius), not start inside it")
+
+    @property
+    def _roundoff(self) -> float:
+        """A length [m] below round-off of the scene's coordinates: 1e-9 × the domain size."""
+        (x0, y0), (x1, y1) = self.domain
+        return 1e-9 * max(x1 - x0, y1 - y0)
+
+    def _overlap_tolerance(self, i: int, j: int) -> float:
+        """The overlap [m] rigid bodies i and j may start with (``overlaps.overlap_tolerance``)."""
+        (x0, y0), (x1, y1) = self.domain
+        gx, gy = self.gravity
+        g = math.hypot(gx, gy)
+        height = (abs(gx) * (x1 - x0) + abs(gy) * (y1 - y0)) / g if g > 0.0 else 0.0
+        return overlap_tolerance(self.rigid_bodies[i], self.rigid_bodies[j], roundoff=self._roundoff, gravity=g,
+                                 height=height, normal_stiffness=self.contact.normal_stiffness)
+
+    def initial_overlaps(self) -> list[tuple[str, str, float]]:
+        """(body, body, depth [m]) of every pair of rigid bodies that can meet and start overlapping
+        by more than they may (``validate``), deepest first."""
+        bodies = self.rigid_bodies
+        if self.contact is None:
+            return []
+        return [(bodies[o.i].name, bodies[o.j].name, o.depth) for o in body_overlaps(bodies)
+                if o.depth > self._overlap_tolerance(o.i, o.j)]
+
+    def _check_initial_overlaps(self) -> None:
+        if self.allow_initial_overlap:
+            return
+        deep = self.initial_overlaps()
+        if not deep:
+            return
+        a, b, depth = deep[0]
+        k = [o.name for o in self.rigid_bodies]
+        tol = self._overlap_tolerance(k.index(a), k.index(b))
+        more = f" ({len(deep)} pairs overlap in all)" if len(deep) > 1 else ""
+        raise InputError(f"rigid bodies {a!r} and {b!r}", f"overlapping by {depth:.4g} m",
+                         f"bodies that start apart or touching, overlapping by at most {tol:.3g} m (the larger of 1 % "
+                         "of the smaller body's size and 3 x the overlap under the weight of a column as tall as the "
+                         f"domain){more}: the first steps would turn the overlap into speed. "
+                         "Move them apart, or pass Scene(allow_initial_overlap=True) for a deliberately "
+                         "pre-stressed pack")
 
     def contact_radius_interval(self, volumes: np.ndarray) -> tuple[float, float]:
         """(h sqrt(1/n), h) [m]: MPM-SDEM eq. 45's open interval for the contact radius r_p of
@@ -546,7 +594,7 @@ class Scene:
         if body.points is not None:
             return body.points
         return seed_points(body.shape, cell_size=self.cell_size, points_per_cell=body.points_per_cell,
-                           origin=self.domain[0])
+                           origin=self.domain[0], seeding=body.seeding)
 
     @property
     def has_mpm(self) -> bool:
@@ -567,7 +615,7 @@ class Scene:
             pts = self._seed(b)
             n = len(pts.volumes)
             x = pts.positions
-            v = b.initial_velocity(x)
+            v = b.initial_velocity(x, pts.volumes)
             parts.append(dict(
                 x=x, v=v, vol=pts.volumes, half=pts.half_sizes,
                 mass=pts.volumes * b.material.density,
@@ -595,6 +643,7 @@ class Scene:
             "contact": self.contact.to_dict() if self.contact is not None else None,
             "coupling_contact": self.coupling_contact.to_dict() if self.coupling_contact is not None else None,
             "coupling_friction": [[m.to_dict(), name, mu] for (m, name), mu in self.coupling_friction.items()],
+            **({"allow_initial_overlap": True} if self.allow_initial_overlap else {}),
             "rigid_bodies": [b.to_dict() for b in self.rigid_bodies],
             "boundaries": {s: {"kind": b.kind, "friction": b.friction} for s, b in self.boundaries.items()},
             "obstacles": [{"kind": o.kind, "shape": o.shape.to_dict()} for o in self.obstacles],
@@ -604,7 +653,7 @@ class Scene:
                 {"name": b.name, "shape": b.shape.to_dict(), "material": b.material.to_dict(),
                  "velocity": getattr(b.velocity, "__name__", "field") if callable(b.velocity) else b.velocity,
                  "angular_velocity": b.angular_velocity,
-                 "points_per_cell": b.points_per_cell, "contact_radius": b.contact_radius}
+                 "points_per_cell": b.points_per_cell, "contact_radius": b.contact_radius, "seeding": b.seeding}
                 for b in self.bodies
             ],
         }

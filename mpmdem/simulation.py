@@ -24,14 +24,16 @@ from .config import SolverConfig
 from .dem import DEMSolver
 from .errors import BlowUpError, InputError
 from .mpm import MPMSolver
+from .progress import Progress
 from .scene import Scene
+from .warp_init import init_warp
 
 __all__ = ["RunResult", "Simulation", "default_device"]
 
 
 def default_device() -> str:
     """"cuda" when a CUDA device is present, else "cpu"."""
-    wp.init()
+    init_warp()
     return "cuda" if wp.get_cuda_device_count() > 0 else "cpu"
 
 
@@ -68,7 +70,7 @@ class Simulation:
     def __init__(self, scene: Scene, config: SolverConfig | None = None, *, device: str | None = None):
         self.scene = scene
         self.config = config or SolverConfig()
-        wp.init()
+        init_warp()
         device = device or default_device()
         try:
             wp.get_device(device)
@@ -199,12 +201,7 @@ class Simulation:
         history: dict[str, list] = {}
         times: list[float] = []
         start_wall = _time.perf_counter()
-        bar = None
-        if not quiet:
-            from tqdm import tqdm
-
-            bar = tqdm(total=end_time, unit="s", unit_scale=False, desc="sim time",
-                       bar_format="{l_bar}{bar}| {n:.4g}/{total:.4g} s [{elapsed}<{remaining}]{postfix}")
+        bar = None if quiet else Progress(end_time)
 
         e0 = {}
 
@@ -247,8 +244,7 @@ class Simulation:
             if interrupted:
                 raise KeyboardInterrupt
             if bar is not None:
-                bar.set_postfix_str(f"dt={dt:.3g} s", refresh=False)
-                bar.update(min(t, end_time) - bar.n)
+                bar.update(t, dt)
 
         status, message = "completed", ""
         try:
@@ -264,7 +260,8 @@ class Simulation:
             else:
                 record(t_start, steps, self.dem.dt_default, self.dem.dt_bound)
             for k in range(1, frames + 1):
-                t, steps = self.advance_to(t_start + (end_time - t_start) * k / frames, on_batch=on_batch)
+                t_frame = end_time if k == frames else t_start + (end_time - t_start) * k / frames
+                t, steps = self.advance_to(t_frame, on_batch=on_batch)
                 _, dt, bound, _, _ = self.stage.read_clock()
                 record(t, steps, dt, bound)
         except BlowUpError as e:
@@ -319,12 +316,13 @@ class Simulation:
 
     def _likely_cause(self, dt: float, bound: float) -> str:
         if self.coupling:
-            return (self.mpm._likely_cause(dt, bound) + f"; the contact stiffness against the point masses (dt = "
-                    f"{dt:.3g} s, contact bound {self.coupling.contact_bound:.3g} s): lower dem_kappa or dt")
+            overlap = self.dem.overlap_cause()
+            return ((f"{overlap}; else " if overlap else "") + self.mpm._likely_cause(dt, bound)
+                    + f"; the contact stiffness against the point masses (dt = {dt:.3g} s, contact bound "
+                    f"{self.coupling.contact_bound:.3g} s): lower dem_kappa or dt")
         if self.mpm:
             return self.mpm._likely_cause(dt, bound)
-        return (f"the time step (dt = {dt:.3g} s against the bound {bound:.3g} s of mpmdem.dem): "
-                "lower dem_kappa or dt")
+        return self.dem.likely_cause(dt)
 
     # -- checkpoints -------------------------------------------------------------------------------
     def save_checkpoint(self, path: str | Path) -> Path:

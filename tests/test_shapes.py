@@ -143,3 +143,43 @@ def test_from_file_svg(tmp_path):
         from_file(tmp_path / "missing.svg")
     with pytest.raises(ValueError, match="scale"):
         from_file(square, scale=0.0)
+
+
+@pytest.mark.parametrize("h", [1.0 / 16, 0.025, 0.0125, 0.01])
+@pytest.mark.parametrize(
+    "shape",
+    [
+        disk((0.5123, 0.4871), 0.2),
+        rectangle(0.1013, 0.2013, 0.4987, 0.3987),
+        polygon([(0.0, 0.2), (0.5, 0.25), (0.3, 0.6), (-0.1, 0.45)]),
+    ],
+    ids=["disk", "rectangle", "quadrilateral"],
+)
+def test_clipped_seeding_volume_is_the_area(shape, h):
+    """Verify the default seeding's volumes sum to the shape's area (πr² for a disk) to round-off at
+    any resolution, and that "full" keeps whole sub-cells (the staircase area) at the same points."""
+    clipped = seed_points(shape, cell_size=h, points_per_cell=2)
+    full = seed_points(shape, cell_size=h, points_per_cell=2, seeding="full")
+    assert clipped.volumes.sum() == pytest.approx(shape.area, rel=1e-13)
+    np.testing.assert_array_equal(clipped.positions, full.positions)
+    np.testing.assert_allclose(full.volumes, (h / 2) ** 2, rtol=1e-15)
+    # a point whose centre is inside keeps at least a quarter of its sub-cell (a straight outline
+    # through the centre leaves half); the slivers lumped onto it add at most a few sub-cells
+    assert clipped.volumes.min() > 0.25 * (h / 2) ** 2
+    assert clipped.volumes.max() < 4.0 * (h / 2) ** 2
+
+
+def test_clipped_seeding_inside_is_whole_sub_cells():
+    """Verify points away from the outline keep their whole sub-cell, (h/n)², under clipping."""
+    h, n = 0.02, 2
+    shape = disk((0.5, 0.5), 0.2)
+    pts = seed_points(shape, cell_size=h, points_per_cell=n)
+    deep = np.hypot(*(pts.positions - 0.5).T) < 0.2 - h
+    assert deep.sum() > 0.8 * len(pts)
+    np.testing.assert_allclose(pts.volumes[deep], (h / n) ** 2, rtol=1e-12)
+
+
+def test_seeding_bad_value_is_an_input_error():
+    """Verify an unknown seeding names the parameter and the choices."""
+    with pytest.raises(ValueError, match="seeding.*clipped"):
+        seed_points(rectangle(0, 0, 1, 1), cell_size=0.1, points_per_cell=2, seeding="exact")
