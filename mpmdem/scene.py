@@ -15,41 +15,15 @@ import numpy as np
 import shapely
 
 from .bodies import ContactLaw, RigidBody, make_rigid_body
+from .boundaries import SIDES, Boundary, as_boundary, check_walls_on_grid_lines
 from .errors import InputError
 from .materials import Material
 from .overlaps import body_overlaps, core_geometry, depth_inside, overlap_tolerance
+from .probes import MassProbe, make_mass_probe
 from .shapes import SEEDINGS, SeededPoints, Shape, rectangle, seed_points
 from .spheropolygons import Spheropolygon, rounded_rectangle
 
-__all__ = ["SIDES", "Boundary", "MPMBody", "Obstacle", "Scene"]
-
-SIDES = ("left", "right", "bottom", "top")
-BOUNDARY_KINDS = ("fixed", "slip", "friction", "free")
-
-
-@dataclass(frozen=True)
-class Boundary:
-    """Condition on one side of the domain, applied to the grid nodes on and beyond it.
-
-    Attributes:
-        kind: "fixed" (no-slip, v = 0), "slip" (roller: no normal motion), "friction" (a wall that
-            points may leave, with Coulomb friction μ while pressed against it) or "free" (none).
-        friction: Coulomb coefficient μ ≥ 0 of a "friction" wall.
-    """
-
-    kind: Literal["fixed", "slip", "friction", "free"] = "slip"
-    friction: float = 0.0
-
-    def __post_init__(self):
-        if self.kind not in BOUNDARY_KINDS:
-            raise InputError("boundary kind", self.kind, f"one of {', '.join(BOUNDARY_KINDS)}")
-        if not (math.isfinite(self.friction) and self.friction >= 0.0):
-            raise InputError("friction", self.friction, "a coefficient of friction >= 0")
-
-    @property
-    def kind_id(self) -> int:
-        return BOUNDARY_KINDS.index(self.kind)
-
+__all__ = ["SIDES", "Boundary", "MPMBody", "MassProbe", "Obstacle", "Scene"]
 
 @dataclass(frozen=True)
 class Obstacle:
@@ -57,16 +31,6 @@ class Obstacle:
 
     shape: Shape
     kind: str = "fixed"
-
-
-@dataclass(frozen=True)
-class MassProbe:
-    """An axis-aligned box [m] whose material-point mass [kg/m] is summed on the device at every
-    output frame (Scene.add_mass_probe): diagnostics ``mass_<name>``."""
-
-    name: str
-    lo: tuple[float, float]
-    hi: tuple[float, float]
 
 
 @dataclass(frozen=True)
@@ -95,14 +59,6 @@ class MPMBody:
             r = x - np.average(x, axis=0, weights=volumes)
             v = v + self.angular_velocity * np.stack([-r[:, 1], r[:, 0]], 1)
         return v
-
-
-def _as_boundary(side: str, b) -> Boundary:
-    if isinstance(b, Boundary):
-        return b
-    if isinstance(b, str):
-        return Boundary(b)
-    raise InputError(f"boundaries[{side!r}]", b, "a Boundary or one of " + ", ".join(BOUNDARY_KINDS))
 
 
 @dataclass
@@ -172,29 +128,9 @@ class Scene:
         unknown = set(self.boundaries) - set(SIDES)
         if unknown:
             raise InputError("boundaries", sorted(unknown), f"sides among {', '.join(SIDES)}")
-        self.boundaries = {s: _as_boundary(s, self.boundaries.get(s, "slip")) for s in SIDES}
+        self.boundaries = {s: as_boundary(s, self.boundaries.get(s, "slip")) for s in SIDES}
         if self.cell_size is not None:
-            self._check_walls_on_grid_lines()
-
-    def _check_walls_on_grid_lines(self) -> None:
-        """A wall (fixed, slip or friction side) must lie on a grid line: the grid starts at the
-        lower corner, so the right and top walls need a whole number of cells across. Rounding the
-        grid up instead would put the wall up to a cell beyond the side the user gave."""
-        (x0, y0), (x1, y1) = self.domain
-        h = self.cell_size
-        for side, lo, hi, axis in (("right", x0, x1, "x"), ("top", y0, y1, "y")):
-            if self.boundaries[side].kind == "free":
-                continue
-            cells = (hi - lo) / h
-            if abs(cells - round(cells)) <= 1e-6 * max(1.0, cells):
-                continue
-            n_lo, n_hi = max(1, math.floor(cells)), math.ceil(cells)
-            raise InputError(
-                "domain", self.domain,
-                f"a {side} wall on a grid line: {axis}1 - {axis}0 = {hi - lo:g} m is {cells:.4g} cells of "
-                f"cell_size {h:g} m, so the wall would sit at {axis} = {lo + n_hi * h:.6g} m; use {axis}1 = "
-                f"{lo + n_lo * h:.6g} or {lo + n_hi * h:.6g} m, cell_size {(hi - lo) / n_hi:.6g} or "
-                f"{(hi - lo) / n_lo:.6g} m, or a free {side} side")
+            check_walls_on_grid_lines(self.domain, self.cell_size, self.boundaries)
 
     @property
     def cell_counts(self) -> tuple[int, int]:
@@ -375,25 +311,9 @@ class Scene:
         return obstacle
 
     def add_mass_probe(self, name: str, lo=(-math.inf, -math.inf), hi=(math.inf, math.inf)) -> MassProbe:
-        """Measure the mass of the material points inside the box lo ≤ x < hi [m] at every frame.
-
-        The sum runs on the device with the other diagnostics and is written as ``mass_<name>``
-        [kg/m] (per unit thickness) to the HDF5 diagnostics and energy.csv. A bound may be ±inf: the
-        mass below a line y = y0 is ``add_mass_probe("below", hi=(inf, y0))`` (a silo's discharge).
-        """
-        if not (isinstance(name, str) and name.isidentifier()):
-            raise InputError("name", name, "a probe name made of letters, digits and _ (it names mass_<name>)")
-        if any(p.name == name for p in self.mass_probes):
-            raise InputError("name", name, "a probe name not used by another probe")
-        try:
-            lo = tuple(float(v) for v in lo)
-            hi = tuple(float(v) for v in hi)
-        except (TypeError, ValueError):
-            raise InputError("lo, hi", (lo, hi), "two (x, y) corners [m]") from None
-        if len(lo) != 2 or len(hi) != 2 or any(math.isnan(v) for v in lo + hi) or not all(
-                a < b for a, b in zip(lo, hi, strict=True)):
-            raise InputError("lo, hi", (lo, hi), "two (x, y) corners [m] with lo < hi in x and y (±inf allowed)")
-        probe = MassProbe(name, lo, hi)
+        """Measure the mass of the material points inside the box lo ≤ x < hi [m] at every frame
+        (``mass_<name>`` [kg/m] in the diagnostics; see ``mpmdem.probes.MassProbe``)."""
+        probe = make_mass_probe(name, lo, hi, [p.name for p in self.mass_probes])
         self.mass_probes.append(probe)
         return probe
 
