@@ -52,7 +52,8 @@ def test_sweep_on_two_cpu_processes(tmp_path):
     assert [r["id"] for r in rows] == ["angle=20.0", "angle=30.0"]
     for row in rows:
         assert row["status"] == "completed", row
-        assert row["device"] == "cpu" and row["wall_seconds"] > 0 and row["worker"] is not None
+        recorded = row["wall_seconds"]  # the row records the run's duration (its value is not checked)
+        assert row["device"] == "cpu" and recorded > 0 and row["worker"] is not None
         assert row["acceleration"] == pytest.approx(row["acceleration_expected"], rel=1e-3)
         assert (tmp_path / "runs" / row["id"] / "summary.json").is_file()
     assert len(jsonl_rows(tmp_path)) == 2
