@@ -328,9 +328,10 @@ class DEMSolver:
                               f"{int(status[kdem.STATUS_NONFINITE])} bodies have NaN/inf values. "
                               f"Likely cause: {cause}.", t)
         if status[kdem.STATUS_OUTSIDE] > 0:
-            raise BlowUpError("left-domain", f"{int(status[kdem.STATUS_OUTSIDE])} rigid bodies left the domain at "
-                              f"t = {t:.6g} s. Likely cause: an open side (close it with Scene.add_walls) or "
-                              f"{cause}.", t)
+            # the flag counts body-steps outside over the steps since the last check, not bodies
+            raise BlowUpError("left-domain", f"rigid bodies left the domain by t = {t:.6g} s (outside the domain "
+                              f"{int(status[kdem.STATUS_OUTSIDE])} times, counted per body and step since the last "
+                              f"check). Likely cause: an open side (close it with Scene.add_walls) or {cause}.", t)
         if status[kdem.STATUS_NEIGHBOR_OVERFLOW] > 0:
             raise BlowUpError("list-overflow", f"a DEM Verlet list overflowed at t = {t:.6g} s (more than "
                               f"{self.slots} neighbours of one body): raise SolverConfig(dem_max_neighbors=...) "
