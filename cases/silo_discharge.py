@@ -47,7 +47,7 @@
 # What it gives (`mpmdem study beverloo` on an H200, bench/results/studies/beverloo/, docs/studies/index.md): the 2D
 # law's form holds (W^(2/3) linear in D0 on every grid), but W grows under refinement and on the
 # finest grid (2.5 mm) is 1.7 × the paper's curve: C = 1.00 ± 0.02 with k = 2.2 (paper 0.58). At 5 mm,
-# about the paper's point count, C = 0.68. Original and stress-free MPM blow up as the jet lands.
+# about the paper's point count, C = 0.69. Original and stress-free MPM blow up as the jet lands.
 """Silo discharge (MPM-SDEM §5.3): sand drains through an orifice into a container; rate vs 2D Beverloo."""
 
 import math
