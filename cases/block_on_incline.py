@@ -10,10 +10,16 @@ import numpy as np
 
 from mpmdem import ContactLaw, Scene, rounded_rectangle
 from mpmdem.runner import CaseSetup
+from mpmdem.validation import Check
 
 NAME = "block-on-incline"
 DESCRIPTION = "a block slides (or sticks) on a fixed incline: acceleration vs g(sin θ − μ cos θ)"
 DEFAULTS = {"precision": "f64"}
+#: `mpmdem validate`: the sliding block's acceleration against Newton's law for a Coulomb block
+VALIDATION = [
+    Check("acceleration", "acceleration_expected", "analytic: a = g (sin θ − μ cos θ)", 0.005,
+          "a fitted to x(t) over the run's frames resolves a to about 0.1 %; 5 × that"),
+]
 
 GRAVITY = 9.81  # m/s²
 PLANK = (3.0, 0.1)  # m, length and thickness of the incline

@@ -56,12 +56,24 @@ import numpy as np
 from mpmdem import ContactLaw, DruckerPrager, InputError, Scene, rounded_rectangle
 from mpmdem.cases._table3 import GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, VERLET, sand
 from mpmdem.runner import CaseSetup
+from mpmdem.validation import Check
 
 NAME = "sand-blocks"
 DESCRIPTION = "block impact: a sand column topples two of three stacked wooden blocks (MPM-SDEM §6, the experiment)"
 # Table 3: "MPM (APIC)"; quadratic B-splines keep APIC stable (the linear shape does not, see
 # cases/column_collapse.py)
 DEFAULTS = {"granular": True, "shape": "bspline2", "transfer": "APIC", "precision": "f32"}
+#: `mpmdem validate`: the paper's three events at g = 10 m/s², given to 0.05 s (±0.025) with our
+#: frames 0.01 s apart: ±0.035 s
+VALIDATION = [
+    Check("event_times_s.reach", 0.25, "MPM-SDEM §6: the sand reaches the blocks", 0.035,
+          "the paper's 0.05 s reading resolution plus a frame", relative=False),
+    Check("event_times_s.block2_ground", 0.40, "MPM-SDEM §6: block 2 lands", 0.035,
+          "the paper's 0.05 s reading resolution plus a frame", relative=False),
+    Check("event_times_s.block1_ground", 0.45, "MPM-SDEM §6: block 1 lands", 0.035,
+          "the paper's 0.05 s reading resolution plus a frame", relative=False,
+          known_gap="block 1 rides block 2 down and lies flat at 0.39-0.40 s on the fine grids"),
+]
 
 # -- §6 --------------------------------------------------------------------------------------
 FRICTION_ANGLE = 22.0  # deg

@@ -15,6 +15,8 @@ commands:
   study NAME|FILE [--out DIR] [--workers N] [--gpus N] [--workers-per-gpu K] [--scheduler ADDR]
         [--device cpu|cuda] [--rerun-failed] [--set FLAG=VALUE ...]
                        run a case over a grid of flag values on a Dask cluster (mpmdem study --help)
+  validate [--device D] [--out DIR] [--quick] [--cases A,B]
+                       every case that declares checks, against its references: validation.md/.json
   info FILE            summary of a result file (.h5)
   plot FILE [--out DIR] [--field NAME]
                        PNGs: energy and momentum vs time, snapshots coloured by a field
@@ -161,6 +163,37 @@ def _study(argv: list[str]) -> int:
     return 0
 
 
+def _validate(argv: list[str]) -> int:
+    from pathlib import Path
+
+    from .errors import InputError
+    from .runner import OneLineParser
+    from .validation import collect_checks, run_validation
+
+    p = OneLineParser(prog="mpmdem validate", description="every case with a reference, against it: one table")
+    p.add_argument("--device", default=None, help="cpu, cuda or cuda:N (default: the GPU if there is one)")
+    p.add_argument("--out", default="results/validation", help="folder of validation.md/.json and the runs")
+    p.add_argument("--quick", action="store_true", help="the cases' quick sizes (a smoke table, not a validation)")
+    p.add_argument("--cases", default=None, help="comma-separated cases (default: every case that declares checks)")
+    args = p.parse_args(argv)
+    cases = [c.strip() for c in args.cases.split(",") if c.strip()] if args.cases else None
+    try:
+        known = collect_checks(cases)
+    except InputError as e:
+        print(f"mpmdem: error: {e}", file=sys.stderr)
+        return 2
+    if not known:
+        print(f"mpmdem: error: --cases={args.cases!r} is invalid: cases that declare VALIDATION checks",
+              file=sys.stderr)
+        return 2
+    rows = run_validation(Path(args.out), device=args.device, quick=args.quick, cases=list(known))
+    counts = {}
+    for r in rows:
+        counts[r["status"]] = counts.get(r["status"], 0) + 1
+    print(f"wrote {Path(args.out) / 'validation.md'}: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mpmdem`` console script."""
     argv = sys.argv[1:] if argv is None else argv
@@ -178,6 +211,8 @@ def main(argv: list[str] | None = None) -> int:
         return _study(rest)
     if cmd == "animate":
         return _animate(rest)
+    if cmd == "validate":
+        return _validate(rest)
     if cmd == "run":
         from .cases import DEFAULT_CASE
         from .errors import InputError
@@ -191,7 +226,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"mpmdem: error: {e}", file=sys.stderr)
             return 2
         return run_case(module, flags, prog=f"mpmdem run {name}")
-    print(f"mpmdem: error: unknown command {cmd!r}; allowed: run, list, study, info, plot, animate", file=sys.stderr)
+    print(f"mpmdem: error: unknown command {cmd!r}; allowed: run, list, study, validate, info, plot, animate",
+          file=sys.stderr)
     return 2
 
 
