@@ -29,7 +29,7 @@ from pathlib import Path
 
 import warp as wp
 
-from mpmdem import Simulation
+from mpmdem import Simulation, simulation
 from mpmdem.runner import case_module, config_from_args, make_case_parser
 
 CASES = ("sand-blocks", "normal-force", "silo-filling", "silo-discharge")
@@ -63,7 +63,7 @@ def time_case(name: str, device: str, warmup: int, steps: int, flags: list[str])
     return {"case": name, "device": str(wp.get_device(device).name if device != "cpu" else "cpu"),
             "points": sim.particle_count, "bodies": sim.body_count, "granular": sim.config.granular,
             "steps": steps, "seconds": seconds, "us_per_step": 1e6 * seconds / steps,
-            "end_time": setup.end_time, "dt": dt, "commit": commit()}
+            "end_time": setup.end_time, "dt": dt, "steps_per_graph": simulation.STEPS_PER_GRAPH, "commit": commit()}
 
 
 def main(argv=None) -> int:
@@ -72,8 +72,12 @@ def main(argv=None) -> int:
     p.add_argument("--cases", default=",".join(CASES), help="comma-separated cases")
     p.add_argument("--warmup", type=int, default=200, help="steps before timing")
     p.add_argument("--steps", type=int, default=5000, help="timed steps per case")
+    p.add_argument("--steps-per-graph", type=int, default=None,
+                   help="steps per CUDA-graph launch (default mpmdem.simulation.STEPS_PER_GRAPH; 1: one per step)")
     p.add_argument("--out", type=Path, default=RESULTS / "small_scenes.jsonl")
     args, flags = p.parse_known_args(argv)
+    if args.steps_per_graph is not None:
+        simulation.STEPS_PER_GRAPH = args.steps_per_graph
     rows = []
     for name in [c.strip() for c in args.cases.split(",") if c.strip()]:
         row = time_case(name, args.device, args.warmup, args.steps, flags)

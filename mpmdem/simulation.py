@@ -30,6 +30,10 @@ from .warp_init import init_warp
 
 __all__ = ["RunResult", "Simulation", "default_device"]
 
+#: steps per launch of the multi-step CUDA graph (small scenes pay a graph launch per launch, not per
+#: step; the batches of ``advance_to`` are hundreds of steps, so few steps run one graph at a time)
+STEPS_PER_GRAPH = 16
+
 
 def default_device() -> str:
     """"cuda" when a CUDA device is present, else "cpu"."""
@@ -91,6 +95,7 @@ class Simulation:
         #: what one step runs, and who owns the clock
         self.stage = self.coupling or self.mpm or self.dem
         self._graph = None
+        self._graph_many = None
         self.sort_interval = self.config.sort_interval or 0
         self._steps_since_sort = 0
 
@@ -106,7 +111,10 @@ class Simulation:
 
     # -- stepping ---------------------------------------------------------------------------------
     def _capture(self) -> None:
-        """Record one step as a CUDA graph (modules are loaded by a no-op step first)."""
+        """Record one step, and STEPS_PER_GRAPH steps, as CUDA graphs (modules are loaded by a no-op
+        step first). A step launches the same kernels whatever the state (its branches are on the
+        device), so a graph of n copies replays exactly as n replays of the one-step graph, with one
+        launch from the host instead of n."""
         if self._graph is not None or not self.config.cuda_graph or not wp.get_device(self.device).is_cuda:
             return
         t, *_ = self.stage.read_clock()
@@ -116,16 +124,28 @@ class Simulation:
         with wp.ScopedCapture(device=self.device) as cap:
             self.stage.step()
         self._graph = cap.graph
+        with wp.ScopedCapture(device=self.device) as cap:
+            for _ in range(STEPS_PER_GRAPH):
+                self.stage.step()
+        self._graph_many = cap.graph
 
     def advance(self, steps: int) -> None:
         """Launch ``steps`` explicit steps without any host synchronisation (the points are
         re-sorted by cell every ``sort_interval`` steps, between two steps)."""
-        for _ in range(steps):
-            if self._graph is not None:
+        left = steps
+        while left > 0:
+            until_sort = self.sort_interval - self._steps_since_sort if self.mpm and self.sort_interval else left
+            if self._graph is not None and left >= STEPS_PER_GRAPH and until_sort >= STEPS_PER_GRAPH:
+                wp.capture_launch(self._graph_many)
+                n = STEPS_PER_GRAPH
+            elif self._graph is not None:
                 wp.capture_launch(self._graph)
+                n = 1
             else:
                 self.stage.step()
-            self._steps_since_sort += 1
+                n = 1
+            left -= n
+            self._steps_since_sort += n
             if self.mpm and self.sort_interval and self._steps_since_sort >= self.sort_interval:
                 self.mpm.sort_points()
                 self._steps_since_sort = 0
