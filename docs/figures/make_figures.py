@@ -20,6 +20,15 @@ HERE = Path(__file__).resolve().parent
 DPI = 90
 
 
+
+def _save(fig, name: str) -> Path:
+    """Write a figure into this folder and close it."""
+    fig.tight_layout()
+    out = HERE / name
+    fig.savefig(out, dpi=DPI)
+    plt.close(fig)
+    return out
+
 def _grid(ax, n: int = 5) -> None:
     for k in range(n + 1):
         ax.plot([0, n], [k, k], color="0.8", lw=0.8, zorder=0)
@@ -54,11 +63,7 @@ def mpm_step() -> Path:
         axes[2].add_patch(FancyArrowPatch(n, p, arrowstyle="-|>", mutation_scale=10, color="0.3", lw=0.8))
     axes[2].add_patch(FancyArrowPatch(p, p + [0.0, -0.5], arrowstyle="-|>", mutation_scale=10,
                                       color="tab:orange", lw=1.5))
-    fig.tight_layout()
-    out = HERE / "mpm_step.png"
-    fig.savefig(out, dpi=DPI)
-    plt.close(fig)
-    return out
+    return _save(fig, "mpm_step.png")
 
 
 def shape_functions() -> Path:
@@ -79,11 +84,7 @@ def shape_functions() -> Path:
     ax.set_ylabel("N")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    out = HERE / "shape_functions.png"
-    fig.savefig(out, dpi=DPI)
-    plt.close(fig)
-    return out
+    return _save(fig, "shape_functions.png")
 
 
 def grid_layers() -> Path:
@@ -106,11 +107,7 @@ def grid_layers() -> Path:
     axes[1].scatter([2.07], [2], s=100, marker="s", color="tab:green", zorder=4, ec="k")
     axes[1].annotate("two copies of the node,\none per component", (2.0, 2.0), (2.2, 3.2), fontsize=9,
                      arrowprops={"arrowstyle": "->"})
-    fig.tight_layout()
-    out = HERE / "grid_layers.png"
-    fig.savefig(out, dpi=DPI)
-    plt.close(fig)
-    return out
+    return _save(fig, "grid_layers.png")
 
 
 def _dilate(core: np.ndarray, r: float, n: int = 24) -> np.ndarray:
@@ -154,11 +151,7 @@ def spheropolygon() -> Path:
     ax.set_ylim(-0.4, 3.0)
     ax.set_aspect("equal")
     ax.axis("off")
-    fig.tight_layout()
-    out = HERE / "spheropolygon.png"
-    fig.savefig(out, dpi=DPI)
-    plt.close(fig)
-    return out
+    return _save(fig, "spheropolygon.png")
 
 
 def coupled_step() -> Path:
@@ -176,11 +169,7 @@ def coupled_step() -> Path:
     ax.set_xlim(-0.1, len(stages) * 1.75)
     ax.set_ylim(-0.1, 1.1)
     ax.axis("off")
-    fig.tight_layout()
-    out = HERE / "coupled_step.png"
-    fig.savefig(out, dpi=DPI)
-    plt.close(fig)
-    return out
+    return _save(fig, "coupled_step.png")
 
 
 if __name__ == "__main__":
