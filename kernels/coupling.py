@@ -31,6 +31,7 @@ import functools
 
 import warp as wp
 
+from .clock import CLOCK_DT, CLOCK_T
 from .dem import FIXED, make_dem_kernels
 from .state import make_state_structs
 from .types import kernel, scalar_types
@@ -131,7 +132,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
     def released(P: Particles, clock: wp.array(dtype=wp.float64), p: int):
         ok = True
         if wp.static(staged):
-            ok = clock[0] >= P.release[p]
+            ok = clock[CLOCK_T] >= P.release[p]
         return ok
 
     # -- list maintenance ---------------------------------------------------------------------
@@ -283,7 +284,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                 L.active[p] = 0
             return
         fc = vec2()
-        dt = T(clock[1])
+        dt = T(clock[CLOCK_DT])
         S = L.slots
         base = p * S
         X = P.x[p]
@@ -441,7 +442,7 @@ def make_liu_kernels(precision: str):
     def carriers_to_grid(B: Bodies, BG: BodyGrid, D: Domain, clock: wp.array(dtype=wp.float64)):
         """P2G of the carrier points with the tent function."""
         c = wp.tid()
-        if clock[1] <= wp.float64(0.0):
+        if clock[CLOCK_DT] <= wp.float64(0.0):
             return
         b = BG.body[c]
         r = rotate(B.angle[b], BG.local[c])
@@ -476,7 +477,7 @@ def make_liu_kernels(precision: str):
     def exchange(G: Grid, D: Domain, BG: BodyGrid, B: Bodies, clock: wp.array(dtype=wp.float64)):
         """Contact correction at the shared nodes; the impulse goes to the body."""
         i, j = wp.tid()
-        dt = T(clock[1])
+        dt = T(clock[CLOCK_DT])
         m1 = G.mass[i, j]
         m2 = BG.mass[i, j]
         if dt <= T(0.0) or m1 <= D.mass_eps or m2 <= T(0.0):

@@ -20,6 +20,7 @@ import functools
 
 import warp as wp
 
+from .clock import CLOCK_BOUND, CLOCK_DT, CLOCK_DT_FACTOR, CLOCK_DT_FIXED, CLOCK_T, CLOCK_T_STOP
 from .types import kernel, scalar_types
 
 __all__ = [
@@ -392,7 +393,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         if tid - i * K >= C.count[i]:
             return
         j = C.nbr[tid]
-        dt = T(clock[1])
+        dt = T(clock[CLOCK_DT])
         xi = B.x[i]
         xj = B.x[j]
         ai = B.radius[i]
@@ -538,8 +539,8 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         """Semi-implicit Euler (leapfrog with half-step velocities, as the MPM stage, MPM-SDEM
         eq. 17-20): v += dt F/m, x += dt v; the same for ω and the angle (eq. 42)."""
         i = wp.tid()
-        dt = T(clock[1])
-        t = clock[0]
+        dt = T(clock[CLOCK_DT])
+        t = clock[CLOCK_T]
         v = B.v[i]
         w = B.omega[i]
         if B.motion[i] == KINEMATIC:
@@ -572,12 +573,12 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
     def dem_dt(clock: wp.array(dtype=wp.float64)):
         """dt = the fixed dt, or the factor × the bound (both set once: they depend on masses and k_n
         only); 0 once the clock has reached t_stop."""
-        dt = clock[4]
+        dt = clock[CLOCK_DT_FIXED]
         if dt <= wp.float64(0.0):
-            dt = clock[5] * clock[3]
-        if clock[0] >= clock[2]:
+            dt = clock[CLOCK_DT_FACTOR] * clock[CLOCK_BOUND]
+        if clock[CLOCK_T] >= clock[CLOCK_T_STOP]:
             dt = wp.float64(0.0)
-        clock[1] = dt
+        clock[CLOCK_DT] = dt
 
     # -- diagnostics ----------------------------------------------------------------------------
     @kernel

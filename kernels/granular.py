@@ -74,6 +74,7 @@ import functools
 
 import warp as wp
 
+from .clock import CLOCK_DT, CLOCK_T
 from .reductions import advance
 from .scan import prefix_sum
 from .shape_functions import SUPPORT_NODES
@@ -540,7 +541,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
     ``prepare`` fills it. ``count`` starts zeroed and ``label`` zeroes the counts it used. ``assign``
     (the tent outside staged scenes; None else) runs over the nodes of one layer and gives out the
     grid copies there, instead of the claims in P2G. staged: points not yet released
-    (``P.release`` ahead of ``clock[0]``) stay single components, in no cell.
+    (``P.release`` ahead of ``clock[CLOCK_T]``) stay single components, in no cell.
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -610,7 +611,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
             if S.flags[FLAG_REBUILD] == 0:
                 return True
         if wp.static(staged):
-            if clock[0] < P.release[p]:
+            if clock[CLOCK_T] < P.release[p]:
                 return True
         return False
 
@@ -716,7 +717,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         p = wp.tid()
         S.parent[p] = p
         if wp.static(staged):
-            if clock[0] < P.release[p]:
+            if clock[CLOCK_T] < P.release[p]:
                 S.reach[p] = wp.vec4i(0, -1, 0, -1)  # an empty node range: shares no node
                 S.npairs[p] = 0
                 return
@@ -1044,7 +1045,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         if before != comp:
             P.comp[p] = comp
         if wp.static(staged):
-            if clock[0] < P.release[p]:
+            if clock[CLOCK_T] < P.release[p]:
                 return
         rows = G.mass.shape[1]
         if wp.static(deforming):
@@ -1228,7 +1229,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False):
         else:
             reach = wp.vec4i(0, -1, 0, -1)
             if wp.static(staged):
-                released = clock[0] + clock[1] >= P.release[p]  # (at the next step's time)
+                released = clock[CLOCK_T] + clock[CLOCK_DT] >= P.release[p]  # (at the next step's time)
             if released:
                 reach = node_reach(P, D, p)
             old = S.reach[p]
@@ -1487,7 +1488,7 @@ def make_granular_statistics(precision: str, staged: bool = False):
         if tid < P.comp.shape[0]:
             counted = P.comp[tid] == tid
             if wp.static(staged):
-                if clock[0] < P.release[tid]:
+                if clock[CLOCK_T] < P.release[tid]:
                     counted = False
             if counted:
                 wp.atomic_add(stats, STAT_COMPONENTS, 1)

@@ -4,6 +4,7 @@ import functools
 
 import warp as wp
 
+from .clock import CLOCK_DT, CLOCK_T
 from .granular import COPY_RUN, make_layer_row
 from .state import make_state_structs
 from .types import kernel, scalar_types
@@ -234,7 +235,7 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
                     i: int, ib: int, j: int, m: T, mom: t.vec2, fint: t.vec2):
         # node (ib, j) of the grid, stored in row i (its copy's row in granular mode), whose mass,
         # momentum and force (``load_node``) are m, mom, fint
-        dt = T(clock[1])
+        dt = T(clock[CLOCK_DT])
         if wp.static(layered):
             if wp.static(clear):
                 # (a copy that received nothing is zero already: no stores, which in a run as deep
@@ -255,7 +256,7 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         inv_m = T(1.0) / m
         g = D.gravity
         if D.gravity_ramp > wp.float64(0.0):
-            g = g * T(wp.min(clock[0] / D.gravity_ramp, wp.float64(1.0)))
+            g = g * T(wp.min(clock[CLOCK_T] / D.gravity_ramp, wp.float64(1.0)))
         if wp.static(remap):
             G.vm[i, j] = solid(boundary(mom * inv_m, D, ib, j), G, ib, j)
             return
@@ -289,7 +290,7 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     @kernel(max_registers=GRID_UPDATE_REGISTERS if layered else None)
     def grid_update(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), work: wp.array(dtype=wp.float64)):
         i, j = wp.tid()
-        if clock[1] <= wp.float64(0.0):
+        if clock[CLOCK_DT] <= wp.float64(0.0):
             return
         if wp.static(layered):
             # launched over one layer: the copies in use at a node are a prefix (claimed first-fit);
@@ -391,7 +392,7 @@ def make_mirror_ghosts(precision: str, layered: bool = False):
     def mirror_ghosts(field: wp.array2d(dtype=t.vec2), D: Domain, clock: wp.array(dtype=wp.float64),
                       owner: wp.array2d(dtype=wp.int32)):
         i, j = wp.tid()  # a node of one layer
-        if clock[1] <= wp.float64(0.0):
+        if clock[CLOCK_DT] <= wp.float64(0.0):
             return
         si, sj, sx, sy, mirrored = _mirror_node(i, j, D.node_lo, D.node_hi, D.bc_kind)
         if not mirrored:
@@ -517,7 +518,7 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
     @kernel
     def fold_ghosts(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
         i, j = wp.tid()  # a node of one layer
-        if clock[1] <= wp.float64(0.0):
+        if clock[CLOCK_DT] <= wp.float64(0.0):
             return
         lo = D.node_lo
         hi = D.node_hi
@@ -558,7 +559,7 @@ def make_xpic_grid(precision: str):
     @kernel
     def xpic_init(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), coef: float):
         i, j = wp.tid()
-        if clock[1] <= wp.float64(0.0):
+        if clock[CLOCK_DT] <= wp.float64(0.0):
             return
         v = G.v[i, j]
         G.vk[i, j] = v
@@ -567,7 +568,7 @@ def make_xpic_grid(precision: str):
     @kernel
     def xpic_update(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), coef: float):
         i, j = wp.tid()
-        if clock[1] <= wp.float64(0.0):
+        if clock[CLOCK_DT] <= wp.float64(0.0):
             return
         m = G.mass[i, j]
         v = t.vec2()

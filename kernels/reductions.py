@@ -1,13 +1,14 @@
 """Per-step time-step control and status flags, and per-frame diagnostics, all on the device.
 
-The clock is a float64 array [t, dt, t_stop, dt_bound, dt_fixed, cfl] [s] read by every kernel, so
-the host never needs to know dt inside the step loop.
+The clock is a float64 array read by every kernel (its slots: ``kernels/clock.py``), so the host
+never needs to know dt inside the step loop.
 """
 
 import functools
 
 import warp as wp
 
+from .clock import CLOCK_BOUND, CLOCK_DT, CLOCK_DT_FACTOR, CLOCK_DT_FIXED, CLOCK_SIZE, CLOCK_T, CLOCK_T_STOP
 from .constitutive import make_strain_energy_density
 from .state import make_state_structs
 from .types import kernel, scalar_types
@@ -27,7 +28,6 @@ __all__ = [
     "make_wave_speed",
 ]
 
-CLOCK_SIZE = 6
 STATUS_NONFINITE = 0
 STATUS_OUTSIDE = 1
 
@@ -122,25 +122,25 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
     if s > wp.float64(0.0):
         bound = h / s
     if not wp.isfinite(s):
-        bound = clock[3]  # a NaN speed is reported by the status flags; keep the clock sane
-    clock[3] = bound
-    dt = clock[4]
+        bound = clock[CLOCK_BOUND]  # a NaN speed is reported by the status flags; keep the clock sane
+    clock[CLOCK_BOUND] = bound
+    dt = clock[CLOCK_DT_FIXED]
     if dt <= wp.float64(0.0):
-        dt = clock[5] * bound
-    if clock[0] >= clock[2]:
+        dt = clock[CLOCK_DT_FACTOR] * bound
+    if clock[CLOCK_T] >= clock[CLOCK_T_STOP]:
         dt = wp.float64(0.0)
     else:
         for k in range(wp.static(SPEED_SLOTS)):
             max_speed[k] = wp.float32(0.0)  # refilled by this step's G2P
-    clock[1] = dt
+    clock[CLOCK_DT] = dt
 
 
 @wp.func
 def advance(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
     """t += dt; count steps taken (the end of a step)."""
-    dt = clock[1]
+    dt = clock[CLOCK_DT]
     if dt > wp.float64(0.0):
-        clock[0] = clock[0] + dt
+        clock[CLOCK_T] = clock[CLOCK_T] + dt
         steps[0] = steps[0] + wp.int64(1)
 
 
@@ -221,6 +221,6 @@ def cap_dt(clock: wp.array(dtype=wp.float64), cap: wp.float64, bound: wp.float64
     """dt = min(dt, cap) unless dt was fixed by the user (coupled scenes: MPM-SDEM eq. 51 takes the
     smallest of the MPM, DEM and contact terms); ``bound`` [s], the stable step of the contacts,
     lowers the reported bound."""
-    if clock[4] <= wp.float64(0.0) and clock[1] > cap:
-        clock[1] = cap
-    clock[3] = wp.min(clock[3], bound)
+    if clock[CLOCK_DT_FIXED] <= wp.float64(0.0) and clock[CLOCK_DT] > cap:
+        clock[CLOCK_DT] = cap
+    clock[CLOCK_BOUND] = wp.min(clock[CLOCK_BOUND], bound)

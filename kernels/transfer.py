@@ -9,6 +9,7 @@ import functools
 
 import warp as wp
 
+from .clock import CLOCK_DT, CLOCK_T
 from .constitutive import make_point_update
 from .granular import NO_LAYER, STATUS_LAYER_OVERFLOW, make_layer_row, slot_words
 from .grid import WORK_INFLOW, WORK_PLASTIC, make_keep_inside_walls, work_slot
@@ -178,11 +179,11 @@ def make_p2g(
     def p2g(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64),
             status: wp.array(dtype=wp.int32)):
         p = wp.tid()
-        dt = T(clock[1])
+        dt = T(clock[CLOCK_DT])
         if dt <= T(0.0):
             return
         if wp.static(staged):
-            if clock[0] < P.release[p]:
+            if clock[CLOCK_T] < P.release[p]:
                 return
         if not point_on_grid(P, D, G, p):
             return  # escaped (or non-finite) point: skipped here, flagged by the status check
@@ -336,11 +337,11 @@ def make_g2p(
         work: wp.array(dtype=wp.float64),
     ):
         p = wp.tid()
-        dt = T(clock[1])
+        dt = T(clock[CLOCK_DT])
         if dt <= T(0.0):
             return
         if wp.static(staged):
-            if clock[0] < P.release[p]:
+            if clock[CLOCK_T] < P.release[p]:
                 return
             if wp.static(position) and P.release[p] >= wp.float64(0.0):
                 # first step in the scene: book the energy it brings (kinetic + gravity) as inflow
@@ -487,7 +488,7 @@ def make_xpic_gather(shape: str, precision: str):
     @kernel
     def xpic_gather(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
         p = wp.tid()
-        if clock[1] <= wp.float64(0.0) or not point_on_grid(P, D, G, p):
+        if clock[CLOCK_DT] <= wp.float64(0.0) or not point_on_grid(P, D, G, p):
             return
         v = t.vec2()
         for k in range(wp.static(NC)):
@@ -513,7 +514,7 @@ def make_xpic_scatter(shape: str, precision: str, *, deterministic: bool = False
     @kernel(deterministic=deterministic)
     def xpic_scatter(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
         p = wp.tid()
-        if clock[1] <= wp.float64(0.0) or not point_on_grid(P, D, G, p):
+        if clock[CLOCK_DT] <= wp.float64(0.0) or not point_on_grid(P, D, G, p):
             return
         mv = P.mass[p] * P.tmp[p]
         for k in range(wp.static(NC)):
@@ -563,7 +564,7 @@ def make_contact_scatter(precision: str, *, fused_impulse: bool, deterministic: 
     def contact_scatter(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64),
                         contact_at: wp.array(dtype=t.vec2)):
         p = wp.tid()
-        dt = T(clock[1])
+        dt = T(clock[CLOCK_DT])
         f = P.fcont[p]
         if dt <= T(0.0) or (f[0] == T(0.0) and f[1] == T(0.0)):
             return

@@ -24,11 +24,13 @@ import warp as wp
 
 from .config import SolverConfig
 from .dem import DEMSolver
+from .diagnostics import coupled_likely_cause
 from .errors import BlowUpError, InputError
 from .kernels import coupling as kcp
-from .kernels import reductions as kred
-from .mpm import MPMSolver
+from .kernels import reductions as reduction_kernels
+from .mpm import AFTER_FORCE_UPDATE, MPMSolver
 from .scene import Scene
+from .stage import ClockedStage
 
 __all__ = ["CoupledStage", "contact_time_step_bound"]
 
@@ -51,12 +53,13 @@ def contact_time_step_bound(scene: Scene, point_mass: float) -> float:
     return 2.0 * math.sqrt(point_mass / k) * (math.sqrt(1.0 + zeta * zeta) - zeta)
 
 
-class CoupledStage:
+class CoupledStage(ClockedStage):
     """One explicit step of a scene with material points and rigid bodies.
 
     Args:
         scene, config, device: as for ``Simulation``.
-        mpm, dem: the two stages, built for this scene; they share the MPM stage's clock.
+        mpm, dem: the two stages, built for this scene on one ``Clock`` (the coordinator's); the
+            MPM stage's dt policy (``MPMSolver.start_clock``), capped here each step.
     """
 
     def __init__(self, scene: Scene, config: SolverConfig, device: str, mpm: MPMSolver, dem: DEMSolver):
@@ -66,9 +69,10 @@ class CoupledStage:
                              "points' memory order)")
         self.scene, self.config, self.mpm, self.dem = scene, config, mpm, dem
         self.device = wp.get_device(device)
-        # one clock for both stages
-        dem.clock = mpm.clock
-        dem.steps = mpm.steps
+        if mpm.sim_clock is not dem.sim_clock:
+            raise ValueError("CoupledStage: build the MPM and DEM stages on one Clock (MPMSolver(..., clock=c), "
+                             "DEMSolver(..., clock=c))")
+        self.sim_clock = mpm.sim_clock
         self.clock, self.steps = mpm.clock, mpm.steps
         law = scene.coupling_contact or scene.contact
         self.law = law
@@ -89,7 +93,7 @@ class CoupledStage:
         self.liu = None
         if config.coupling == "liu":
             self._allocate_liu()
-            mpm.hooks["after_force_update"] = [self._liu_exchange]
+            mpm.extend(AFTER_FORCE_UPDATE, self._liu_exchange)
 
     # -- set-up -------------------------------------------------------------------------------
     def _allocate(self) -> None:
@@ -216,7 +220,7 @@ class CoupledStage:
         """One coupled explicit step (MPM-SDEM §4.2)."""
         mpm, dem = self.mpm, self.dem
         mpm.begin_step()
-        wp.launch(kred.cap_dt, 1, inputs=[self.clock, self.dt_cap, self.dt_bound], device=self.device)
+        wp.launch(reduction_kernels.cap_dt, 1, inputs=[self.clock, self.dt_cap, self.dt_bound], device=self.device)
         dem.contact_stage()
         if self.liu is None:
             self.contact_forces()
@@ -245,14 +249,13 @@ class CoupledStage:
         wp.launch(k.finish_rebuild, 1, inputs=[flags, self.rebuilds], device=dev)
         wp.launch(k.forces, n, inputs=[mp, B, L, P, self.dem.world, clock, self.status], device=dev)
 
-    def set_stop_time(self, t_stop: float) -> None:
-        """Steps run until the clock reaches t_stop [s]; later steps do nothing."""
-        self.mpm.set_stop_time(t_stop)
+    def status_counts(self) -> np.ndarray:
+        """Status counts of both stages and the coupling, one after the other."""
+        return np.concatenate([self.mpm.status_counts(), self.dem.status_counts(), self.status.numpy()])
 
-    def read_clock(self) -> tuple[float, float, float, int, np.ndarray]:
-        """(t, dt, dt_bound, steps, status counts of both stages and the coupling) — one host sync."""
-        t, dt, bound, steps, status = self.mpm.read_clock()
-        return t, dt, bound, steps, np.concatenate([status, self.dem.status.numpy(), self.status.numpy()])
+    def likely_cause(self, dt: float, bound: float) -> str:
+        """The rigid bodies' initial overlap, the points' causes, the contact stiffness."""
+        return coupled_likely_cause(self.config, self.scene, self.dem.overlap_cause(), dt, bound, self.contact_bound)
 
     def check_status(self, t: float, dt: float, bound: float, status: np.ndarray) -> None:
         """The MPM and DEM checks, then overflowing point–body lists or bins."""
@@ -268,7 +271,7 @@ class CoupledStage:
         if own[kcp.STATUS_CELL_OVERFLOW] > 0:
             raise BlowUpError("imp-cell-overflow", f"at t = {t:.6g} s more than {self.cell_cap} points sat in one "
                               "grid cell in the point–body search: raise SolverConfig(imp_cell_capacity=...), or "
-                              f"the points collapsed ({self.mpm._likely_cause(dt, bound)}).", t)
+                              f"the points collapsed ({self.mpm.likely_cause(dt, bound)}).", t)
 
     # -- output ---------------------------------------------------------------------------------
     #: Works done on the system (for the energy balance): the MPM stage's, the DEM stage's, and

@@ -21,8 +21,9 @@ import warp as wp
 from .config import SolverConfig
 from .errors import BlowUpError, InputError
 from .kernels import dem as kdem
-from .kernels import reductions as kred
+from .kernels import reductions as reduction_kernels
 from .scene import Scene
+from .stage import Clock, ClockedStage
 
 __all__ = ["DEMSolver", "dem_time_step_bound"]
 
@@ -69,16 +70,18 @@ def dem_time_step_bound(scene: Scene) -> float:
     return 2.0 * math.sqrt(min(masses) / k) * (math.sqrt(1.0 + zeta * zeta) - zeta)
 
 
-class DEMSolver:
+class DEMSolver(ClockedStage):
     """Device state and step sequence of the DEM stage of one scene.
 
     Args:
         scene: the scene; its rigid bodies are uploaded once.
         config: solver choices (precision, dt, dem_kappa, dem_skin, dem_max_neighbors...).
         device: Warp device.
+        clock: the run's clock (``Simulation`` passes its own); None makes one with this stage's
+            dt policy (MPM-SDEM eq. 51's DEM term, or the fixed dt).
     """
 
-    def __init__(self, scene: Scene, config: SolverConfig, device: str):
+    def __init__(self, scene: Scene, config: SolverConfig, device: str, *, clock: Clock | None = None):
         if scene.contact is None:
             raise InputError("contact", None, "a ContactLaw(normal_stiffness=...) in the Scene for rigid bodies")
         self.scene = scene
@@ -97,7 +100,17 @@ class DEMSolver:
         #: (body, body, depth [m]) of the pairs let start overlapping (Scene(allow_initial_overlap=True))
         self.initial_overlaps = scene.initial_overlaps()
         self._layout()
+        if clock is None:
+            clock = Clock(self.device)
+            self.start_clock(clock)
+        self.sim_clock = clock
+        self.clock, self.steps = clock.values, clock.steps
         self._allocate()
+
+    def start_clock(self, clock: Clock) -> None:
+        """Set this stage's dt policy on ``clock``: the fixed dt, else π κ2 × the DEM bound
+        (dt = 2π κ2 sqrt(m/k), eq. 51; the bound depends on masses and k_n only)."""
+        clock.set_policy(dt_fixed=self.config.dt, factor=math.pi * self.config.dem_kappa, bound=self.dt_bound)
 
     # -- set-up -------------------------------------------------------------------------------
     def _layout(self) -> None:
@@ -242,13 +255,6 @@ class DEMSolver:
         self.rebuilds = wp.zeros(1, dtype=wp.int64, device=dev)
         self.status = wp.zeros(kdem.STATUS_SIZE, dtype=wp.int32, device=dev)
         self.diag = wp.zeros(len(kdem.DIAG_NAMES), dtype=wp.float64, device=dev)
-        self.clock = wp.zeros(kred.CLOCK_SIZE, dtype=wp.float64, device=dev)
-        clock = np.zeros(kred.CLOCK_SIZE)
-        clock[3] = self.dt_bound
-        clock[4] = self.config.dt or 0.0
-        clock[5] = math.pi * self.config.dem_kappa  # dt = 2π κ2 sqrt(m/k) (eq. 51) = π κ2 × bound
-        self.clock.assign(clock)
-        self.steps = wp.zeros(1, dtype=wp.int64, device=dev)
 
     @property
     def _scalar(self):
@@ -280,7 +286,7 @@ class DEMSolver:
         self.contact_stage()
         self.body_update()
         if own_clock:
-            wp.launch(kred.advance_time, 1, inputs=[self.clock, self.steps], device=self.device)
+            wp.launch(reduction_kernels.advance_time, 1, inputs=[self.clock, self.steps], device=self.device)
 
     def contact_stage(self) -> None:
         """World vertices, Verlet lists (rebuilt only when flagged on the device) and the
@@ -310,14 +316,9 @@ class DEMSolver:
             wp.launch(self.k.integrate, self.moving, inputs=[self.B, self.P, self.clock, self.status],
                       device=self.device)
 
-    def set_stop_time(self, t_stop: float) -> None:
-        """Steps run until the clock reaches t_stop [s]; later steps do nothing."""
-        wp.copy(self.clock, wp.array([t_stop], dtype=wp.float64, device="cpu"), dest_offset=2, count=1)
-
-    def read_clock(self) -> tuple[float, float, float, int, np.ndarray]:
-        """(t, dt, dt_bound, steps, status counts) — one host sync."""
-        c = self.clock.numpy()
-        return float(c[0]), float(c[1]), float(c[3]), int(self.steps.numpy()[0]), self.status.numpy()
+    def status_counts(self) -> np.ndarray:
+        """The DEM status counters (``kernels/dem.py`` STATUS_*)."""
+        return self.status.numpy()
 
     def check_status(self, t: float, dt: float, bound: float, status: np.ndarray) -> None:
         """Raise BlowUpError for non-finite or escaped bodies and overflowing lists."""
@@ -350,8 +351,9 @@ class DEMSolver:
                 f"{f'; {n} pairs start overlapping' if n > 1 else ''}, let through by "
                 "Scene(allow_initial_overlap=True)): the first steps turn it into speed; move the bodies apart")
 
-    def likely_cause(self, dt: float) -> str:
-        """What most likely made the DEM blow up: initial overlaps, the step, or soft contacts."""
+    def likely_cause(self, dt: float, bound: float | None = None) -> str:
+        """What most likely made the DEM blow up: initial overlaps, the step, or soft contacts (the
+        bound is this stage's own, ``dt_bound``)."""
         step = (f"the time step (dt = {dt:.3g} s against the bound 2 sqrt(m*/k_n) (sqrt(1+ζ²)−ζ) = "
                 f"{self.dt_bound:.3g} s; lower dem_kappa or dt) or a contact stiffness too low for the "
                 "loads (bodies pass through each other)")

@@ -18,6 +18,7 @@ from types import ModuleType
 from .config import COUPLING_SCHEMES, SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverConfig
 from .errors import BlowUpError, InputError
 from .kernels.constitutive import DENSITY_CONTROLS
+from .progress import Progress, deferred_sigint, run_callback
 from .scene import Scene
 from .warp_init import cpu_only
 
@@ -173,7 +174,14 @@ def run_case(module: ModuleType, argv: list[str] | None = None, prog: str | None
     started = time.time()
     code = 0
     try:
-        result = sim.run(end_time, out=out, frames=frames, quiet=args.quiet, name=module.NAME.replace("-", "_"))
+        with deferred_sigint() as interrupted:
+            bar = None if args.quiet else Progress(end_time)
+            try:
+                result = sim.run(end_time, out=out, frames=frames, progress=run_callback(bar, interrupted),
+                                 name=module.NAME.replace("-", "_"))
+            finally:
+                if bar is not None:
+                    bar.close()
         summary.update(status=result.status, steps=result.steps, wall_seconds=time.perf_counter() - t0,
                        output=str(result.path))
         summary.update(module.summarize(sim, result, args))

@@ -10,9 +10,8 @@ from __future__ import annotations
 
 import json
 import math
-import signal
-import threading
 import time as _time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -22,10 +21,11 @@ import warp as wp
 from . import __version__
 from .config import SolverConfig
 from .dem import DEMSolver
+from .diagnostics import EnergyBalance, check_energy
 from .errors import BlowUpError, InputError
 from .mpm import MPMSolver
-from .progress import Progress
 from .scene import Scene
+from .stage import Clock, Stage
 from .warp_init import init_warp
 
 __all__ = ["RunResult", "Simulation", "default_device"]
@@ -85,15 +85,20 @@ class Simulation:
         if not (scene.has_mpm or scene.has_dem):
             raise InputError("bodies", [], "at least one body (Scene.add_body or Scene.add_rigid_body)")
         scene.validate()  # whole-scene input checks (points starting inside rigid bodies), before any kernel
-        self.mpm = MPMSolver(scene, self.config, self.device) if scene.has_mpm else None
-        self.dem = DEMSolver(scene, self.config, self.device) if scene.has_dem else None
+        #: the time of the run, shared by every stage
+        self.clock = Clock(self.device)
+        self.mpm = MPMSolver(scene, self.config, self.device, clock=self.clock) if scene.has_mpm else None
+        self.dem = DEMSolver(scene, self.config, self.device, clock=self.clock) if scene.has_dem else None
+        # the dt policy of the stage that starts each step (with points, the MPM stage's CFL bound,
+        # capped by the coupling's contact bound in a coupled step)
+        (self.mpm or self.dem).start_clock(self.clock)
         self.coupling = None
         if self.mpm and self.dem:
             from .coupling import CoupledStage
 
             self.coupling = CoupledStage(scene, self.config, self.device, self.mpm, self.dem)
-        #: what one step runs, and who owns the clock
-        self.stage = self.coupling or self.mpm or self.dem
+        #: what one step runs
+        self.stage: Stage = self.coupling or self.mpm or self.dem
         self._graph = None
         self._graph_many = None
         self.sort_interval = self.config.sort_interval or 0
@@ -181,16 +186,21 @@ class Simulation:
         *,
         out: str | Path | None = None,
         frames: int = 20,
-        quiet: bool = False,
+        progress: Callable[[float, float], None] | None = None,
+        quiet: bool | None = None,
         name: str = "run",
         attrs: dict | None = None,
     ) -> RunResult:
         """Run to ``end_time`` [s], writing ``frames`` frames (plus the initial one).
 
         With ``out``, writes OUT/<name>.h5 (+ the XDMF sidecars) and OUT/energy.csv frame by frame, flushed
-        each frame. A blow-up stops the run with BlowUpError after marking the file; Ctrl-C
-        marks the file "interrupted" and re-raises KeyboardInterrupt. Either way the frames
-        already written stay readable.
+        each frame. A blow-up stops the run with BlowUpError after marking the file; a
+        KeyboardInterrupt (Ctrl-C, or raised by ``progress``) marks the file "interrupted", closes
+        it and is re-raised. Either way the frames already written stay readable.
+
+        The run prints nothing: ``progress(t, dt)`` [s], if given, is called after every batch of
+        steps (several per frame), e.g. ``mpmdem.progress.Progress(end_time).update``. ``quiet`` is
+        accepted for older callers and has no effect.
         """
         if not (isinstance(end_time, (int, float)) and math.isfinite(end_time) and end_time > 0):
             raise InputError("end_time", end_time, "a positive time in seconds")
@@ -221,23 +231,10 @@ class Simulation:
         history: dict[str, list] = {}
         times: list[float] = []
         start_wall = _time.perf_counter()
-        bar = None if quiet else Progress(end_time)
-
-        e0 = {}
-
-        work_terms = self.stage.WORK_TERMS
+        balance = EnergyBalance(self.stage.WORK_TERMS)
 
         def record(t: float, steps: int, dt: float, bound: float) -> None:
-            d = self.stage.diagnostics()
-            # Energy balance of "Motion integration" eq. 67-68, over this run: the works of the
-            # walls, of Cundall damping, of plasticity and of contact damping and friction (W ≤ 0
-            # when dissipating) explain part of ΔE_total; the residual W_num is what the
-            # discretisation itself gained or lost.
-            if not e0:
-                e0.update(d)
-            for name in work_terms:
-                d[name] -= e0[name]
-            d["work_numerical"] = d["energy_total"] - e0["energy_total"] - sum(d[name] for name in work_terms)
+            d = balance.update(self.stage.diagnostics())
             d.update(dt=dt, dt_bound=bound, steps=float(steps), wall_time=_time.perf_counter() - start_wall)
             times.append(t)
             for k, v in d.items():
@@ -245,43 +242,17 @@ class Simulation:
             if writer is not None:
                 writer.write_frame(t, self.mpm.fields() if self.mpm else {}, d,
                                    body_fields=self.dem.fields() if self.dem else None)
-            self._check_energy(t, d, e0, dt, bound)
-
-        # Ctrl-C sets a flag that is acted on between batches of steps, so it never lands in the
-        # middle of an HDF5 write; a second Ctrl-C interrupts at once.
-        interrupted = []
-
-        def on_sigint(signum, frame):
-            if interrupted:
-                raise KeyboardInterrupt
-            interrupted.append(True)
-
-        previous_handler = None
-        if threading.current_thread() is threading.main_thread():
-            previous_handler = signal.signal(signal.SIGINT, on_sigint)
-
-        def on_batch(t: float, dt: float) -> None:
-            if interrupted:
-                raise KeyboardInterrupt
-            if bar is not None:
-                bar.update(t, dt)
+            check_energy(self.scene, self.config, t, d, balance.initial, lambda: self.stage.likely_cause(dt, bound))
 
         status, message = "completed", ""
         try:
             t_start, dt, bound, steps, _ = self.stage.read_clock()
             if t_start >= end_time:
                 raise InputError("end_time", end_time, f"a time after the current time {t_start:g} s")
-            if self.coupling:
-                bound = min(self.mpm.dt_bound0, self.coupling.dt_bound)
-                record(t_start, steps, self.config.dt or min(self.config.cfl * self.mpm.dt_bound0,
-                                                             self.coupling.dt_cap), bound)
-            elif self.mpm:
-                record(t_start, steps, self.config.dt or self.config.cfl * self.mpm.dt_bound0, self.mpm.dt_bound0)
-            else:
-                record(t_start, steps, self.dem.dt_default, self.dem.dt_bound)
+            record(t_start, steps, *self._initial_step())
             for k in range(1, frames + 1):
                 t_frame = end_time if k == frames else t_start + (end_time - t_start) * k / frames
-                t, steps = self.advance_to(t_frame, on_batch=on_batch)
+                t, steps = self.advance_to(t_frame, on_batch=progress)
                 _, dt, bound, _, _ = self.stage.read_clock()
                 record(t, steps, dt, bound)
         except BlowUpError as e:
@@ -296,53 +267,20 @@ class Simulation:
                 writer.set_status(status, message)
                 writer.close()
             raise
-        finally:
-            if previous_handler is not None:
-                signal.signal(signal.SIGINT, previous_handler)
-            if bar is not None:
-                bar.close()
         if writer is not None:
             writer.set_status(status, message)
             writer.close()
         return RunResult(path, np.array(times), {k: np.array(v) for k, v in history.items()}, status,
                          int(history["steps"][-1]), message)
 
-    def _check_energy(self, t: float, d: dict, e0: dict, dt: float, bound: float) -> None:
-        """Energy growth past blowup_energy_factor × the scene's energy scale is a blow-up."""
-        if not all(math.isfinite(v) for v in d.values()):
-            raise BlowUpError("non-finite", f"simulation blew up at t = {t:.6g} s: non-finite energy. "
-                              f"Likely cause: {self._likely_cause(dt, bound)}.", t)
-        (x0, y0), (x1, y1) = self.scene.domain
-        g = math.hypot(*self.scene.gravity)
-        fall = g * math.hypot(x1 - x0, y1 - y0)  # [J/kg] the most a mass can fall in the domain
-        stored = e0.get("energy_strain", 0.0) + e0.get("energy_contact", 0.0)
-        # the energy in play: the initial kinetic and stored energy, the potential energy released
-        # so far, and a floor of 5 % of a fall through the domain (a scene at rest starts with
-        # none); the whole fall would hide a gain of many impact energies of a short drop
-        released = max(e0["energy_gravity"] - d["energy_gravity"], 0.0)
-        scale = e0["energy_kinetic"] + stored + released + 0.05 * e0["mass"] * fall
-        # energy put in by driven (kinematic) bodies or brought by released points is not growth,
-        # and sets a scale of its own (the released mass falling through the domain, at most)
-        driven = d.get("work_driven", 0.0) + d.get("work_inflow", 0.0)
-        inflow = max(d.get("mass", 0.0) - e0.get("mass", 0.0), 0.0) * fall
-        scale = max(scale + abs(driven) + inflow, 1e-30)
-        growth = d["energy_total"] - e0["energy_total"] - driven
-        if growth > self.config.blowup_energy_factor * scale:
-            raise BlowUpError(
-                "energy-growth",
-                f"simulation blew up at t = {t:.6g} s: total energy grew by {growth:.3g} J/m, more than "
-                f"{self.config.blowup_energy_factor:g} x its scale {scale:.3g} J/m. "
-                f"Likely cause: {self._likely_cause(dt, bound)}.", t)
-
-    def _likely_cause(self, dt: float, bound: float) -> str:
+    def _initial_step(self) -> tuple[float, float]:
+        """(dt, bound) [s] recorded with the first frame, before any step has set them."""
         if self.coupling:
-            overlap = self.dem.overlap_cause()
-            return ((f"{overlap}; else " if overlap else "") + self.mpm._likely_cause(dt, bound)
-                    + f"; the contact stiffness against the point masses (dt = {dt:.3g} s, contact bound "
-                    f"{self.coupling.contact_bound:.3g} s): lower dem_kappa or dt")
+            bound = min(self.mpm.dt_bound0, self.coupling.dt_bound)
+            return self.config.dt or min(self.config.cfl * self.mpm.dt_bound0, self.coupling.dt_cap), bound
         if self.mpm:
-            return self.mpm._likely_cause(dt, bound)
-        return self.dem.likely_cause(dt)
+            return self.config.dt or self.config.cfl * self.mpm.dt_bound0, self.mpm.dt_bound0
+        return self.dem.dt_default, self.dem.dt_bound
 
     # -- checkpoints -------------------------------------------------------------------------------
     def save_checkpoint(self, path: str | Path) -> Path:
@@ -388,4 +326,5 @@ class Simulation:
 
     @property
     def time(self) -> float:
-        return self.stage.read_clock()[0]
+        """The time reached [s] (one host sync)."""
+        return self.clock.time
