@@ -36,6 +36,19 @@ def _list() -> int:
     return 0
 
 
+def _run_help() -> int:
+    """``mpmdem run --help``: the cases (``mpmdem run CASE --help`` gives a case's flags)."""
+    from .cases import CASES, DEFAULT_CASE
+    from .runner import case_module
+
+    width = max(len(n) for n in CASES)
+    print("usage: mpmdem run [CASE] [flags]\n\nRun a case (default: " + DEFAULT_CASE + "); mpmdem run CASE --help "
+          "lists its flags.\n\ncases:")
+    for name in CASES:
+        print(f"  {name:<{width}}  {case_module(name).DESCRIPTION}")
+    return 0
+
+
 def _info(argv: list[str]) -> int:
     from pathlib import Path
 
@@ -218,6 +231,8 @@ def main(argv: list[str] | None = None) -> int:
         from .errors import InputError
         from .runner import case_module, run_case
 
+        if rest and rest[0] in ("-h", "--help"):
+            return _run_help()
         name = rest[0] if rest and not rest[0].startswith("-") else DEFAULT_CASE
         flags = rest[1:] if rest and not rest[0].startswith("-") else rest
         try:

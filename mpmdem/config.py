@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, get_args
 
 from .errors import InputError
 from .kernels.constitutive import DENSITY_CONTROLS
@@ -17,6 +17,7 @@ from .kernels.coupling import COUPLING_SCHEMES
 
 __all__ = [
     "COUPLING_SCHEMES",
+    "PRECISIONS",
     "SHAPE_FUNCTIONS",
     "STRESS_UPDATES",
     "TRANSFER_SCHEMES",
@@ -27,12 +28,23 @@ __all__ = [
 #: Shape functions: original MPM (tent), uniform GIMP, contiguous-particle GIMP,
 #: quadratic and cubic B-splines ("MPM notes"; MPM-SDEM appendix), and CPDI1 (parallelogram
 #: domains following F, "Motion integration" §2.2).
-SHAPE_FUNCTIONS = ("linear", "ugimp", "cpgimp", "bspline2", "bspline3", "cpdi1")
+ShapeFunction = Literal["linear", "ugimp", "cpgimp", "bspline2", "bspline3", "cpdi1"]
+SHAPE_FUNCTIONS = get_args(ShapeFunction)
 
 #: Where the stress update sits in the step ("Motion integration" §3.4): first (USF), last with
 #: the updated grid velocities (USL), last with velocities re-mapped from the updated points
 #: (MUSL), or half before and half after the force update (USAVG).
-STRESS_UPDATES = ("USF", "USL", "MUSL", "USAVG")
+StressUpdate = Literal["USF", "USL", "MUSL", "USAVG"]
+STRESS_UPDATES = get_args(StressUpdate)
+
+#: Floating-point precision of every point and grid field.
+Precision = Literal["f32", "f64"]
+PRECISIONS = get_args(Precision)
+
+#: What happens below a material's critical density (``kernels/constitutive.py``).
+DensityControl = Literal[DENSITY_CONTROLS]
+#: How a point–body contact force reaches the grid (``kernels/coupling.py``).
+CouplingScheme = Literal[COUPLING_SCHEMES]
 
 
 @dataclass(frozen=True)
@@ -72,6 +84,15 @@ TRANSFER_SCHEMES: dict[str, TransferScheme] = {
     "ANFLIPX": TransferScheme("apic", -1.0, "particle"),
     "XPIC": TransferScheme("none", 0.0, "xpic", xpic=True),
 }
+TransferName = Literal["PIC", "APIC", "TPIC", "FLIP", "AFLIP", "TFLIP", "NFLIP", "ANFLIP", "FLIPX", "AFLIPX", "NFLIPX",
+                       "ANFLIPX", "XPIC"]
+assert get_args(TransferName) == tuple(TRANSFER_SCHEMES)
+
+
+def flag(default, help: str, *, positive: bool = False):
+    """A field that is also a flag of ``mpmdem run`` (``mpmdem.runner.add_config_flags``): its
+    ``help`` ({choices}: the values of a Literal field) and, for numbers, whether it must be > 0."""
+    return dataclasses.field(default=default, metadata={"flag": {"help": help, "positive": positive}})
 
 
 @dataclass(frozen=True)
@@ -134,27 +155,36 @@ class SolverConfig:
             picks 4 × the densest seeding, at least 16.
     """
 
-    shape: str = "bspline2"
-    transfer: str = "APIC"
-    flip_fraction: float = 0.99
-    xpic_order: int = 2
-    update: str = "USL"
-    precision: Literal["f32", "f64"] = "f32"
-    cfl: float = 0.4
-    dt: float | None = None
-    damping: float = 0.0
+    # -- MPM stage: discretisation
+    shape: ShapeFunction = flag("bspline2", "shape function: {choices}")
+    transfer: TransferName = flag("APIC", "transfer scheme: {choices}")
+    flip_fraction: float = flag(0.99, "FLIP fraction X of blended schemes")
+    xpic_order: int = flag(2, "m of XPIC(m) (with --transfer XPIC)")
+    update: StressUpdate = flag("USL", "stress update: {choices}")
+    precision: Precision = flag("f32", "f32 or f64")
+    # -- time step (all stages) and run control
+    cfl: float = flag(0.4, "CFL factor in (0, 1]", positive=True)
+    dt: float | None = flag(None, "fixed time step [s] (default: CFL)", positive=True)
+    damping: float = flag(0.0, "Cundall local damping coefficient D >= 0")
     allow_unstable: bool = False
     blowup_energy_factor: float = 2.0
     cuda_graph: bool = True
     sort_interval: int | None = None
     deterministic: bool = False
-    dem_kappa: float = 0.1
+    # -- DEM stage
+    dem_kappa: float = flag(0.1, "κ2 of the DEM time step (MPM-SDEM eq. 51 with rotation and damping, see mpmdem.dem)",
+                            positive=True)
     dem_skin: float | None = None
     dem_max_neighbors: int | None = None
-    granular: bool = False
-    density_control: str = "revert"
+    # -- Granular MPM
+    granular: bool = flag(False, "Granular MPM (domains of interaction, a grid per component); --no-granular: "
+                          "plain MPM")
+    density_control: DensityControl = flag("revert", "below the critical density: {choices} (revert: Granular MPM "
+                                           "eq. 14; volumetric: eq. 18; none: stress-free MPM)")
     granular_layers: int | None = None
-    coupling: str = "imp"
+    # -- coupling of points and rigid bodies
+    coupling: CouplingScheme = flag("imp", "points against rigid bodies: {choices} (imp: MPM-SDEM's identified "
+                                    "material points)")
     imp_skin: float | None = None
     imp_max_bodies: int = 4
     imp_cell_capacity: int | None = None
@@ -172,8 +202,8 @@ class SolverConfig:
         if update not in STRESS_UPDATES:
             raise InputError("update", self.update, f"one of {', '.join(STRESS_UPDATES)}")
         object.__setattr__(self, "update", update)
-        if self.precision not in ("f32", "f64"):
-            raise InputError("precision", self.precision, "one of f32, f64")
+        if self.precision not in PRECISIONS:
+            raise InputError("precision", self.precision, f"one of {', '.join(PRECISIONS)}")
         if not (0.0 <= float(self.flip_fraction) <= 1.0):
             raise InputError("flip_fraction", self.flip_fraction, "a number in [0, 1]")
         if not (0.0 < float(self.cfl) <= (10.0 if self.allow_unstable else 1.0)):

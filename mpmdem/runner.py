@@ -7,17 +7,18 @@ the frames written before it), 130 interrupted.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import importlib
 import json
 import sys
 import time
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
 
-from .config import COUPLING_SCHEMES, SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverConfig
+from .config import SolverConfig
 from .errors import BlowUpError, InputError
-from .kernels.constitutive import DENSITY_CONTROLS
 from .progress import Progress, deferred_sigint, run_callback
 from .scene import Scene
 from .warp_init import cpu_only
@@ -80,6 +81,33 @@ def _choice(name, allowed):
     return parse
 
 
+def config_flags() -> list[tuple[str, dataclasses.Field, object]]:
+    """(flag, field, type) of every SolverConfig field that is a flag of ``mpmdem run`` (those
+    made with ``mpmdem.config.flag``), in the order of the fields."""
+    hints = typing.get_type_hints(SolverConfig)
+    return [("--" + f.name.replace("_", "-"), f, hints[f.name]) for f in dataclasses.fields(SolverConfig)
+            if "flag" in f.metadata]
+
+
+def add_config_flags(parser: argparse.ArgumentParser, *, skip: tuple[str, ...] = ()) -> None:
+    """A flag per SolverConfig flag field (default None: the case's choice stands): Literal
+    fields take one of their values (any case), booleans --x/--no-x, numbers a number."""
+    for name, f, tp in config_flags():
+        if f.name in skip:
+            continue
+        spec = f.metadata["flag"]
+        choices = typing.get_args(tp) if typing.get_origin(tp) is typing.Literal else ()
+        text = spec["help"].format(choices=", ".join(choices))
+        if choices:
+            parser.add_argument(name, type=_choice(f.name.replace("_", " "), choices), choices=choices,
+                                metavar=f.name.upper(), default=None, help=text)
+        elif tp is bool:
+            parser.add_argument(name, action=argparse.BooleanOptionalAction, default=None, help=text)
+        else:
+            kind = int if tp is int else _positive(name) if spec["positive"] else float
+            parser.add_argument(name, type=kind, default=None, help=text)
+
+
 def make_case_parser(module: ModuleType, prog: str | None = None) -> argparse.ArgumentParser:
     """The flags every case takes, plus the case's own (``add_arguments``)."""
     p = OneLineParser(prog=prog or f"mpmdem run {module.NAME}", description=module.DESCRIPTION)
@@ -88,29 +116,7 @@ def make_case_parser(module: ModuleType, prog: str | None = None) -> argparse.Ar
     p.add_argument("--quick", action="store_true", help="a coarse, short run (for tests and a first look)")
     p.add_argument("--end-time", type=_positive("--end-time"), default=None, help="simulated time [s]")
     p.add_argument("--frames", type=count_at_least(1), default=None, help="output frames (an integer >= 1)")
-    p.add_argument("--dt", type=_positive("--dt"), default=None, help="fixed time step [s] (default: CFL)")
-    p.add_argument("--cfl", type=_positive("--cfl"), default=None, help="CFL factor in (0, 1]")
-    p.add_argument("--shape", type=_choice("shape", SHAPE_FUNCTIONS), default=None,
-                   help="shape function: " + ", ".join(SHAPE_FUNCTIONS))
-    p.add_argument("--transfer", type=_choice("transfer", tuple(TRANSFER_SCHEMES)), default=None,
-                   help="transfer scheme: " + ", ".join(TRANSFER_SCHEMES))
-    p.add_argument("--flip-fraction", type=float, default=None, help="FLIP fraction X of blended schemes")
-    p.add_argument("--xpic-order", type=int, default=None, help="m of XPIC(m) (with --transfer XPIC)")
-    p.add_argument("--damping", type=float, default=None, help="Cundall local damping coefficient D >= 0")
-    p.add_argument("--update", type=_choice("update", STRESS_UPDATES), default=None,
-                   help="stress update: " + ", ".join(STRESS_UPDATES))
-    p.add_argument("--precision", type=_choice("precision", ("f32", "f64")), default=None, help="f32 or f64")
-    p.add_argument("--dem-kappa", type=_positive("--dem-kappa"), default=None,
-                   help="κ2 of the DEM time step (MPM-SDEM eq. 51 with rotation and damping, see mpmdem.dem)")
-    p.add_argument("--granular", action=argparse.BooleanOptionalAction, default=None,
-                   help="Granular MPM (domains of interaction, a grid per component); --no-granular: plain MPM")
-    p.add_argument("--density-control", type=_choice("density control", DENSITY_CONTROLS), default=None,
-                   help="below the critical density: " + ", ".join(DENSITY_CONTROLS)
-                   + " (revert: Granular MPM eq. 14; volumetric: eq. 18; none: stress-free MPM)")
-    if not getattr(module, "OWN_COUPLING_FLAG", False):  # a case with its own --scheme flag
-        p.add_argument("--coupling", type=_choice("coupling", COUPLING_SCHEMES), default=None,
-                       help="points against rigid bodies: " + ", ".join(COUPLING_SCHEMES)
-                       + " (imp: MPM-SDEM's identified material points)")
+    add_config_flags(p, skip=("coupling",) if getattr(module, "OWN_COUPLING_FLAG", False) else ())
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     if hasattr(module, "add_arguments"):
         module.add_arguments(p)
@@ -130,11 +136,10 @@ def config_from_args(setup: CaseSetup, module: ModuleType, args) -> SolverConfig
     """Case defaults, then the case's build-time choices, then the flags the user gave."""
     fields = dict(getattr(module, "DEFAULTS", {}))
     fields.update(setup.config)
-    for name in ("dt", "cfl", "shape", "transfer", "flip_fraction", "xpic_order", "damping", "update", "precision",
-                 "dem_kappa", "granular", "density_control", "coupling"):
-        v = getattr(args, name, None)
+    for _, f, _ in config_flags():
+        v = getattr(args, f.name, None)
         if v is not None:
-            fields[name] = v
+            fields[f.name] = v
     return SolverConfig(**fields)
 
 
