@@ -99,8 +99,12 @@ def flag(default, help: str, *, positive: bool = False):
 class SolverConfig:
     """Discretisation and time-step choices of one run.
 
+    The fields are grouped by stage (comments in the class body). Fields made with ``flag`` are
+    also flags of ``mpmdem run`` (``--flip-fraction`` for ``flip_fraction``; Literal fields take one
+    of their values).
+
     Attributes:
-        shape: shape function, one of SHAPE_FUNCTIONS.
+        shape: the shape function of the MPM stage (not a geometric ``Shape``), one of SHAPE_FUNCTIONS.
         transfer: transfer scheme name, one of TRANSFER_SCHEMES ("PIC", "FLIP", "APIC", ...).
         flip_fraction: X of the blended schemes (FLIPX, NFLIPX, ...); 0.99 means 1 % PIC.
         update: stress-update order, one of STRESS_UPDATES.
