@@ -32,7 +32,7 @@ def test_granular_step_compiles_for_sm90(tmp_path):
     config = M.SolverConfig(granular=True, shape="cpdi1", transfer="FLIP", update="MUSL", deterministic=True)
     m = M.Simulation(scene, config, device="cpu").mpm
     kernels = m.step_kernels()
-    kernels += [m._diagnostics, kgran.make_granular_statistics(config.precision, m.staged)]
+    kernels += [m.diagnostics_kernel, kgran.make_granular_statistics(config.precision, m.staged)]
     assert _compile(kernels, tmp_path) >= 10
 
 
