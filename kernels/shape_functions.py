@@ -3,7 +3,8 @@
 Positions are in grid units relative to the first (ghost) node, so node k sits at coordinate k and
 the signed node-to-point distance is ``c - k``. Every family is written as a law of that distance
 and of the particle half-length ``lp`` (grid units, used by GIMP only); ``make_weights_1d`` turns a
-law into the K weights and derivatives of the K nodes a point can touch.
+law into the K weights and derivatives of the K nodes a point can touch, and ``make_stencil`` into
+the per-point stencil (with CPDI1's four corners) that the transfers and the granular node ranges use.
 """
 
 

@@ -34,6 +34,7 @@ def _overlap(precision: str):
 
     @wp.func
     def overlap(x1: t.vec2, a1: t.vec2, b1: t.vec2, x2: t.vec2, a2: t.vec2, b2: t.vec2):
+        # Task 1 for parallelograms ("Granular MPM" appendix, Fig. A2, CPDI's domains of interaction).
         # Separating-axis test of two parallelograms x ± a ± b: the candidate axes are the edge
         # normals of both; touching (a zero-width overlap) counts as apart, as in Fig. 4(b).
         d = x2 - x1
@@ -83,6 +84,7 @@ def make_domain_of_interaction(shape: str, precision: str):
             b = h0[1] * t.vec2(F[0, 1], F[1, 1])
         vol = T(4.0) * wp.abs(a[0] * b[1] - a[1] * b[0])
         if rho_cr > T(0.0) and vol > T(0.0):
+            # V_cr = m / ρ_cr ("Granular MPM" §3.3; the rectangle's half-sides of appendix Table A2)
             s = wp.sqrt(P.mass[p] / (rho_cr * vol))
             a = s * a
             b = s * b

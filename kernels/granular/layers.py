@@ -1,8 +1,9 @@
-"""The grid layers ("Granular MPM" §3.4 tasks 2–3: one parallel grid per component): instead of one
-grid per component, each grid node holds ``layers`` copies, and the components that share a node
-never share a copy there. In the first P2G of a step a point claims, at every node it reaches, the
-first copy that is free or already its component's (compare-and-swap on ``Grid.owner``,
-``make_layer_row``); later kernels look the copy up. A component alone on a node uses copy 0, so
+"""The grid layers ("Granular MPM" §3.4 tasks 2–3: one parallel grid per component, each run
+separately with its points' data read and written back, appendix Tables A4–A5): instead of one grid
+per component, each grid node holds ``layers`` copies, and the components that share a node never
+share a copy there, so all of them run in one pass. In the first P2G of a step a point claims, at
+every node it reaches, the first copy that is free or already its component's (compare-and-swap on
+``Grid.owner``, ``make_layer_row``); later kernels look the copy up. A component alone on a node uses copy 0, so
 the usual case costs one extra read per node: a greedy colouring per node, no iterations, and no
 more copies than the most components meeting at one node. The tent outside staged scenes gives its
 copies out before P2G instead (``make_assign``: one thread per node, no compare-and-swap races, and

@@ -240,10 +240,12 @@ def make_search_kernels(shape: str, precision: str, staged: bool = False):
                 q = S.order[k]
                 if wp.static(deforming):
                     rq = S.reach[q]  # (an unreleased q is in no cell)
-                    # pre-task: a common node (the node ranges overlap in both directions)
+                    # pre-task: a common node (the node ranges overlap in both directions;
+                    # "Granular MPM" appendix Table A1)
                     if rq[0] > rp[1] or rp[0] > rq[1] or rq[2] > rp[3] or rp[2] > rq[3]:
                         continue
-                    # task 1: the domains of interaction overlap (continua always interact)
+                    # task 1: the domains of interaction overlap (continua always interact; Table A2,
+                    # Fig. A2)
                     if continuum_p or materials[P.material[q]][P_RHO_CRIT] <= T(0.0):
                         root = unite(S.parent, root, q)
                         continue
@@ -258,7 +260,8 @@ def make_search_kernels(shape: str, precision: str, staged: bool = False):
                     if continuum_p or box_q[2] < T(0.0):
                         joined = True  # continua interact with every point they share a node with
                     else:
-                        # the overlap test flips only once the offset d changes by more than
+                        # task 1 for rectangles ("Granular MPM" appendix Table A2: both axes overlap).
+                        # The overlap test flips only once the offset d changes by more than
                         # |s| in max-norm, s = least (sum of half-extents − |d|); touching is apart
                         sx = ep[0] + box_q[2] - wp.abs(box_q[0] - xp[0])
                         sy = ep[1] + box_q[3] - wp.abs(box_q[1] - xp[1])
