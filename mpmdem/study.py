@@ -15,9 +15,10 @@ import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import MappingProxyType, ModuleType
+from types import MappingProxyType
 
 from .errors import InputError
+from .study_worker import study_case  # (there, where the runs use it: no import cycle)
 
 __all__ = ["Run", "Study", "load_study", "plan_runs", "run_study"]
 
@@ -135,21 +136,6 @@ def load_study(name_or_path: str) -> Study:
     if name_or_path not in STUDIES:
         raise InputError("study", name_or_path, "a .toml file or one of " + ", ".join(STUDIES))
     return study_by_name(name_or_path)
-
-
-def study_case(case: str) -> ModuleType:
-    """The case module: a name of ``mpmdem list`` or an importable module (``my_package.my_case``)."""
-    import importlib
-
-    from .cases import CASES
-    from .runner import case_module
-
-    if case in CASES or not all(part.isidentifier() for part in case.split(".")):
-        return case_module(case)
-    try:
-        return importlib.import_module(case)
-    except ImportError as e:
-        raise InputError("case", case, f"a case of mpmdem list or an importable case module ({e})") from None
 
 
 def _argv_of(flags: Mapping[str, object], parser) -> list[str]:

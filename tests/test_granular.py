@@ -44,7 +44,7 @@ def _granular_sim(points: np.ndarray, shape: str, layers: int | None = None, dev
 
 def _by_smallest_member(labels: np.ndarray) -> np.ndarray:
     """Labels renamed to the smallest index of their component (the device's roots are its points
-    first in a pseudo-random order, kernels/granular.py ``priority``)."""
+    first in a pseudo-random order, kernels/granular/unionfind.py ``priority``)."""
     smallest = {}
     for p, lbl in enumerate(labels):
         smallest.setdefault(int(lbl), p)
@@ -288,7 +288,7 @@ BLOCK = np.array([[0.0025 + 0.005 * i, 0.0025 + 0.005 * j] for i in range(4) for
 
 def _reuse_against_rebuild(parts, shape: str, gravity: float, steps: int,
                            critical_density: float | None = 1400.0, flags: list | None = None) -> tuple[int, int, int]:
-    """Step two copies of a granular scene, one reusing its labels (kernels/granular.py) and one
+    """Step two copies of a granular scene, one reusing its labels (kernels/granular/reuse.py) and one
     forced to rebuild the interaction graph every step; they must agree on the components at every
     step and end with bit-identical positions. Returns (rebuilds of the first, its relabels without
     a rebuild, distinct labellings); ``flags`` gets the first's flags after each step."""

@@ -1,0 +1,61 @@
+"""The kernels of the interaction graph of one variant, in the order ``MPMSolver`` unpacks them."""
+
+import functools
+from typing import NamedTuple
+
+import warp as wp
+
+from .cells import make_cells
+from .labels import make_label_kernels
+from .layers import make_assign
+from .reuse import make_check
+from .search import make_search_kernels
+
+__all__ = ["GranularKernels", "make_granular_kernels"]
+
+
+class GranularKernels(NamedTuple):
+    """The kernels of ``make_granular_kernels`` (a tuple: ``MPMSolver`` unpacks them by position)."""
+
+    check: wp.Kernel | None  # ``reuse``; None for deforming domains
+    prepare: wp.Kernel  # ``search``
+    place: wp.Kernel  # ``search``
+    link: wp.Kernel  # ``search``
+    settle: wp.Kernel | None  # ``labels``; None for deforming domains
+    relink: wp.Kernel  # ``labels``
+    label: wp.Kernel  # ``labels``
+    assign: wp.Kernel | None  # ``layers``; the tent outside staged scenes, None else
+
+
+@functools.cache
+def make_granular_kernels(shape: str, precision: str, staged: bool = False) -> GranularKernels:
+    """(check, prepare, place, link, settle, relink, label, assign) kernels of the interaction graph
+    (``GranularKernels``).
+
+    Launch each with dim = number of points and inputs ``[P, G, D, materials, S, status, clock]``.
+    A step that relabels (``FLAG_RELABEL``, set by the previous step's ``judge``,
+    ``make_rebuild_decision``; every step for deforming domains) runs ``reset_copies``, then, if it
+    also rebuilds (``FLAG_REBUILD``), ``prepare``, the three scans of ``S.count`` (``kernels.scan``),
+    ``place``, ``link`` and ``settle``, then ``relink``, ``label`` and ``assign``. ``check`` runs after
+    the step's last G2P, then ``judge`` as the step's last kernel (``check`` and ``settle`` are None
+    for deforming domains, which rebuild every step, list no pairs and have no ``judge``). S is an
+    ``Interaction`` (``make_interaction_struct``): cells of ``S.count`` are indexed like ``Grid.mass``
+    (column-major over the node lattice of one layer); ``S.ext_max`` holds for shapes outside
+    DEFORMING_DOMAINS a constant set by the host in slot 0, else ``reset_copies`` zeroes it and
+    ``prepare`` fills it. ``count`` starts zeroed and ``label`` zeroes the counts it used. ``assign``
+    (the tent outside staged scenes; None else) runs over the nodes of one layer and gives out the
+    grid copies there, instead of the claims in P2G. staged: points not yet released
+    (``P.release`` ahead of ``clock[CLOCK_T]``) stay single components, in no cell.
+    """
+    cells = make_cells(shape, precision, staged)
+    prepare, place, link = make_search_kernels(shape, precision, staged)
+    settle, relink, label = make_label_kernels(shape, precision, staged)
+    check = None
+    assign = None
+    if cells.deforming:
+        settle = None
+    else:
+        check = make_check(shape, precision, staged)
+    if cells.tent_cells:
+        assign = make_assign(shape, precision, staged)
+    return GranularKernels(check, prepare, place, link, settle, relink, label, assign)

@@ -1,0 +1,172 @@
+"""The labelling of the components after a rebuild's search or over the reuse's pair lists:
+``settle`` keeps each point's root in the forest of the pairs that were not listed
+(``Interaction.base``), ``relink`` merges on top of it the listed pairs whose domains overlap now,
+and ``label`` gives every point its root as label: the point of its component first in the fixed
+``priority`` order, independent of thread order (``MPMSolver.components`` reports the smallest
+scene index of each component instead). ``label`` also zeroes the cell counts for the next rebuild,
+records the cells' reference points for ``check``, and for the tent the labels in cell-sorted order
+that ``assign`` reads ("Granular MPM" §3.4 task 2)."""
+
+import functools
+
+import warp as wp
+
+from ..clock import CLOCK_T
+from ..state import make_state_structs
+from ..types import kernel, scalar_types
+from .cells import make_cells
+from .flags import (
+    FLAG_COUNT,
+    FLAG_FLIPPED,
+    FLAG_REBUILD,
+    FLAG_RELABEL,
+    FLAG_RELABELS,
+    FLAG_SPILLED,
+    FLAG_STAMP,
+    FLAG_STRAYED,
+)
+from .interaction import make_interaction_struct
+from .pairs import make_pairs
+from .unionfind import find
+
+__all__ = ["make_label_kernels"]
+
+
+@functools.cache
+def make_label_kernels(shape: str, precision: str, staged: bool = False):
+    """(settle, relink, label) (module docstring; launched as in ``make_granular_kernels``)."""
+    t = scalar_types(precision)
+    Particles, Grid, Domain = make_state_structs(precision)
+    Interaction = make_interaction_struct(precision)
+    cells = make_cells(shape, precision, staged)
+    tent_cells, deforming = cells.tent_cells, cells.deforming
+    cell_of, cell_index, start = cells.cell_of, cells.cell_index, cells.start
+    pairs = make_pairs(shape, precision, staged)
+    spilled, relist = pairs.spilled, pairs.relist
+
+    @kernel
+    def settle(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
+               status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
+        # after ``link`` (rebuilds of non-deforming domains): every point's root in the forest of the
+        # pairs that were not listed, kept in S.base for the relabels until the next rebuild, and
+        # made its parent (no merge runs now, so the roots stay put: the forest stays valid)
+        if S.flags[FLAG_REBUILD] == 0:
+            return
+        p = wp.tid()
+        r = find(S.parent, p)
+        S.base[p] = r
+        S.parent[p] = r
+
+    @kernel
+    def relink(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
+               status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
+        # a relabel (every rebuild too), after ``reset_copies``: the listed pairs whose domains
+        # overlap now are merged into the forest of the others (S.parent, which ``settle`` or the
+        # last ``check`` set to S.base), and keep their new state; the layers the last claims kept
+        # are void (all NO_LAYER in the first word tells the claiming P2G to claim; kernels/transfer.py)
+        if wp.static(not deforming):
+            if S.flags[FLAG_RELABEL] == 0:
+                return
+        p = wp.tid()
+        # reset_copies has freed the copies by the depths of their runs (Grid.depth); no copy is
+        # claimed now, so the depths start again from zero, here because reset_copies reads them
+        # (the nodes of one run may sit in different thread blocks). The tent's relabels without a
+        # rebuild keep the copies of the nodes whose points kept their labels (``assign``), and
+        # their depths, and ``label`` voids the layers of the points that left their cells
+        fresh = True
+        if wp.static(tent_cells):
+            fresh = S.flags[FLAG_REBUILD] != 0
+        if fresh:
+            runs = G.depth.shape[1]
+            for k in range(p, G.depth.shape[0] * runs, P.x.shape[0]):
+                G.depth[k // runs, k - (k // runs) * runs] = 0
+            P.slots[p, 0] = -1
+        if wp.static(not deforming):
+            flipped = bool(False)
+            root = p
+            xp = P.x[p]  # (loaded once for all of p's pairs)
+            ep = S.ext[p]
+            for k in range(S.npairs[p]):
+                code = S.pairs[k, p]
+                now, root = relist(P, S, p, xp, ep, code, root)
+                if now != code:
+                    S.pairs[k, p] = now
+                    flipped = True
+            if p < wp.min(S.flags[FLAG_SPILLED], S.spill.shape[0]):
+                pair = S.spill[p]
+                first, code = spilled(pair)
+                now, _ = relist(P, S, first, P.x[first], S.ext[first], code, first)
+                if now != code:
+                    flipped = True
+                    if now < 0:
+                        first = -first - 1
+                    S.spill[p] = wp.vec2i(first, pair[1])
+            if flipped:
+                if S.flags[FLAG_FLIPPED] == 0:  # (for ``judge``: whether the wide lists still change)
+                    S.flags[FLAG_FLIPPED] = 1
+
+    @kernel
+    def label(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
+                status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
+        rebuilt = True
+        if wp.static(not deforming):
+            if S.flags[FLAG_RELABEL] == 0:
+                return
+            rebuilt = S.flags[FLAG_REBUILD] != 0
+        p = wp.tid()
+        if p == 0:
+            if rebuilt:
+                S.flags[FLAG_COUNT] = S.flags[FLAG_COUNT] + 1
+            else:
+                S.flags[FLAG_RELABELS] = S.flags[FLAG_RELABELS] + 1
+        comp = find(S.parent, p)
+        before = int(-1)
+        if wp.static(tent_cells):
+            before = P.comp[p]  # (the label of the last labelling)
+        if before != comp:
+            P.comp[p] = comp
+        if wp.static(staged):
+            if clock[CLOCK_T] < P.release[p]:
+                return
+        rows = G.mass.shape[1]
+        if wp.static(deforming):
+            S.count[cell_index(P, G, D, p)] = 0  # (see below)
+        else:
+            # the point's cell at the last rebuild, where the cell-sorted list has it
+            cell = S.cell0[p]
+            if rebuilt:
+                ref = S.order[start(S, cell)]  # the cell's reference: its first point in order
+                S.cell_ref[cell] = ref
+                S.ref[p] = ref
+                # zero this point's cell count for the next rebuild (every point of a cell writes the
+                # same zero; cells without points were never counted), which spares a memset of
+                # every cell
+                S.count[cell] = 0
+            if wp.static(tent_cells):
+                # the component in the cell-sorted order, for ``assign``; −1 for a point that has
+                # left that cell since (S.moves), whose copies the claiming P2G finds instead
+                cx, cy = cell_of(P, D, p, rows)
+                here = cx * rows + cy
+                if here != cell:
+                    comp = -1
+                    if S.flags[FLAG_STRAYED] == 0:  # (``check`` then compares with S.home)
+                        S.flags[FLAG_STRAYED] = 1
+                    P.slots[p, 0] = -1  # (it claims its copies in P2G: void the layers it had)
+                if rebuilt:
+                    S.labels[S.rank[p]] = comp  # (its place in order)
+                    S.home[p] = here
+                else:
+                    # a relabel: the nodes of a cell whose points all kept their labels keep their
+                    # copies (``assign`` gives them out only where a label changed). What S.labels
+                    # holds for the point follows from P.comp and S.home of the last labelling (−1 if
+                    # it had left its cell then): no gather through S.rank, and no store if unchanged
+                    home = S.home[p]
+                    if home != cell:
+                        before = -1
+                    if before != comp:
+                        S.dirty[cell] = S.flags[FLAG_STAMP]
+                        S.labels[S.rank[p]] = comp
+                    if home != here:
+                        S.home[p] = here
+
+    return settle, relink, label
