@@ -12,6 +12,7 @@ from helpers import free_disk_scene
 
 from mpmdem import BlowUpError, Simulation, SolverConfig
 from mpmdem.io import RunFile
+from mpmdem.kernels.clock import CLOCK_DT_FIXED
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -23,7 +24,7 @@ def test_too_large_dt_is_detected_and_file_kept(tmp_path):
     # Force the fixed dt past the bound behind the validation (a user cannot do this; it
     # stands in for a scheme that goes unstable mid-run).
     clock = sim.mpm.clock.numpy()
-    clock[4] = 8.0 * sim.mpm.dt_bound0
+    clock[CLOCK_DT_FIXED] = 8.0 * sim.mpm.dt_bound0
     sim.mpm.clock.assign(clock)
     with pytest.raises(BlowUpError) as err:
         sim.run(2.0, out=tmp_path, frames=200, quiet=True)
