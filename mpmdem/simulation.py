@@ -4,6 +4,10 @@ A scene runs only the stages it uses: the MPM stage (material points on a grid; 
 bound on the device), the DEM stage (rigid spheropolygons; dt from MPM-SDEM eq. 51's DEM term),
 or both, coupled through identified material points (``mpmdem.coupling``: DEM contacts and
 point–body forces → MPM → rigid-body update in each step, one dt from eq. 51).
+
+The Simulation owns the run's ``Clock`` and passes it to the stages it builds; it drives the
+stage of a step through the ``Stage`` protocol (``mpmdem.stage``). It prints nothing: progress
+bars and Ctrl-C handling belong to the command line (``mpmdem.runner``, ``mpmdem.progress``).
 """
 
 from __future__ import annotations
