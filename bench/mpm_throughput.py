@@ -19,6 +19,7 @@ Neo-Hookean stress fused; grid update; G2P), f32, fixed dt equal to mpmdem's fir
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import math
 import time
@@ -273,6 +274,14 @@ def measure(particles: int, config: SolverConfig, steps: int, device, shuffle: b
     return [ref, row("mpmdem", device, config, count, n, steps, s, ref["pups"], ok, shuffle)]
 
 
+def run_probe(path: str, n_grid: int, steps: int, device: str, sort: bool) -> dict:
+    """One row of the shared MLS-MPM probe (../shared/bench/warp_mlsmpm2d.py) on the same block."""
+    spec = importlib.util.spec_from_file_location("warp_mlsmpm2d", path)
+    probe = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(probe)
+    return probe.run(n_grid, steps, device, sort=sort)
+
+
 def main(argv=None) -> None:
     """Parse the flags; time every size; print (and append) one JSON line per run."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -289,6 +298,9 @@ def main(argv=None) -> None:
                         help="steps between re-sorts of the points by cell (default: never)")
     parser.add_argument("--shuffle", action="store_true",
                         help="randomise the points' memory order before timing (as a long flow would)")
+    parser.add_argument("--probe", default=None,
+                        help="path of the shared probe warp_mlsmpm2d.py: run it at each size in this process and "
+                             "write probe_pups and ratio_to_probe on the mpmdem rows")
     parser.add_argument("--out", type=Path, default=None, help="also append the JSON lines to this .jsonl file")
     args = parser.parse_args(argv)
 
@@ -303,7 +315,15 @@ def main(argv=None) -> None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
     with wp.ScopedDevice(device):
         for particles in sizes:
-            for row in measure(particles, config, steps, device, args.shuffle):
+            rows = measure(particles, config, steps, device, args.shuffle)
+            if args.probe:
+                probe = run_probe(args.probe, rows[0]["grid"], steps, str(device), sort=not args.shuffle)
+                for row in rows:
+                    if row["impl"] == "mpmdem":
+                        row["probe_pups"] = probe["pups"]
+                        row["ratio_to_probe"] = row["pups"] / probe["pups"]
+                rows.append({"case": "probe-mlsmpm", **probe})
+            for row in rows:
                 line = json.dumps(row)
                 print(line, flush=True)
                 if args.out is not None:

@@ -44,14 +44,21 @@ def commit() -> str:
         return ""
 
 
-def time_case(name: str, device: str, warmup: int, steps: int, flags: list[str]) -> dict:
-    """µs per step of case ``name`` at its default size on ``device``."""
+def build_case(name: str, device: str, flags: list[str]):
+    """(simulation, setup) of case ``name`` at its default size, built as ``mpmdem run`` does, its
+    step captured and its stop time set out of reach (every timed step steps)."""
     module = case_module(name)
     args = make_case_parser(module).parse_args(["--device", device, "--quiet", *flags])
     setup = module.build(args)
     sim = Simulation(setup.scene, config_from_args(setup, module, args), device=device)
     sim._capture()
     sim.stage.set_stop_time(1.0e9)  # never reached: the timed steps all step
+    return sim, setup
+
+
+def time_case(name: str, device: str, warmup: int, steps: int, flags: list[str]) -> dict:
+    """µs per step of case ``name`` at its default size on ``device``."""
+    sim, setup = build_case(name, device, flags)
     sim.advance(warmup)
     wp.synchronize_device(device)
     start = time.perf_counter()

@@ -82,7 +82,8 @@ VALIDATION = [
     Check("rate", 20.22, "MPM-SDEM Fig. 16: W = 0.58 ρ sqrt(g) (D0 − 2.2 × 1 mm)^(3/2), D0 = 4 cm", 0.2,
           "the scatter of 2D Beverloo prefactors between materials and of the paper's own Fig. 16 points",
           known_gap="W grows under refinement: 18.4, 28.6, 34.3 kg/(m s) at 5, 3.5, 2.5 mm; C = 1.00 with k = 2.2 "
-                    "on the finest grid, 1.7 × the paper's (bench/results/studies/beverloo)"),
+                    "on the finest grid, 1.7 × the paper's (bench/results/studies/beverloo)",
+          coarser=(("--cell-size", "0.005"),)),
 ]
 
 # -- the 2D Beverloo law of Fig. 16 ------------------------------------------------------------

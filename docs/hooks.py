@@ -3,7 +3,8 @@
 * ``on_config``: the Gallery section of the navigation gets one page per case of
   ``cases/__init__.py``'s ``CASES``, in its order.
 * ``on_files``: adds, without copying them into docs/,
-  - ``bench/README.md`` (the benchmark scripts and their tables) as a page, and every PNG under
+  - ``bench/README.md`` (the benchmark scripts and their tables) and ``bench/results/validation.md``
+    (the committed ``mpmdem validate`` table) as pages, and every PNG under
     ``bench/results/`` as a picture at the same path (``bench/results/...``), so pages link to the
     committed charts where they are;
   - the gallery pages ``gallery/<case>.md``, written from the case module (its header comment and
@@ -149,7 +150,8 @@ def case_page(name: str, module: str, checks: dict[str, str], gallery: dict) -> 
 
 
 def on_files(files, config, **kwargs):
-    for path in [ROOT / "bench" / "README.md", *sorted((ROOT / "bench" / "results").rglob("*.png"))]:
+    pages = [ROOT / "bench" / "README.md", ROOT / "bench" / "results" / "validation.md"]
+    for path in [*pages, *sorted((ROOT / "bench" / "results").rglob("*.png"))]:
         uri = path.relative_to(ROOT).as_posix()
         files.append(File.generated(config, uri, abs_src_path=str(path), inclusion=InclusionLevel.INCLUDED))
     index = DOCS / "gallery" / "gallery.json"

@@ -8,6 +8,10 @@ its validation size: the case's default, or ``--quick`` for a smoke table), eval
 and writes ``validation.json`` and ``validation.md``. A check we miss for a reason we understand
 carries that reason (``known_gap``): its status is "deviates" with the explanation, not a widened
 band; a miss without one is "fails".
+
+Where a check names coarser resolutions (``coarser``: the flags of each, coarsest first), the case
+also runs at those, and the row shows the value and deviation at every resolution and whether the
+deviation shrinks towards the validation resolution: a number is claimed only with its trend.
 """
 
 from __future__ import annotations
@@ -33,6 +37,8 @@ class Check:
         tolerance_source: where the tolerance comes from.
         flags: the case's flags for this check's run (its validation size when not the default).
         known_gap: why we miss the reference, when we know; the check is then "deviates".
+        coarser: the flags of coarser resolutions than ``flags`` (coarsest first), run as well to show
+            whether the deviation shrinks under refinement.
     """
 
     quantity: str
@@ -43,6 +49,7 @@ class Check:
     relative: bool = True
     flags: tuple[str, ...] = ()
     known_gap: str = ""
+    coarser: tuple[tuple[str, ...], ...] = ()
 
 
 def _lookup(summary: dict, key: str):
@@ -74,6 +81,15 @@ def evaluate(check: Check, summary: dict) -> dict:
     return row
 
 
+def convergence(ladder: list[dict], flags: list[list[str]]) -> dict:
+    """The values and deviations of one check at resolutions coarsest → finest, and whether the
+    deviation's size shrinks from the coarsest to the finest (None where a run gave no value)."""
+    steps = [{"flags": f, "value": r["value"], "deviation": r["deviation"]} for r, f in zip(ladder, flags, strict=True)]
+    ends = [steps[0]["deviation"], steps[-1]["deviation"]]
+    shrinks = None if None in ends else abs(ends[1]) < abs(ends[0])
+    return {"convergence": steps, "deviation_shrinks": shrinks}
+
+
 def collect_checks(cases: list[str] | None = None) -> dict[str, list[Check]]:
     """Case name → its checks, for every registered case that declares VALIDATION."""
     from .cases import CASES
@@ -95,19 +111,27 @@ def run_validation(out: Path, *, device: str | None = None, quick: bool = False,
 
     out = Path(out)
     rows = []
+    runs: dict[tuple, dict] = {}
+
+    def summary_of(name: str, flags: tuple[str, ...]) -> dict:
+        """The summary of case ``name`` run with ``flags`` (run once per distinct flags)."""
+        if (name, flags) not in runs:
+            folder = out / "runs" / "_".join([name, *(f.strip("-") for f in flags)]).replace("/", "-")
+            argv = [*flags, "--out", str(folder), "--quiet"] + (["--device", device] if device else [])
+            run_case(case_module(name), argv)
+            path = folder / "summary.json"
+            runs[name, flags] = json.loads(path.read_text()) if path.is_file() else {"status": "error"}
+        return runs[name, flags]
+
     for name, checks in collect_checks(cases).items():
-        runs: dict[tuple, dict] = {}
         for check in checks:
-            flags = tuple(check.flags) + (("--quick",) if quick else ())
-            if flags not in runs:
-                folder = out / "runs" / "_".join([name, *(f.strip("-") for f in flags)]).replace("/", "-")
-                argv = [*flags, "--out", str(folder), "--quiet"] + (["--device", device] if device else [])
-                run_case(case_module(name), argv)
-                path = folder / "summary.json"
-                runs[flags] = json.loads(path.read_text()) if path.is_file() else {"status": "error"}
-            summary = runs[flags]
+            quick_flag = ("--quick",) if quick else ()
+            summary = summary_of(name, tuple(check.flags) + quick_flag)
             row = {"case": name, **evaluate(check, summary), "device": summary.get("device"),
                    "points": summary.get("particles"), "wall_seconds": summary.get("wall_seconds")}
+            if check.coarser and not quick:  # a quick table is a smoke run: no resolution trend
+                ladder = [evaluate(check, summary_of(name, tuple(f))) for f in check.coarser] + [row]
+                row.update(convergence(ladder, [list(f) for f in check.coarser] + [list(check.flags)]))
             rows.append(row)
     write_table(rows, out, quick=quick)
     return rows
@@ -121,16 +145,28 @@ def write_table(rows: list[dict], out: Path, *, quick: bool = False) -> None:
     def num(v):
         return "–" if v is None else f"{v:.4g}"
 
-    lines = ["| case | quantity | reference (source) | ours | deviation | tolerance (source) | status |",
-             "| --- | --- | --- | --- | --- | --- | --- |"]
+    def deviation(r):
+        if r["deviation"] is None:
+            return "–"
+        return f"{100 * r['deviation']:+.1f} %" if r["relative"] else f"{r['deviation']:+.3g}"
+
+    def trend(r):
+        if not r.get("convergence"):
+            return "–"
+        word = {True: "shrinks", False: "does not shrink", None: "–"}[r["deviation_shrinks"]]
+        steps = " → ".join(f"{' '.join(s['flags']) or 'default'}: {deviation({**r, **s})}" for s in r["convergence"])
+        return f"{steps} ({word})"
+
+    lines = ["| case | quantity | reference (source) | ours | deviation | under refinement | tolerance (source) | "
+             "status |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in rows:
-        dev = "–" if r["deviation"] is None else (f"{100 * r['deviation']:+.1f} %" if r["relative"]
-                                                 else f"{r['deviation']:+.3g}")
+        dev = deviation(r)
         tol = f"±{100 * r['tolerance']:.3g} %" if r["relative"] else f"±{r['tolerance']:.3g}"
         status = r["status"] + (f": {r['explanation']}" if r["explanation"] else "")
         flags = f" ({' '.join(r['flags'])})" if r["flags"] else ""
         lines.append(f"| {r['case']}{flags} | {r['quantity']} | {num(r['reference'])} ({r['source']}) | "
-                     f"{num(r['value'])} | {dev} | {tol} ({r['tolerance_source']}) | {status} |")
+                     f"{num(r['value'])} | {dev} | {trend(r)} | {tol} ({r['tolerance_source']}) | {status} |")
     head = "Validation table" + (" (quick sizes: a smoke run, not the validation resolution)" if quick else "")
     (out / "validation.md").write_text(f"# {head}\n\n" + "\n".join(lines) + "\n")
 

@@ -33,7 +33,7 @@ def test_every_declared_check_names_its_sources():
 def test_table_lists_every_row(tmp_path):
     rows = [{"case": "c", **evaluate(Check("x", 1.0, "ref", 0.1, "tol"), {"status": "completed", "x": 1.05})}]
     write_table(rows, tmp_path)
-    assert "| c | x | 1 (ref) | 1.05 | +5.0 % | ±10 % (tol) | matches |" in (tmp_path / "validation.md").read_text()
+    assert "| c | x | 1 (ref) | 1.05 | +5.0 % | – | ±10 % (tol) | matches |" in (tmp_path / "validation.md").read_text()
 
 
 def test_validate_runs_a_case_and_writes_the_table(tmp_path):
@@ -47,3 +47,21 @@ def test_unknown_or_undeclared_cases_are_one_line_errors(tmp_path, capsys):
     assert main(["validate", "--cases", "no-such-case", "--out", str(tmp_path)]) == 2
     assert main(["validate", "--cases", "sulsky-disks", "--out", str(tmp_path)]) == 2
     assert not (tmp_path / "validation.md").exists()
+
+
+def test_a_check_with_coarser_runs_shows_whether_the_deviation_shrinks(tmp_path):
+    """The table reports the value at each resolution and the trend of the deviation's size."""
+    from mpmdem.validation import convergence
+
+    check = Check("x", 1.0, "ref", 0.05, "tol", flags=("--cells", "40"), coarser=(("--cells", "10"), ("--cells", "20")))
+    ladder = [evaluate(check, {"status": "completed", "x": v}) for v in (1.4, 1.2, 1.1)]
+    trend = convergence(ladder, [["--cells", "10"], ["--cells", "20"], ["--cells", "40"]])
+    assert [s["value"] for s in trend["convergence"]] == [1.4, 1.2, 1.1]
+    assert trend["deviation_shrinks"] is True
+    growing = convergence(ladder[::-1], [["a"], ["b"], ["c"]])
+    assert growing["deviation_shrinks"] is False
+    missing = convergence([evaluate(check, {"status": "blown-up"}), ladder[-1]], [["a"], ["b"]])
+    assert missing["deviation_shrinks"] is None
+    write_table([{"case": "c", **ladder[-1], **trend}], tmp_path)
+    assert "--cells 10: +40.0 % → --cells 20: +20.0 % → --cells 40: +10.0 % (shrinks)" in (
+        tmp_path / "validation.md").read_text()
