@@ -15,6 +15,7 @@ from .grid import WORK_INFLOW, WORK_PLASTIC, make_keep_inside_walls, work_slot
 from .reductions import make_speed_check
 from .shape_functions import CPGIMP_MAX_HALF, SUPPORT_NODES, make_weights_1d
 from .state import make_state_structs
+from .stencil_loop import make_stencil_loop
 from .types import kernel, scalar_types
 
 __all__ = ["CORNERS", "make_g2p", "make_p2g", "make_stencil", "make_xpic_gather", "make_xpic_scatter"]
@@ -134,39 +135,6 @@ def copy_row(packed: wp.vec4i, n: int, i: int, layer_rows: int):
 
 
 @functools.cache
-def make_stencil_loop(shape: str, precision: str):
-    """What the P2G and the G2P share in their loop over a point's stencil, as two ``wp.func``s.
-
-    ``node(bx, by, wx, wy, dwx, dwy, g, k, i, j, inv_h) -> (w, ∇w, gi, gj, n)``: weight and gradient
-    of node (gi, gj) = (bx + i, by + j) of sub-stencil k (``stencil`` gave bx, by and the 1D weights),
-    and its number n among the point's CORNERS·K² nodes, under which ``Particles.slots`` keeps the
-    layer of its copy (granular mode); ``point_layers(P, p)``: those layers, packed 8 bits each.
-    """
-    t = scalar_types(precision)
-    T = t.scalar
-    K = SUPPORT_NODES[shape]
-    WORDS = slot_words(CORNERS.get(shape, 1) * K * K)
-    Particles, Grid, Domain = make_state_structs(precision)
-    stencil, contribution, on_grid = make_stencil(shape, precision)
-    vecK = wp.types.vector(K, T)
-
-    @wp.func
-    def node(bx: int, by: int, wx: vecK, wy: vecK, dwx: vecK, dwy: vecK, g: t.vec2, k: int, i: int, j: int,
-             inv_h: T):
-        w, grad = contribution(wx, wy, dwx, dwy, g, i, j, inv_h)
-        return w, grad, bx + i, by + j, (k * K + i) * K + j
-
-    @wp.func
-    def point_layers(P: Particles, p: int):
-        packed = wp.vec4i()
-        for word in range(wp.static(WORDS)):
-            packed[word] = P.slots[p, word]
-        return packed
-
-    return node, point_layers
-
-
-@functools.cache
 def make_p2g(
     shape: str,
     affine: str,
@@ -201,7 +169,7 @@ def make_p2g(
     Particles, Grid, Domain = make_state_structs(precision)
     stencil, contribution, on_grid = make_stencil(shape, precision)
     point_on_grid = make_point_on_grid(shape, precision)
-    node, point_layers = make_stencil_loop(shape, precision)
+    node, point_layers = make_stencil_loop(precision, K, NC, contribution)
     with_contact = contact and (force or fused_impulse)
     has_affine = affine != "none" and momentum
     claim = layered and mass  # the step's first P2G claims the copies (kernels/granular.py)
@@ -334,7 +302,7 @@ def make_g2p(
     Particles, Grid, Domain = make_state_structs(precision)
     stencil, contribution, on_grid = make_stencil(shape, precision)
     point_on_grid = make_point_on_grid(shape, precision)
-    node, point_layers = make_stencil_loop(shape, precision)
+    node, point_layers = make_stencil_loop(precision, K, NC, contribution)
     point_update = make_point_update(material_kinds, precision, density_control, critical)
     dissipative = critical or any(k >= 2 for k in material_kinds)
     X = float(flip_fraction)
