@@ -39,8 +39,10 @@ frames for both cases (about a quarter of its time went to the writes). The
 first compile of each new kernel variant adds ~1-5 s (``warmup_seconds``). ``--smoke`` runs
 2 schemes × 2 orders × κ 0.5, 2.5 × quick only (~6 s) and writes ``*_smoke`` files.
 
-Writes one JSON line per run to stdout and ``--out``, a Pareto chart (error vs wall time, the
-stable runs, each scheme's Pareto front highlighted) to ``--pareto`` and a stability map
+Writes one JSON line per run to stdout and ``--out``, a Pareto chart (error vs wall time of the
+stable runs, each scheme's Pareto front highlighted; per case one panel for its own error and one for
+|1 − E/E₀|, never mixed; one colour family per scheme family of Table 1, a marker per scheme; κ ≤ 1
+filled and its band of wall times shaded as the stable region) to ``--pareto`` and a stability map
 (fraction of stable runs per scheme and κ) to ``--stability``.
 
     python bench/motion_integration.py --smoke                    # ~6 s on a CPU
@@ -404,46 +406,103 @@ def pareto_front(points: list[tuple[float, float]]) -> list[tuple[float, float]]
 
 STYLES = "os^Dv<>pPX*hH8d"
 
+#: "Motion integration" Table 1's families, one colour family each (schemes not listed: greys)
+FAMILIES = {
+    "PIC": (("PIC", "TPIC", "APIC"), "Blues"),
+    "FLIP": (("FLIP", "TFLIP", "AFLIP", "NFLIP", "ANFLIP"), "Reds"),
+    "FLIPX": (("FLIPX", "AFLIPX", "NFLIPX", "ANFLIPX"), "Greens"),
+    "XPIC": (("XPIC",), "Purples"),
+}
+#: each error kind of a case, drawn in a panel of its own: the case's own measure and the energy
+#: error are never mixed in one panel (a run without a rebound has only the energy error)
+CASE_METRIC = {"rotating-disk": ("angular-momentum", "|1 − L/L₀|"), "bouncing-disk": ("rebound", "|1 − rebound ratio|")}
+
+
+def scheme_style(labels: list[str]) -> dict[str, tuple]:
+    """label → (colour, marker): the colour's hue says the family, its shade the member; every
+    label has its own marker."""
+    out = {}
+    members: dict[str, list[str]] = {}
+    for lab in labels:
+        base = lab.split("(")[0]
+        fam = next((f for f, (names, _) in FAMILIES.items() if base in names), "other")
+        members.setdefault(fam, []).append(lab)
+    k = 0
+    for fam, labs in members.items():
+        cmap = plt.get_cmap(FAMILIES[fam][1] if fam in FAMILIES else "Greys")
+        for i, lab in enumerate(labs):
+            shade = 0.45 + 0.5 * (i / max(len(labs) - 1, 1)) if len(labs) > 1 else 0.75
+            out[lab] = (cmap(shade), STYLES[k % len(STYLES)])
+            k += 1
+    return out
+
 
 def plot_pareto(rows: list[dict], path: Path) -> None:
-    """Per case: error vs wall seconds (log-log) of the stable runs, each scheme's front drawn."""
+    """Per case (columns) and error measure (rows: the case's own, then |1 − E/E₀|): error against
+    wall seconds (log-log) of the stable runs, each scheme's Pareto front drawn. Runs within the
+    Courant bound (κ ≤ 1) are filled, stable runs past it open; the band of wall times the κ ≤ 1
+    runs span is shaded (where stability is expected, not luck)."""
     cases = list(dict.fromkeys(r["case"] for r in rows))
     labels = _labels(rows)
-    colors = plt.get_cmap("tab20")
-    fig, axes = plt.subplots(1, max(1, len(cases)), figsize=(6.2 * max(1, len(cases)) + 1.8, 5.2),
-                             squeeze=False, constrained_layout=True)
+    style = scheme_style(labels)
+    ncase = max(1, len(cases))
+    fig, axes = plt.subplots(2, ncase, figsize=(6.0 * ncase + 2.2, 9.0), squeeze=False, constrained_layout=True)
     handles = {}
-    for ax, case in zip(axes[0], cases, strict=False):
-        kinds = set()
-        for k, lab in enumerate(labels):
-            pts = [(r["wall_seconds"], max(r["error"], ERROR_FLOOR)) for r in rows
-                   if r["case"] == case and label(r["scheme"], r.get("xpic_order")) == lab and r["stable"]
-                   and r.get("error") is not None and r.get("wall_seconds")]
-            kinds |= {r.get("error_kind") for r in rows if r["case"] == case and r["stable"]}
-            if not pts:
-                continue
-            color, marker = colors((2 * k) % 20 + (k // 10) % 2), STYLES[k % len(STYLES)]
-            ax.scatter(*zip(*pts, strict=False), s=14, marker=marker, color=color, alpha=0.25, linewidths=0)
-            front = pareto_front(pts)
-            (h,) = ax.plot(*zip(*front, strict=False), marker=marker, color=color, lw=1.3, ms=6,
-                           markeredgecolor="k", markeredgewidth=0.4, drawstyle="steps-post", label=lab)
-            handles[lab] = h
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        # 1-2-5 labels on the time axis: the runs span about one decade, too few for decade labels
-        ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
-        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-        ax.xaxis.set_minor_formatter(NullFormatter())
-        ax.yaxis.set_minor_formatter(NullFormatter())
-        ax.set_xlabel("wall seconds of Simulation.run")
-        kinds.discard(None)
-        what = {"angular-momentum": "|1 − L/L₀|", "rebound": "|1 − rebound ratio|", "energy": "|1 − E/E₀|"}
-        ax.set_ylabel("error: " + " or ".join(what.get(k, k) for k in sorted(kinds)))
-        device = ", ".join(sorted({str(r.get("device")) for r in rows if r["case"] == case}))
-        ax.set_title(f"{case} ({device}): stable runs; lines = each scheme's Pareto front", fontsize=10)
-        ax.grid(True, which="both", alpha=0.3)
-    fig.legend([handles[lab] for lab in labels if lab in handles], [lab for lab in labels if lab in handles],
-               loc="outside right center", fontsize=8, title="scheme")
+    for col, case in enumerate(cases):
+        kind, what = CASE_METRIC.get(case, ("energy", "|1 − E/E₀|"))
+        panels = [(kind, what), ("energy", "|1 − E/E₀|")] if kind != "energy" else [("energy", what)]
+        for row, (metric, ylabel) in enumerate(panels):
+            ax = axes[row][col]
+
+            def err(r, metric=metric):
+                v = r.get("energy_error") if metric == "energy" else (r.get("error") if r.get("error_kind") == metric
+                                                                      else None)
+                return None if v is None else max(v, ERROR_FLOOR)
+
+            sel = [r for r in rows
+                   if r["case"] == case and r["stable"] and r.get("wall_seconds") and err(r) is not None]
+            inside = [r["wall_seconds"] for r in sel if r["cfl"] <= 1.0]
+            if inside:
+                ax.axvspan(min(inside), max(inside), color="#e8f4e8", zorder=0,
+                           label="wall times of κ ≤ 1 runs" if (row, col) == (0, 0) else None)
+            for lab in labels:
+                mine = [r for r in sel if label(r["scheme"], r.get("xpic_order")) == lab]
+                if not mine:
+                    continue
+                color, marker = style[lab]
+                for within in (True, False):
+                    pts = [(r["wall_seconds"], err(r)) for r in mine if (r["cfl"] <= 1.0) == within]
+                    if pts:
+                        ax.scatter(*zip(*pts, strict=False), s=16, marker=marker, alpha=0.45, zorder=2,
+                                   facecolors=color if within else "none", edgecolors=color, linewidths=0.6)
+                front = pareto_front([(r["wall_seconds"], err(r)) for r in mine])
+                (h,) = ax.plot(*zip(*front, strict=False), marker=marker, color=color, lw=1.4, ms=6, zorder=3,
+                               markeredgecolor="k", markeredgewidth=0.4, drawstyle="steps-post", label=lab)
+                handles[lab] = h
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            # 1-2-5 labels on the time axis: the runs span about one decade, too few for decade labels
+            ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+            ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            ax.xaxis.set_minor_formatter(NullFormatter())
+            ax.yaxis.set_minor_formatter(NullFormatter())
+            ax.set_xlabel("wall seconds of Simulation.run")
+            ax.set_ylabel(f"error {ylabel}")
+            device = ", ".join(sorted({str(r.get("device")) for r in rows if r["case"] == case}))
+            ax.set_title(f"{case} ({device}): {ylabel}", fontsize=10)
+            ax.grid(True, which="both", alpha=0.3)
+        for row in range(len(panels), 2):
+            axes[row][col].set_visible(False)
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    keys = [lab for lab in labels if lab in handles]
+    extra = [Patch(color="#e8f4e8", label="stable region: wall times of κ ≤ 1 runs"),
+             Line2D([], [], ls="", marker="o", color="0.3", label="κ ≤ 1 (filled)"),
+             Line2D([], [], ls="", marker="o", mfc="none", color="0.3", label="κ > 1, stable (open)")]
+    fig.legend([handles[k] for k in keys] + extra, keys + [e.get_label() for e in extra],
+               loc="outside right center", fontsize=8,
+               title="scheme (hue: family of\n'Motion integration' Table 1)\nlines: Pareto fronts")
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
     plt.close(fig)

@@ -24,10 +24,17 @@ import numpy as np
 
 from mpmdem.cases import normal_force as nf
 from mpmdem.runner import CaseSetup
+from mpmdem.validation import Check
 
 NAME = "friction-force"
 DESCRIPTION = "elastic MPM block sliding on a fixed spheropolygon: friction force vs μ × weight (MPM-SDEM §5.2.2)"
 DEFAULTS = dict(nf.DEFAULTS)  # GIMP-PIC, f64, V_d as the skin of the point–body lists
+
+VALIDATION = [
+    Check("friction_over_mu_weight", 1.0, "Coulomb sliding on a level floor: F = μ W (MPM-SDEM §5.2.2, Fig. 14)",
+          0.02, "N differs from W by the block's vertical inertia only, which settles to the normal-force case's "
+          "late band (2 %, Fig. 12 converged)", relative=False, flags=("--quick",)),
+]
 
 SPEED = 2.0  # m/s, V_x of §5.2.2
 MU = 0.3  # μ of the (block material, floor) pair in §5.2.2

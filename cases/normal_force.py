@@ -43,6 +43,7 @@ import numpy as np
 
 from mpmdem import ContactLaw, InputError, LinearElastic, Scene, Simulation, SolverConfig, rounded_rectangle
 from mpmdem.runner import CaseSetup
+from mpmdem.validation import Check
 
 NAME = "normal-force"
 DESCRIPTION = "elastic MPM block resting on a fixed spheropolygon: normal coupling force vs weight (MPM-SDEM §5.2.1)"
@@ -65,6 +66,12 @@ T_PAPER = 3.5  # s, the time of Figs. 11 and 13
 
 # "GIMP-PIC" in Table 2: uniform GIMP with the PIC transfer; V_d as the skin of the point–body lists
 DEFAULTS = {"precision": "f64", "shape": "ugimp", "transfer": "PIC", "imp_skin": VERLET}
+
+VALIDATION = [
+    Check("normal_over_weight", 1.0, "statics: the floor carries the block's weight (MPM-SDEM §5.2.1, Fig. 12)",
+          0.005, "the damped vibration left at the end of the run: below 2e-4 of the "
+          "weight by the end; 0.5 % is 25 × that", relative=False, flags=("--quick",)),
+]
 
 
 def grid_size(index: int) -> float:

@@ -32,9 +32,10 @@ import functools
 import warp as wp
 
 from .clock import CLOCK_DT, CLOCK_T
+from .contact_geometry import make_contact_geometry, make_history_lookup
 from .dem import FIXED, make_dem_kernels
 from .state import make_state_structs
-from .types import kernel, scalar_types
+from .types import Namespace, kernel, scalar_types
 
 __all__ = [
     "COUPLING_SCHEMES",
@@ -77,17 +78,14 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
     T = t.scalar
     vec2 = t.vec2
     Particles, Grid, Domain = make_state_structs(precision)
-    kd = make_dem_kernels(precision, deterministic)
-    Bodies = kd.Bodies
-    cross = kd.cross
-    spin = kd.spin
-    in_corner = kd.in_corner
-    polygon_distance = kd.polygon_distance
-    needs_rebuild = kd.needs_rebuild
-    spring_dashpot = kd.spring_dashpot
-    edge_contact = kd.edge_contact
-    sort_ids = kd.sort_ids
-    cell_in = kd.cell_in
+    dem = make_dem_kernels(precision, deterministic)
+    Bodies = dem.Bodies
+    needs_rebuild, sort_ids, cell_in = dem.needs_rebuild, dem.sort_ids, dem.cell_in
+    geometry = make_contact_geometry(precision)
+    cross, polygon_distance = geometry.cross, geometry.polygon_distance
+    point_velocity, edge_count, vertex_feature = geometry.point_velocity, geometry.edge_count, geometry.vertex_feature
+    contact_point, spring_dashpot = geometry.contact_point, geometry.spring_dashpot
+    find_slip = make_history_lookup(precision, IMP_HISTORY)
     lever_at_contact = scheme == "grid"
     vec2h = wp.types.vector(IMP_HISTORY, T)
     veci = wp.types.vector(IMP_HISTORY, wp.int32)
@@ -258,14 +256,6 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
             L.slip[base + s] = slip
 
     # -- forces (MPM-SDEM eq. 43-46, 49-50) -----------------------------------------------------
-    @wp.func
-    def find_slip(keys: veci, slips: vec2h, key: int):
-        out = T(0.0)
-        for h in range(wp.static(IMP_HISTORY)):
-            if keys[h] == key:
-                out = slips[h]
-        return out
-
     @kernel(deterministic=deterministic)
     def forces(P: Particles, B: Bodies, L: Links, prm: Params, world: wp.array(dtype=vec2),
                clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
@@ -314,9 +304,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                 inv_mb = B.inv_mass[b]
                 inv_ib = B.inv_inertia[b]
                 mu = prm.friction[mat * prm.bodies + b]
-                n_edges = int(0)
-                if count >= 2:
-                    n_edges = count
+                n_edges = edge_count(count)
                 # a point past every edge line of a polygon core (inside a convex core) is pushed
                 # out through the nearest edge, the overlap growing as d turns negative
                 inside = count >= 3
@@ -324,39 +312,17 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                 best_f = int(-1)
                 best_n = vec2()
                 for f in range(n_edges + count + 1):
-                    N = vec2()
-                    d = T(0.0)
-                    key = f
-                    hit = False
-                    if f < n_edges:
-                        hit, N, d = edge_contact(X, world, start, count, f, reach)
-                        if d >= T(0.0):
-                            inside = False
-                        elif d > best_d:
-                            best_d = d
-                            best_f = f
-                            best_n = N
-                    elif f < n_edges + count:
-                        w = f - n_edges
-                        D = X - world[start + w]
-                        d = wp.length(D)
-                        if d < reach and d > T(1.0e-12) * reach and in_corner(X, world, start, count, w):
-                            N = D / d
-                            hit = True
-                    elif inside and best_f >= 0:
-                        N = best_n
-                        d = best_d
-                        key = best_f
-                        hit = True
+                    # the point is a disk: a core of one vertex, in every corner region
+                    hit, N, d, key, inside, best_d, best_f, best_n = vertex_feature(
+                        X, world, start, count, f, n_edges, count, reach, 0, 1, 0, inside, best_d, best_f, best_n)
                     if hit:
                         # overlap eq. 44; contact point in the middle of the overlap (eq. 41);
                         # N points from the body to the point
-                        delta = reach - d
-                        pc = X - (rp - T(0.5) * delta) * N
+                        delta, pc = contact_point(X, N, d, reach, rp)
                         arm = X - xb
                         if wp.static(lever_at_contact):
                             arm = pc - xb
-                        vel = vp - (vb + spin(wb, pc - xb))
+                        vel = vp - point_velocity(vb, wb, pc - xb)
                         lever = cross(arm, N)
                         # the dashpot sees the point and the body (with its rotation) at the contact,
                         # as two DEM bodies do
@@ -400,15 +366,10 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         wp.atomic_add(out, 3, wp.float64(L.count[p]))
         wp.atomic_add(out, 4, wp.float64(L.active[p]))
 
-    return _Namespace(Links=Links, Params=Params, check_points=check_points, check_bodies=check_bodies,
-                      clear_cells=kd.clear_cells, bin_points=bin_points, build_lists=build_lists,
+    return Namespace(Links=Links, Params=Params, check_points=check_points, check_bodies=check_bodies,
+                      clear_cells=dem.clear_cells, bin_points=bin_points, build_lists=build_lists,
                       finish_lists=finish_lists, forces=forces, diagnostics=diagnostics,
-                      finish_rebuild=kd.finish_rebuild, FIXED=FIXED)
-
-
-class _Namespace:
-    def __init__(self, **kw):
-        self.__dict__.update(kw)
+                      finish_rebuild=dem.finish_rebuild, FIXED=FIXED)
 
 
 @functools.cache
@@ -424,9 +385,9 @@ def make_liu_kernels(precision: str):
     T = t.scalar
     vec2 = t.vec2
     Particles, Grid, Domain = make_state_structs(precision)
-    kd = make_dem_kernels(precision)
-    Bodies = kd.Bodies
-    rotate, spin, cross = kd.rotate, kd.spin, kd.cross
+    Bodies = make_dem_kernels(precision).Bodies
+    geometry = make_contact_geometry(precision)
+    rotate, spin, cross = geometry.rotate, geometry.spin, geometry.cross
 
     @wp.struct
     class BodyGrid:
@@ -506,4 +467,4 @@ def make_liu_kernels(precision: str):
             wp.atomic_add(B.force, b, J / dt)
             wp.atomic_add(B.torque, b, cross(xi - B.x[b], J) / dt)
 
-    return _Namespace(BodyGrid=BodyGrid, carriers_to_grid=carriers_to_grid, exchange=exchange)
+    return Namespace(BodyGrid=BodyGrid, carriers_to_grid=carriers_to_grid, exchange=exchange)

@@ -21,7 +21,8 @@ import functools
 import warp as wp
 
 from .clock import CLOCK_BOUND, CLOCK_DT, CLOCK_DT_FACTOR, CLOCK_DT_FIXED, CLOCK_T, CLOCK_T_STOP
-from .types import kernel, scalar_types
+from .contact_geometry import make_contact_geometry, make_history_lookup
+from .types import Namespace, kernel, scalar_types
 
 __all__ = [
     "FREE",
@@ -62,6 +63,11 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
     T = t.scalar
     vec2 = t.vec2
     vec4 = t.vec4
+    geometry = make_contact_geometry(precision)
+    rotate, cross, polygon_distance = geometry.rotate, geometry.cross, geometry.polygon_distance
+    point_velocity, edge_count, vertex_feature = geometry.point_velocity, geometry.edge_count, geometry.vertex_feature
+    contact_point, spring_dashpot = geometry.contact_point, geometry.spring_dashpot
+    find_slip = make_history_lookup(precision, HISTORY_SLOTS)
 
     @wp.struct
     class Bodies:
@@ -121,41 +127,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         cell_cap: int
         moving: int  # bodies [0, moving) are free or kinematic
 
-    # -- geometry -------------------------------------------------------------------------------
-    @wp.func
-    def rotate(angle: T, p: vec2):
-        c = wp.cos(angle)
-        s = wp.sin(angle)
-        return vec2(c * p[0] - s * p[1], s * p[0] + c * p[1])
-
-    @wp.func
-    def cross(r: vec2, f: vec2):
-        return r[0] * f[1] - r[1] * f[0]
-
-    @wp.func
-    def spin(w: T, r: vec2):
-        # ω × r for ω along z
-        return vec2(-w * r[1], w * r[0])
-
-    @wp.func
-    def segment_distance(p: vec2, a: vec2, b: vec2):
-        e = b - a
-        l2 = wp.dot(e, e)
-        s = T(0.0)
-        if l2 > T(0.0):
-            s = wp.clamp(wp.dot(p - a, e) / l2, T(0.0), T(1.0))
-        return wp.length(p - (a + s * e))
-
-    @wp.func
-    def in_corner(p: vec2, world: wp.array(dtype=vec2), start: int, count: int, k: int):
-        """Is p in the corner region of vertex k: beyond both edges that meet there."""
-        if count == 1:
-            return True
-        w = world[start + k]
-        nxt = world[start + (k + 1) % count]
-        prv = world[start + (k + count - 1) % count]
-        return wp.dot(p - w, nxt - w) <= T(0.0) and wp.dot(p - w, prv - w) <= T(0.0)
-
+    # -- contact lists ----------------------------------------------------------------------------
     @wp.func
     def sort_ids(ids: wp.array(dtype=wp.int32), base: int, n: int):
         """Insertion sort of ids[base : base + n] (short lists of neighbour indices)."""
@@ -166,26 +138,6 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                 ids[base + b + 1] = ids[base + b]
                 b -= 1
             ids[base + b + 1] = v
-
-    @wp.func
-    def edge_contact(X: vec2, world: wp.array(dtype=vec2), start: int, count: int, f: int, reach: T):
-        """X against edge f of a CCW core: (touching, outward normal N, signed distance d [m]).
-        It touches when its projection falls strictly inside the edge and 0 <= d < reach."""
-        A = world[start + f]
-        E = world[start + (f + 1) % count] - A
-        l2 = wp.dot(E, E)
-        u = wp.dot(X - A, E) / l2
-        N = vec2(E[1], -E[0]) / wp.sqrt(l2)
-        d = wp.dot(X - A, N)
-        return u > T(0.0) and u < T(1.0) and d >= T(0.0) and d < reach, N, d
-
-    @wp.func
-    def polygon_distance(p: vec2, world: wp.array(dtype=vec2), start: int, count: int):
-        """Distance [m] from p to the core polygon outline (a point for one vertex)."""
-        d = wp.length(p - world[start])
-        for e in range(count):
-            d = wp.min(d, segment_distance(p, world[start + e], world[start + (e + 1) % count]))
-        return d
 
     @wp.func
     def body_moved(B: Bodies, i: int, x_ref: wp.array(dtype=vec2), angle_ref: wp.array(dtype=T)):
@@ -345,40 +297,6 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         flags[0] = 0
 
     # -- contact forces (MPM-SDEM eq. 38-43) ------------------------------------------------------
-    @wp.func
-    def spring_dashpot(kn: T, kt: T, zeta: T, mu: T, delta: T, vel: vec2, N: vec2, inv_eff: T, slip0: T, dt: T):
-        """One contact of overlap δ (eq. 38/44) with relative velocity ``vel`` along the normal N:
-        force k_n δ − c_n v_n along N, c_n = 2ζ sqrt(k_n m_eff), m_eff = 1/inv_eff; tangential
-        spring δ_t = slip0 + v_t dt with the Coulomb cap k_t δ_t ≤ μ k_n δ (eq. 43).
-        Returns (force, δ_t, stored energy, (dashpot work, friction work) dissipated this step)."""
-        vn = wp.dot(vel, N)
-        tan = vec2(-N[1], N[0])
-        c_n = T(2.0) * zeta * wp.sqrt(kn / inv_eff)
-        fn = kn * delta - c_n * vn
-        slip = slip0 + wp.dot(vel, tan) * dt
-        ft = -kt * slip
-        cap = mu * kn * delta
-        lost_friction = wp.float64(0.0)
-        if wp.abs(ft) > cap:
-            slip_new = wp.sign(slip) * cap / wp.max(kt, T(1.0e-30))
-            lost_friction = wp.float64(cap * wp.abs(slip - slip_new))
-            slip = slip_new
-            ft = -wp.sign(slip) * cap
-        # dashpot work over the step, c_n vn v̄n dt, with v̄n ≈ vn + ½ dt fn/m_eff the normal velocity at
-        # the middle of the step (the dashpot acts on the lagged half-step velocity vn; vn² dt alone
-        # errs by O(ω dt), this by O((ω dt)²))
-        lost_damping = wp.float64(c_n * vn * (vn + T(0.5) * dt * fn * inv_eff) * dt)
-        energy = T(0.5) * (kn * delta * delta + kt * slip * slip)
-        return fn * N + ft * tan, slip, energy, wp.vec2d(lost_damping, lost_friction)
-
-    @wp.func
-    def find_slip(keys: wp.vec4i, slips: vec4, key: int):
-        out = T(0.0)
-        for h in range(wp.static(HISTORY_SLOTS)):
-            if keys[h] == key:
-                out = slips[h]
-        return out
-
     @kernel(deterministic=deterministic)
     def contact_forces(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
                        clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
@@ -445,60 +363,31 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                     X = world[r_start + k]
                     if wp.length(X - c_o) >= r_o + reach:
                         continue
-                    # candidate features of the other body: its edges (0..o_count-1) when it has
-                    # any, then (side 0 only) its vertices as corners
-                    n_feat = int(0)
-                    if o_count >= 2:
-                        n_feat = o_count
+                    # candidate features of the other body: its edges when it has any, then (side 0
+                    # only) its vertices as corners, then the pass for a vertex gone inside its core
+                    n_feat = edge_count(o_count)
                     n_corner = int(0)
                     if side == 0:
                         n_corner = o_count
-                    # a vertex that went past every edge line of a polygon core (a convex core: it is
-                    # inside) still pushes out through the nearest edge, with the overlap reach − d
-                    # growing on as d turns negative: the last feature pass below (too soft a k_n,
-                    # or too fast an impact, would otherwise let a corner tunnel through)
                     inside = o_count >= 3
                     best_d = T(-1.0e30)
                     best_f = int(-1)
                     best_n = vec2()
                     for f in range(n_feat + n_corner + 1):
-                        N = vec2()
-                        d = T(0.0)
-                        key = int(0)
-                        hit = False
-                        if f < n_feat:
-                            hit, N, d = edge_contact(X, world, o_start, o_count, f, reach)
-                            if d >= T(0.0):
-                                inside = False
-                            elif d > best_d:
-                                best_d = d
-                                best_f = f
-                                best_n = N
-                            if hit:
-                                key = side * KEY_KIND + k * KEY_VERTEX + f
-                        elif f == n_feat + n_corner:
-                            if inside and best_f >= 0:
-                                N = best_n
-                                d = best_d
-                                key = side * KEY_KIND + k * KEY_VERTEX + best_f
-                                hit = True
-                        else:
-                            w = f - n_feat
-                            W = world[o_start + w]
-                            D = X - W
-                            d = wp.length(D)
-                            if d < reach and d > T(1.0e-12) * reach:
-                                if in_corner(X, world, o_start, o_count, w) and in_corner(W, world, r_start,
-                                                                                           r_count, k):
-                                    N = D / d
-                                    key = 2 * KEY_KIND + k * KEY_VERTEX + w
-                                    hit = True
+                        hit, N, d, feature, inside, best_d, best_f, best_n = vertex_feature(
+                            X, world, o_start, o_count, f, n_feat, n_corner, reach, r_start, r_count, k,
+                            inside, best_d, best_f, best_n)
                         if hit:
+                            # key of the feature: vertex k against an edge (kind = side) or a corner (2)
+                            kind = side
+                            if feature >= n_feat:
+                                kind = 2
+                                feature = feature - n_feat
+                            key = kind * KEY_KIND + k * KEY_VERTEX + feature
                             # overlap eq. 38, contact point eq. 41 (middle of the overlap), N from the
                             # other body towards the vertex's body
-                            delta = reach - d
-                            p = X - (a_r - T(0.5) * delta) * N
-                            vel = (vi + spin(wi, p - xi)) - (vj + spin(wj, p - xj))
+                            delta, p = contact_point(X, N, d, reach, a_r)
+                            vel = point_velocity(vi, wi, p - xi) - point_velocity(vj, wj, p - xj)
                             if side == 1:
                                 vel = -vel
                             # normal dashpot with the effective mass of the two bodies at p along N,
@@ -611,22 +500,15 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         wp.atomic_add(out, 5, m * (x * vy - y * vx) + inertia * w)
         wp.atomic_add(out, 6, m)
 
-    return _Namespace(
+    return Namespace(
         Bodies=Bodies, Contacts=Contacts, Params=Params, world_vertices=world_vertices,
         check_displacement=check_displacement, clear_cells=clear_cells, bin_bodies=bin_bodies,
         build_lists=build_lists, finish_rebuild=finish_rebuild, reset_total=reset_total,
         contact_forces=contact_forces,
         integrate=integrate, dem_dt=dem_dt, diagnostics=diagnostics,
-        # geometry shared with the MPM-DEM coupling (kernels/coupling.py)
-        rotate=rotate, cross=cross, spin=spin, in_corner=in_corner, polygon_distance=polygon_distance,
-        needs_rebuild=needs_rebuild, cell_in=cell_in, spring_dashpot=spring_dashpot, edge_contact=edge_contact,
-        sort_ids=sort_ids,
+        # list maintenance shared with the MPM-DEM coupling (kernels/coupling.py)
+        needs_rebuild=needs_rebuild, cell_in=cell_in, sort_ids=sort_ids,
     )
-
-
-class _Namespace:
-    def __init__(self, **kw):
-        self.__dict__.update(kw)
 
 
 #: Order of the sums written by the diagnostics kernel.

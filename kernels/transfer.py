@@ -16,6 +16,7 @@ from .grid import WORK_INFLOW, WORK_PLASTIC, make_keep_inside_walls, work_slot
 from .reductions import make_speed_check
 from .shape_functions import CORNERS, SUPPORT_NODES, make_stencil
 from .state import make_state_structs
+from .stencil_loop import make_stencil_loop
 from .types import kernel, scalar_types
 
 __all__ = ["CORNERS", "make_g2p", "make_p2g", "make_stencil", "make_xpic_gather", "make_xpic_scatter"]
@@ -85,6 +86,7 @@ def make_p2g(
     Particles, Grid, Domain = make_state_structs(precision)
     stencil, contribution, on_grid = make_stencil(shape, precision)
     point_on_grid = make_point_on_grid(shape, precision)
+    node, point_layers = make_stencil_loop(precision, K, NC, contribution)
     with_contact = contact and (force or fused_impulse)
     has_affine = affine != "none" and momentum
     claim = layered and mass  # the step's first P2G claims the copies (kernels/granular.py)
@@ -125,8 +127,7 @@ def make_p2g(
         packed = wp.vec4i()  # the layer of each stencil node, 8 bits each (Particles.slots)
         claiming = False
         if wp.static(layered):
-            for word in range(wp.static(WORDS)):
-                packed[word] = P.slots[p, word]
+            packed = point_layers(P, p)
         if wp.static(claim):
             # claim only after a rebuild (prepare voided the layers); a step that keeps the labels
             # keeps the copies and the point's nodes, so the layers kept are still right
@@ -138,12 +139,9 @@ def make_p2g(
             bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
             for i in range(wp.static(K)):
                 for j in range(wp.static(K)):
-                    w, grad = contribution(wx, wy, dwx, dwy, g, i, j, D.inv_h)
-                    gi = bx + i
-                    gj = by + j
+                    w, grad, gi, gj, n = node(bx, by, wx, wy, dwx, dwy, g, k, i, j, D.inv_h)
                     row = gi
                     if wp.static(layered):
-                        n = (k * K + i) * K + j
                         if claiming:
                             # claim (or find) the component's copy of the node, and keep its layer
                             row, s = layer_row(G.owner, G.depth, gi, gj, comp, D.layer_rows, D.layers)
@@ -221,9 +219,9 @@ def make_g2p(
     Particles, Grid, Domain = make_state_structs(precision)
     stencil, contribution, on_grid = make_stencil(shape, precision)
     point_on_grid = make_point_on_grid(shape, precision)
+    node, point_layers = make_stencil_loop(precision, K, NC, contribution)
     point_update = make_point_update(material_kinds, precision, density_control, critical)
     dissipative = critical or any(k >= 2 for k in material_kinds)
-    WORDS = slot_words(NC * K * K)
     X = float(flip_fraction)
     X_pic = 1.0 - X
     flip = X > 0.0
@@ -240,6 +238,14 @@ def make_g2p(
     has_stress = stress != "none"
     speed_check = make_speed_check(precision)
     keep_inside_walls = make_keep_inside_walls(precision)
+
+    @wp.func
+    def stress_velocity(G: Grid, row: int, gj: int):
+        # the nodal velocity a separate stress update takes: V before the force update (USF) or
+        # the re-mapped one (MUSL)
+        if wp.static(stress == "vm"):
+            return G.vm[row, gj]
+        return G.v[row, gj]
 
     @kernel
     def g2p(
@@ -282,18 +288,15 @@ def make_g2p(
         vref = t.vec2()
         packed = wp.vec4i()  # the layers of the stencil's copies, from the step's claiming P2G
         if wp.static(layered):
-            for word in range(wp.static(WORDS)):
-                packed[word] = P.slots[p, word]
+            packed = point_layers(P, p)
         for k in range(wp.static(NC)):
             bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
             for i in range(wp.static(K)):
                 for j in range(wp.static(K)):
-                    w, grad = contribution(wx, wy, dwx, dwy, g, i, j, D.inv_h)
-                    gi = bx + i
-                    gj = by + j
+                    w, grad, gi, gj, n = node(bx, by, wx, wy, dwx, dwy, g, k, i, j, D.inv_h)
                     row = gi
                     if wp.static(layered):
-                        row = copy_row(packed, (k * K + i) * K + j, gi, D.layer_rows)
+                        row = copy_row(packed, n, gi, D.layer_rows)
                         if row < 0:
                             row = gi
                             w = T(0.0)  # a node the point put nothing on (a layer overflow)
@@ -315,15 +318,8 @@ def make_g2p(
                         if wp.static(layered):
                             if w > T(0.0):
                                 gsum = gsum + grad
-                    if wp.static(stress == "v"):
-                        vn = G.v[row, gj]
-                        L = L + wp.outer(vn, grad)
-                        if wp.static(layered):
-                            if w > T(0.0):
-                                gsum = gsum + grad
-                                vref = vref + w * vn
-                    if wp.static(stress == "vm"):
-                        vn = G.vm[row, gj]
+                    if wp.static(stress == "v" or stress == "vm"):
+                        vn = stress_velocity(G, row, gj)
                         L = L + wp.outer(vn, grad)
                         if wp.static(layered):
                             if w > T(0.0):

@@ -6,7 +6,7 @@ from typing import NamedTuple
 
 import warp as wp
 
-__all__ = ["KERNEL_OPTIONS", "MATERIAL_PARAMS", "ScalarTypes", "kernel", "scalar_types"]
+__all__ = ["KERNEL_OPTIONS", "MATERIAL_PARAMS", "Namespace", "ScalarTypes", "kernel", "scalar_types"]
 
 #: Floats per material in the material table (layout in ``plasticity.py``).
 MATERIAL_PARAMS = 10
@@ -36,6 +36,13 @@ def kernel(fn=None, *, deterministic: bool = False, max_unroll: int | None = Non
         return wp.kernel(f, module="unique", module_options=options)
 
     return wrap if fn is None else wrap(fn)
+
+
+class Namespace:
+    """What a kernel factory returns: its structs, functions and kernels as attributes."""
+
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
 
 
 class ScalarTypes(NamedTuple):

@@ -13,22 +13,13 @@ from typing import Literal
 
 import numpy as np
 
+from .checks import at_least, finite, positive, within
 from .errors import InputError
 from .spheropolygons import Spheropolygon
 
 __all__ = ["MOTIONS", "ContactLaw", "RigidBody"]
 
 MOTIONS = ("free", "fixed", "kinematic")
-
-
-def _finite(name: str, value, allowed: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, value, allowed) from None
-    if not math.isfinite(v):
-        raise InputError(name, value, allowed)
-    return v
 
 
 @dataclass(frozen=True)
@@ -48,16 +39,10 @@ class ContactLaw:
     restitution: float = 0.5
 
     def __post_init__(self):
-        kn = _finite("normal_stiffness", self.normal_stiffness, "a stiffness k_n > 0 [N/m per m]")
-        if kn <= 0.0:
-            raise InputError("normal_stiffness", self.normal_stiffness, "a stiffness k_n > 0 [N/m per m]")
+        positive("normal_stiffness", self.normal_stiffness, "a stiffness k_n > 0 [N/m per m]")
         if self.tangential_stiffness is not None:
-            kt = _finite("tangential_stiffness", self.tangential_stiffness, "a stiffness k_t >= 0, or None (= k_n)")
-            if kt < 0.0:
-                raise InputError("tangential_stiffness", self.tangential_stiffness, "a stiffness k_t >= 0, or None")
-        e = _finite("restitution", self.restitution, "a coefficient of restitution in [0, 1]")
-        if not 0.0 <= e <= 1.0:
-            raise InputError("restitution", self.restitution, "a coefficient of restitution in [0, 1]")
+            at_least("tangential_stiffness", self.tangential_stiffness, 0.0, "a stiffness k_t >= 0, or None (= k_n)")
+        within("restitution", self.restitution, 0.0, 1.0, "a coefficient of restitution in [0, 1]")
 
     @property
     def kt(self) -> float:
@@ -146,9 +131,7 @@ def make_rigid_body(
     """Validate the arguments of ``Scene.add_rigid_body`` and build the body."""
     if not isinstance(shape, Spheropolygon):
         raise InputError("shape", shape, "a Spheropolygon (mpmdem.sphero_disk, rounded_rectangle, regular_polygon...)")
-    rho = _finite("density", density, "a density > 0 [kg/m^3]")
-    if rho <= 0.0:
-        raise InputError("density", density, "a density > 0 [kg/m^3]")
+    rho = positive("density", density, "a density > 0 [kg/m^3]")
     if position is None:
         position = shape.origin
     pos = tuple(float(v) for v in np.asarray(position, dtype=float).ravel())
@@ -157,13 +140,11 @@ def make_rigid_body(
     vel = tuple(float(v) for v in np.asarray(velocity, dtype=float).ravel())
     if len(vel) != 2 or not all(math.isfinite(v) for v in vel):
         raise InputError("velocity", velocity, "a finite (vx, vy) [m/s]")
-    ang = _finite("angle", angle, "a finite angle [rad]")
-    w = _finite("angular_velocity", angular_velocity, "a finite angular velocity [rad/s]")
+    ang = finite("angle", angle, "a finite angle [rad]")
+    w = finite("angular_velocity", angular_velocity, "a finite angular velocity [rad/s]")
     if motion not in MOTIONS:
         raise InputError("motion", motion, f"one of {', '.join(MOTIONS)}")
-    mu = _finite("friction", friction, "a Coulomb coefficient >= 0")
-    if mu < 0.0:
-        raise InputError("friction", friction, "a Coulomb coefficient >= 0")
+    mu = at_least("friction", friction, 0.0, "a Coulomb coefficient >= 0")
     try:
         t0, t1 = (float(v) for v in active)
     except (TypeError, ValueError):

@@ -22,12 +22,13 @@ import math
 import numpy as np
 import warp as wp
 
+from .checks import check_time_step, eq51_step
 from .config import SolverConfig
-from .dem import DEMSolver
+from .dem import DEMSolver, spring_time_step_bound
 from .diagnostics import coupled_likely_cause
 from .errors import BlowUpError, InputError
-from .kernels import coupling as kcp
-from .kernels import reductions as reduction_kernels
+from .kernels import coupling as coupling_kernels
+from .kernels import reductions
 from .mpm import AFTER_FORCE_UPDATE, MPMSolver
 from .scene import Scene
 from .stage import ClockedStage
@@ -47,10 +48,7 @@ def contact_time_step_bound(scene: Scene, point_mass: float) -> float:
     carry more mass than the point, so this bound is on the safe side; bench/coupling_stability.py
     maps how far past it runs stay stable.
     """
-    law = scene.coupling_contact or scene.contact
-    k = max(float(law.normal_stiffness), law.kt)
-    zeta = law.damping_ratio
-    return 2.0 * math.sqrt(point_mass / k) * (math.sqrt(1.0 + zeta * zeta) - zeta)
+    return spring_time_step_bound(scene.coupling_contact or scene.contact, point_mass)
 
 
 class CoupledStage(ClockedStage):
@@ -81,13 +79,10 @@ class CoupledStage(ClockedStage):
         self.dt_bound = min(self.contact_bound, dem.dt_bound)
         kappa = math.pi * config.dem_kappa
         self.dt_cap = kappa * self.dt_bound
-        if config.dt is not None and config.dt > self.dt_bound and not config.allow_unstable:
-            raise InputError(
-                "dt", config.dt,
-                f"at most the stable bound {self.dt_bound:.6g} s of the contacts (a point of the smallest mass "
-                f"on k_n: {self.contact_bound:.6g} s; the rigid bodies: {dem.dt_bound:.6g} s); MPM-SDEM eq. 51 "
-                f"with dem_kappa = {config.dem_kappa:g} gives {self.dt_cap:.6g} s; leave dt unset to use it")
-        self.k = kcp.make_coupling_kernels(config.precision, config.coupling, staged=mpm.staged,
+        check_time_step(config, self.dt_bound, f"{self.dt_bound:.6g} s of the contacts (a point of the smallest mass "
+                        f"on k_n: {self.contact_bound:.6g} s; the rigid bodies: {dem.dt_bound:.6g} s); "
+                        f"{eq51_step(config, self.dt_bound)}")
+        self.k = coupling_kernels.make_coupling_kernels(config.precision, config.coupling, staged=mpm.staged,
                                            deterministic=config.deterministic)
         self._allocate()
         self.liu = None
@@ -104,8 +99,8 @@ class CoupledStage(ClockedStage):
         T = np.float32 if cfg.precision == "f32" else np.float64
         t = mpm.types
         h = scene.cell_size
-        veci = wp.types.vector(kcp.IMP_HISTORY, wp.int32)
-        vech = wp.types.vector(kcp.IMP_HISTORY, t.scalar)
+        veci = wp.types.vector(coupling_kernels.IMP_HISTORY, wp.int32)
+        vech = wp.types.vector(coupling_kernels.IMP_HISTORY, t.scalar)
 
         L = k.Links()
         L.slots = S
@@ -138,29 +133,29 @@ class CoupledStage(ClockedStage):
         rows, cols = mpm.D.layer_rows, mpm.grid_shape[1]
         self.cells = (rows - 1, cols - 1)
 
-        P = k.Params()
-        P.kn = float(self.law.normal_stiffness)
-        P.kt = self.law.kt
-        P.zeta = self.law.damping_ratio
-        P.skin = self.skin
-        P.r_max = float(radius.max())
-        P.cell_origin = mpm.D.origin
-        P.inv_cell = 1.0 / h
-        P.cells_x, P.cells_y = self.cells
-        P.cell_cap = self.cell_cap
-        P.bodies = nb
-        P.moving = dem.moving
-        P.tile = BUILD_TILE
-        P.friction = wp.array(mu.ravel(), dtype=t.scalar, device=dev)
-        self.P = P
+        params = k.Params()
+        params.kn = float(self.law.normal_stiffness)
+        params.kt = self.law.kt
+        params.zeta = self.law.damping_ratio
+        params.skin = self.skin
+        params.r_max = float(radius.max())
+        params.cell_origin = mpm.D.origin
+        params.inv_cell = 1.0 / h
+        params.cells_x, params.cells_y = self.cells
+        params.cell_cap = self.cell_cap
+        params.bodies = nb
+        params.moving = dem.moving
+        params.tile = BUILD_TILE
+        params.friction = wp.array(mu.ravel(), dtype=t.scalar, device=dev)
+        self.params = params
 
         ncell = self.cells[0] * self.cells[1]
         self.cell_count = wp.zeros(ncell, dtype=wp.int32, device=dev)
         self.cell_items = wp.zeros(ncell * self.cell_cap, dtype=wp.int32, device=dev)
         self.flags = wp.ones(1, dtype=wp.int32, device=dev)  # build in the first step
         self.rebuilds = wp.zeros(1, dtype=wp.int64, device=dev)
-        self.status = wp.zeros(kcp.STATUS_SIZE, dtype=wp.int32, device=dev)
-        self.diag = wp.zeros(len(kcp.IMP_DIAG_NAMES), dtype=wp.float64, device=dev)
+        self.status = wp.zeros(coupling_kernels.STATUS_SIZE, dtype=wp.int32, device=dev)
+        self.diag = wp.zeros(len(coupling_kernels.IMP_DIAG_NAMES), dtype=wp.float64, device=dev)
 
     def _allocate_liu(self) -> None:
         """Carrier points of each body (its core's vertices and points along its edges at most half a
@@ -190,7 +185,7 @@ class CoupledStage(ClockedStage):
             local.append(pts)
             owner += [j] * len(pts)
             share += [1.0 / len(pts)] * len(pts)
-        k = kcp.make_liu_kernels(self.config.precision)
+        k = coupling_kernels.make_liu_kernels(self.config.precision)
         T = np.float32 if self.config.precision == "f32" else np.float64
         shape = (mpm.D.layer_rows, mpm.grid_shape[1])
         BG = k.BodyGrid()
@@ -220,7 +215,7 @@ class CoupledStage(ClockedStage):
         """One coupled explicit step (MPM-SDEM §4.2)."""
         mpm, dem = self.mpm, self.dem
         mpm.begin_step()
-        wp.launch(reduction_kernels.cap_dt, 1, inputs=[self.clock, self.dt_cap, self.dt_bound], device=self.device)
+        wp.launch(reductions.cap_dt, 1, inputs=[self.clock, self.dt_cap, self.dt_bound], device=self.device)
         dem.contact_stage()
         if self.liu is None:
             self.contact_forces()
@@ -232,22 +227,22 @@ class CoupledStage(ClockedStage):
 
     def contact_forces(self) -> None:
         """Point–body lists (rebuilt when flagged) and the IMP forces of this step."""
-        k, L, P, dev = self.k, self.L, self.P, self.device
-        mp, B = self.mpm.P, self.dem.B
+        k, L, params, dev = self.k, self.L, self.params, self.device
+        points, B = self.mpm.P, self.dem.B
         n = self.mpm.particle_count
         clock, flags = self.clock, self.flags
-        wp.launch(k.check_points, n, inputs=[mp, L, P, clock, flags], device=dev)
+        wp.launch(k.check_points, n, inputs=[points, L, params, clock, flags], device=dev)
         if self.dem.moving:
-            wp.launch(k.check_bodies, self.dem.moving, inputs=[B, L, P, flags], device=dev)
+            wp.launch(k.check_bodies, self.dem.moving, inputs=[B, L, params, flags], device=dev)
         wp.launch(k.clear_cells, len(self.cell_count), inputs=[flags, self.cell_count], device=dev)
-        wp.launch(k.bin_points, n, inputs=[mp, L, P, clock, flags, self.cell_count, self.cell_items, self.status],
-                  device=dev)
+        wp.launch(k.bin_points, n,
+                  inputs=[points, L, params, clock, flags, self.cell_count, self.cell_items, self.status], device=dev)
         wp.launch(k.build_lists, self.dem.body_count * BUILD_TILE,
-                  inputs=[mp, B, L, P, self.dem.world, flags, self.cell_count, self.cell_items, self.status],
+                  inputs=[points, B, L, params, self.dem.world, flags, self.cell_count, self.cell_items, self.status],
                   device=dev)
         wp.launch(k.finish_lists, n, inputs=[L, flags], device=dev)
         wp.launch(k.finish_rebuild, 1, inputs=[flags, self.rebuilds], device=dev)
-        wp.launch(k.forces, n, inputs=[mp, B, L, P, self.dem.world, clock, self.status], device=dev)
+        wp.launch(k.forces, n, inputs=[points, B, L, params, self.dem.world, clock, self.status], device=dev)
 
     def status_counts(self) -> np.ndarray:
         """Status counts of both stages and the coupling, one after the other."""
@@ -264,11 +259,11 @@ class CoupledStage(ClockedStage):
         self.mpm.check_status(t, dt, bound, status[:nm])
         self.dem.check_status(t, dt, bound, status[nm:nm + nd])
         own = status[nm + nd:]
-        if own[kcp.STATUS_SLOT_OVERFLOW] > 0:
+        if own[coupling_kernels.STATUS_SLOT_OVERFLOW] > 0:
             raise BlowUpError("imp-overflow", f"at t = {t:.6g} s a material point was near more than "
                               f"{self.config.imp_max_bodies} rigid bodies: raise SolverConfig(imp_max_bodies=...) "
                               "or lower imp_skin.", t)
-        if own[kcp.STATUS_CELL_OVERFLOW] > 0:
+        if own[coupling_kernels.STATUS_CELL_OVERFLOW] > 0:
             raise BlowUpError("imp-cell-overflow", f"at t = {t:.6g} s more than {self.cell_cap} points sat in one "
                               "grid cell in the point–body search: raise SolverConfig(imp_cell_capacity=...), or "
                               f"the points collapsed ({self.mpm.likely_cause(dt, bound)}).", t)
@@ -287,7 +282,7 @@ class CoupledStage(ClockedStage):
         d = self.dem.diagnostics()
         self.diag.zero_()
         wp.launch(self.k.diagnostics, self.mpm.particle_count, inputs=[self.L, self.diag], device=self.device)
-        imp = dict(zip(kcp.IMP_DIAG_NAMES, (float(v) for v in self.diag.numpy()), strict=True))
+        imp = dict(zip(coupling_kernels.IMP_DIAG_NAMES, (float(v) for v in self.diag.numpy()), strict=True))
         out = dict(m)
         for name in self._SUMMED:
             out[f"points_{name}"] = m[name]

@@ -18,21 +18,23 @@ import math
 import numpy as np
 import warp as wp
 
+from .bodies import ContactLaw
+from .checks import check_time_step, eq51_step
 from .config import SolverConfig
 from .errors import BlowUpError, InputError
-from .kernels import dem as kdem
-from .kernels import reductions as reduction_kernels
+from .kernels import dem as dem_kernels
+from .kernels import reductions
 from .scene import Scene
 from .stage import Clock, ClockedStage
 
-__all__ = ["DEMSolver", "dem_time_step_bound"]
+__all__ = ["DEMSolver", "dem_time_step_bound", "spring_time_step_bound"]
 
 #: Bodies larger than this many times the median bounding radius are "large" (walls, gates):
 #: they are not binned in cells; every small body tests them directly. At most MAX_LARGE.
 LARGE_FACTOR = 4.0
 MAX_LARGE = 64
 
-_MOTION_IDS = {"free": kdem.FREE, "fixed": kdem.FIXED, "kinematic": kdem.KINEMATIC}
+_MOTION_IDS = {"free": dem_kernels.FREE, "fixed": dem_kernels.FIXED, "kinematic": dem_kernels.KINEMATIC}
 
 #: Body arrays that change during a run (what a checkpoint must hold), and the contact arrays.
 _BODY_STATE = ("x", "angle", "v", "omega", "force", "torque", "x_ref", "angle_ref", "work")
@@ -59,15 +61,22 @@ def dem_time_step_bound(scene: Scene) -> float:
     and the explicit dashpot, acting on the lagged velocity, is stable only for
     ω dt < 2 (sqrt(1 + ζ²) − ζ) (a damped pentagon pile gained energy at eq. 51's step).
     """
-    law = scene.contact
     masses = [effective_mass(b) for b in scene.rigid_bodies if b.motion == "free"]
     if not masses:
         if scene.has_mpm:  # fixed or driven bodies under material points: no DEM bound
             return math.inf
         raise InputError("rigid_bodies", [b.name for b in scene.rigid_bodies], "at least one free rigid body")
+    return spring_time_step_bound(scene.contact, min(masses))
+
+
+def spring_time_step_bound(law: ContactLaw, mass: float) -> float:
+    """Largest stable explicit step [s] of a mass [kg/m] on one spring–dashpot contact of ``law``,
+    2 sqrt(m / k) (sqrt(1 + ζ²) − ζ) with k = max(k_n, k_t) and ζ the law's damping ratio: the
+    bound of the DEM bodies (``dem_time_step_bound``) and of the coupling's points
+    (``mpmdem.coupling.contact_time_step_bound``)."""
     k = max(float(law.normal_stiffness), law.kt)
     zeta = law.damping_ratio
-    return 2.0 * math.sqrt(min(masses) / k) * (math.sqrt(1.0 + zeta * zeta) - zeta)
+    return 2.0 * math.sqrt(mass / k) * (math.sqrt(1.0 + zeta * zeta) - zeta)
 
 
 class DEMSolver(ClockedStage):
@@ -87,15 +96,10 @@ class DEMSolver(ClockedStage):
         self.scene = scene
         self.config = config
         self.device = wp.get_device(device)
-        self.k = kdem.make_dem_kernels(config.precision, config.deterministic)
+        self.k = dem_kernels.make_dem_kernels(config.precision, config.deterministic)
         self.dt_bound = dem_time_step_bound(scene)
-        if config.dt is not None and config.dt > self.dt_bound and not config.allow_unstable:
-            raise InputError(
-                "dt", config.dt,
-                f"at most the stable bound 2 sqrt(m*/k_n) (sqrt(1+ζ²)−ζ) = {self.dt_bound:.6g} s of these bodies "
-                f"(MPM-SDEM eq. 51 with dem_kappa = {config.dem_kappa:g} gives "
-                f"{math.pi * config.dem_kappa * self.dt_bound:.6g} s); leave dt unset to use it",
-            )
+        check_time_step(config, self.dt_bound, f"2 sqrt(m*/k_n) (sqrt(1+ζ²)−ζ) = {self.dt_bound:.6g} s of these "
+                        f"bodies ({eq51_step(config, self.dt_bound)})")
         self.body_count = len(scene.rigid_bodies)
         #: (body, body, depth [m]) of the pairs let start overlapping (Scene(allow_initial_overlap=True))
         self.initial_overlaps = scene.initial_overlaps()
@@ -119,7 +123,7 @@ class DEMSolver(ClockedStage):
         motion = np.array([_MOTION_IDS[b.motion] for b in bodies], np.int32)
         pos = np.array([b.position for b in bodies], float).reshape(-1, 2)
         bound = np.array([b.shape.bounding_radius for b in bodies])
-        ref = bound[motion == kdem.FREE]
+        ref = bound[motion == dem_kernels.FREE]
         if not len(ref):  # only fixed or driven bodies (under material points)
             ref = bound
         median = float(np.median(ref))
@@ -134,9 +138,9 @@ class DEMSolver(ClockedStage):
         self.cell = 2.0 * r_cut + self.skin
         # moving bodies first, then fixed; each group by cell column, then height (locality)
         cx = np.floor(pos[:, 0] / self.cell)
-        order = np.lexsort((pos[:, 1], cx, motion == kdem.FIXED))
+        order = np.lexsort((pos[:, 1], cx, motion == dem_kernels.FIXED))
         self.order = order
-        self.moving = int(np.count_nonzero(motion != kdem.FIXED))
+        self.moving = int(np.count_nonzero(motion != dem_kernels.FIXED))
         self.motion = motion[order]
         self.is_large = is_large[order]
         # cells over the domain and every small body (a fixed peg may sit outside the domain)
@@ -171,7 +175,7 @@ class DEMSolver(ClockedStage):
 
         mass = np.array([b.mass for b in bodies])
         inertia = np.array([b.inertia for b in bodies])
-        free = self.motion == kdem.FREE
+        free = self.motion == dem_kernels.FREE
         counts = np.array([len(b.shape.vertices) for b in bodies], np.int32)
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int32)
         local = np.concatenate([b.shape.vertices for b in bodies]).astype(T)
@@ -228,21 +232,21 @@ class DEMSolver(ClockedStage):
 
         law = self.scene.contact
         (x0, y0), (x1, y1) = self.scene.domain
-        P = k.Params()
-        P.kn = float(law.normal_stiffness)
-        P.kt = law.kt
-        P.zeta = law.damping_ratio
-        P.skin = self.skin
-        P.gravity = self._vec2(*self.scene.gravity)
-        P.gravity_ramp = float(self.scene.gravity_ramp)
-        P.lo = self._vec2(x0, y0)
-        P.hi = self._vec2(x1, y1)
-        P.cell_origin = self._vec2(*self.cell_origin)
-        P.inv_cell = 1.0 / self.cell
-        P.cells_x, P.cells_y = self.cells
-        P.cell_cap = self.cell_cap
-        P.moving = self.moving
-        self.P = P
+        params = k.Params()
+        params.kn = float(law.normal_stiffness)
+        params.kt = law.kt
+        params.zeta = law.damping_ratio
+        params.skin = self.skin
+        params.gravity = self._vec2(*self.scene.gravity)
+        params.gravity_ramp = float(self.scene.gravity_ramp)
+        params.lo = self._vec2(x0, y0)
+        params.hi = self._vec2(x1, y1)
+        params.cell_origin = self._vec2(*self.cell_origin)
+        params.inv_cell = 1.0 / self.cell
+        params.cells_x, params.cells_y = self.cells
+        params.cell_cap = self.cell_cap
+        params.moving = self.moving
+        self.params = params
 
         self.small = wp.array(np.flatnonzero(~self.is_large).astype(np.int32), dtype=wp.int32, device=dev)
         self.large_ids = wp.array(self.large if len(self.large) else np.zeros(1, np.int32), dtype=wp.int32,
@@ -253,8 +257,8 @@ class DEMSolver(ClockedStage):
         self.cell_items = wp.zeros(ncell * self.cell_cap, dtype=wp.int32, device=dev)
         self.flags = wp.ones(1, dtype=wp.int32, device=dev)  # build the lists in the first step
         self.rebuilds = wp.zeros(1, dtype=wp.int64, device=dev)
-        self.status = wp.zeros(kdem.STATUS_SIZE, dtype=wp.int32, device=dev)
-        self.diag = wp.zeros(len(kdem.DIAG_NAMES), dtype=wp.float64, device=dev)
+        self.status = wp.zeros(dem_kernels.STATUS_SIZE, dtype=wp.int32, device=dev)
+        self.diag = wp.zeros(len(dem_kernels.DIAG_NAMES), dtype=wp.float64, device=dev)
 
     @property
     def _scalar(self):
@@ -286,34 +290,35 @@ class DEMSolver(ClockedStage):
         self.contact_stage()
         self.body_update()
         if own_clock:
-            wp.launch(reduction_kernels.advance_time, 1, inputs=[self.clock, self.steps], device=self.device)
+            wp.launch(reductions.advance_time, 1, inputs=[self.clock, self.steps], device=self.device)
 
     def contact_stage(self) -> None:
         """World vertices, Verlet lists (rebuilt only when flagged on the device) and the
         body–body contact forces of this step into ``B.force``, ``B.torque``."""
-        k, B, C, P, dev = self.k, self.B, self.C, self.P, self.device
+        k, B, C, params, dev = self.k, self.B, self.C, self.params, self.device
         if self.moving_vertices:
             wp.launch(k.world_vertices, self.moving_vertices, inputs=[B, self.local, self.owner, self.world],
                       device=dev)
-        wp.launch(k.check_displacement, self.moving, inputs=[B, P, self.flags], device=dev)
+        wp.launch(k.check_displacement, self.moving, inputs=[B, params, self.flags], device=dev)
         wp.launch(k.clear_cells, len(self.cell_count), inputs=[self.flags, self.cell_count], device=dev)
         if len(self.small):
             wp.launch(k.bin_bodies, len(self.small),
-                      inputs=[B, P, self.small, self.flags, self.cell_count, self.cell_items, self.status], device=dev)
+                      inputs=[B, params, self.small, self.flags, self.cell_count, self.cell_items, self.status],
+                      device=dev)
         wp.launch(k.reset_total, 1, inputs=[self.flags, C], device=dev)
         wp.launch(k.build_lists, self.body_count,
-                  inputs=[B, C, P, self.world, self.is_large_arr, self.large_ids, len(self.large), self.flags,
+                  inputs=[B, C, params, self.world, self.is_large_arr, self.large_ids, len(self.large), self.flags,
                           self.cell_count, self.cell_items, self.status], device=dev)
         wp.launch(k.finish_rebuild, 1, inputs=[self.flags, self.rebuilds], device=dev)
         B.force.zero_()
         B.torque.zero_()
         wp.launch(k.contact_forces, self.body_count * self.slots,
-                  inputs=[B, C, P, self.world, self.clock, self.status], device=dev)
+                  inputs=[B, C, params, self.world, self.clock, self.status], device=dev)
 
     def body_update(self) -> None:
         """Rigid-body update of the free and kinematic bodies (fixed bodies are not integrated)."""
         if self.moving:
-            wp.launch(self.k.integrate, self.moving, inputs=[self.B, self.P, self.clock, self.status],
+            wp.launch(self.k.integrate, self.moving, inputs=[self.B, self.params, self.clock, self.status],
                       device=self.device)
 
     def status_counts(self) -> np.ndarray:
@@ -324,20 +329,21 @@ class DEMSolver(ClockedStage):
         """Raise BlowUpError for non-finite or escaped bodies and overflowing lists."""
         cfg = self.config
         cause = self.likely_cause(dt)
-        if status[kdem.STATUS_NONFINITE] > 0 or not math.isfinite(t):
+        if status[dem_kernels.STATUS_NONFINITE] > 0 or not math.isfinite(t):
             raise BlowUpError("non-finite", f"the DEM blew up at t = {t:.6g} s: "
-                              f"{int(status[kdem.STATUS_NONFINITE])} bodies have NaN/inf values. "
+                              f"{int(status[dem_kernels.STATUS_NONFINITE])} bodies have NaN/inf values. "
                               f"Likely cause: {cause}.", t)
-        if status[kdem.STATUS_OUTSIDE] > 0:
+        if status[dem_kernels.STATUS_OUTSIDE] > 0:
             # the flag counts body-steps outside over the steps since the last check, not bodies
+            outside = int(status[dem_kernels.STATUS_OUTSIDE])
             raise BlowUpError("left-domain", f"rigid bodies left the domain by t = {t:.6g} s (outside the domain "
-                              f"{int(status[kdem.STATUS_OUTSIDE])} times, counted per body and step since the last "
+                              f"{outside} times, counted per body and step since the last "
                               f"check). Likely cause: an open side (close it with Scene.add_walls) or {cause}.", t)
-        if status[kdem.STATUS_NEIGHBOR_OVERFLOW] > 0:
+        if status[dem_kernels.STATUS_NEIGHBOR_OVERFLOW] > 0:
             raise BlowUpError("list-overflow", f"a DEM Verlet list overflowed at t = {t:.6g} s (more than "
                               f"{self.slots} neighbours of one body): raise SolverConfig(dem_max_neighbors=...) "
                               f"(now {cfg.dem_max_neighbors}) or lower dem_skin.", t)
-        if status[kdem.STATUS_CELL_OVERFLOW] > 0:
+        if status[dem_kernels.STATUS_CELL_OVERFLOW] > 0:
             raise BlowUpError("cell-overflow", f"a DEM broad-phase cell held more than {self.cell_cap} bodies at "
                               f"t = {t:.6g} s: bodies are piled into each other. Likely cause: {cause}.", t)
 
@@ -363,8 +369,9 @@ class DEMSolver(ClockedStage):
     def diagnostics(self) -> dict[str, float]:
         """Energies [J/m], momenta and mass of the free bodies; contact energy and dissipation."""
         self.diag.zero_()
-        wp.launch(self.k.diagnostics, self.body_count, inputs=[self.B, self.C, self.P, self.diag], device=self.device)
-        vals = dict(zip(kdem.DIAG_NAMES, (float(v) for v in self.diag.numpy()), strict=True))
+        wp.launch(self.k.diagnostics, self.body_count, inputs=[self.B, self.C, self.params, self.diag],
+                  device=self.device)
+        vals = dict(zip(dem_kernels.DIAG_NAMES, (float(v) for v in self.diag.numpy()), strict=True))
         out = {name: vals[name] for name in ("energy_kinetic", "energy_gravity", "energy_contact")}
         out["energy_total"] = out["energy_kinetic"] + out["energy_gravity"] + out["energy_contact"]
         out.update({name: vals[name] for name in ("momentum_x", "momentum_y", "momentum_angular", "mass")})
@@ -374,7 +381,7 @@ class DEMSolver(ClockedStage):
         out["work_driven"] = vals["work_driven"]  # done on the free bodies by kinematic ones
         out["list_rebuilds"] = float(self.rebuilds.numpy()[0])
         out["listed_pairs"] = float(self.C.count.numpy().sum())
-        out["history_overflows"] = float(self.status.numpy()[kdem.STATUS_HISTORY_OVERFLOW])
+        out["history_overflows"] = float(self.status.numpy()[dem_kernels.STATUS_HISTORY_OVERFLOW])
         return out
 
     #: Diagnostics that are works done on the system (for the energy balance).

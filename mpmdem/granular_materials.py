@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 from typing import ClassVar
 
+from .checks import finite
 from .errors import InputError
 from .kernels.plasticity import DRUCKER_PRAGER, MOHR_COULOMB
 from .materials import Material
@@ -21,12 +22,6 @@ __all__ = ["GRANULAR_MATERIAL_KINDS", "DruckerPrager", "MohrCoulomb"]
 #: DP matchings: "plane_strain" is MPM-SDEM eq. 35 (with ψ for α_ψ); "plane_strain_nonassociated"
 #: makes the plane-strain failure equal Mohr–Coulomb's for the given ψ too (see DruckerPrager).
 DP_MATCHES = ("plane_strain", "plane_strain_nonassociated")
-
-
-def _finite(name: str, value: object) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InputError(name, value, "a finite number")
-    return float(value)
 
 
 @dataclass(frozen=True)
@@ -45,13 +40,13 @@ class _Granular(Material):
     cohesion: float = 0.0
 
     def _check_granular(self) -> None:
-        phi = _finite("friction_angle", self.friction_angle)
+        phi = finite("friction_angle", self.friction_angle)
         if not 0.0 < phi < 90.0:
             raise InputError("friction_angle", phi, "0 < phi < 90 [deg]")
-        psi = _finite("dilatancy_angle", self.dilatancy_angle)
+        psi = finite("dilatancy_angle", self.dilatancy_angle)
         if not 0.0 <= psi <= phi:
             raise InputError("dilatancy_angle", psi, f"0 <= psi <= friction_angle = {phi} [deg]")
-        if not _finite("cohesion", self.cohesion) >= 0.0:
+        if not finite("cohesion", self.cohesion) >= 0.0:
             raise InputError("cohesion", self.cohesion, "c >= 0 [Pa]")
 
     @property
@@ -90,7 +85,7 @@ class MohrCoulomb(_Granular):
     def __post_init__(self):
         super().__post_init__()
         self._check_granular()
-        if not _finite("bagnold", self.bagnold) >= 0.0:
+        if not finite("bagnold", self.bagnold) >= 0.0:
             raise InputError("bagnold", self.bagnold, "eta >= 0 [Pa s^2]")
 
     @property
@@ -143,7 +138,7 @@ class DruckerPrager(_Granular):
         if self.match not in DP_MATCHES:
             raise InputError("match", self.match, f"one of {DP_MATCHES}")
         if self.tension_cutoff is not None:
-            st = _finite("tension_cutoff", self.tension_cutoff)
+            st = finite("tension_cutoff", self.tension_cutoff)
             apex = self.apex_mean_stress
             if not 0.0 <= st <= apex * (1.0 + 1e-12):
                 raise InputError(

@@ -9,6 +9,7 @@ import math
 from dataclasses import asdict, dataclass, field
 from typing import ClassVar
 
+from .checks import finite
 from .errors import InputError
 
 __all__ = ["LinearElastic", "Material", "NeoHookean"]
@@ -36,9 +37,7 @@ class Material:
 
     def __post_init__(self):
         for name in ("youngs_modulus", "poisson_ratio", "density"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise InputError(name, v, "a finite number")
+            finite(name, getattr(self, name))
         if not self.youngs_modulus > 0.0:
             raise InputError("youngs_modulus", self.youngs_modulus, "E > 0 [Pa]")
         if not -1.0 < self.poisson_ratio < 0.5:
@@ -47,8 +46,7 @@ class Material:
             raise InputError("density", self.density, "rho > 0 [kg/m^3]")
         rho_cr = self.critical_density
         if rho_cr is not None:
-            if isinstance(rho_cr, bool) or not isinstance(rho_cr, (int, float)) or not math.isfinite(rho_cr):
-                raise InputError("critical_density", rho_cr, "a finite number [kg/m^3] or None")
+            finite("critical_density", rho_cr, "a finite number [kg/m^3] or None")
             if not 0.0 < rho_cr <= self.density:
                 raise InputError(
                     "critical_density", rho_cr,

@@ -17,6 +17,7 @@ import warp as wp
 from . import diagnostics as diagnostics_
 from . import granular_state
 from .cell_sort import PointSorter, device_order
+from .checks import check_time_step
 from .config import SolverConfig
 from .errors import InputError
 from .kernels import granular as granular_kernels
@@ -72,12 +73,8 @@ class MPMSolver(ClockedStage):
         host = scene.particles()
         self.particle_count = len(host["mass"])
         self.dt_bound0 = initial_dt_bound(scene, host)
-        if config.dt is not None and config.dt > self.dt_bound0 and not config.allow_unstable:
-            raise InputError(
-                "dt", config.dt,
-                f"at most the stable bound h/max(c+|v|) = {self.dt_bound0:.6g} s of this scene "
-                f"(h = {scene.cell_size:g} m); leave dt unset to use the CFL policy",
-            )
+        check_time_step(config, self.dt_bound0, f"h/max(c+|v|) = {self.dt_bound0:.6g} s of this scene "
+                        f"(h = {scene.cell_size:g} m)", use="the CFL policy")
         if config.shape == "ugimp" and (host["half"] > 0.5 * scene.cell_size + 1e-12).any():
             raise InputError("shape", config.shape, "uGIMP needs points_per_cell >= 1 (half-lengths <= h/2)")
         self.body = host["body"]

@@ -17,6 +17,7 @@ from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
 from shapely.validation import explain_validity
 
+from .checks import finite
 from .errors import InputError
 
 __all__ = ["SEEDINGS", "SeededPoints", "Shape", "disk", "from_file", "polygon", "rectangle", "seed_points"]
@@ -85,16 +86,6 @@ class Shape:
         return tuple(p["center"]), p["radius"]
 
 
-def _finite(name: str, value: object) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        v = math.nan
-    if not math.isfinite(v):
-        raise InputError(name, value, "a finite number")
-    return v
-
-
 def _summary(arr: np.ndarray) -> str:
     pts = [tuple(float(c) for c in row) for row in arr[:4]]
     return f"{len(arr)} vertices {pts}{' ...' if len(arr) > 4 else ''}"
@@ -102,7 +93,7 @@ def _summary(arr: np.ndarray) -> str:
 
 def rectangle(x0: float, y0: float, x1: float, y1: float) -> Shape:
     """Axis-aligned rectangle from its lower-left (x0, y0) to its upper-right (x1, y1) corner [m]."""
-    x0, y0, x1, y1 = (_finite(n, v) for n, v in zip(("x0", "y0", "x1", "y1"), (x0, y0, x1, y1), strict=False))
+    x0, y0, x1, y1 = (finite(n, v) for n, v in zip(("x0", "y0", "x1", "y1"), (x0, y0, x1, y1), strict=False))
     if not x1 > x0:
         raise InputError("x1", x1, f"greater than x0={x0} (upper-right corner) [m]")
     if not y1 > y0:
@@ -118,7 +109,7 @@ def disk(center: tuple[float, float] = (0.0, 0.0), radius: float = 1.0, segments
     c = np.asarray(center, dtype=np.float64).ravel()
     if c.shape != (2,) or not np.isfinite(c).all():
         raise InputError("center", center, "a finite (cx, cy) [m]")
-    r = _finite("radius", radius)
+    r = finite("radius", radius)
     if r <= 0.0:
         raise InputError("radius", radius, "a positive number [m]")
     if not isinstance(segments, (int, np.integer)) or isinstance(segments, bool) or segments < 8:
@@ -158,7 +149,7 @@ def from_file(path: str | os.PathLike, *, scale: float = 1.0) -> Shape:
     """
     import trimesh
 
-    s = _finite("scale", scale)
+    s = finite("scale", scale)
     if s <= 0.0:
         raise InputError("scale", scale, "a positive number [m per file unit]")
     if not os.path.isfile(path):
@@ -266,7 +257,7 @@ def seed_points(
         The seeded points with their volumes [m²] and half-lengths h/(2n) [m] (the GIMP domain
         stays the whole sub-cell).
     """
-    h = _finite("cell_size", cell_size)
+    h = finite("cell_size", cell_size)
     if h <= 0.0:
         raise InputError("cell_size", cell_size, "a positive grid spacing [m]")
     n = points_per_cell

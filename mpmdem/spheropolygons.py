@@ -28,6 +28,7 @@ import shapely
 from shapely.geometry import LineString, Point, Polygon
 from shapely.validation import explain_validity
 
+from .checks import at_least, finite, positive
 from .errors import InputError
 
 __all__ = [
@@ -254,28 +255,12 @@ def _mass_moments(v: np.ndarray, a: float) -> tuple[float, np.ndarray, float]:
 # ----------------------------------------------------------------------------------------------------
 
 
-def _finite(name: str, value: object, allowed: str = "a finite number") -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        v = math.nan
-    if isinstance(value, bool) or not math.isfinite(v):
-        raise InputError(name, value, allowed)
-    return v
-
-
 def _positive(name: str, value: object, unit: str = "[m]") -> float:
-    v = _finite(name, value, f"a finite positive number {unit}")
-    if v <= 0.0:
-        raise InputError(name, value, f"a finite positive number {unit}")
-    return v
+    return positive(name, value, f"a finite positive number {unit}")
 
 
 def _sphero_radius(value: object) -> float:
-    v = _finite("radius", value, "a finite sphero radius >= 0 [m]")
-    if v < 0.0:
-        raise InputError("radius", value, "a finite sphero radius >= 0 [m]")
-    return v
+    return at_least("radius", value, 0.0, "a finite sphero radius >= 0 [m]")
 
 
 def _integer(name: str, value: object, minimum: int) -> int:
@@ -384,7 +369,7 @@ class Spheropolygon:
         p = np.asarray(position, dtype=np.float64).ravel()
         if p.shape != (2,) or not np.isfinite(p).all():
             raise InputError("position", position, "a finite (x, y) [m]")
-        th = _finite("angle", angle, "a finite angle [rad]")
+        th = finite("angle", angle, "a finite angle [rad]")
         c, s = math.cos(th), math.sin(th)
         v = self.vertices
         return np.column_stack([c * v[:, 0] - s * v[:, 1] + p[0], s * v[:, 0] + c * v[:, 1] + p[1]])
@@ -447,7 +432,7 @@ def regular_polygon(sides: int, circumradius: float, radius: float = 0.0, angle:
     n = _integer("sides", sides, 3)
     r = _positive("circumradius", circumradius)
     a = _sphero_radius(radius)
-    th = _finite("angle", angle, "a finite angle [rad]")
+    th = finite("angle", angle, "a finite angle [rad]")
     t = th + 2.0 * math.pi * np.arange(n) / n
     v = r * np.column_stack([np.cos(t), np.sin(t)])  # centred by symmetry
     params = (("sides", n), ("circumradius", r), ("radius", a), ("angle", th))
@@ -467,7 +452,7 @@ def random_convex_polygon(rng: np.random.Generator, sides: int, circumradius: fl
     n = _integer("sides", sides, 3)
     r = _positive("circumradius", circumradius)
     a = _sphero_radius(radius)
-    irr = _finite("irregularity", irregularity, "a number in [0, 1)")
+    irr = finite("irregularity", irregularity, "a number in [0, 1)")
     if not 0.0 <= irr < 1.0:
         raise InputError("irregularity", irregularity, "a number in [0, 1)")
     t = rng.uniform(0.0, 2.0 * math.pi) + 2.0 * math.pi * (np.arange(n) + irr * rng.uniform(-0.5, 0.5, n)) / n

@@ -40,8 +40,11 @@ def test_sulsky_disks_rebound_and_conserve_momentum(tmp_path):
     assert s["rebounded"]
     # f32: Σ m v of ~250 points summed each frame; round-off ~1e-7 relative per step
     assert s["momentum_drift_relative"] < 1e-5
-    # APIC + USL dissipates some energy in the collision, never creates it
-    assert 0.4 < s["total_energy_final_over_initial"] <= 1.0
+    # Reference: the collision of two Neo-Hookean disks is elastic ("MPM notes", Sulsky et al. 1995
+    # §7.3): the exact total energy stays at its initial value. An explicit APIC + USL step may lose
+    # energy, never create it (bound exact up to f32 round-off of the sums, 1e-5); the loss is a
+    # discretisation error, so it must shrink under refinement (see the next test).
+    assert s["total_energy_final_over_initial"] <= 1.0 + 1e-5
     with RunFile(Path(s["output"])) as run:
         assert run.frame_count >= 2
         assert run.attrs["config"]["transfer"] == "APIC"
@@ -49,6 +52,19 @@ def test_sulsky_disks_rebound_and_conserve_momentum(tmp_path):
         assert np.isfinite(x).all()
     assert (tmp_path / "energy.csv").read_text().startswith("time,")
     assert (tmp_path / "sulsky_disks.xdmf").exists()
+
+
+def test_sulsky_disks_energy_loss_converges(tmp_path):
+    """The elastic collision's energy loss is numerical: it must fall under grid refinement.
+    Reference: exact energy conservation (the elastic problem, "MPM notes" / Sulsky et al. 1995).
+    Tolerance (a convergence argument): APIC's transfer error is first order in h, so halving the
+    cell halves the loss (ratio 0.5); we ask for a ratio below 0.75, halfway between first-order
+    convergence and none. Measured: loss 0.320 at 16 cells, 0.150 at 32 (ratio 0.47)."""
+    coarse = run_script("sulsky_disks", tmp_path / "c16", "--cells", "16")
+    fine = run_script("sulsky_disks", tmp_path / "c32", "--cells", "32")
+    loss = [1.0 - r["total_energy_final_over_initial"] for r in (coarse, fine)]
+    assert loss[0] > 0.0 and fine["rebounded"]
+    assert loss[1] < 0.75 * loss[0], loss
 
 
 def test_cli_run_list_info_plot(tmp_path):

@@ -1,5 +1,6 @@
 """Granular column collapse ("Motion integration" §5) against Lube et al. (2005): the quick case on the CPU."""
 
+import math
 import subprocess
 import sys
 
@@ -29,20 +30,21 @@ def test_quick_run_completes_and_stops(quick):
     assert (out / "profile.png").is_file()
 
 
-def test_quick_runout_against_lube(quick):
-    """Normalized runout (L_f − L0)/L0 within a factor 1.6 of Lube et al.'s 1.2 a at a = 1.
+def test_quick_deposit_slope_within_the_friction_angle(quick):
+    """The deposit at rest is a cohesionless Mohr–Coulomb slope: nowhere steeper than φ = 30°
+    (Coulomb's infinite-slope stability), so its mean surface slope from the top, H_f at the wall,
+    to the front at L_f is at most tan φ: L_f ≥ H_f / tan φ. Tolerance: one cell on each length
+    (the front and the top are read to a cell). Measured at 8 cells: H_f / L_f = 0.46 (tan φ 0.577).
 
-    The band is wide on purpose, and honest for 8 cells across the column: at a = 1 the farthest
-    point runs out 1.09 L0 at 8 cells, 1.21 at 10 and 1.61 at 20 (a one-point-thick foot creeps out
-    further with each refinement, as in the paper's §5.3, where N_mppc alone changes L_x by 25 %);
-    halving dt changes it by -4 % (the 0.1 % PIC share of the transfer damps per step, §5.2); pure
-    FLIP runs 1.15 and a 1 % PIC share 0.90 at 8 cells. Lube's channel had side walls 10 cm apart
-    and its data scatter around the fit; plane-strain continua run past it (the paper, §5.4: 34 %
-    more than Lajeunesse et al.'s experiments at a = 3).
+    The quick run (8 cells across the column) is not compared with Lube et al.'s runout: its front
+    moves from 1.09 L0 at 8 cells to 1.61 at 20 (the committed study: 1.20, 1.63, 1.79, 1.68 at 10-80
+    cells), so any agreement at 8 cells is a coincidence of resolution. The converged runouts
+    against Lube's fits, at a = 0.5-8, are the strict xfails of tests/test_study_results.py.
     """
     s, _ = quick
-    assert s["predicted_normalized_runout"] == pytest.approx(1.2)
-    assert 1.0 / 1.6 < s["runout_ratio_to_prediction"] < 1.6
+    h = s["cell_size_m"]
+    front = s["runout_m"] + s["initial_width_m"]  # L_f, from the wall
+    assert s["final_height_m"] - h <= (front + h) * math.tan(math.radians(cc.FRICTION_ANGLE))
     # the voxelized width of eq. 70-71 agrees with the farthest point to a cell, and the deposit's
     # front (the continuous deposit) lies at or inside the farthest point
     assert abs(s["runout_voxel_m"] - s["runout_farthest_point_m"]) <= s["cell_size_m"]

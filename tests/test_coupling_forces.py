@@ -7,16 +7,15 @@ import math
 import pytest
 from helpers import run_script
 
-WEIGHT = 25.0  # N/m: 2500 kg/m³ × (0.1 m)² × 1 m/s² (cases/normal_force.py's reading of Table 2)
-POINT_LOAD = 0.4902  # N/m per bottom point, the paper's figure (§5.2.1) = 25 / 51
-POINT_FRICTION = -0.14706  # N/m per bottom point (§5.2.2) = −0.3 × 25 / 51
+# The paper's figures 25 N/m, 0.4902 N per bottom point (§5.2.1) and μ W = 7.5 N (§5.2.2) are the
+# case's inputs (ρ, size, g, μ) multiplied out, or follow from the total and the count of touching
+# points: they are not asserted here. What is: the physics, the floor load against the weight and the
+# friction against μ × the normal load.
 
 
 def test_normal_force_on_all_four_grids(tmp_path):
     s = run_script("normal_force", tmp_path, "--all-grids")
     assert s["status"] == "completed"
-    assert s["weight"] == pytest.approx(WEIGHT, rel=1e-12)
-    assert s["point_load_expected"] == pytest.approx(POINT_LOAD, abs=5e-5)
     # E, ν from Table 2's K and G by the 3D relations give back its ν = 0.2558 (to its 4 digits)
     assert s["poisson_ratio"] == pytest.approx(s["poisson_ratio_table"], abs=5e-5)
     assert sorted(s["grids"]) == ["0", "1", "2", "3"]
@@ -36,8 +35,6 @@ def test_normal_force_on_all_four_grids(tmp_path):
         assert g["contact_sum_over_weight"] == pytest.approx(g["normal_over_weight"], rel=1e-9)
         # the bottom row, and only it, is in contact (the next row is a spacing farther than r_p)
         assert g["points_touching"] == 51 and g["only_bottom_row_touching"], i
-        # its mean load is then the paper's 0.4902 N (to the 0.5 % the total is checked to)
-        assert g["bottom_load_mean"] == pytest.approx(POINT_LOAD, rel=0.005), i
         # Equal shares: not exactly. The base friction (μ = 0.1, at its cap near the ends) restrains the
         # block's Poisson spreading, so the 2-3 end points carry up to 14-19 % more (as at the corners
         # of a bonded elastic block), and MPM's free-edge error bows the rest by ~2 % (a pure-MPM block
@@ -58,19 +55,17 @@ def test_friction_force_sliding_block(tmp_path):
     # the ratio from 1 (measured 0.9992-1.00002); the total to 1e-3 (measured 9e-6)
     assert 0.99 < s["cap_ratio_min"] <= s["cap_ratio_max"] < 1.01
     assert s["friction_over_mu_normal"] == pytest.approx(1.0, abs=1e-3)
-    # the paper's figure: μ W = 7.5 N opposing the motion, to the brief's 2 % (measured 0.14 % low:
-    # the normal force, 0.9986 W, is still settling while it slides)
-    assert s["friction_expected"] == pytest.approx(-7.5, rel=1e-12)
+    # Reference: Coulomb sliding on a level floor, F = μ N with N = W (vertical statics; MPM-SDEM
+    # §5.2.2, Fig. 14). Tolerance 2 %: N differs from W by the block's vertical inertia only, and
+    # the settling of the contact when the slide starts (measured N = 0.9986 W) is of the order of
+    # the normal-force case's late deviation bound (2 %, Fig. 12's converged band). Measured 0.14 %.
     assert s["friction_over_mu_weight"] == pytest.approx(1.0, abs=0.02)
     assert s["friction_late_max_deviation"] < 0.02
     assert s["floor_force_over_mu_weight"] == pytest.approx(s["friction_over_mu_weight"], rel=1e-9)
-    # per bottom point on average: −0.14706 N (the row's mean over its 51 points)
-    assert s["bottom_friction_mean"] == pytest.approx(POINT_FRICTION, rel=0.02)
     # but not equal per point: friction at the base, a lever (H − spacing)/2 below the centroid, tips
     # the load forwards; the normal resultant lies e = μ × lever = 1.47 cm ahead of the centroid
     # (measured +0.5 %), and the moment of all contact forces about the centroid vanishes (0.5 %)
     assert s["only_bottom_row_touching"] and s["points_touching"] >= 45
     assert s["load_eccentricity"] == pytest.approx(s["load_eccentricity_expected"], rel=0.05)
-    assert s["load_eccentricity_expected"] == pytest.approx(0.3 * (0.05 - 0.05 / 51), rel=0.01)
     assert abs(s["moment_residual_relative"]) < 0.02
     assert math.isfinite(s["bottom_friction_spread_relative"])

@@ -32,7 +32,11 @@ def test_silo_filling_deposits_every_point_at_rest(silo):
     # has landed and is counted as deposited
     assert silo["deposited_points"] == silo["released_points"]
     assert silo["deposit_inside_silo"]
-    assert 0.0 < silo["fill_height_m"] < 7.5
+    # Mass and density bound the deposit from below: the deposit's material (its mass at its mean
+    # density, ≥ the critical 2235 kg/m³, E = 1 GPa leaves no room to compress further) cannot
+    # fill less than its own area of the 2.7 m wide silo. An exact bound; 1e-9 is round-off.
+    area = silo["final_mass_kg_per_m"] / silo["deposit_density"]
+    assert silo["fill_height_m"] >= area / WIDTH * (1.0 - 1e-9)
     # "Granular MPM" §4.3: the points of Granular MPM's deposit move at 0-1 m/s (stress-free MPM's at
     # 4-6 m/s); after a second of rest, every deposited point is below the top of that range
     assert silo["deposit_max_speed"] < 1.0
@@ -42,6 +46,26 @@ def test_silo_filling_deposits_every_point_at_rest(silo):
     # walls may take a share of it (Janssen), never more than all of it
     assert 0.5 < silo["floor_load_over_weight"] < 1.05
     assert silo["layers_final"] >= 1
+
+
+# "Granular MPM" §4.3 / Table 4: the silo's inner width and the point each release adds
+WIDTH = 2.7  # m
+POINT_AREA = 0.15**2  # m², the square each point stands for
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "we get a deposit 0.91 m high for 30 points, 3.6 × the void-free 0.25 m (packing 0.28), and "
+    "95 % of the silo with all 504 points (paper: about half): with one point per 0.3 m cell, points "
+    "that share nodes lock into arches around voids (cases/silo_filling.py header)"))
+def test_silo_filling_packs_as_tightly_as_the_paper(silo):
+    # Reference: "Granular MPM" §4.3, Fig. 15 at 27.79 s: Granular original MPM fills about half of
+    # the 7.5 m silo with all 504 points, "regularly packed". 504 squares of 0.15 m cover 11.3 m²,
+    # 4.2 m (0.56 H) of the 2.7 m silo without voids, and E = 1 GPa lets no point shrink: "about
+    # half" is only reachable with a void-free deposit. So the paper's deposit is void-free, and so
+    # should the quick run's 30 points be: their area over the width (0.25 m) plus at most one
+    # ragged top row of points (0.15 m) — the tolerance is that one row.
+    dense = silo["released_points"] * POINT_AREA / WIDTH
+    assert silo["fill_height_m"] <= dense + 0.15
 
 
 def test_toyoura_flume_hits_the_wall_and_settles(flume):
@@ -63,4 +87,6 @@ def test_toyoura_flume_hits_the_wall_and_settles(flume):
     tail = [f for t, f in zip(flume["force_time_s"], flume["force_N_per_m"], strict=True)
             if t >= 0.9 * flume["end_time"]]
     assert max(tail) - min(tail) < 0.02 * final
-    assert flume["peak_force_N_times_width"] == pytest.approx(0.3 * flume["peak_force_N_per_m"])
+    # No reference number: "Granular MPM" §4.4 compares with Moriguchi et al.'s load-cell record
+    # only as a curve (Fig. 20) and gives no arrival time, peak force or runout in its text, so the
+    # checks above are physical bounds, not a validation (cases/toyoura_flume.py, VALIDATION).

@@ -138,3 +138,24 @@ def test_bad_run_arguments():
         sim.run(-1.0, quiet=True)
     with pytest.raises(InputError, match="frames"):
         sim.run(1.0, frames=0, quiet=True)
+
+
+def test_one_rule_for_numbers():
+    """Verify every input check takes numbers alike (mpmdem.checks): a bool or a string is refused
+    with the parameter's name, a NumPy scalar is accepted."""
+    import numpy as np
+
+    from mpmdem import ContactLaw, MohrCoulomb, sphero_disk
+
+    for bad in (True, "1e6", math.nan, None):
+        with pytest.raises(InputError, match="normal_stiffness"):
+            ContactLaw(bad)
+    with pytest.raises(InputError, match="youngs_modulus"):
+        LinearElastic(True, 0.3, 1000.0)
+    with pytest.raises(InputError, match="radius"):
+        sphero_disk("0.1")
+    with pytest.raises(InputError, match="x0"):
+        rectangle(False, 0.0, 1.0, 1.0)
+    assert ContactLaw(np.float32(1e6)).kt == pytest.approx(1e6)
+    assert MohrCoulomb(1e6, 0.3, 2000.0, np.float32(30.0)).friction_angle == pytest.approx(30.0)
+    assert sphero_disk(np.float64(0.1)).radius == pytest.approx(0.1)

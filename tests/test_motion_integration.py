@@ -137,24 +137,35 @@ def test_cundall_damping_zero_changes_nothing_and_positive_dissipates():
     assert 0.5 * extra_loss < -w < 2.0 * extra_loss
 
 
-@pytest.mark.parametrize("update", ["USL", "MUSL", "USF", "USAVG"])
-def test_energy_balance_on_the_bouncing_disk(update):
-    """Verify ΔE = W_walls + W_damping + W_plastic + W_MPM (eq. 67-68) and that the residual is small."""
-    scene = Scene(domain=((0.0, 0.0), (0.6, 0.6)), cell_size=0.025, gravity=(0.0, -9.81),
+def _bouncing_disk(update, cell_size):
+    scene = Scene(domain=((0.0, 0.0), (0.6, 0.6)), cell_size=cell_size, gravity=(0.0, -9.81),
                   boundaries={"bottom": "slip", "left": "slip", "right": "slip", "top": "slip"})
     scene.add_body(disk(center=(0.3, 0.25), radius=0.1), NeoHookean(1e6, 0.3, 1000.0))
     sim = Simulation(scene, SolverConfig(transfer="APIC", update=update, precision="f64", damping=0.1), device="cpu")
-    d = sim.run(0.3, frames=6, quiet=True).diagnostics
-    e0 = d["energy_total"][0]
-    terms = d["work_boundary"] + d["work_damping"] + d["work_plastic"] + d["work_numerical"]
-    np.testing.assert_allclose(d["energy_total"] - e0, terms, atol=1e-9 * e0)  # the bookkeeping adds up
-    assert d["work_plastic"][-1] == 0.0  # no plastic material in this scene
-    assert d["work_damping"][-1] < -0.1 * e0  # damping takes a visible share of the impact energy
-    # APIC with D = 0.1 (measured on a friction floor: |W_MPM| 2.7-3.3 % of E0 for USF/MUSL/USAVG,
-    # 7 % for USL, which is dissipative by construction, appendix A): the residual stays well
-    # below the tracked damping work
-    assert abs(d["work_numerical"][-1]) < 0.1 * e0
-    assert abs(d["work_numerical"][-1]) < 0.5 * abs(d["work_damping"][-1])
+    return sim.run(0.3, frames=6, quiet=True).diagnostics
+
+
+@pytest.mark.parametrize("update", ["USL", "MUSL", "USF", "USAVG"])
+def test_energy_balance_on_the_bouncing_disk(update):
+    """Verify the numerical work W_MPM of eq. 67-68 is a discretisation error: it shrinks under
+    refinement. W_MPM is what ΔE leaves after the tracked works (walls, damping, plastic), so the
+    balance itself holds by construction and is not asserted; the bound is on W_MPM.
+
+    Reference: the exact problem (an elastic disk bouncing on slip walls with Cundall damping) has
+    W_MPM = 0. Tolerance (a convergence argument): APIC's transfer error is first order in h, so
+    halving the cell about halves W_MPM (ratio 0.5); we ask for a ratio below 0.75, halfway between
+    first order and no convergence. And an APIC step is dissipative ("Motion integration" §4), so
+    W_MPM ≤ 0 (1e-9 E0 for round-off). Measured: W_MPM / E0 = −6.2 / −3.0 % (USL), −6.2 / −3.0 %
+    (MUSL), −5.0 / −2.4 % (USF), −5.7 / −2.8 % (USAVG) at h = 25 / 12.5 mm, ratios 0.48-0.49."""
+    coarse, fine = _bouncing_disk(update, 0.025), _bouncing_disk(update, 0.0125)
+    e0 = coarse["energy_total"][0]
+    w = [coarse["work_numerical"][-1], fine["work_numerical"][-1]]
+    assert w[0] <= 1e-9 * e0 and w[1] <= 1e-9 * e0, w
+    assert abs(w[1]) < 0.75 * abs(w[0]), w
+    assert coarse["work_plastic"][-1] == 0.0  # no plastic material in this scene
+    # Cundall damping (D = 0.1) removes a share of the impact energy; its work is negative
+    # (the damping force opposes the nodal velocity component-wise, "Motion integration" eq. 61)
+    assert coarse["work_damping"][-1] < 0.0 and fine["work_damping"][-1] < 0.0
 
 
 def test_friction_wall_work_is_negative_for_a_sliding_block():

@@ -2,7 +2,8 @@
 a = 0.5, 1, 2, 4, 8 at 10, 20, 40 and 80 cells across the column, against Lube et al. (2005).
 
 The runout is the deposit's front (the edge of the continuous deposit, as the experiments read it),
-the farthest point is kept beside it; the chart shows both with the spread over the three grids.
+the farthest point is kept beside it; the chart shows the finest grid with a resolution error bar
+(its change from the next coarser grid) against Lube's fits and their scatter, the coarser grids faint.
 """
 
 from __future__ import annotations
@@ -41,29 +42,42 @@ def analyze(rows: list[dict], out: Path) -> dict:
     ratios = sorted({x["a"] for x in table})
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
     aa = np.geomspace(0.4, 10, 200)
-    ax.plot(aa, [lube_runout(v) for v in aa], "k--", lw=1, label="Lube et al. 2005")
+    lube_r = np.array([lube_runout(v) for v in aa])
+    ax.plot(aa, lube_r, "k--", lw=1, label="Lube et al. 2005")
+    ax.fill_between(aa, 0.8 * lube_r, 1.2 * lube_r, color="0.85", zorder=0, label="±20 %: their data's scatter")
     ax2.plot(aa, [lube_height(v) for v in aa], "k--", lw=1, label="Lube et al. 2005")
-    for j, c in enumerate(cells):
+    for j, c in enumerate(cells[:-1]):  # the coarser grids, faint
         sel = [x for x in table if x["cells"] == c]
         shift = 1.0 + 0.03 * (j - 0.5 * (len(cells) - 1))
         col = plt.cm.viridis(0.15 + 0.7 * j / max(len(cells) - 1, 1))
-        ax.plot([x["a"] * shift for x in sel], [x["runout"] for x in sel], "os^D"[j % 4], color=col,
-                label=f"front, {c} cells across")
-        ax.plot([x["a"] * shift for x in sel], [x["runout_farthest_point"] for x in sel], "os^D"[j % 4], color=col,
-                mfc="none", alpha=0.5, label=f"farthest point, {c} cells" if j == len(cells) - 1 else None)
+        ax.plot([x["a"] * shift for x in sel], [x["runout"] for x in sel], "os^D"[j % 4], color=col, alpha=0.45,
+                ms=4, label=f"front, {c} cells across")
         ax2.plot([x["a"] * shift for x in sel], [x["final_height"] for x in sel], "os^D"[j % 4], color=col,
-                 label=f"{c} cells across")
-    for a in ratios:  # the spread over the grids as a bar
-        v = [x["runout"] for x in table if x["a"] == a]
-        ax.vlines(a, min(v), max(v), color="0.5", lw=3, alpha=0.4)
-        hv = [x["final_height"] for x in table if x["a"] == a]
-        ax2.vlines(a, min(hv), max(hv), color="0.5", lw=3, alpha=0.4)
+                 alpha=0.45, ms=4, label=f"{c} cells across")
+    # the finest grid with a resolution error bar: its change from the next coarser grid (the
+    # front converges, so that change bounds the finest grid's own error)
+    if len(cells) >= 2:
+        fine, prev = cells[-1], cells[-2]
+        for key, axis in (("runout", ax), ("final_height", ax2)):
+            pts = []
+            for a in ratios:
+                f = [x[key] for x in table if x["a"] == a and x["cells"] == fine]
+                p = [x[key] for x in table if x["a"] == a and x["cells"] == prev]
+                if f and p:
+                    pts.append((a, f[0], abs(f[0] - p[0])))
+            if pts:
+                axis.errorbar([q[0] for q in pts], [q[1] for q in pts], yerr=[q[2] for q in pts], fmt="D",
+                              color="crimson", ms=6, capsize=4, lw=1.5, zorder=5,
+                              label=f"{fine} cells; bar: change from {prev}")
+        far = [x for x in table if x["cells"] == fine]
+        ax.plot([x["a"] for x in far], [x["runout_farthest_point"] for x in far], "D", color="crimson", mfc="none",
+                alpha=0.5, label=f"farthest point, {fine} cells")
     for a_, lab in ((ax, "(L_f − L0) / L0"), (ax2, "H_f / L0")):
         a_.set(xscale="log", yscale="log", xlabel="aspect ratio a", ylabel=lab)
         a_.grid(alpha=0.3, which="both")
         a_.legend(fontsize=7)
-    ax.set_title("runout: deposit front (filled) and farthest point (open)")
-    ax2.set_title("final height at the wall")
+    ax.set_title("runout: deposit front, finest grid with resolution error bars", fontsize=10)
+    ax2.set_title("final height at the wall", fontsize=10)
     fig.tight_layout()
     fig.savefig(out / "column_collapse_runout.png", dpi=120)
     plt.close(fig)
