@@ -54,7 +54,7 @@ def _scene(critical: bool) -> Scene:
                   boundaries={"left": "fixed", "right": "fixed", "bottom": planes, "top": "fixed"})
     scene.add_obstacle(rectangle(*LEDGE), kind=planes)
     mat = MohrCoulomb(E, NU, RHO0, PHI, PSI, bagnold=ETA, critical_density=RHO_CR if critical else None)
-    scene.add_body(rectangle(*BLOCK), mat, points_per_cell=2, velocity=(V0, 0.0), name="granular")
+    scene.add_mpm_body(rectangle(*BLOCK), mat, points_per_cell=2, velocity=(V0, 0.0), name="granular")
     return scene
 
 

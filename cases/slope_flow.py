@@ -37,7 +37,7 @@ def _scene(critical: bool) -> Scene:
     scene = Scene(domain=DOMAIN, cell_size=H, gravity=(9.81 * math.sin(th), -9.81 * math.cos(th)),
                   boundaries={s: "fixed" for s in ("left", "right", "bottom", "top")})
     mat = MohrCoulomb(E, NU, RHO0, PHI, PSI, critical_density=RHO_CR if critical else None)
-    scene.add_body(rectangle(*BLOCK), mat, points_per_cell=2, name="granular")
+    scene.add_mpm_body(rectangle(*BLOCK), mat, points_per_cell=2, name="granular")
     return scene
 
 
