@@ -397,7 +397,6 @@ class FrameWriter:
 
     # ------------------------------------------------------------------ sidecars
 
-
     def _write_xdmf(self) -> None:
         """Rewrite the XDMF sidecars for all frames so far (see ``mpmdem.io.xdmf``)."""
         self._xdmf.write(self._times)
