@@ -182,7 +182,7 @@ def run_case(module: ModuleType, argv: list[str] | None = None, prog: str | None
             from .variants import VariantRun, compare_variants
 
             main = VariantRun("main", result.path, summary, measures, args, is_main=True)
-            summary.update(compare_variants(module, args, sim, main, out, end_time, frames))
+            summary.update(compare_variants(module, args, sim, main, out, end_time, frames, config_from_args))
     except InputError as e:
         print(f"mpmdem: error: {e}", file=sys.stderr)
         return 2

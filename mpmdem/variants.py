@@ -18,16 +18,20 @@ import dataclasses
 import hashlib
 import json
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
 
 import numpy as np
 
+from .config import SolverConfig
 from .errors import BlowUpError
 
 __all__ = ["Variant", "VariantRun", "compare_variants", "run_variants"]
+
+#: (setup, case module, flags) → the SolverConfig of a run
+Configure = Callable[..., "SolverConfig"]
 
 
 @dataclass(frozen=True)
@@ -91,18 +95,18 @@ def _variant_args(args: argparse.Namespace, variant: Variant) -> argparse.Namesp
 
 
 def compare_variants(module: ModuleType, args: argparse.Namespace, sim, main: VariantRun, out: Path,
-                     end_time: float, frames: int) -> dict:
+                     end_time: float, frames: int, configure: Configure) -> dict:
     """Run the enabled variants of ``module`` (``run_variants``), then its ``compare``: the entries
     the main run's summary gets."""
-    return module.compare(main, run_variants(module, args, sim, main, out, end_time, frames), args)
+    return module.compare(main, run_variants(module, args, sim, main, out, end_time, frames, configure), args)
 
 
 def run_variants(module: ModuleType, args: argparse.Namespace, sim, main: VariantRun, out: Path, end_time: float,
-                 frames: int) -> dict[str, VariantRun]:
+                 frames: int, configure: Configure) -> dict[str, VariantRun]:
     """Run the enabled variants of ``module`` after its main run ``sim`` (``main``, in the folder
-    ``out``, run to ``end_time`` [s] in ``frames`` frames); returns name → VariantRun, in the order
-    of ``VARIANTS``."""
-    from .runner import config_from_args
+    ``out``, run to ``end_time`` [s] in ``frames`` frames); ``configure(setup, module, args)`` is how
+    the runner makes a run's SolverConfig (``mpmdem.runner.config_from_args``). Returns name →
+    VariantRun, in the order of ``VARIANTS``."""
     from .simulation import Simulation
 
     name = module.NAME.replace("-", "_")
@@ -113,7 +117,7 @@ def run_variants(module: ModuleType, args: argparse.Namespace, sim, main: Varian
             continue
         vargs = _variant_args(args, variant)
         setup = module.build(vargs)
-        config = dataclasses.replace(config_from_args(setup, module, vargs), **variant.config)
+        config = dataclasses.replace(configure(setup, module, vargs), **variant.config)
         v_end = vargs.end_time or setup.end_time
         v_frames = vargs.frames or setup.frames
         key = (_scene_key(setup.scene), config, v_end, v_frames)
