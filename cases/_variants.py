@@ -2,65 +2,44 @@
 
 "original": the plain algorithm, no critical density; "stress_free": stress-free below the
 critical density (Dunatunga & Kamrin), no density control, one grid; "granular": Granular MPM
-(density control of eq. 13-15 and a grid per component, §3). Each run is stepped frame by frame
-on the device and summarised by the mean density of its points (the paper's Figs. 2 and 10)
-and its final point cloud; a blow-up ends that variant's run and is reported, as in the paper
-where some variants fail.
+(density control of eq. 13-15 and a grid per component, §3). A case declares them as its
+``VARIANTS = GRANULAR_VARIANTS`` (``mpmdem.variants``): the runner runs each as a run of its own (the one equal to the
+case's own run is that run), and the case's ``compare`` reads each run file (``read_run``): the
+mean density of its points per frame (the paper's Figs. 2 and 10) and its final point cloud. A
+blow-up ends that variant's run and is reported, as in the paper where some variants fail.
 """
 
 from __future__ import annotations
 
-import dataclasses
-from collections.abc import Callable
-
 import numpy as np
 
-from mpmdem import BlowUpError, Scene, Simulation, SolverConfig
+from mpmdem.io import RunFile
+from mpmdem.variants import Variant
 
-VARIANTS = {
-    "original": {"critical": False, "config": {"granular": False, "density_control": "none"}},
-    "stress_free": {"critical": True, "config": {"granular": False, "density_control": "none"}},
-    "granular": {"critical": True, "config": {"granular": True, "density_control": "revert"}},
-}
+#: The three variants; ``critical_density``: whether the case's material has a critical density
+#: (its ``build`` reads it with ``critical_density(args)``).
+GRANULAR_VARIANTS = [
+    Variant("original", config={"granular": False, "density_control": "none"}, args={"critical_density": False}),
+    Variant("stress_free", config={"granular": False, "density_control": "none"}, args={"critical_density": True}),
+    Variant("granular", config={"granular": True, "density_control": "revert"}, args={"critical_density": True}),
+]
 
 
-def run_variant(build: Callable[[bool], Scene], base: SolverConfig, name: str, end_time: float, frames: int,
-                device: str, batch: int = 200) -> dict:
-    """Run variant ``name`` of ``build(critical)`` to ``end_time`` [s]; per frame: t [s], mean density
-    [kg/m³] of the points; at the end: x (N, 2) [m], speed (N,) [m/s], density (N,), status."""
-    config = dataclasses.replace(base, **VARIANTS[name]["config"])
-    sim = Simulation(build(VARIANTS[name]["critical"]), config, device=device)
-    mpm = sim.mpm
-    times, mean_rho = [], []
-    status, reason = "completed", None
+def critical_density(args) -> bool:
+    """Whether the run's material has a critical density (True unless a variant says not)."""
+    return getattr(args, "critical_density", True)
 
-    def sample():
-        f = mpm.fields()
-        t = mpm.read_clock()[0]
-        times.append(t)
-        mean_rho.append(float(np.mean(f["mass"] / f["volume"])))
-        return f
 
-    f = sample()
-    try:
-        for k in range(1, frames + 1):
-            target = end_time * k / frames
-            mpm.set_stop_time(target)
-            while True:
-                for _ in range(batch):
-                    mpm.step()
-                t, dt, bound, _, flags = mpm.read_clock()
-                mpm.check_status(t, dt, bound, flags)
-                if dt == 0.0 or t >= target:
-                    break
-            f = sample()
-    except BlowUpError as e:
-        status, reason = "blown-up", str(e)
-    return {
-        "t": np.array(times), "mean_density": np.array(mean_rho), "x": f["x"],
-        "speed": np.linalg.norm(f["v"], axis=1), "density": f["mass"] / f["volume"],
-        "status": status, "reason": reason,
-    }
+def read_run(path) -> dict:
+    """One variant's run file: per frame t [s] and the mean density [kg/m³] of the points; at the
+    last frame written: x (N, 2) [m], speed (N,) [m/s], density (N,); status (of the file)."""
+    with RunFile(path) as rf:
+        frames = range(rf.frame_count)
+        mean_rho = [float(np.mean(rf.field("mass", k) / rf.field("volume", k))) for k in frames]
+        x, v = rf.field("x", -1), rf.field("v", -1)
+        density = rf.field("mass", -1) / rf.field("volume", -1)
+        return {"t": rf.times, "mean_density": np.array(mean_rho), "x": x, "speed": np.linalg.norm(v, axis=1),
+                "density": density, "status": rf.status, "reason": rf.attrs.get("status_message") or None}
 
 
 def plot_variants(runs: dict, path, *, title: str, extra=None) -> None:

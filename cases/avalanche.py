@@ -15,7 +15,7 @@ import sys
 import numpy as np
 
 from mpmdem import MohrCoulomb, Scene, rectangle
-from mpmdem.cases._variants import VARIANTS, plot_variants, run_variant
+from mpmdem.cases._variants import GRANULAR_VARIANTS, critical_density, plot_variants, read_run
 from mpmdem.runner import CaseSetup
 
 NAME = "avalanche"
@@ -54,13 +54,18 @@ def _scene(critical: bool) -> Scene:
                   boundaries={"left": "fixed", "right": "fixed", "bottom": planes, "top": "fixed"})
     scene.add_obstacle(rectangle(*LEDGE), kind=planes)
     mat = MohrCoulomb(E, NU, RHO0, PHI, PSI, bagnold=ETA, critical_density=RHO_CR if critical else None)
-    scene.add_body(rectangle(*BLOCK), mat, points_per_cell=2, velocity=(V0, 0.0), name="granular")
+    scene.add_mpm_body(rectangle(*BLOCK), mat, points_per_cell=2, velocity=(V0, 0.0), name="granular")
     return scene
+
+
+#: original, stress-free and Granular MPM, each a run of its own (mpmdem.variants), compared by ``compare``
+VARIANTS = GRANULAR_VARIANTS
 
 
 def build(args) -> CaseSetup:
     PLANES["kind"] = args.planes
-    return CaseSetup(_scene(True), end_time=0.4 if args.quick else T_PAPER, frames=4 if args.quick else 30)
+    return CaseSetup(_scene(critical_density(args)), end_time=0.4 if args.quick else T_PAPER,
+                     frames=4 if args.quick else 30)
 
 
 def _deposit(r: dict) -> dict:
@@ -83,15 +88,17 @@ def _deposit(r: dict) -> dict:
 
 
 def summarize(sim, result, args) -> dict:
-    end = float(result.times[-1])
-    frames = len(result.times) - 1
-    runs = {name: run_variant(_scene, sim.config, name, end, frames, sim.device) for name in VARIANTS}
-    out = {"inclination_deg": INCLINATION, "points": int(sim.particle_count), "planes": PLANES["kind"]}
-    out.update({name: _deposit(r) for name, r in runs.items()})
-    if result.path is not None:
+    return {"inclination_deg": INCLINATION, "points": int(sim.particle_count), "planes": PLANES["kind"]}
+
+
+def compare(main, runs, args) -> dict:
+    """The deposits of the three variants (``VARIANTS``, each a run of its own)."""
+    runs = {name: read_run(run.path) for name, run in runs.items()}
+    out = {name: _deposit(r) for name, r in runs.items()}
+    if main.path is not None:
         def ledge(ax):
             ax.fill_between([DOMAIN[0][0], LEDGE[2]], 0.0, LEDGE[3], color="0.85")
-        plot_variants(runs, result.path.parent / "avalanche.png", title="avalanche, Granular MPM Table 3",
+        plot_variants(runs, main.path.parent / "avalanche.png", title="avalanche, Granular MPM Table 3",
                       extra=ledge)
     return out
 

@@ -55,7 +55,7 @@ def build(args) -> CaseSetup:
     # bar fills the domain height (one cell): slip walls above and below make the strain uniaxial
     scene = Scene(domain=((0.0, 0.0), (LENGTH + 4 * h, h)), cell_size=h,
                   boundaries={"left": "fixed", "right": "free", "bottom": "slip", "top": "slip"})
-    scene.add_body(rectangle(0.0, 0.0, LENGTH, h), LinearElastic(YOUNGS, 0.0, DENSITY),
+    scene.add_mpm_body(rectangle(0.0, 0.0, LENGTH, h), LinearElastic(YOUNGS, 0.0, DENSITY),
                    velocity=mode_velocity, name="bar")
     periods = args.periods or 1.0
     return CaseSetup(scene, end_time=periods * PERIOD, frames=int(40 * periods))

@@ -57,7 +57,7 @@ def build(args) -> CaseSetup:
     height = max(HEIGHT, drop + RADIUS + HEADROOM)
     scene = Scene(domain=((0.0, 0.0), (WIDTH, height)), cell_size=h, gravity=(0.0, -GRAVITY),
                   boundaries=dict.fromkeys(("left", "right", "bottom", "top"), "slip"))
-    scene.add_body(disk(center=(0.5 * WIDTH, drop), radius=RADIUS), NeoHookean(YOUNGS, POISSON, DENSITY),
+    scene.add_mpm_body(disk(center=(0.5 * WIDTH, drop), radius=RADIUS), NeoHookean(YOUNGS, POISSON, DENSITY),
                    points_per_cell=2, name="disk")
     # free fall time sqrt(2 (H - R) / g) = 0.29 s; a full bounce ~0.6 s. Quick: the first rebound
     # apex (~0.58 s); default: two rebounds. Frames dense enough to catch each apex to ~1e-4 m.

@@ -174,7 +174,7 @@ def build(args) -> CaseSetup:
              else Boundary("fixed"))
     scene = Scene(domain=((0.0, 0.0), (nx * h, ny * h)), cell_size=h, gravity=(0.0, -GRAVITY),
                   boundaries={"left": "slip", "right": "slip", "bottom": floor, "top": "slip"})
-    scene.add_body(rectangle(0.0, 0.0, w, height), material(args), points_per_cell=POINTS_PER_CELL, name="column")
+    scene.add_mpm_body(rectangle(0.0, 0.0, w, height), material(args), points_per_cell=POINTS_PER_CELL, name="column")
     # the flow stops by t̃ = t / sqrt(a L0 / g) ≈ 3-4 (eq. 73; Lube et al.); run to t̃ = 7 (6 with
     # --quick), a frame every 0.1 t̃
     tau = collapse_time(args)

@@ -107,7 +107,8 @@ def onsets(tr: dict, tol: float = 1.0e-9) -> list[float]:
     return out
 
 
-VARIANTS = {
+#: The four traces the summary compares (not ``mpmdem.variants`` runs: they record point 3 at every step).
+TRACES = {
     "granular_original": {"granular": True, "shape": "linear"},
     "granular_cpgimp": {"granular": True, "shape": "cpgimp"},
     "stress_free_original": {"granular": False, "shape": "linear", "density_control": "none"},
@@ -119,7 +120,7 @@ def summarize(sim, result, args) -> dict:
     base = sim.config
     out = {"paper_onset_granular_s": PAPER_ONSET_GRANULAR, "paper_onset_stress_free_s": PAPER_ONSET_STRESS_FREE}
     traces = {}
-    for name, change in VARIANTS.items():
+    for name, change in TRACES.items():
         tr = trace(base.replace(**change), device=sim.device)
         traces[name] = tr
         on = onsets(tr)

@@ -77,7 +77,7 @@ def build(args) -> CaseSetup:
     scene = Scene(domain=((-nx * h, -n0 * h - math.ceil(args.drop / h + 2) * h), (nx * h, n0 * h)),
                   cell_size=h, gravity=(0.0, -GRAVITY), contact=contact_law(),
                   boundaries=dict.fromkeys(("left", "right", "bottom", "top"), "free"))
-    scene.add_body(disk(center=(0.0, 0.0), radius=RADIUS), table1_material(args.material), points_per_cell=ppc,
+    scene.add_mpm_body(disk(center=(0.0, 0.0), radius=RADIUS), table1_material(args.material), points_per_cell=ppc,
                    contact_radius=rp, name="mpm_disk")
     top = float(scene.particles()["x"][:, 1].min()) - rp - args.drop
     scene.add_rigid_body(rounded_rectangle(width, height, radius=RADIUS), density=DENSITY,

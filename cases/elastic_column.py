@@ -53,7 +53,7 @@ def build(args) -> CaseSetup:
     scene = Scene(domain=((0.0, 0.0), (WIDTH, HEIGHT + 4 * h)), cell_size=h, gravity=(0.0, -GRAVITY),
                   gravity_ramp=RAMP_PERIODS * t1,
                   boundaries={"left": "slip", "right": "slip", "bottom": "fixed", "top": "free"})
-    scene.add_body(rectangle(0.0, 0.0, WIDTH, HEIGHT), material(), name="column")
+    scene.add_mpm_body(rectangle(0.0, 0.0, WIDTH, HEIGHT), material(), name="column")
     return CaseSetup(scene, end_time=(RAMP_PERIODS + 1) * t1, frames=20)
 
 

@@ -136,7 +136,7 @@ def build(args) -> CaseSetup:
     lo = (-n0 * h, -n0 * h)
     scene = Scene(domain=(lo, (n0 * h + 2 * RADIUS + 0.035, n0 * h)), cell_size=h,
                   boundaries=dict.fromkeys(("left", "right", "bottom", "top"), "free"), contact=contact_law())
-    scene.add_body(disk(center=(0.0, 0.0), radius=RADIUS), table1_material(args.material), points_per_cell=ppc,
+    scene.add_mpm_body(disk(center=(0.0, 0.0), radius=RADIUS), table1_material(args.material), points_per_cell=ppc,
                    velocity=(args.speed, 0.0), contact_radius=rp, name="mpm_disk")
     # the DEM disk's outline starts APPROACH beyond the contact reach r_p of the front point
     front = float(scene.particles()["x"][:, 0].max())

@@ -41,9 +41,10 @@ import sys
 
 import numpy as np
 
-from mpmdem import ContactLaw, InputError, LinearElastic, Scene, Simulation, SolverConfig, rounded_rectangle
+from mpmdem import ContactLaw, InputError, LinearElastic, Scene, rounded_rectangle
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
+from mpmdem.variants import Variant
 
 NAME = "normal-force"
 DESCRIPTION = "elastic MPM block resting on a fixed spheropolygon: normal coupling force vs weight (MPM-SDEM §5.2.1)"
@@ -220,20 +221,18 @@ def normal_summary(sim, normal_history: np.ndarray, h: float, contact_radius: fl
     }
 
 
-def run_grid(index: int, args, config: SolverConfig, device: str, end_time: float, frames: int) -> dict:
-    """Another grid size, same everything else, stepped frame by frame without output files."""
-    scene, _ = block_scene(index, args.quick, contact_radius=args.contact_radius)
-    sim = Simulation(scene, config, device=device)
-    normal = []
-    for k in range(1, frames + 1):
-        sim.advance_to(end_time * k / frames)
-        normal.append(-sim.body_fields()["force"][0][1])
-    return normal_summary(sim, np.array(normal), grid_size(index), args.contact_radius)
+#: The other three grid sizes (--all-grids), each a run of its own (mpmdem.variants); the one of
+#: --grid-index is the case's own run.
+VARIANTS = [Variant(f"grid{i}", args={"grid_index": i}, flag="all_grids") for i in range(4)]
+
+#: Entries of the summary that are the case's, not a grid's (``compare`` leaves them out of the other grids).
+CASE_KEYS = ("weight", "point_load_expected", "youngs_modulus", "poisson_ratio", "poisson_ratio_table",
+             "normal_stiffness", "dt_cap", "contact_bound", "grid_index", "normal_history")
 
 
 def summarize(sim, result, args) -> dict:
     hist = floor_force_history(result)
-    out = {
+    return {
         "weight": WEIGHT,
         "point_load_expected": POINT_LOAD,
         "youngs_modulus": YOUNGS,
@@ -246,16 +245,20 @@ def summarize(sim, result, args) -> dict:
         **normal_summary(sim, -hist[1:, 1], grid_size(args.grid_index), args.contact_radius),
         "normal_history": (-hist[:, 1] / WEIGHT).tolist(),
     }
-    if args.all_grids:
-        end, frames = run_length(args)  # the nominal frame times, as Simulation.run used
-        grids = {}
-        for i in range(4):
-            if i == args.grid_index:
-                grids[str(i)] = {k: out[k] for k in out if k not in ("normal_history",)}
-            else:
-                grids[str(i)] = run_grid(i, args, sim.config, sim.device, end, frames)
-        out["grids"] = grids
-    return out
+
+
+def compare(main, runs, args) -> dict:
+    """--all-grids: the figures of every grid size (the paper's Fig. 12), from the runs' summaries."""
+    if not runs:
+        return {}
+    grids = {}
+    for i in range(4):
+        run = runs[f"grid{i}"]
+        if run.is_main:
+            grids[str(i)] = {k: v for k, v in run.measures.items() if k != "normal_history"}
+        else:
+            grids[str(i)] = {k: v for k, v in run.measures.items() if k not in CASE_KEYS}
+    return {"grids": grids}
 
 
 if __name__ == "__main__":

@@ -62,7 +62,7 @@ def build(args) -> CaseSetup:
         raise InputError("omega", omega, "a finite, non-zero angular velocity [rad/s]")
     scene = Scene(domain=((0.0, 0.0), (SIDE, SIDE)), cell_size=SIDE / cells,
                   boundaries=dict.fromkeys(("left", "right", "bottom", "top"), "free"))
-    scene.add_body(disk(center=CENTER, radius=RADIUS), NeoHookean(YOUNGS, POISSON, DENSITY),
+    scene.add_mpm_body(disk(center=CENTER, radius=RADIUS), NeoHookean(YOUNGS, POISSON, DENSITY),
                    angular_velocity=omega, points_per_cell=2, name="disk")
     if args.quick:
         return CaseSetup(scene, end_time=0.5, frames=25)

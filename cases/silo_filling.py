@@ -58,6 +58,7 @@ import numpy as np
 from mpmdem import MohrCoulomb, Scene, rectangle
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
+from mpmdem.variants import Variant
 
 NAME = "silo-filling"
 DESCRIPTION = "a flat-bottom silo filled from the top, 3 points every 0.17 s (stress-free vs Granular MPM)"
@@ -160,10 +161,19 @@ def scene(n: int, jitter: float = JITTER) -> Scene:
     return sc
 
 
+#: --compare: the same filling with stress-free MPM, a run of its own (mpmdem.variants), one frame
+#: every 0.5 s
+VARIANTS = [Variant("stress_free", config={"granular": False, "density_control": "none"}, args={"frame_interval": 0.5},
+                    flag="compare")]
+
+
 def build(args) -> CaseSetup:
     _check(args)
     end = end_time(args)
-    frames = max(10, round(end / 0.1)) if args.quick else max(20, round(end / 0.17))
+    if getattr(args, "frame_interval", None):  # a variant's frames (see VARIANTS)
+        frames = max(10, round(end / args.frame_interval))
+    else:
+        frames = max(10, round(end / 0.1)) if args.quick else max(20, round(end / 0.17))
     # --quick takes the CFL step (0.4 × the bound, 1.55e-4 s) instead of Table 4's 5e-5 s, a third
     # of the steps; --dt still overrides either
     return CaseSetup(scene(_points(args), args.jitter), end_time=end, frames=frames,
@@ -248,30 +258,38 @@ def summarize(sim, result, args) -> dict:
     out["work_plastic_J_per_m"] = float(d["work_plastic"][-1])
     out["work_inflow_J_per_m"] = float(d["work_inflow"][-1])
     out["work_numerical_J_per_m"] = float(d["work_numerical"][-1])
-    clouds = {"granular" if sim.config.granular else "run": (f["x"], f["v"], f["F"])}
-    if args.compare:
-        out["stress_free"] = _stress_free(sim, args, n, release, clouds)
-    if result.path is not None:
-        _plot(clouds, result.path.parent / "silo_filling.png", t_end)
     return out
 
 
-def _stress_free(sim, args, n, release, clouds) -> dict:
-    """The same filling with stress-free MPM (one grid, no density control, "Granular MPM" §4.3)."""
-    from mpmdem import BlowUpError, Simulation
+def _last_frame(path) -> tuple[dict, np.ndarray, np.ndarray]:
+    """The particle fields of the last frame of a run file, its frame times and its mass diagnostic."""
+    from mpmdem.io import RunFile
 
-    config = sim.config.replace(granular=False, density_control="none")
-    other = Simulation(scene(n, args.jitter), config, device=sim.device)
-    end = end_time(args)
-    try:
-        res = other.run(end, frames=max(10, round(end / 0.5)), quiet=True)
-    except BlowUpError as e:
-        return {"status": "blown-up", "message": str(e)}
-    f = other.fields()
-    clouds["stress-free"] = (f["x"], f["v"], f["F"])
-    _, mass_err = _mass_history(res.times, res.diagnostics["mass"], f["mass"], release)
-    return {"status": res.status, "max_relative_mass_error": mass_err,
-            **deposit_stats(f["x"], f["v"], f["mass"], f["volume"], f["F"], release, float(res.times[-1]))}
+    with RunFile(path) as rf:
+        return {k: rf.field(k, -1) for k in ("x", "v", "F", "mass", "volume")}, rf.times, rf.diagnostics["mass"]
+
+
+def compare(main, runs, args) -> dict:
+    """--compare: the deposit of stress-free MPM (one grid, no density control, "Granular MPM" §4.3),
+    a run of its own; the plot of the deposits."""
+    release = release_times(_points(args))
+    clouds, out = {}, {}
+    if main.path is not None:
+        f, t, _ = _last_frame(main.path)
+        clouds["granular" if main.summary["config"]["granular"] else "run"] = (f["x"], f["v"], f["F"])
+    run = runs.get("stress_free")
+    if run is not None and run.summary["status"] == "blown-up":
+        out["stress_free"] = {"status": "blown-up", "message": run.summary["message"]}
+    elif run is not None:
+        g, times, mass = _last_frame(run.path)
+        clouds["stress-free"] = (g["x"], g["v"], g["F"])
+        _, mass_err = _mass_history(times, mass, g["mass"], release)
+        out["stress_free"] = {"status": run.summary["status"], "max_relative_mass_error": mass_err,
+                              **deposit_stats(g["x"], g["v"], g["mass"], g["volume"], g["F"], release,
+                                              float(times[-1]))}
+    if main.path is not None:
+        _plot(clouds, main.path.parent / "silo_filling.png", float(t[-1]))
+    return out
 
 
 def _plot(clouds: dict, path, t_end: float) -> None:

@@ -11,7 +11,7 @@ import sys
 import numpy as np
 
 from mpmdem import MohrCoulomb, Scene, rectangle
-from mpmdem.cases._variants import VARIANTS, plot_variants, run_variant
+from mpmdem.cases._variants import GRANULAR_VARIANTS, critical_density, plot_variants, read_run
 from mpmdem.runner import CaseSetup
 
 NAME = "slope-flow"
@@ -37,19 +37,27 @@ def _scene(critical: bool) -> Scene:
     scene = Scene(domain=DOMAIN, cell_size=H, gravity=(9.81 * math.sin(th), -9.81 * math.cos(th)),
                   boundaries={s: "fixed" for s in ("left", "right", "bottom", "top")})
     mat = MohrCoulomb(E, NU, RHO0, PHI, PSI, critical_density=RHO_CR if critical else None)
-    scene.add_body(rectangle(*BLOCK), mat, points_per_cell=2, name="granular")
+    scene.add_mpm_body(rectangle(*BLOCK), mat, points_per_cell=2, name="granular")
     return scene
 
 
+#: original, stress-free and Granular MPM, each a run of its own (mpmdem.variants), compared by ``compare``
+VARIANTS = GRANULAR_VARIANTS
+
+
 def build(args) -> CaseSetup:
-    return CaseSetup(_scene(True), end_time=0.05 if args.quick else T_TOTAL, frames=10 if args.quick else 25)
+    return CaseSetup(_scene(critical_density(args)), end_time=0.05 if args.quick else T_TOTAL,
+                     frames=10 if args.quick else 25)
 
 
 def summarize(sim, result, args) -> dict:
-    end = float(result.times[-1])
-    frames = len(result.times) - 1
-    runs = {name: run_variant(_scene, sim.config, name, end, frames, sim.device) for name in VARIANTS}
-    out = {"inclination_deg": INCLINATION, "points": int(sim.particle_count), "end_time_s": end}
+    return {"inclination_deg": INCLINATION, "points": int(sim.particle_count), "end_time_s": float(result.times[-1])}
+
+
+def compare(main, runs, args) -> dict:
+    """The three variants (``VARIANTS``, each a run of its own): density, front and speed at the end."""
+    runs = {name: read_run(run.path) for name, run in runs.items()}
+    out = {}
     for name, r in runs.items():
         out[name] = {
             "status": r["status"],
@@ -59,8 +67,8 @@ def summarize(sim, result, args) -> dict:
             "front_x_end_m": float(np.nanmax(r["x"][:, 0])),
             "max_speed_end": float(np.nanmax(r["speed"])),
         }
-    if result.path is not None:
-        plot_variants(runs, result.path.parent / "slope_flow.png", title="slope flow, Granular MPM Table 1")
+    if main.path is not None:
+        plot_variants(runs, main.path.parent / "slope_flow.png", title="slope flow, Granular MPM Table 1")
     return out
 
 

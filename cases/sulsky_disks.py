@@ -32,8 +32,8 @@ def build(args) -> CaseSetup:
     scene = Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=1.0 / cells,
                   boundaries=dict.fromkeys(("left", "right", "bottom", "top"), "free"))
     mat = NeoHookean(YOUNGS, POISSON, DENSITY)
-    scene.add_body(disk(center=(0.25, 0.25), radius=RADIUS), mat, velocity=(SPEED, SPEED), name="lower")
-    scene.add_body(disk(center=(0.75, 0.75), radius=RADIUS), mat, velocity=(-SPEED, -SPEED), name="upper")
+    scene.add_mpm_body(disk(center=(0.25, 0.25), radius=RADIUS), mat, velocity=(SPEED, SPEED), name="lower")
+    scene.add_mpm_body(disk(center=(0.75, 0.75), radius=RADIUS), mat, velocity=(-SPEED, -SPEED), name="upper")
     return CaseSetup(scene, end_time=2.5 if args.quick else 3.5, frames=25 if args.quick else 70)
 
 

@@ -133,7 +133,7 @@ def build(args) -> CaseSetup:
     scene = Scene(domain=((0.0, 0.0), (x1, y1)), cell_size=h, gravity=(GRAVITY * math.sin(th), -GRAVITY * math.cos(th)),
                   boundaries={"left": "fixed", "right": "fixed", "bottom": floor, "top": "fixed"})
     scene.add_obstacle(rectangle(xw, -h, x1 + h, y1 + h))  # the load cell: a wall across the flume
-    scene.add_body(rectangle(0.0, 0.0, BOX[0], BOX[1]), material(args), points_per_cell=1, name="sand")
+    scene.add_mpm_body(rectangle(0.0, 0.0, BOX[0], BOX[1]), material(args), points_per_cell=1, name="sand")
     end = 1.5 if args.quick else T_TOTAL
     return CaseSetup(scene, end_time=end, frames=round(end / 0.02))
 

@@ -189,7 +189,13 @@ def run_case(module: ModuleType, argv: list[str] | None = None, prog: str | None
                     bar.close()
         summary.update(status=result.status, steps=result.steps, wall_seconds=time.perf_counter() - t0,
                        output=str(result.path))
-        summary.update(module.summarize(sim, result, args))
+        measures = module.summarize(sim, result, args)
+        summary.update(measures)
+        if hasattr(module, "VARIANTS"):  # further runs, each into OUT/<variant>/, and their comparison
+            from .variants import VariantRun, compare_variants
+
+            main = VariantRun("main", result.path, summary, measures, args, is_main=True)
+            summary.update(compare_variants(module, args, sim, main, out, end_time, frames, config_from_args))
     except InputError as e:
         print(f"mpmdem: error: {e}", file=sys.stderr)
         return 2

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal
@@ -139,7 +140,7 @@ class Scene:
         h = self.cell_size
         return max(1, math.ceil((x1 - x0) / h - 1e-9)), max(1, math.ceil((y1 - y0) / h - 1e-9))
 
-    def add_body(
+    def add_mpm_body(
         self,
         shape: Shape,
         material: Material,
@@ -196,6 +197,12 @@ class Scene:
             raise InputError("shape", shape.to_dict(), f"a shape inside the domain {self.domain}")
         self.bodies.append(body)
         return body
+
+    def add_body(self, shape: Shape, material: Material, **kwargs) -> MPMBody:
+        """Deprecated name of ``add_mpm_body`` (it adds an MPM body; ``add_rigid_body`` adds a DEM one)."""
+        warnings.warn("Scene.add_body is deprecated: use Scene.add_mpm_body (the same arguments)", DeprecationWarning,
+                      stacklevel=2)
+        return self.add_mpm_body(shape, material, **kwargs)
 
     def add_rigid_body(
         self,
@@ -336,7 +343,7 @@ class Scene:
         enter the scene [s], one value or one per point (a feed, like the silo filling of
         "Granular MPM" §4.3); until then they take no part, are left out of the diagnostics and
         written as NaN. The energy they bring is booked as the work term ``work_inflow``.
-        contact_radius: r_p against rigid bodies, as in ``add_body``.
+        contact_radius: r_p against rigid bodies, as in ``add_mpm_body``.
         """
         if self.cell_size is None:
             raise InputError("cell_size", None, "a grid spacing h > 0 [m] in Scene(...) before adding MPM bodies")
@@ -529,7 +536,7 @@ class Scene:
     def particles(self) -> dict[str, np.ndarray]:
         """Host arrays of every material point, body after body (float64)."""
         if not self.bodies:
-            raise InputError("bodies", [], "at least one body (Scene.add_body)")
+            raise InputError("bodies", [], "at least one body (Scene.add_mpm_body)")
         parts = []
         for k, b in enumerate(self.bodies):
             pts = self._seed(b)

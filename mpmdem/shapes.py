@@ -141,11 +141,19 @@ def polygon(vertices) -> Shape:
     return Shape(_checked_polygon(Polygon(v), "vertices", _summary(v)), "polygon")
 
 
+#: What ``from_file`` needs beyond trimesh: the optional dependencies of the extra ``mpmdem[svg]``.
+SVG_PACKAGES = ("lxml", "networkx", "rtree", "svg.path")
+
+
 def from_file(path: str | os.PathLike, *, scale: float = 1.0) -> Shape:
     """Outline imported from an SVG or DXF file: the largest closed polygon, holes included.
 
     Coordinates are taken as stored in the file (no y flip for SVG) and multiplied by ``scale``
-    [m per file unit]. Needs trimesh with lxml (SVG), networkx and rtree installed.
+    [m per file unit]. Needs trimesh with lxml, svg.path (SVG), networkx and rtree: the extra
+    ``pip install "mpmdem[svg]"``.
+
+    Raises:
+        ImportError: one of those packages is missing (the message names the extra).
     """
     import trimesh
 
@@ -158,7 +166,8 @@ def from_file(path: str | os.PathLike, *, scale: float = 1.0) -> Shape:
         loaded = trimesh.load_path(os.fspath(path))
         polys = [p for p in loaded.polygons_full if p is not None and p.area > 0.0]
     except ImportError as exc:
-        raise ImportError(f"from_file needs the packages lxml, networkx and rtree ({exc})") from exc
+        raise ImportError(f"from_file needs the optional packages {', '.join(SVG_PACKAGES)}: "
+                          f'pip install "mpmdem[svg]" ({exc})') from exc
     except Exception as exc:  # trimesh raises assorted errors on unreadable files
         raise InputError("path", str(path), f"a readable SVG or DXF outline ({exc})") from exc
     if not polys:

@@ -16,7 +16,7 @@ def free_disk_scene(*, cell_size=0.1, velocity=(0.0, 0.0), angular_velocity=0.0,
     """One disk in the middle of a 2 m × 2 m box, far from the walls."""
     scene = Scene(domain=((0.0, 0.0), (2.0, 2.0)), cell_size=cell_size, gravity=gravity,
                   boundaries=boundaries or {})
-    scene.add_body(disk(center=center, radius=radius), material or NeoHookean(1.0e4, 0.3, 1000.0),
+    scene.add_mpm_body(disk(center=center, radius=radius), material or NeoHookean(1.0e4, 0.3, 1000.0),
                    velocity=velocity, angular_velocity=angular_velocity)
     return scene
 

@@ -112,7 +112,7 @@ def test_coupled_restart_is_bit_for_bit(tmp_path, device):
     def make():
         scene = Scene(domain=((0.0, 0.0), (0.4, 0.3)), cell_size=0.02, gravity=(0.0, -9.81),
                       contact=ContactLaw(1.0e6, restitution=0.5))
-        scene.add_body(rectangle(0.1, 0.08, 0.2, 0.14), LinearElastic(1.0e5, 0.3, 1000.0), velocity=(0.5, 0.0))
+        scene.add_mpm_body(rectangle(0.1, 0.08, 0.2, 0.14), LinearElastic(1.0e5, 0.3, 1000.0), velocity=(0.5, 0.0))
         scene.add_rigid_body(rounded_rectangle(0.36, 0.04, 0.005), density=1000.0, position=(0.2, 0.045),
                              motion="fixed", friction=0.3)
         scene.add_rigid_body(rounded_rectangle(0.04, 0.04, 0.005), density=1000.0, position=(0.15, 0.19))

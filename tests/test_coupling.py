@@ -109,7 +109,7 @@ def test_frictional_oblique_collision_conserves_momenta(scheme, device):
     scene = m.Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=h, contact=m.ContactLaw(1.0e6, restitution=0.5),
                     boundaries=FREE)
     mat = m.NeoHookean(youngs_modulus=2.0e5, poisson_ratio=0.3, density=1000.0)
-    scene.add_body(m.disk(center=(0.3, 0.45), radius=0.08), mat, points_per_cell=2, velocity=(2.0, 0.3))
+    scene.add_mpm_body(m.disk(center=(0.3, 0.45), radius=0.08), mat, points_per_cell=2, velocity=(2.0, 0.3))
     scene.add_rigid_body(rounded_rectangle(0.12, 0.12, 0.01), density=1000.0, position=(0.55, 0.55), angle=0.3,
                          friction=0.5)
     config = m.SolverConfig(transfer="APIC", shape="bspline2", precision="f64", coupling=scheme)
@@ -146,10 +146,10 @@ def test_coupling_inputs_are_checked():
     mat = m.LinearElastic(youngs_modulus=1.0e5, poisson_ratio=0.3, density=1000.0)
     # eq. 45 with 2 x 2 points per cell: h/2 < r_p < h
     with pytest.raises(m.InputError, match=r"contact_radius.*\(0\.01, 0\.02\)"):
-        scene.add_body(m.disk(center=(0.5, 0.5), radius=0.1), mat, contact_radius=0.005)
+        scene.add_mpm_body(m.disk(center=(0.5, 0.5), radius=0.1), mat, contact_radius=0.005)
     with pytest.raises(m.InputError, match="contact_radius"):
-        scene.add_body(m.disk(center=(0.5, 0.5), radius=0.1), mat, contact_radius=0.02)
-    body = scene.add_body(m.disk(center=(0.5, 0.7), radius=0.1), mat)
+        scene.add_mpm_body(m.disk(center=(0.5, 0.5), radius=0.1), mat, contact_radius=0.02)
+    body = scene.add_mpm_body(m.disk(center=(0.5, 0.7), radius=0.1), mat)
     assert body.contact_radius == pytest.approx(math.sqrt(0.01 * 0.02))
     floor = scene.add_rigid_body(rounded_rectangle(0.8, 0.1, 0.01), density=1000.0, position=(0.5, 0.2),
                                  motion="fixed")
@@ -177,7 +177,7 @@ def test_granular_pile_rests_on_a_rigid_floor():
     scene = m.Scene(domain=((0.0, 0.0), (0.4, 0.3)), cell_size=h, gravity=(0.0, -9.81),
                     contact=m.ContactLaw(1.0e6, restitution=0.2), boundaries=FREE)
     mat = m.MohrCoulomb(2.0e6, 0.3, 2000.0, 35.0, critical_density=1950.0)
-    scene.add_body(m.rectangle(0.15, 0.08, 0.25, 0.14), mat, points_per_cell=2)
+    scene.add_mpm_body(m.rectangle(0.15, 0.08, 0.25, 0.14), mat, points_per_cell=2)
     scene.add_rigid_body(rounded_rectangle(0.36, 0.04, 0.005), density=2000.0, position=(0.2, 0.05), motion="fixed")
     config = m.SolverConfig(granular=True, transfer="PIC", shape="bspline2", damping=0.1)
     sim = m.Simulation(scene, config, device="cpu")
@@ -201,7 +201,7 @@ def test_kinematic_paddle_pushes_points_and_keeps_its_motion():
     scene = m.Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=h, contact=m.ContactLaw(1.0e6, restitution=0.5),
                     boundaries=FREE)
     mat = m.LinearElastic(youngs_modulus=1.0e5, poisson_ratio=0.3, density=1000.0)
-    scene.add_body(m.rectangle(0.3, 0.4, 0.4, 0.5), mat)
+    scene.add_mpm_body(m.rectangle(0.3, 0.4, 0.4, 0.5), mat)
     scene.add_rigid_body(rounded_rectangle(0.04, 0.16, 0.005), density=1000.0, position=(0.25, 0.45),
                          velocity=(0.5, 0.0), motion="kinematic", friction=0.0)
     sim = m.Simulation(scene, m.SolverConfig(transfer="APIC", precision="f64"), device="cpu")
@@ -238,7 +238,7 @@ def test_points_inside_bodies_and_oversized_bodies_are_refused():
     s.add_rigid_body(rounded_rectangle(0.2, 0.1, 0.01), density=1000.0, position=(0.5, 0.3), motion="fixed",
                      name="floor")
     s.add_rigid_body(m.sphero_disk(0.03), density=1000.0, position=(0.5, 0.8), name="ball")
-    s.add_body(m.rectangle(0.3, 0.3, 0.7, 0.5), mat, name="block")
+    s.add_mpm_body(m.rectangle(0.3, 0.3, 0.7, 0.5), mat, name="block")
     with pytest.raises(m.InputError, match=r"rigid body 'floor'.*100 points of MPM body 'block' start inside it "
                                            r"\(100 points start inside 1 rigid body in all\)"):
         m.Simulation(s, device="cpu")

@@ -67,7 +67,7 @@ def test_coupled_step_compiles_for_sm90(tmp_path):
     for scheme in ("imp", "grid", "liu"):
         scene = M.Scene(domain=((0, 0), (0.3, 0.3)), cell_size=0.02, gravity=(0, -9.81),
                         contact=M.ContactLaw(1e6, restitution=0.5))
-        scene.add_body(M.disk(center=(0.15, 0.2), radius=0.04), M.LinearElastic(1e5, 0.3, 1000.0))
+        scene.add_mpm_body(M.disk(center=(0.15, 0.2), radius=0.04), M.LinearElastic(1e5, 0.3, 1000.0))
         scene.add_rigid_body(rounded_rectangle(0.25, 0.04, 0.005), density=1000.0, position=(0.15, 0.1),
                              motion="fixed")
         sim = M.Simulation(scene, M.SolverConfig(coupling=scheme, transfer="PIC", deterministic=True), device="cpu")

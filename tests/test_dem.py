@@ -246,12 +246,12 @@ def test_dem_input_errors():
     from mpmdem import NeoHookean, disk
 
     both = Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=0.1, contact=ContactLaw(1e6))
-    both.add_body(disk(center=(0.3, 0.3), radius=0.1), NeoHookean(1e4, 0.3, 1000.0))
+    both.add_mpm_body(disk(center=(0.3, 0.3), radius=0.1), NeoHookean(1e4, 0.3, 1000.0))
     both.add_rigid_body(sphero_disk(0.05), density=1000.0, position=(0.7, 0.7))
     with pytest.raises(InputError, match="sort_interval"):  # coupled lists follow the points' memory order
         Simulation(both, SolverConfig(sort_interval=5), device="cpu")
     with pytest.raises(InputError, match="cell_size"):
-        Scene(domain=((0.0, 0.0), (1.0, 1.0))).add_body(disk(center=(0.5, 0.5), radius=0.1),
+        Scene(domain=((0.0, 0.0), (1.0, 1.0))).add_mpm_body(disk(center=(0.5, 0.5), radius=0.1),
                                                         NeoHookean(1e4, 0.3, 1000.0))
     no_law = Scene(domain=((0.0, 0.0), (1.0, 1.0)))
     no_law.add_rigid_body(sphero_disk(0.05), density=1000.0, position=(0.5, 0.5))

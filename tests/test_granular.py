@@ -678,7 +678,7 @@ def _stretched_block(control: str, granular: bool = False, elastic: bool = False
     mat = (LinearElastic(1.0e6, 0.3, 2250.0, critical_density=2235.0) if elastic
            else MohrCoulomb(1.0e6, 0.3, 2250.0, 30.0, 0.0, critical_density=2235.0))
     rate = 20.0  # 1/s: ρ falls below ρ_cr (0.7 % less) within 0.4 ms if nothing stops it
-    scene.add_body(rectangle(0.15, 0.15, 0.25, 0.25), mat, points_per_cell=2,
+    scene.add_mpm_body(rectangle(0.15, 0.15, 0.25, 0.25), mat, points_per_cell=2,
                    velocity=lambda x: rate * (x - 0.2))
     config = SolverConfig(shape="linear", transfer="PIC", precision="f64", density_control=control,
                           granular=granular)
@@ -796,7 +796,7 @@ def test_obstacle_load_cell_reads_the_weight(granular):
     scene = Scene(domain=((0.0, 0.0), (0.4, 0.4)), cell_size=0.02, gravity=(0.0, -9.81))
     scene.add_obstacle(rectangle(-0.1, -0.1, 0.5, 0.1))  # a ledge across the box, top at y = 0.1
     mat = MohrCoulomb(1.0e6, 0.3, 1000.0, 30.0, cohesion=5.0e3, critical_density=990.0)  # c: it stands
-    scene.add_body(rectangle(0.1, 0.1, 0.3, 0.2), mat, points_per_cell=2)
+    scene.add_mpm_body(rectangle(0.1, 0.1, 0.3, 0.2), mat, points_per_cell=2)
     config = SolverConfig(precision="f64", transfer="PIC", damping=0.1, granular=granular, shape="linear")
     result = Simulation(scene, config, device="cpu").run(end_time=0.4, frames=8, quiet=True)
     weight = 1000.0 * 0.2 * 0.1 * 9.81
@@ -842,7 +842,7 @@ def test_vertical_cut_stands_or_fails_around_its_critical_height(law):
         args = (2.0e7, 0.3, 2000.0, 30.0, 0.0, cohesion)
         mat = (MohrCoulomb(*args, critical_density=1990.0) if law == "mohr_coulomb"
                else DruckerPrager(*args, critical_density=1990.0, match="plane_strain_nonassociated"))
-        scene.add_body(rectangle(0.0, 0.0, 0.2, 0.2), mat, points_per_cell=2)
+        scene.add_mpm_body(rectangle(0.0, 0.0, 0.2, 0.2), mat, points_per_cell=2)
         sim = Simulation(scene, SolverConfig(granular=True, shape="bspline2", transfer="APIC", update="USL",
                                              precision="f64", damping=0.05), device="cpu")
         x0 = sim.mpm.fields()["x"]
@@ -863,7 +863,7 @@ def test_block_on_a_slip_ledge_slides_at_g_sin_theta(kind):
     scene = Scene(domain=((0.0, 0.0), (1.0, 0.4)), cell_size=0.02, gravity=(9.81 * math.sin(th), -9.81 * math.cos(th)),
                   boundaries={"bottom": "free", "left": "slip", "right": "slip", "top": "free"})
     scene.add_obstacle(rectangle(-0.1, -0.1, 1.1, 0.1), kind=kind)
-    scene.add_body(rectangle(0.1, 0.1, 0.3, 0.2), LinearElastic(1.0e6, 0.3, 1000.0), points_per_cell=2)
+    scene.add_mpm_body(rectangle(0.1, 0.1, 0.3, 0.2), LinearElastic(1.0e6, 0.3, 1000.0), points_per_cell=2)
     sim = Simulation(scene, SolverConfig(precision="f64", shape="bspline2", transfer="APIC"), device="cpu")
     x0 = sim.mpm.fields()["x"]
     t = 0.2

@@ -2,6 +2,9 @@
 (§2.3 Fig. 2, §4.2 Fig. 10): original and stress-free MPM lose density as the material flows,
 Granular MPM holds it at the critical density (eq. 13-15)."""
 
+import json
+from pathlib import Path
+
 from helpers import run_script
 
 RHO_CR = 2235.0  # kg/m³, Tables 1 and 3
@@ -18,6 +21,13 @@ def test_slope_flow_density(tmp_path):
     assert o["mean_density_end"] < RHO_CR - 1.0
     assert f["mean_density_end"] < RHO_CR - 1.0
     assert (tmp_path / "slope_flow.png").is_file()
+    # the variants are runs of their own (mpmdem.variants), each in its folder; the granular one is the
+    # case's own run, not run again
+    for name in ("original", "stress_free"):
+        v = json.loads((tmp_path / name / "summary.json").read_text())
+        assert v["variant"] == name and v["status"] == "completed" and Path(v["output"]).is_file()
+        assert v["config"]["granular"] is False and v["config"]["density_control"] == "none"
+    assert not (tmp_path / "granular").exists()
 
 
 def test_avalanche_density_and_packing(tmp_path):

@@ -92,21 +92,21 @@ def test_bad_body(kwargs, name):
     """Verify invalid body parameters are rejected with the parameter's name."""
     scene = Scene(domain=((0, 0), (1, 1)), cell_size=0.1)
     with pytest.raises(InputError, match=name):
-        scene.add_body(disk(center=(0.5, 0.5), radius=0.2), MAT, **kwargs)
+        scene.add_mpm_body(disk(center=(0.5, 0.5), radius=0.2), MAT, **kwargs)
 
 
 def test_body_outside_domain():
     """Verify a shape that sticks out of the domain is rejected."""
     scene = Scene(domain=((0, 0), (1, 1)), cell_size=0.1)
     with pytest.raises(InputError, match="inside the domain"):
-        scene.add_body(rectangle(0.5, 0.5, 1.5, 0.8), MAT)
+        scene.add_mpm_body(rectangle(0.5, 0.5, 1.5, 0.8), MAT)
 
 
 def test_material_must_be_a_material():
     """Verify a non-material is rejected."""
     scene = Scene(domain=((0, 0), (1, 1)), cell_size=0.1)
     with pytest.raises(InputError, match="material"):
-        scene.add_body(disk(center=(0.5, 0.5), radius=0.2), {"E": 1e6})
+        scene.add_mpm_body(disk(center=(0.5, 0.5), radius=0.2), {"E": 1e6})
 
 
 def test_fixed_dt_above_bound_is_an_error_naming_the_bound():

@@ -18,7 +18,8 @@ import h5py
 import numpy as np
 import pytest
 
-STANDALONE = ("mpmdem", "mpmdem.io", "mpmdem.plotting", "mpmdem.xdmf", "mpmdem.outlines")
+STANDALONE = ("mpmdem", "mpmdem.io", "mpmdem.io.csv", "mpmdem.io.format", "mpmdem.io.reader", "mpmdem.io.writer",
+              "mpmdem.io.xdmf", "mpmdem.plotting", "mpmdem.outlines")
 
 
 def _load_standalone() -> tuple[types.ModuleType, types.ModuleType]:
@@ -41,11 +42,11 @@ try:
     from mpmdem.io import FrameWriter, RunFile
     from mpmdem.plotting import plot_run
 
-    IO_SOURCE = Path(sys.modules["mpmdem.io"].__file__).resolve()
+    PKG_DIR = Path(sys.modules["mpmdem.io"].__file__).resolve().parents[1]  # .../mpmdem
 except ImportError:  # the package __init__ cannot be imported here (no Warp, or mid-edit)
     _io, _plotting = _load_standalone()
     FrameWriter, RunFile, plot_run = _io.FrameWriter, _io.RunFile, _plotting.plot_run
-    IO_SOURCE = Path(_io.__file__).resolve()
+    PKG_DIR = Path(_io.__file__).resolve().parents[1]
 
 N = 7
 DIAG_NAMES = ["energy_kinetic", "energy_strain", "energy_total", "momentum_x", "momentum_y", "dt"]
@@ -198,7 +199,7 @@ CHILD = textwrap.dedent(
     import numpy as np
 
     pkg = types.ModuleType("mpmdem")  # mpmdem.io without the package __init__ (and Warp)
-    pkg.__path__ = [os.path.dirname({io_source!r})]
+    pkg.__path__ = [{pkg_dir!r}]
     sys.modules["mpmdem"] = pkg
     import mpmdem.io as io
     n = {n}
@@ -222,7 +223,7 @@ def test_killed_writer_leaves_readable_file(tmp_path, mode):
     """Verify a writer that dies without closing (os._exit / SIGKILL) leaves its 2 frames readable."""
     path = tmp_path / "run.h5"
     csv = tmp_path / "energy.csv"
-    code = CHILD.format(io_source=str(IO_SOURCE), n=N, path=str(path), csv=str(csv), mode=mode)
+    code = CHILD.format(pkg_dir=str(PKG_DIR), n=N, path=str(path), csv=str(csv), mode=mode)
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == (1 if mode == "exit" else -9), proc.stderr
     with RunFile(path) as rf:
@@ -490,7 +491,7 @@ CHILD_BODIES = textwrap.dedent(
     import numpy as np
 
     pkg = types.ModuleType("mpmdem")  # mpmdem.io without the package __init__ (and Warp)
-    pkg.__path__ = [os.path.dirname({io_source!r})]
+    pkg.__path__ = [{pkg_dir!r}]
     sys.modules["mpmdem"] = pkg
     import mpmdem.io as io
     n, m = {n}, 2
@@ -518,7 +519,7 @@ CHILD_BODIES = textwrap.dedent(
 def test_killed_body_writer_leaves_readable_frames(tmp_path, n):
     """Verify a SIGKILLed writer of bodies (alone or with particles) leaves its 2 complete frames readable."""
     path = tmp_path / "run.h5"
-    code = CHILD_BODIES.format(io_source=str(IO_SOURCE), n=n, path=str(path))
+    code = CHILD_BODIES.format(pkg_dir=str(PKG_DIR), n=n, path=str(path))
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == -9, proc.stderr
     with RunFile(path) as rf:

@@ -95,8 +95,8 @@ def sulsky_energy(transfer, m=2, update="USL"):
     mat = NeoHookean(1000.0, 0.3, 1000.0)
     scene = Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=1.0 / 16,
                   boundaries=dict.fromkeys(("left", "right", "bottom", "top"), "free"))
-    scene.add_body(disk(center=(0.25, 0.25), radius=0.2), mat, velocity=(0.1, 0.1))
-    scene.add_body(disk(center=(0.75, 0.75), radius=0.2), mat, velocity=(-0.05, -0.12))
+    scene.add_mpm_body(disk(center=(0.25, 0.25), radius=0.2), mat, velocity=(0.1, 0.1))
+    scene.add_mpm_body(disk(center=(0.75, 0.75), radius=0.2), mat, velocity=(-0.05, -0.12))
     sim = Simulation(scene, SolverConfig(transfer=transfer, xpic_order=m, update=update, precision="f64"),
                      device="cpu")
     d = sim.run(2.5, frames=2, quiet=True).diagnostics
@@ -140,7 +140,7 @@ def test_cundall_damping_zero_changes_nothing_and_positive_dissipates():
 def _bouncing_disk(update, cell_size):
     scene = Scene(domain=((0.0, 0.0), (0.6, 0.6)), cell_size=cell_size, gravity=(0.0, -9.81),
                   boundaries={"bottom": "slip", "left": "slip", "right": "slip", "top": "slip"})
-    scene.add_body(disk(center=(0.3, 0.25), radius=0.1), NeoHookean(1e6, 0.3, 1000.0))
+    scene.add_mpm_body(disk(center=(0.3, 0.25), radius=0.1), NeoHookean(1e6, 0.3, 1000.0))
     sim = Simulation(scene, SolverConfig(transfer="APIC", update=update, precision="f64", damping=0.1), device="cpu")
     return sim.run(0.3, frames=6, quiet=True).diagnostics
 
@@ -174,7 +174,7 @@ def test_friction_wall_work_is_negative_for_a_sliding_block():
         scene = Scene(domain=((0.0, 0.0), (1.0, 0.3)), cell_size=0.025, gravity=(0.0, -9.81),
                       boundaries={"bottom": bottom, "left": "free", "right": "free", "top": "free"})
         from mpmdem import rectangle
-        scene.add_body(rectangle(0.1, 0.0, 0.3, 0.1), NeoHookean(1e6, 0.3, 1000.0), velocity=(1.0, 0.0))
+        scene.add_mpm_body(rectangle(0.1, 0.0, 0.3, 0.1), NeoHookean(1e6, 0.3, 1000.0), velocity=(1.0, 0.0))
         return Simulation(scene, SolverConfig(transfer="APIC", precision="f64"), device="cpu").run(
             0.1, frames=2, quiet=True).diagnostics
 

@@ -145,6 +145,20 @@ def test_from_file_svg(tmp_path):
         from_file(square, scale=0.0)
 
 
+def test_from_file_names_the_extra_when_a_package_is_missing(tmp_path, monkeypatch):
+    """Verify a missing optional package of SVG import (here lxml) gives an ImportError that names the
+    extra to install, ``mpmdem[svg]``."""
+    svg_io = pytest.importorskip("trimesh.path.exchange.svg_io")
+    from trimesh.exceptions import ExceptionWrapper
+
+    # what trimesh binds when `from lxml import etree` fails at its import
+    monkeypatch.setattr(svg_io, "etree", ExceptionWrapper(ModuleNotFoundError("No module named 'lxml'", name="lxml")))
+    square = _write_svg(tmp_path / "square.svg", "M 0 0 L 1 0 L 1 1 L 0 1 Z")
+    with pytest.raises(ImportError, match=r'pip install "mpmdem\[svg\]"') as info:
+        from_file(square)
+    assert "lxml" in str(info.value)
+
+
 @pytest.mark.parametrize("h", [1.0 / 16, 0.025, 0.0125, 0.01])
 @pytest.mark.parametrize(
     "shape",

@@ -69,7 +69,7 @@ def test_mass_probe_sums_the_points_in_its_box(device):
     """Scene.add_mass_probe: the mass of the points inside a box, summed on the device, against
     ρ × the area of the part of a seeded square inside the box (4 × 4 points per cell: exact)."""
     s = Scene(domain=((0, 0), (1, 1)), cell_size=0.1, boundaries={"top": "free"})
-    s.add_body(rectangle(0.2, 0.2, 0.6, 0.6), LinearElastic(1e5, 0.3, 1000.0), points_per_cell=4)
+    s.add_mpm_body(rectangle(0.2, 0.2, 0.6, 0.6), LinearElastic(1e5, 0.3, 1000.0), points_per_cell=4)
     s.add_mass_probe("left", hi=(0.4, math.inf))
     s.add_mass_probe("corner", lo=(0.5, 0.5), hi=(2.0, 2.0))
     d = Simulation(s, device=device).diagnostics()

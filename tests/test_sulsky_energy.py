@@ -14,8 +14,8 @@ def asymmetric_disks():
     # through the grid ("MPM notes": the disks problem needs no boundary condition)
     scene = Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=1.0 / 16,
                   boundaries=dict.fromkeys(("left", "right", "bottom", "top"), "free"))
-    scene.add_body(disk(center=(0.25, 0.25), radius=0.2), MAT, velocity=(0.1, 0.1))
-    scene.add_body(disk(center=(0.75, 0.75), radius=0.2), MAT, velocity=(-0.05, -0.12))
+    scene.add_mpm_body(disk(center=(0.25, 0.25), radius=0.2), MAT, velocity=(0.1, 0.1))
+    scene.add_mpm_body(disk(center=(0.75, 0.75), radius=0.2), MAT, velocity=(-0.05, -0.12))
     return scene
 
 

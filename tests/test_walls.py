@@ -35,7 +35,7 @@ def test_points_never_pass_a_wall(wall, granular, device):
     mat = MohrCoulomb(1.0e6, 0.3, 1500.0, friction_angle=30.0, critical_density=1485.0) if granular else MAT
     b = Boundary("friction", friction=0.3) if wall == "friction" else wall
     scene = Scene(domain=((0, 0), (0.2, 0.2)), cell_size=h, boundaries={"right": b, "top": "free"})
-    scene.add_body(rectangle(0.15, 0.05, 0.19, 0.09), mat, velocity=(60.0, 0.0), points_per_cell=2)
+    scene.add_mpm_body(rectangle(0.15, 0.05, 0.19, 0.09), mat, velocity=(60.0, 0.0), points_per_cell=2)
     c = np.sqrt(1.0e6 * 0.7 / (1.3 * 0.4) / 1500.0) if granular else np.sqrt(1.0e6 * 0.7 / (1.3 * 0.4) / 1000.0)
     dt = 3.0 * h / (c + 60.0)
     sim = Simulation(scene, SolverConfig(granular=granular, transfer="PIC", dt=dt, allow_unstable=True,

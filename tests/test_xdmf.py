@@ -1,4 +1,4 @@
-"""Tests of the XDMF 3 sidecars (mpmdem.xdmf): read by meshio, checked against the rules ParaView's
+"""Tests of the XDMF 3 sidecars (mpmdem.io.xdmf): read by meshio, checked against the rules ParaView's
 XDMF readers apply and, where ``pvbatch`` is installed, opened by ParaView itself.
 
 No Warp: run files are written by FrameWriter with made-up fields (those of tests/test_io.py).

@@ -1,37 +1,13 @@
-"""Run files: the HDF5 frame writer, its XDMF sidecar and CSV energy log, and a reader.
+"""The HDF5 frame writer of a run file (format: ``mpmdem.io.format``).
 
-A run file (format ``mpmdem-1``) is one HDF5 file holding, for a fixed particle count N >= 0 and a
-fixed count M >= 0 of rigid DEM bodies (spheropolygons):
-
-* ``/particles/<name>``: one resizable dataset per particle field, shape (n_frames, N, *shape),
-  chunked one frame at a time; absent when N == 0 (older files may hold empty ones);
-* ``/bodies/<name>``: one resizable dataset per body field (x, angle, v, omega, force, torque by
-  default), shape (n_frames, M, *shape), chunked one frame at a time; absent when M == 0;
-* ``/bodies/geometry/<name>``: static per-body data written once: vertex_start (M,) int32,
-  vertex_count (M,) int32, vertices (total_vertices, 2) float64 body-frame core vertices [m],
-  radius (M,) float64 sphero radius [m], motion (M,) int32 (0 free, 1 fixed, 2 kinematic),
-  mass (M,) float64 [kg/m], name (M,) variable-length UTF-8 strings, plus any extra per-body
-  arrays the writer was given;
-* ``/time``: the simulated time of each frame [s], float64;
-* ``/diagnostics/<name>``: one float64 scalar per frame (energies, momenta, dt, ...);
-* ``/xdmf/...``: what the XDMF sidecars point at (per-frame virtual views of the fields, the
-  bodies' world outlines, connectivities; see ``mpmdem.xdmf``); readers of the run ignore it;
-* root attributes: every entry of the writer's ``attrs`` as a JSON string, plus ``format``
-  and, once the run ends, ``status`` and ``status_message`` (plain strings).
-
-The file is flushed after every frame and is never opened with the SWMR / "latest" file format,
-so a writer that crashes or is killed leaves a file that ``RunFile`` (or any HDF5 tool) reads up
-to the last complete frame. Next to it the writer keeps the XDMF 3 sidecars ``<name>.xdmf`` (the
-particles, when N > 0) and ``<name>_bodies.xdmf`` (the bodies' outlines, when M > 0), rewritten
-atomically after every frame, which ParaView (Xdmf3 and legacy XDMF readers) and meshio's
-``TimeSeriesReader`` open as time series.
+Every frame is appended to every dataset and the file is flushed, so a writer that crashes or is
+killed leaves a file readable up to its last complete frame; beside it the XDMF sidecars
+(``mpmdem.io.xdmf``) and the CSV energy log (``mpmdem.io.csv``) are kept up to date frame by frame.
 """
 
 from __future__ import annotations
 
-import csv
 import json
-import math
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -41,74 +17,22 @@ from typing import Any
 import h5py
 import numpy as np
 
+from .csv import EnergyLog
+from .format import (
+    BODY_GEOMETRY_KEYS,
+    FORMAT,
+    GEOMETRY_DTYPES,
+    MOTION_FIXED,
+    MOTION_FREE,
+    MOTION_KINEMATIC,
+    PLAIN_ATTRS,
+    PRECISIONS,
+    default_body_field_specs,
+    default_field_specs,
+)
 from .xdmf import XdmfSidecars, bodies_xdmf_path, particles_xdmf_path
 
-__all__ = ["BODY_GEOMETRY_KEYS", "FORMAT", "FrameWriter", "RunFile", "default_body_field_specs",
-           "default_field_specs"]
-
-FORMAT = "mpmdem-1"
-"""Value of the root attribute ``format`` of every run file this module writes."""
-
-#: Root attributes stored as plain strings, not JSON.
-_PLAIN_ATTRS = ("format", "status", "status_message")
-
-_PRECISIONS = {"f32": np.float32, "f64": np.float64}
-
-
-def default_field_specs() -> dict[str, tuple[tuple[int, ...], str]]:
-    """The per-particle fields of a run file: name → (per-particle shape, dtype name).
-
-    The dtype name "float" stands for the run's precision (float32 or float64).
-
-    Returns:
-        A fresh dict that callers may extend, e.g. with ``("C", ((2, 2), "float"))``.
-    """
-    return {
-        "x": ((2,), "float"),
-        "v": ((2,), "float"),
-        "stress": ((2, 2), "float"),
-        "volume": ((), "float"),
-        "mass": ((), "float"),
-        "F": ((2, 2), "float"),
-        "body": ((), "int32"),
-    }
-
-
-def default_body_field_specs() -> dict[str, tuple[tuple[int, ...], str]]:
-    """The per-body fields of a run file: name → (per-body shape, dtype name).
-
-    x: centroid [m]; angle: rotation of the body frame [rad]; v: centroid velocity [m/s];
-    omega: angular velocity [rad/s]; force: total contact force [N/m]; torque: total contact
-    torque about the centroid [N·m/m]. "float" stands for the run's precision.
-
-    Returns:
-        A fresh dict that callers may extend.
-    """
-    return {
-        "x": ((2,), "float"),
-        "angle": ((), "float"),
-        "v": ((2,), "float"),
-        "omega": ((), "float"),
-        "force": ((2,), "float"),
-        "torque": ((), "float"),
-    }
-
-
-#: Keys every ``body_geometry`` must have (extra per-body numeric arrays are allowed and stored too).
-BODY_GEOMETRY_KEYS = ("vertex_start", "vertex_count", "vertices", "radius", "motion", "mass", "name")
-
-#: Dtypes of the geometry arrays as stored.
-_GEOMETRY_DTYPES = {
-    "vertex_start": np.int32,
-    "vertex_count": np.int32,
-    "vertices": np.float64,
-    "radius": np.float64,
-    "motion": np.int32,
-    "mass": np.float64,
-}
-
-#: Body motion codes of ``body_geometry["motion"]``.
-MOTION_FREE, MOTION_FIXED, MOTION_KINEMATIC = 0, 1, 2
+__all__ = ["FrameWriter"]
 
 
 def _parse_specs(
@@ -180,8 +104,8 @@ def _normalize_geometry(geometry: Mapping[str, Any] | None, m: int) -> dict[str,
             out[key] = names
             continue
         a = np.asarray(value)
-        if key in _GEOMETRY_DTYPES:
-            dtype = np.dtype(_GEOMETRY_DTYPES[key])
+        if key in GEOMETRY_DTYPES:
+            dtype = np.dtype(GEOMETRY_DTYPES[key])
             if dtype.kind == "i" and a.dtype.kind not in "biu" and not np.all(np.mod(a, 1) == 0):
                 raise ValueError(f"body_geometry {key!r} must hold integers")
             expected = (None, 2) if key == "vertices" else (m,)
@@ -291,9 +215,9 @@ class FrameWriter:
         self.particle_count = int(particle_count)
         self.body_count = int(body_count)
         precision = attrs.get("precision", "f32")
-        if precision not in _PRECISIONS:
-            raise ValueError(f"precision must be one of {', '.join(_PRECISIONS)}, got {precision!r}")
-        float_dtype = _PRECISIONS[precision]
+        if precision not in PRECISIONS:
+            raise ValueError(f"precision must be one of {', '.join(PRECISIONS)}, got {precision!r}")
+        float_dtype = PRECISIONS[precision]
         specs = default_field_specs() if field_specs is None else field_specs
         self._specs = _parse_specs(specs, float_dtype, "field")
         body_specs = default_body_field_specs() if body_field_specs is None else body_field_specs
@@ -301,7 +225,7 @@ class FrameWriter:
         geometry = _normalize_geometry(body_geometry, self.body_count)
         # Encode attrs before touching the disk so a bad value leaves nothing half-written.
         encoded = {
-            str(k): json.dumps(v, default=_json_default) for k, v in attrs.items() if k not in _PLAIN_ATTRS
+            str(k): json.dumps(v, default=_json_default) for k, v in attrs.items() if k not in PLAIN_ATTRS
         }
 
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -311,8 +235,7 @@ class FrameWriter:
         self._frames = 0
         self._times: list[float] = []
         self._diag_names: list[str] | None = None
-        self._csv_file = None
-        self._csv_writer = None
+        self._csv = EnergyLog(self.csv_path) if self.csv_path is not None else None
         self._closed = False
         self._datasets: dict[str, h5py.Dataset] = {}
         self._body_datasets: dict[str, h5py.Dataset] = {}
@@ -433,8 +356,8 @@ class FrameWriter:
         self._frames = i + 1
         self._times.append(time)
 
-        if self.csv_path is not None:
-            self._write_csv_row(time, diag)
+        if self._csv is not None:
+            self._csv.write_row(time, diag)
         self._write_xdmf()
 
     def set_status(self, status: str, message: str = "") -> None:
@@ -456,8 +379,8 @@ class FrameWriter:
             return
         self._closed = True
         try:
-            if self._csv_file is not None:
-                self._csv_file.close()
+            if self._csv is not None:
+                self._csv.close()
         finally:
             self._file.close()
 
@@ -474,291 +397,6 @@ class FrameWriter:
 
     # ------------------------------------------------------------------ sidecars
 
-    def _write_csv_row(self, time: float, diag: dict[str, float]) -> None:
-        """Append one CSV row (and the header on the first frame), then flush."""
-        assert self.csv_path is not None and self._diag_names is not None
-        if self._csv_file is None:
-            self.csv_path.parent.mkdir(parents=True, exist_ok=True)
-            self._csv_file = open(self.csv_path, "w", newline="", encoding="utf-8")  # noqa: SIM115
-            self._csv_writer = csv.writer(self._csv_file)
-            self._csv_writer.writerow(["time", *self._diag_names])
-        self._csv_writer.writerow([repr(time), *(repr(diag[k]) for k in self._diag_names)])
-        self._csv_file.flush()
-
     def _write_xdmf(self) -> None:
-        """Rewrite the XDMF sidecars for all frames so far (see ``mpmdem.xdmf``)."""
+        """Rewrite the XDMF sidecars for all frames so far (see ``mpmdem.io.xdmf``)."""
         self._xdmf.write(self._times)
-
-
-class RunFile:
-    """Read-only access to a run file written by ``FrameWriter`` (also one left by a crashed run).
-
-    Args:
-        path: The HDF5 run file.
-
-    Raises:
-        FileNotFoundError: the file does not exist.
-        OSError: the file is not a readable HDF5 file.
-    """
-
-    def __init__(self, path: str | os.PathLike) -> None:
-        self.path = Path(path)
-        if not self.path.exists():
-            raise FileNotFoundError(f"no run file at {self.path}")
-        try:
-            self._file = h5py.File(self.path, "r")
-        except OSError:
-            # A live writer in another process holds the HDF5 file lock; its flushed frames
-            # are still readable without locking.
-            self._file = h5py.File(self.path, "r", locking=False)
-        self._attrs: dict[str, Any] = {}
-        for k, v in self._file.attrs.items():
-            if isinstance(v, bytes):
-                v = v.decode("utf-8")
-            if isinstance(v, str) and k not in _PLAIN_ATTRS:
-                try:
-                    v = json.loads(v)
-                except json.JSONDecodeError:
-                    pass
-            elif isinstance(v, np.generic):
-                v = v.item()
-            self._attrs[k] = v
-        t = self._file["time"][()] if "time" in self._file else np.zeros(0)
-        lengths = [len(t)]
-        lengths += [ds.shape[0] for ds in self._particle_datasets().values()]
-        lengths += [ds.shape[0] for ds in self._body_datasets().values()]
-        # A writer killed mid-frame may have grown some datasets but not /time: count complete frames.
-        self._frames = min(lengths)
-        self._times = np.asarray(t[: self._frames], dtype=np.float64)
-
-    # ------------------------------------------------------------------ metadata
-
-    @property
-    def attrs(self) -> dict[str, Any]:
-        """Root attributes, JSON-decoded (format/status/status_message stay plain strings)."""
-        return dict(self._attrs)
-
-    @property
-    def times(self) -> np.ndarray:
-        """Simulated time of every frame [s], float64, shape (frame_count,)."""
-        return self._times.copy()
-
-    @property
-    def frame_count(self) -> int:
-        """Number of complete frames in the file."""
-        return self._frames
-
-    def _particle_datasets(self) -> dict[str, h5py.Dataset]:
-        """The per-frame particle datasets (none in a bodies-only file)."""
-        parts = self._file.get("particles")
-        if parts is None:
-            return {}
-        return {k: v for k, v in parts.items() if isinstance(v, h5py.Dataset)}
-
-    def _body_datasets(self) -> dict[str, h5py.Dataset]:
-        """The per-frame body datasets (none in a file without bodies)."""
-        bodies = self._file.get("bodies")
-        if bodies is None:
-            return {}
-        return {k: v for k, v in bodies.items() if isinstance(v, h5py.Dataset)}
-
-    @property
-    def particle_count(self) -> int:
-        """N, the number of particles per frame (0 for a run of bodies only)."""
-        parts = self._particle_datasets()
-        if not parts:
-            return 0
-        return int(next(iter(parts.values())).shape[1])
-
-    @property
-    def fields(self) -> list[str]:
-        """Names of the particle fields stored per frame ([] when there are no particles)."""
-        return list(self._particle_datasets()) if self.particle_count > 0 else []
-
-    @property
-    def body_count(self) -> int:
-        """M, the number of rigid DEM bodies (0 for files without bodies, including older ones)."""
-        geo = self._file.get("bodies/geometry")
-        if geo is not None and "vertex_count" in geo:
-            return int(geo["vertex_count"].shape[0])
-        bodies = self._body_datasets()
-        if not bodies:
-            return 0
-        return int(next(iter(bodies.values())).shape[1])
-
-    @property
-    def body_fields(self) -> list[str]:
-        """Names of the body fields stored per frame (x, angle, v, omega, force, torque, ...)."""
-        return list(self._body_datasets()) if self.body_count > 0 else []
-
-    @property
-    def status(self) -> str | None:
-        """How the run ended ("completed", "blown-up", "interrupted"), None while unknown."""
-        return self._attrs.get("status")
-
-    def field(self, name: str, frame: int) -> np.ndarray:
-        """One particle field at one frame.
-
-        Args:
-            name: Field name (x, v, stress, volume, mass, F, body, ...).
-            frame: Frame index; negative counts from the end as in Python.
-
-        Returns:
-            Array of shape (N, *shape) in the stored dtype.
-
-        Raises:
-            KeyError: no such field.
-            IndexError: frame out of range.
-        """
-        if name not in self.fields:
-            raise KeyError(f"no particle field {name!r} in {self.path}; fields: {', '.join(self.fields)}")
-        return self._file["particles"][name][self._frame_index(frame)]
-
-    def body_field(self, name: str, frame: int) -> np.ndarray:
-        """One body field at one frame.
-
-        Args:
-            name: Body field name (x [m], angle [rad], v [m/s], omega [rad/s], force [N/m],
-                torque [N·m/m], ...).
-            frame: Frame index; negative counts from the end as in Python.
-
-        Returns:
-            Array of shape (M, *shape) in the stored dtype.
-
-        Raises:
-            KeyError: no such body field (or no bodies).
-            IndexError: frame out of range.
-        """
-        if name not in self.body_fields:
-            raise KeyError(f"no body field {name!r} in {self.path}; body fields: {', '.join(self.body_fields)}")
-        return self._file["bodies"][name][self._frame_index(frame)]
-
-    def body_geometry(self) -> dict[str, Any]:
-        """The static per-body data of /bodies/geometry.
-
-        Returns:
-            vertex_start (M,) int32, vertex_count (M,) int32, vertices (total_vertices, 2) float64
-            body-frame core vertices [m], radius (M,) float64 [m], motion (M,) int32 (0 free,
-            1 fixed, 2 kinematic), mass (M,) float64 [kg/m], name (list of M str), plus any extra
-            per-body arrays the writer stored. Empty arrays (and no names) when there are no bodies.
-        """
-        out: dict[str, Any] = {
-            "vertex_start": np.zeros(0, np.int32),
-            "vertex_count": np.zeros(0, np.int32),
-            "vertices": np.zeros((0, 2), np.float64),
-            "radius": np.zeros(0, np.float64),
-            "motion": np.zeros(0, np.int32),
-            "mass": np.zeros(0, np.float64),
-            "name": [],
-        }
-        geo = self._file.get("bodies/geometry")
-        if geo is None:
-            return out
-        for key, ds in geo.items():
-            if not isinstance(ds, h5py.Dataset):
-                continue
-            if key == "name" or h5py.check_string_dtype(ds.dtype) is not None:
-                out[key] = [str(v) for v in ds.asstr()[()]]
-            else:
-                out[key] = ds[()]
-        return out
-
-    def _frame_index(self, frame: int) -> int:
-        """A frame index in range(frame_count); negative counts from the end."""
-        f = self._frames
-        k = int(frame)
-        if k < 0:
-            k += f
-        if not 0 <= k < f:
-            raise IndexError(f"frame {frame} out of range for {f} frame(s)")
-        return k
-
-    @property
-    def diagnostics(self) -> dict[str, np.ndarray]:
-        """Per-frame diagnostic scalars: name → float64 array of length frame_count."""
-        g = self._file.get("diagnostics")
-        if g is None:
-            return {}
-        return {k: np.asarray(g[k][: self._frames], dtype=np.float64) for k in g}
-
-    def summary(self) -> str:
-        """Multi-line human-readable description of the run."""
-        a = self._attrs
-        config = a.get("config") if isinstance(a.get("config"), dict) else {}
-
-        def meta(key: str) -> Any:
-            return a.get(key, config.get(key, "?"))
-
-        lines = [
-            f"file:        {self.path}",
-            f"format:      {a.get('format', '?')}",
-            f"version:     {meta('version')}",
-            f"device:      {meta('device')}",
-            f"precision:   {meta('precision')}",
-            f"frames:      {self._frames}",
-        ]
-        if self._frames:
-            lines.append(f"time:        {self._times[0]:.6g} .. {self._times[-1]:.6g} s")
-        else:
-            lines.append("time:        (no frames)")
-        lines.append(f"particles:   {self.particle_count}")
-
-        def describe(datasets: dict[str, h5py.Dataset]) -> str:
-            desc = []
-            for k, ds in datasets.items():
-                shape = "x".join(str(s) for s in ds.shape[2:]) or "scalar"
-                desc.append(f"{k} ({shape}, {ds.dtype})")
-            return ", ".join(desc)
-
-        if self.fields:
-            lines.append(f"fields:      {describe(self._particle_datasets())}")
-        m = self.body_count
-        if m:
-            motion = np.asarray(self.body_geometry()["motion"])
-            if len(motion) == m:
-                kinds = [f"{int(np.sum(motion == c))} {w}" for c, w in
-                         ((MOTION_FREE, "free"), (MOTION_FIXED, "fixed"), (MOTION_KINEMATIC, "kinematic"))]
-                lines.append(f"bodies:      {m} ({', '.join(kinds)})")
-            else:
-                lines.append(f"bodies:      {m}")
-            if self.body_fields:
-                lines.append(f"body fields: {describe(self._body_datasets())}")
-        else:
-            lines.append("bodies:      0")
-        diags = self.diagnostics
-        if diags and self._frames:
-            lines.append(f"diagnostics at the last frame (t = {self._times[-1]:.6g} s):")
-            width = max(len(k) for k in diags)
-            for k, v in diags.items():
-                val = v[-1]
-                lines.append(f"  {k:<{width}}  {val:.6g}" if math.isfinite(val) else f"  {k:<{width}}  {val}")
-        if "status" in a:
-            msg = a.get("status_message", "")
-            lines.append(f"status:      {a['status']}" + (f": {msg}" if msg else ""))
-        else:
-            lines.append("status:      (not set: running, or the writer died)")
-        return "\n".join(lines)
-
-    # ------------------------------------------------------------------ lifetime
-
-    def close(self) -> None:
-        """Close the file; closing twice is harmless."""
-        if self._file.id.valid:
-            self._file.close()
-
-    def __enter__(self) -> RunFile:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
-
-    def __repr__(self) -> str:
-        return (
-            f"RunFile({str(self.path)!r}, frames={self._frames}, particles={self.particle_count}, "
-            f"bodies={self.body_count})"
-        )

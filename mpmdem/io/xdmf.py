@@ -31,7 +31,7 @@ from xml.sax.saxutils import escape, quoteattr
 import h5py
 import numpy as np
 
-from .outlines import outline_rings, place_rings
+from ..outlines import outline_rings, place_rings
 
 __all__ = ["GROUP", "XdmfSidecars", "bodies_xdmf_path", "particles_xdmf_path"]
 
