@@ -777,7 +777,7 @@ def test_disconnection_1d_onsets_predicted_at_untuned_positions(monkeypatch):
     base = SolverConfig(**dc.DEFAULTS)
     expected = {"stress_free_original": t_share, "granular_original": t_touch, "granular_cpgimp": t_touch}
     for name, t_event in expected.items():
-        onset = dc.onsets(dc.trace(base.replace(**dc.VARIANTS[name]), end_time=0.012))[0]
+        onset = dc.onsets(dc.trace(base.replace(**dc.TRACES[name]), end_time=0.012))[0]
         assert t_event - 1e-12 <= onset <= t_event + 2.01 * dt, (name, onset, t_event)
 
 
