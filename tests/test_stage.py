@@ -17,7 +17,7 @@ def _dem_scene(with_points: bool) -> m.Scene:
                     contact=m.ContactLaw(1.0e5))
     scene.add_rigid_body(m.sphero_disk(0.05), density=1000.0, position=(0.5, 0.3))
     if with_points:
-        scene.add_body(m.rectangle(0.3, 0.6, 0.7, 0.8), m.LinearElastic(1.0e5, 0.3, 1000.0))
+        scene.add_mpm_body(m.rectangle(0.3, 0.6, 0.7, 0.8), m.LinearElastic(1.0e5, 0.3, 1000.0))
     return scene
 
 
