@@ -20,6 +20,7 @@ import functools
 
 import warp as wp
 
+from .reductions import land_on_stop
 from .types import kernel, scalar_types
 
 __all__ = [
@@ -571,13 +572,13 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
     @kernel
     def dem_dt(clock: wp.array(dtype=wp.float64)):
         """dt = the fixed dt, or the factor × the bound (both set once: they depend on masses and k_n
-        only); 0 once the clock has reached t_stop."""
+        only), split evenly to end on t_stop; 0 once the clock has reached t_stop."""
         dt = clock[4]
         if dt <= wp.float64(0.0):
             dt = clock[5] * clock[3]
         if clock[0] >= clock[2]:
             dt = wp.float64(0.0)
-        clock[1] = dt
+        clock[1] = land_on_stop(clock, dt)  # whole steps end on t_stop
 
     # -- diagnostics ----------------------------------------------------------------------------
     @kernel

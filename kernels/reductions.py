@@ -104,6 +104,35 @@ def make_wave_speed(precision: str):
     return wave_speed
 
 
+#: How much longer than asked, in steps per frame, a step may be to land on t_stop: n = ⌈R/dt − slack⌉,
+#: so a step grows by at most slack/n (0.1 % at one step per frame). The CFL step's own estimate of
+#: max(c+|v|) from the previous step is no closer than that; without it a frame that holds exactly
+#: k steps of h/c by construction (c+|v| a hair above c) would take k+1.
+LANDING_SLACK = 1.0e-3
+#: A time within ROUND_OFF steps of t_stop is t_stop (the landed steps sum to it to about n ε t).
+ROUND_OFF = 1.0e-6
+
+
+@wp.func
+def land_on_stop(clock: wp.array(dtype=wp.float64), dt: wp.float64) -> wp.float64:
+    """The step [s] no longer than ``dt`` that splits the time left to t_stop into whole equal steps:
+    R / ⌈R / dt⌉, R = t_stop − t, so the last step of a frame ends on the frame's time.
+
+    Shortening only the step that would cross t_stop changes dt suddenly, which breaks the
+    staggering of the explicit central-difference update (MPM-SDEM eq. 17) and costs a first-order
+    error. Equal steps across the frame keep dt constant within it: with a fixed dt that divides
+    the frame, dt itself; otherwise a dt smaller by less than one step per frame (or longer by at
+    most LANDING_SLACK / n), and a change
+    between frames of order dt² / frame length, which keeps the update second order.
+    """
+    r = clock[2] - clock[0]
+    out = dt
+    if dt > wp.float64(0.0) and r > wp.float64(0.0):
+        n = wp.max(wp.ceil(r / dt - wp.float64(LANDING_SLACK)), wp.float64(1.0))
+        out = r / n
+    return out
+
+
 @kernel
 def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.float32), h: wp.float64):
     """dt = κ h / max(c+|v|) (CFL) or the fixed dt; 0 once the clock has reached t_stop.
@@ -111,9 +140,7 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
     max(c+|v|) comes from the speed slots filled at the end of the previous step (or by the
     initial wave_speed pass); they are cleared here for this step.
 
-    The step that crosses t_stop is not shortened: a sudden change of dt breaks the staggering of
-    the explicit central-difference update (MPM-SDEM eq. 17) and costs a first-order error, so
-    output frames land up to one step after their nominal time and record the time reached.
+    Steps land on t_stop (the next output frame): see ``land_on_stop``.
     """
     s = wp.float64(0.0)
     for k in range(wp.static(SPEED_SLOTS)):  # unrolled: independent loads
@@ -132,15 +159,19 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
     else:
         for k in range(wp.static(SPEED_SLOTS)):
             max_speed[k] = wp.float32(0.0)  # refilled by this step's G2P
-    clock[1] = dt
+    clock[1] = land_on_stop(clock, dt)
 
 
 @wp.func
 def advance(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
-    """t += dt; count steps taken (the end of a step)."""
+    """t += dt; count steps taken (the end of a step). A time within round-off of t_stop is t_stop
+    (``land_on_stop``'s steps sum to it up to a few ulps)."""
     dt = clock[1]
     if dt > wp.float64(0.0):
-        clock[0] = clock[0] + dt
+        t = clock[0] + dt
+        if wp.abs(clock[2] - t) <= wp.float64(ROUND_OFF) * dt:
+            t = clock[2]
+        clock[0] = t
         steps[0] = steps[0] + wp.int64(1)
 
 
@@ -222,5 +253,5 @@ def cap_dt(clock: wp.array(dtype=wp.float64), cap: wp.float64, bound: wp.float64
     smallest of the MPM, DEM and contact terms); ``bound`` [s], the stable step of the contacts,
     lowers the reported bound."""
     if clock[4] <= wp.float64(0.0) and clock[1] > cap:
-        clock[1] = cap
+        clock[1] = land_on_stop(clock, cap)
     clock[3] = wp.min(clock[3], bound)
