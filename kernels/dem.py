@@ -20,7 +20,7 @@ import functools
 
 import warp as wp
 
-from .clock import CLOCK_BOUND, CLOCK_DT, CLOCK_DT_FACTOR, CLOCK_DT_FIXED, CLOCK_T, CLOCK_T_STOP
+from .clock import CLOCK_BOUND, CLOCK_DT, CLOCK_DT_FACTOR, CLOCK_DT_FIXED, CLOCK_T, CLOCK_T_STOP, land_on_stop
 from .contact_geometry import make_contact_geometry, make_history_lookup
 from .types import Namespace, kernel, scalar_types
 
@@ -461,13 +461,13 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
     @kernel
     def dem_dt(clock: wp.array(dtype=wp.float64)):
         """dt = the fixed dt, or the factor × the bound (both set once: they depend on masses and k_n
-        only); 0 once the clock has reached t_stop."""
+        only), split evenly to end on t_stop; 0 once the clock has reached t_stop."""
         dt = clock[CLOCK_DT_FIXED]
         if dt <= wp.float64(0.0):
             dt = clock[CLOCK_DT_FACTOR] * clock[CLOCK_BOUND]
         if clock[CLOCK_T] >= clock[CLOCK_T_STOP]:
             dt = wp.float64(0.0)
-        clock[CLOCK_DT] = dt
+        clock[CLOCK_DT] = land_on_stop(clock, dt)  # whole steps end on t_stop
 
     # -- diagnostics ----------------------------------------------------------------------------
     @kernel

@@ -8,7 +8,17 @@ import functools
 
 import warp as wp
 
-from .clock import CLOCK_BOUND, CLOCK_DT, CLOCK_DT_FACTOR, CLOCK_DT_FIXED, CLOCK_SIZE, CLOCK_T, CLOCK_T_STOP
+from .clock import (
+    CLOCK_BOUND,
+    CLOCK_DT,
+    CLOCK_DT_FACTOR,
+    CLOCK_DT_FIXED,
+    CLOCK_SIZE,
+    CLOCK_T,
+    CLOCK_T_STOP,
+    ROUND_OFF,
+    land_on_stop,
+)
 from .constitutive import make_strain_energy_density
 from .state import make_state_structs
 from .types import kernel, scalar_types
@@ -111,9 +121,7 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
     max(c+|v|) comes from the speed slots filled at the end of the previous step (or by the
     initial wave_speed pass); they are cleared here for this step.
 
-    The step that crosses t_stop is not shortened: a sudden change of dt breaks the staggering of
-    the explicit central-difference update (MPM-SDEM eq. 17) and costs a first-order error, so
-    output frames land up to one step after their nominal time and record the time reached.
+    Steps land on t_stop (the next output frame): see ``kernels.clock.land_on_stop``.
     """
     s = wp.float64(0.0)
     for k in range(wp.static(SPEED_SLOTS)):  # unrolled: independent loads
@@ -132,15 +140,19 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
     else:
         for k in range(wp.static(SPEED_SLOTS)):
             max_speed[k] = wp.float32(0.0)  # refilled by this step's G2P
-    clock[CLOCK_DT] = dt
+    clock[CLOCK_DT] = land_on_stop(clock, dt)
 
 
 @wp.func
 def advance(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
-    """t += dt; count steps taken (the end of a step)."""
+    """t += dt; count steps taken (the end of a step). A time within round-off of t_stop is t_stop
+    (``land_on_stop``'s steps sum to it up to a few ulps)."""
     dt = clock[CLOCK_DT]
     if dt > wp.float64(0.0):
-        clock[CLOCK_T] = clock[CLOCK_T] + dt
+        t = clock[CLOCK_T] + dt
+        if wp.abs(clock[CLOCK_T_STOP] - t) <= wp.float64(ROUND_OFF) * dt:
+            t = clock[CLOCK_T_STOP]
+        clock[CLOCK_T] = t
         steps[0] = steps[0] + wp.int64(1)
 
 
@@ -222,5 +234,5 @@ def cap_dt(clock: wp.array(dtype=wp.float64), cap: wp.float64, bound: wp.float64
     smallest of the MPM, DEM and contact terms); ``bound`` [s], the stable step of the contacts,
     lowers the reported bound."""
     if clock[CLOCK_DT_FIXED] <= wp.float64(0.0) and clock[CLOCK_DT] > cap:
-        clock[CLOCK_DT] = cap
+        clock[CLOCK_DT] = land_on_stop(clock, cap)
     clock[CLOCK_BOUND] = wp.min(clock[CLOCK_BOUND], bound)

@@ -27,6 +27,7 @@ from .config import SolverConfig
 from .dem import DEMSolver
 from .diagnostics import EnergyBalance, check_energy
 from .errors import BlowUpError, InputError
+from .kernels.clock import ROUND_OFF
 from .mpm import MPMSolver
 from .scene import Scene
 from .stage import Clock, Stage
@@ -177,7 +178,9 @@ class Simulation:
             stage.check_status(t, dt, bound, status)
             if on_batch is not None:
                 on_batch(t, dt)
-            est = (t_stop - t) / dt if dt > 0 else 1
+            # the steps left, as the device counts them (kernels.reductions.land_on_stop): an idle
+            # step past t_stop would leave dt = 0 in the frame's diagnostics
+            est = (t_stop - t) / dt - ROUND_OFF if dt > 0 else 1
             batch = int(min(max_batch, max(1, math.ceil(est))))
             if dt <= 0.0 and t < t_stop:
                 raise BlowUpError("stalled", f"time step became zero at t={t:.6g} s", t)

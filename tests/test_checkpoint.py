@@ -8,9 +8,13 @@ from mpmdem import InputError, Simulation, SolverConfig
 
 
 def restarted(make, t1: float, t2: float, path) -> tuple[Simulation, Simulation]:
-    """(an uninterrupted run to t2, a run to t1 → checkpoint → new Simulation → run to t2)."""
+    """(a run to t1 then t2 in one Simulation, a run to t1 → checkpoint → new Simulation → run to t2).
+
+    Both stop at t1: the steps land on each stop time (kernels.reductions.land_on_stop), so the
+    stops are part of the trajectory, as a run's frames are; the checkpoint must change nothing."""
     ref = make()
-    ref.advance_to(t2)  # in one go: no frame boundary at t1
+    ref.advance_to(t1)
+    ref.advance_to(t2)
     first = make()
     first.advance_to(t1)
     first.save_checkpoint(path)
