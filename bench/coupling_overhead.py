@@ -57,7 +57,7 @@ def build(particles: int, coupled: bool) -> tuple[Scene, int]:
                   boundaries={"bottom": "fixed", "left": "slip", "right": "slip", "top": "slip"})
     x0 = cells * h
     y0 = (BLOCK + 1) * h  # on a cell line: the points' rows sit at y0 + (k + 1/4) h, (k + 3/4) h
-    body = scene.add_body(rectangle(x0, y0, x0 + cells * h, y0 + cells * h), MATERIAL, points_per_cell=2)
+    body = scene.add_mpm_body(rectangle(x0, y0, x0 + cells * h, y0 + cells * h), MATERIAL, points_per_cell=2)
     n = 0
     if coupled:
         a = 0.1 * bed

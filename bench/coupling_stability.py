@@ -206,7 +206,7 @@ def build(name: str, sz: Sizes, kn: float, rp: float):
         scene.add_rigid_body(rounded_rectangle(width, 2.0 * h), density=sz.density,
                              position=(0.5 * width, floor_top - h), motion="fixed", friction=0.1, name="floor")
         if name == "disk-drop":
-            scene.add_body(disk((cx, low + R - eps), R), mat, points_per_cell=ppc, velocity=(0.0, -sz.drop_speed),
+            scene.add_mpm_body(disk((cx, low + R - eps), R), mat, points_per_cell=ppc, velocity=(0.0, -sz.drop_speed),
                            contact_radius=rp)
         else:
             scene.add_points([[cx, low]], mat, size=h / ppc, velocity=(0.0, -sz.drop_speed), contact_radius=rp)
@@ -222,7 +222,7 @@ def build(name: str, sz: Sizes, kn: float, rp: float):
         width = xb + R + 2.0 * h + v * end_guess
         scene = Scene(domain=((0.0, 0.0), (width, cy + R + 2.0 * h)), cell_size=h, gravity=(0.0, 0.0),
                       boundaries=free, contact=law)
-        scene.add_body(disk((front - R + eps, cy), R), mat, points_per_cell=ppc, velocity=(v, 0.0),
+        scene.add_mpm_body(disk((front - R + eps, cy), R), mat, points_per_cell=ppc, velocity=(v, 0.0),
                        contact_radius=rp)
         scene.add_rigid_body(sphero_disk(R), density=sz.density, position=(xb, cy), friction=0.1, name="disk")
     else:

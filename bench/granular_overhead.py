@@ -102,7 +102,7 @@ def dense_column(particles: int) -> Scene:
     x0 = cells * h  # the column sits in the middle third, on cell lines
     scene = Scene(domain=((0.0, 0.0), (width, height)), cell_size=h, gravity=GRAVITY,
                   boundaries={"bottom": "fixed", "left": "slip", "right": "slip", "top": "slip"})
-    scene.add_body(rectangle(x0, 0.0, x0 + cells * h, 2 * cells * h), MATERIAL, points_per_cell=POINTS_PER_CELL)
+    scene.add_mpm_body(rectangle(x0, 0.0, x0 + cells * h, 2 * cells * h), MATERIAL, points_per_cell=POINTS_PER_CELL)
     return scene
 
 

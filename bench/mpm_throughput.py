@@ -52,7 +52,7 @@ def build_scene(n: int) -> Scene:
     """Build the benchmark scene on an n × n grid over the unit square."""
     scene = Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=1.0 / n, gravity=GRAVITY,
                   boundaries={side: "slip" for side in ("left", "right", "bottom", "top")})
-    scene.add_body(rectangle(*BLOCK), NeoHookean(YOUNGS, POISSON, DENSITY), points_per_cell=POINTS_PER_CELL)
+    scene.add_mpm_body(rectangle(*BLOCK), NeoHookean(YOUNGS, POISSON, DENSITY), points_per_cell=POINTS_PER_CELL)
     return scene
 
 

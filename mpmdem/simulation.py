@@ -88,7 +88,7 @@ class Simulation:
             raise InputError("device", device, f"one of {allowed}") from None
         self.device = str(wp.get_device(device))
         if not (scene.has_mpm or scene.has_dem):
-            raise InputError("bodies", [], "at least one body (Scene.add_body or Scene.add_rigid_body)")
+            raise InputError("bodies", [], "at least one body (Scene.add_mpm_body or Scene.add_rigid_body)")
         scene.validate()  # whole-scene input checks (points starting inside rigid bodies), before any kernel
         #: the time of the run, shared by every stage
         self.clock = Clock(self.device)

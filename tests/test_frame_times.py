@@ -12,7 +12,7 @@ END, FRAMES = 0.013, 4  # s; 3.25 ms frames, not a whole number of any step belo
 
 def mpm_scene(contact: ContactLaw | None = None) -> Scene:
     scene = Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=0.05, gravity=(0.0, -9.81), contact=contact)
-    scene.add_body(disk((0.5, 0.5), 0.15), LinearElastic(1e6, 0.3, 1000.0), velocity=(0.3, 0.0))
+    scene.add_mpm_body(disk((0.5, 0.5), 0.15), LinearElastic(1e6, 0.3, 1000.0), velocity=(0.3, 0.0))
     return scene
 
 
