@@ -141,6 +141,8 @@ class DEMSolver(ClockedStage):
         order = np.lexsort((pos[:, 1], cx, motion == dem_kernels.FIXED))
         self.order = order
         self.moving = int(np.count_nonzero(motion != dem_kernels.FIXED))
+        #: free bodies: a body–body contact needs one (build_lists pairs no two fixed or kinematic bodies)
+        self.free = int(np.count_nonzero(motion == dem_kernels.FREE))
         self.motion = motion[order]
         self.is_large = is_large[order]
         # cells over the domain and every small body (a fixed peg may sit outside the domain)
@@ -299,6 +301,12 @@ class DEMSolver(ClockedStage):
         if self.moving_vertices:
             wp.launch(k.world_vertices, self.moving_vertices, inputs=[B, self.local, self.owner, self.world],
                       device=dev)
+        if not self.free:
+            # no free body, so no body–body contact (a silo's walls, a fixed floor under points): the
+            # lists would stay empty; only the coupling's reactions accumulate on the bodies
+            B.force.zero_()
+            B.torque.zero_()
+            return
         wp.launch(k.check_displacement, self.moving, inputs=[B, params, self.flags], device=dev)
         wp.launch(k.clear_cells, len(self.cell_count), inputs=[self.flags, self.cell_count], device=dev)
         if len(self.small):
