@@ -23,7 +23,8 @@ VALIDATION = [
     Check("momentum_share_rigid_rod", 1.0, "analytic: an elastic head-on collision of equal masses hands over all "
           "the momentum (MPM-SDEM §5.4, Fig. 17)", 0.01,
           "a two-body exchange losing 2 ε of Σ m v² keeps a share ≈ 1 − ε/2; 2 × the paper's own elastic-coupling "
-          "loss (0.8 %, §5.1.1) gives 0.992, rounded to 0.01", relative=False),
+          "loss (0.8 %, §5.1.1) gives 0.992, rounded to 0.01", relative=False,
+          coarser=(("--grid-size", "1.0"),)),
 ]
 
 # -- the paper's numbers (Table 1 and §5.4), in its units, converted once --------------------------
