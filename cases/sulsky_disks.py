@@ -11,7 +11,7 @@ from mpmdem import NeoHookean, Scene, disk
 from mpmdem.runner import CaseSetup
 
 NAME = "sulsky-disks"
-DESCRIPTION = "two elastic disks collide and rebound (MPM notes / Sulsky 1995); the default case"
+DESCRIPTION = "two elastic disks collide and rebound (MPM notes / Sulsky 1995)"
 DEFAULTS = {"shape": "bspline2", "transfer": "APIC", "update": "USL"}
 
 DENSITY = 1000.0  # kg/m³

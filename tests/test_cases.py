@@ -35,7 +35,7 @@ def test_elastic_column_matches_static_stress(tmp_path):
 
 
 def test_sulsky_disks_rebound_and_conserve_momentum(tmp_path):
-    """Verify the default case: disks rebound, momentum is conserved, the file opens."""
+    """Verify the Sulsky disks: they rebound, momentum is conserved, the file opens."""
     s = run_script("sulsky_disks", tmp_path)
     assert s["rebounded"]
     # f32: Σ m v of ~250 points summed each frame; round-off ~1e-7 relative per step
