@@ -29,6 +29,7 @@ from .diagnostics import coupled_likely_cause
 from .errors import BlowUpError, InputError
 from .kernels import coupling as coupling_kernels
 from .kernels import reductions
+from .launch_plan import IfFlag, Launch, run_plan
 from .mpm import AFTER_FORCE_UPDATE, MPMSolver
 from .scene import Scene
 from .stage import ClockedStage
@@ -234,14 +235,16 @@ class CoupledStage(ClockedStage):
         wp.launch(k.check_points, n, inputs=[points, L, params, clock, flags], device=dev)
         if self.dem.moving:
             wp.launch(k.check_bodies, self.dem.moving, inputs=[B, L, params, flags], device=dev)
-        wp.launch(k.clear_cells, len(self.cell_count), inputs=[flags, self.cell_count], device=dev)
-        wp.launch(k.bin_points, n,
-                  inputs=[points, L, params, clock, flags, self.cell_count, self.cell_items, self.status], device=dev)
-        wp.launch(k.build_lists, self.dem.body_count * BUILD_TILE,
-                  inputs=[points, B, L, params, self.dem.world, flags, self.cell_count, self.cell_items, self.status],
-                  device=dev)
-        wp.launch(k.finish_lists, n, inputs=[L, flags], device=dev)
-        wp.launch(k.finish_rebuild, 1, inputs=[flags, self.rebuilds], device=dev)
+        # the list rebuild: its kernels return at once unless flagged (one conditional node in a graph)
+        rebuild = [
+            Launch(k.clear_cells, len(self.cell_count), [flags, self.cell_count]),
+            Launch(k.bin_points, n, [points, L, params, clock, flags, self.cell_count, self.cell_items, self.status]),
+            Launch(k.build_lists, self.dem.body_count * BUILD_TILE,
+                   [points, B, L, params, self.dem.world, flags, self.cell_count, self.cell_items, self.status]),
+            Launch(k.finish_lists, n, [L, flags]),
+            Launch(k.finish_rebuild, 1, [flags, self.rebuilds]),
+        ]
+        run_plan([IfFlag(flags, rebuild)], dev)
         wp.launch(k.forces, n, inputs=[points, B, L, params, self.dem.world, clock, self.status], device=dev)
 
     def status_counts(self) -> np.ndarray:
