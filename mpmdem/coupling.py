@@ -17,6 +17,7 @@ contact term is the DEM bound of a point of the smallest mass on one contact spr
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -226,6 +227,23 @@ class CoupledStage(ClockedStage):
         dem.body_update()
         mpm.end_step()
 
+    @functools.cached_property
+    def rebuild_plan(self) -> list:
+        """The point–body list rebuild as one conditional block: its kernels return at once unless
+        flagged, so in a CUDA graph it is one conditional node (built once: its arrays live as long
+        as the stage)."""
+        k, L, params, flags, clock = self.k, self.L, self.params, self.flags, self.clock
+        points, B, n = self.mpm.P, self.dem.B, self.mpm.particle_count
+        rebuild = [
+            Launch(k.clear_cells, len(self.cell_count), [flags, self.cell_count]),
+            Launch(k.bin_points, n, [points, L, params, clock, flags, self.cell_count, self.cell_items, self.status]),
+            Launch(k.build_lists, self.dem.body_count * BUILD_TILE,
+                   [points, B, L, params, self.dem.world, flags, self.cell_count, self.cell_items, self.status]),
+            Launch(k.finish_lists, n, [L, flags]),
+            Launch(k.finish_rebuild, 1, [flags, self.rebuilds]),
+        ]
+        return [IfFlag(flags, rebuild)]
+
     def contact_forces(self) -> None:
         """Point–body lists (rebuilt when flagged) and the IMP forces of this step."""
         k, L, params, dev = self.k, self.L, self.params, self.device
@@ -235,16 +253,7 @@ class CoupledStage(ClockedStage):
         wp.launch(k.check_points, n, inputs=[points, L, params, clock, flags], device=dev)
         if self.dem.moving:
             wp.launch(k.check_bodies, self.dem.moving, inputs=[B, L, params, flags], device=dev)
-        # the list rebuild: its kernels return at once unless flagged (one conditional node in a graph)
-        rebuild = [
-            Launch(k.clear_cells, len(self.cell_count), [flags, self.cell_count]),
-            Launch(k.bin_points, n, [points, L, params, clock, flags, self.cell_count, self.cell_items, self.status]),
-            Launch(k.build_lists, self.dem.body_count * BUILD_TILE,
-                   [points, B, L, params, self.dem.world, flags, self.cell_count, self.cell_items, self.status]),
-            Launch(k.finish_lists, n, [L, flags]),
-            Launch(k.finish_rebuild, 1, [flags, self.rebuilds]),
-        ]
-        run_plan([IfFlag(flags, rebuild)], dev)
+        run_plan(self.rebuild_plan, dev)
         wp.launch(k.forces, n, inputs=[points, B, L, params, self.dem.world, clock, self.status], device=dev)
 
     def status_counts(self) -> np.ndarray:

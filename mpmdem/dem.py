@@ -13,6 +13,7 @@ step never waits on the host and can be recorded as one CUDA graph.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -295,6 +296,25 @@ class DEMSolver(ClockedStage):
         if own_clock:
             wp.launch(reductions.advance_time, 1, inputs=[self.clock, self.steps], device=self.device)
 
+    @functools.cached_property
+    def rebuild_plan(self) -> list:
+        """The Verlet-list rebuild as one conditional block: every kernel of it returns at once
+        unless the rebuild flag is set, so in a CUDA graph it is one conditional node instead of
+        five launches (built once: the arrays it names live as long as the stage)."""
+        k, B, C, params = self.k, self.B, self.C, self.params
+        rebuild = [Launch(k.clear_cells, len(self.cell_count), [self.flags, self.cell_count])]
+        if len(self.small):
+            rebuild.append(Launch(k.bin_bodies, len(self.small),
+                                  [B, params, self.small, self.flags, self.cell_count, self.cell_items, self.status]))
+        rebuild += [
+            Launch(k.reset_total, 1, [self.flags, C]),
+            Launch(k.build_lists, self.body_count,
+                   [B, C, params, self.world, self.is_large_arr, self.large_ids, len(self.large), self.flags,
+                    self.cell_count, self.cell_items, self.status]),
+            Launch(k.finish_rebuild, 1, [self.flags, self.rebuilds]),
+        ]
+        return [IfFlag(self.flags, rebuild)]
+
     def contact_stage(self) -> None:
         """World vertices, Verlet lists (rebuilt only when flagged on the device) and the
         body–body contact forces of this step into ``B.force``, ``B.torque``."""
@@ -309,20 +329,7 @@ class DEMSolver(ClockedStage):
             B.torque.zero_()
             return
         wp.launch(k.check_displacement, self.moving, inputs=[B, params, self.flags], device=dev)
-        # the list rebuild: every kernel of it returns at once unless flagged, so in a CUDA graph
-        # it is one conditional node instead of five launches
-        rebuild = [Launch(k.clear_cells, len(self.cell_count), [self.flags, self.cell_count])]
-        if len(self.small):
-            rebuild.append(Launch(k.bin_bodies, len(self.small),
-                                  [B, params, self.small, self.flags, self.cell_count, self.cell_items, self.status]))
-        rebuild += [
-            Launch(k.reset_total, 1, [self.flags, C]),
-            Launch(k.build_lists, self.body_count,
-                   [B, C, params, self.world, self.is_large_arr, self.large_ids, len(self.large), self.flags,
-                    self.cell_count, self.cell_items, self.status]),
-            Launch(k.finish_rebuild, 1, [self.flags, self.rebuilds]),
-        ]
-        run_plan([IfFlag(self.flags, rebuild)], dev)
+        run_plan(self.rebuild_plan, dev)
         B.force.zero_()
         B.torque.zero_()
         wp.launch(k.contact_forces, self.body_count * self.slots,

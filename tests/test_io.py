@@ -18,8 +18,8 @@ import h5py
 import numpy as np
 import pytest
 
-STANDALONE = ("mpmdem", "mpmdem.io", "mpmdem.io.csv", "mpmdem.io.format", "mpmdem.io.reader", "mpmdem.io.writer",
-              "mpmdem.io.xdmf", "mpmdem.plotting", "mpmdem.outlines")
+STANDALONE = ("mpmdem", "mpmdem.io", "mpmdem.io.closing", "mpmdem.io.csv", "mpmdem.io.format", "mpmdem.io.reader",
+              "mpmdem.io.writer", "mpmdem.io.xdmf", "mpmdem.plotting", "mpmdem.outlines")
 
 
 def _load_standalone() -> tuple[types.ModuleType, types.ModuleType]:

@@ -6,18 +6,18 @@ import json
 import math
 import os
 from pathlib import Path
-from types import TracebackType
 from typing import Any
 
 import h5py
 import numpy as np
 
+from .closing import ClosesOnExit
 from .format import MOTION_FIXED, MOTION_FREE, MOTION_KINEMATIC, PLAIN_ATTRS
 
 __all__ = ["RunFile"]
 
 
-class RunFile:
+class RunFile(ClosesOnExit):
     """Read-only access to a run file written by ``FrameWriter`` (also one left by a crashed run).
 
     Args:
@@ -272,17 +272,6 @@ class RunFile:
         """Close the file; closing twice is harmless."""
         if self._file.id.valid:
             self._file.close()
-
-    def __enter__(self) -> RunFile:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         return (

@@ -11,12 +11,12 @@ import json
 import os
 from collections.abc import Mapping
 from pathlib import Path
-from types import TracebackType
 from typing import Any
 
 import h5py
 import numpy as np
 
+from .closing import ClosesOnExit
 from .csv import EnergyLog
 from .format import (
     BODY_GEOMETRY_KEYS,
@@ -156,7 +156,7 @@ def _resolve_dtype(name: str, float_dtype: type) -> np.dtype:
         ) from None
 
 
-class FrameWriter:
+class FrameWriter(ClosesOnExit):
     """Write a run frame by frame to HDF5, with an XDMF sidecar and an optional energy CSV.
 
     Every call of ``write_frame`` appends one frame to every particle and body dataset, one value
@@ -383,17 +383,6 @@ class FrameWriter:
                 self._csv.close()
         finally:
             self._file.close()
-
-    def __enter__(self) -> FrameWriter:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     # ------------------------------------------------------------------ sidecars
 
