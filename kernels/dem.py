@@ -168,10 +168,24 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         world[k] = B.x[b] + rotate(B.angle[b], local[k])
 
     @kernel
-    def check_displacement(B: Bodies, prm: Params, flags: wp.array(dtype=wp.int32)):
-        """Flag a rebuild when a body moved or turned more than half the skin since the last build."""
-        if needs_rebuild(B, wp.tid(), B.x_ref, B.angle_ref, prm.skin):
-            flags[0] = 1
+    def check_displacement(B: Bodies, prm: Params, flags: wp.array(dtype=wp.int32), moving: int):
+        """Body i's contact force and torque of this step cleared (every body: fixed ones collect
+        the points' reactions as their load), and a rebuild flagged when a moving body (i < moving)
+        moved or turned more than half the skin since the last build. (One launch for both: a
+        small scene's step is paid per launch.)"""
+        i = wp.tid()
+        B.force[i] = vec2()
+        B.torque[i] = T(0.0)
+        if i < moving:
+            if needs_rebuild(B, i, B.x_ref, B.angle_ref, prm.skin):
+                flags[0] = 1
+
+    @kernel
+    def clear_loads(B: Bodies):
+        """Body i's contact force [N/m] and torque [N m/m] of this step cleared."""
+        i = wp.tid()
+        B.force[i] = vec2()
+        B.torque[i] = T(0.0)
 
     @wp.func
     def cell_of(x: vec2, prm: Params):
@@ -502,7 +516,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
 
     return Namespace(
         Bodies=Bodies, Contacts=Contacts, Params=Params, world_vertices=world_vertices,
-        check_displacement=check_displacement, clear_cells=clear_cells, bin_bodies=bin_bodies,
+        check_displacement=check_displacement, clear_loads=clear_loads, clear_cells=clear_cells, bin_bodies=bin_bodies,
         build_lists=build_lists, finish_rebuild=finish_rebuild, reset_total=reset_total,
         contact_forces=contact_forces,
         integrate=integrate, dem_dt=dem_dt, diagnostics=diagnostics,

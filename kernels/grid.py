@@ -164,9 +164,9 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     damping: add Cundall's local damping force ("Motion integration" eq. 61-62).
     The work of wall reactions and of the damping force is accumulated into ``work``.
     layered: granular mode, launched over the nodes of one layer; each thread updates the copies
-    of its node that components claimed (a prefix of the layers). clear (layered, the step's last
-    grid update): zero the mass, momentum and force of the copies used, so the next step needs no
-    memset of every layer.
+    of its node that components claimed (a prefix of the layers). clear (the step's last grid
+    update, when nothing after it reads the nodal mass): zero the mass, momentum and force of the
+    nodes (copies) used, so the next step needs no memset of the grid (of every layer).
     obstacles: nodes marked in ``Grid.solid`` (inside a ``Scene.add_obstacle`` shape) are fixed
     (1) or slip along the obstacle's surface (2: no velocity along ``Grid.solid_normal``).
     The reaction impulses on walls and obstacles go to the IMPULSE_BASE slots of ``work``.
@@ -236,15 +236,15 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         # node (ib, j) of the grid, stored in row i (its copy's row in granular mode), whose mass,
         # momentum and force (``load_node``) are m, mom, fint
         dt = T(clock[CLOCK_DT])
-        if wp.static(layered):
-            if wp.static(clear):
-                # (a copy that received nothing is zero already: no stores, which in a run as deep
-                # as its busiest node are most of them)
-                if m != T(0.0) or mom[0] != T(0.0) or mom[1] != T(0.0) or fint[0] != T(0.0) or fint[1] != T(0.0):
-                    G.mass[i, j] = T(0.0)
-                    G.mom[i, j] = t.vec2()
-                    if wp.static(not fused_impulse):  # (a fused P2G puts its forces into the momentum)
-                        G.force[i, j] = t.vec2()
+        if wp.static(clear):
+            # (a node or copy that received nothing is zero already: no stores, which in a run as
+            # deep as its busiest node, or outside the material, are most of them. Momentum and
+            # force reach only nodes that received mass: P2G weights them alike)
+            if m != T(0.0) or mom[0] != T(0.0) or mom[1] != T(0.0) or fint[0] != T(0.0) or fint[1] != T(0.0):
+                G.mass[i, j] = T(0.0)
+                G.mom[i, j] = t.vec2()
+                if wp.static(not fused_impulse):  # (a fused P2G puts its forces into the momentum)
+                    G.force[i, j] = t.vec2()
         if m <= D.mass_eps:
             if wp.static(remap):
                 G.vm[i, j] = t.vec2()
@@ -372,8 +372,10 @@ def _mirror_node(i: int, j: int, lo: wp.vec2i, hi: wp.vec2i, kinds: wp.vec4i):
 
 
 @functools.cache
-def make_mirror_ghosts(precision: str, layered: bool = False):
-    """Ghost nodes beyond a fixed or slip wall take the mirrored velocity of the interior.
+def make_mirror_ghosts(precision: str, layered: bool = False, pair: bool = False):
+    """Ghost nodes beyond a fixed or slip wall take the mirrored velocity of the interior:
+    ``mirror_ghosts(field, second, D, clock, owner)`` mirrors ``field``, and with ``pair`` also
+    ``second`` (two fields in one launch; without it ``second`` is not read).
 
     Wide stencils (B-splines) reach one or two nodes past the wall. Setting those ghosts to the
     mirror image of the interior field (odd in every component for a fixed wall, odd in the
@@ -388,15 +390,9 @@ def make_mirror_ghosts(precision: str, layered: bool = False):
     Domain = make_state_structs(precision)[2]
     find_row = _layer_row_find()
 
-    @kernel
-    def mirror_ghosts(field: wp.array2d(dtype=t.vec2), D: Domain, clock: wp.array(dtype=wp.float64),
-                      owner: wp.array2d(dtype=wp.int32)):
-        i, j = wp.tid()  # a node of one layer
-        if clock[CLOCK_DT] <= wp.float64(0.0):
-            return
-        si, sj, sx, sy, mirrored = _mirror_node(i, j, D.node_lo, D.node_hi, D.bc_kind)
-        if not mirrored:
-            return
+    @wp.func
+    def mirror(field: wp.array2d(dtype=t.vec2), D: Domain, owner: wp.array2d(dtype=wp.int32), i: int, j: int,
+               si: int, sj: int, sx: float, sy: float):
         if wp.static(layered):
             for s in range(D.layers):
                 r = s * D.layer_rows + i
@@ -411,6 +407,19 @@ def make_mirror_ghosts(precision: str, layered: bool = False):
         else:
             v = field[si, sj]
             field[i, j] = t.vec2(T(sx) * v[0], T(sy) * v[1])
+
+    @kernel
+    def mirror_ghosts(field: wp.array2d(dtype=t.vec2), second: wp.array2d(dtype=t.vec2), D: Domain,
+                      clock: wp.array(dtype=wp.float64), owner: wp.array2d(dtype=wp.int32)):
+        i, j = wp.tid()  # a node of one layer
+        if clock[CLOCK_DT] <= wp.float64(0.0):
+            return
+        si, sj, sx, sy, mirrored = _mirror_node(i, j, D.node_lo, D.node_hi, D.bc_kind)
+        if not mirrored:
+            return
+        mirror(field, D, owner, i, j, si, sj, sx, sy)
+        if wp.static(pair):
+            mirror(second, D, owner, i, j, si, sj, sx, sy)
 
     return mirror_ghosts
 

@@ -30,7 +30,6 @@ __all__ = [
     "STATUS_NONFINITE",
     "STATUS_OUTSIDE",
     "advance_time",
-    "cap_dt",
     "compute_dt",
     "make_diagnostics",
     "make_probe_mass",
@@ -115,11 +114,17 @@ def make_wave_speed(precision: str):
 
 
 @kernel
-def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.float32), h: wp.float64):
+def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.float32), h: wp.float64,
+               cap: wp.float64, cap_bound: wp.float64):
     """dt = κ h / max(c+|v|) (CFL) or the fixed dt; 0 once the clock has reached t_stop.
 
     max(c+|v|) comes from the speed slots filled at the end of the previous step (or by the
     initial wave_speed pass); they are cleared here for this step.
+
+    cap [s] > 0 (coupled scenes): dt = min(dt, cap) unless dt was fixed by the user (MPM-SDEM eq. 51
+    takes the smallest of the MPM, DEM and contact terms), and ``cap_bound`` [s], the stable step
+    of the contacts, lowers the reported bound; 0: no cap. (One launch for both: a small scene's
+    step is paid per launch.)
 
     Steps land on t_stop (the next output frame): see ``kernels.clock.land_on_stop``.
     """
@@ -131,7 +136,6 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
         bound = h / s
     if not wp.isfinite(s):
         bound = clock[CLOCK_BOUND]  # a NaN speed is reported by the status flags; keep the clock sane
-    clock[CLOCK_BOUND] = bound
     dt = clock[CLOCK_DT_FIXED]
     if dt <= wp.float64(0.0):
         dt = clock[CLOCK_DT_FACTOR] * bound
@@ -140,7 +144,14 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
     else:
         for k in range(wp.static(SPEED_SLOTS)):
             max_speed[k] = wp.float32(0.0)  # refilled by this step's G2P
-    clock[CLOCK_DT] = land_on_stop(clock, dt)
+    dt = land_on_stop(clock, dt)
+    if cap > wp.float64(0.0):
+        # (the landed step is compared with the cap, and the cap landed in its place)
+        if clock[CLOCK_DT_FIXED] <= wp.float64(0.0) and dt > cap:
+            dt = land_on_stop(clock, cap)
+        bound = wp.min(bound, cap_bound)
+    clock[CLOCK_BOUND] = bound
+    clock[CLOCK_DT] = dt
 
 
 @wp.func
@@ -226,13 +237,3 @@ def make_probe_mass(precision: str, staged: bool = False):
                 wp.atomic_add(out, k, wp.float64(P.mass[p]))
 
     return probe_mass
-
-
-@kernel
-def cap_dt(clock: wp.array(dtype=wp.float64), cap: wp.float64, bound: wp.float64):
-    """dt = min(dt, cap) unless dt was fixed by the user (coupled scenes: MPM-SDEM eq. 51 takes the
-    smallest of the MPM, DEM and contact terms); ``bound`` [s], the stable step of the contacts,
-    lowers the reported bound."""
-    if clock[CLOCK_DT_FIXED] <= wp.float64(0.0) and clock[CLOCK_DT] > cap:
-        clock[CLOCK_DT] = land_on_stop(clock, cap)
-    clock[CLOCK_BOUND] = wp.min(clock[CLOCK_BOUND], bound)

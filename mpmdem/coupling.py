@@ -29,7 +29,6 @@ from .dem import DEMSolver, spring_time_step_bound
 from .diagnostics import coupled_likely_cause
 from .errors import BlowUpError, InputError
 from .kernels import coupling as coupling_kernels
-from .kernels import reductions
 from .launch_plan import IfFlag, Launch, run_plan
 from .mpm import AFTER_FORCE_UPDATE, MPMSolver
 from .scene import Scene
@@ -81,6 +80,7 @@ class CoupledStage(ClockedStage):
         self.dt_bound = min(self.contact_bound, dem.dt_bound)
         kappa = math.pi * config.dem_kappa
         self.dt_cap = kappa * self.dt_bound
+        mpm.cap_time_step(self.dt_cap, self.dt_bound)  # (one launch with the CFL step's)
         check_time_step(config, self.dt_bound, f"{self.dt_bound:.6g} s of the contacts (a point of the smallest mass "
                         f"on k_n: {self.contact_bound:.6g} s; the rigid bodies: {dem.dt_bound:.6g} s); "
                         f"{eq51_step(config, self.dt_bound)}")
@@ -216,8 +216,7 @@ class CoupledStage(ClockedStage):
     def step(self) -> None:
         """One coupled explicit step (MPM-SDEM §4.2)."""
         mpm, dem = self.mpm, self.dem
-        mpm.begin_step()
-        wp.launch(reductions.cap_dt, 1, inputs=[self.clock, self.dt_cap, self.dt_bound], device=self.device)
+        mpm.begin_step()  # (dt capped at dt_cap: ``MPMSolver.cap_time_step``)
         dem.contact_stage()
         if self.liu is None:
             self.contact_forces()

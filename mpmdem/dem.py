@@ -325,13 +325,11 @@ class DEMSolver(ClockedStage):
         if not self.free:
             # no free body, so no body–body contact (a silo's walls, a fixed floor under points): the
             # lists would stay empty; only the coupling's reactions accumulate on the bodies
-            B.force.zero_()
-            B.torque.zero_()
+            wp.launch(k.clear_loads, self.body_count, inputs=[B], device=dev)
             return
-        wp.launch(k.check_displacement, self.moving, inputs=[B, params, self.flags], device=dev)
+        # (this step's loads cleared in the same launch)
+        wp.launch(k.check_displacement, self.body_count, inputs=[B, params, self.flags, self.moving], device=dev)
         run_plan(self.rebuild_plan, dev)
-        B.force.zero_()
-        B.torque.zero_()
         wp.launch(k.contact_forces, self.body_count * self.slots,
                   inputs=[B, C, params, self.world, self.clock, self.status], device=dev)
 

@@ -97,6 +97,8 @@ class MPMSolver(ClockedStage):
         self.clock, self.steps = clock.values, clock.steps
         self._allocate({k: v[self.order] for k, v in host.items()})
         self._sorter = PointSorter(self.points, self.D, self.grid_shape, config.precision, self.staged, self.device)
+        #: (cap, bound) [s] of every step's dt (``cap_time_step``); cap 0: none
+        self.dt_cap = (0.0, 0.0)
         #: callables another stage runs at a named place of the step (``extend``)
         self.extensions: dict[str, list] = {}
         self._build()
@@ -171,6 +173,7 @@ class MPMSolver(ClockedStage):
         layered = c.granular
         grid_kernel_makers = {}
         mirror = grid_kernels.make_mirror_ghosts(prec, layered=layered)
+        mirror_pair = grid_kernels.make_mirror_ghosts(prec, layered=layered, pair=True)
 
         def fold(**flags):
             if not mirror_walls:
@@ -178,7 +181,11 @@ class MPMSolver(ClockedStage):
             return [Launch(grid_kernels.make_fold_ghosts(prec, layered=layered, **flags), grid_dim, [G, D, clock])]
 
         def mirrored(*fields):
-            return [Launch(mirror, grid_dim, [f, D, clock, G.owner]) for f in fields] if mirror_walls else []
+            if not mirror_walls or not fields:
+                return []
+            if len(fields) == 2:  # (V and Ṽ in one launch)
+                return [Launch(mirror_pair, grid_dim, [fields[0], fields[1], D, clock, G.owner])]
+            return [Launch(mirror, grid_dim, [f, f, D, clock, G.owner]) for f in fields]
 
         def p2g(**flags):
             kernel = transfer_kernels.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic,
@@ -265,15 +272,18 @@ class MPMSolver(ClockedStage):
             seq += [Zero(G.vm)] + p2g(mass=False, momentum=True, force=False, remap=True)
             seq += grid(velocity=False, force=False, remap=True)
             seq += g2p(velocity=False, position=True, stress="vm", stress_fraction=half)
-        if layered:
-            # the step's last grid update clears the copies it used (kernels/grid.py)
+        # the step's last grid update clears the nodes (copies) it used (kernels/grid.py), so no
+        # memset of the grid starts the next step; not where something after it reads the nodal
+        # mass (XPIC's updates, Liu et al.'s exchange): there the grid is cleared at the start
+        self.clears_grid = layered or not (s.xpic or (self.coupled and c.coupling == "liu"))
+        if self.clears_grid:
             last = max(k for k, item in enumerate(seq)
                        if isinstance(item, Launch) and id(item.kernel) in grid_kernel_makers)
             item = seq[last]
             seq[last] = Launch(grid_kernel_makers[id(item.kernel)](clear=True), item.dim, item.inputs)
-            if check is not None:
-                # the positions the next step starts from are final: whether it may keep the labels
-                seq += [check]
+        if layered and check is not None:
+            # the positions the next step starts from are final: whether it may keep the labels
+            seq += [check]
         self._sequence = seq
         self.diagnostics_kernel = reduction_kernels.make_diagnostics(prec, self.material_kinds, staged=self.staged)
         self.probe_mass_kernel = reduction_kernels.make_probe_mass(prec, staged=self.staged)
@@ -288,15 +298,23 @@ class MPMSolver(ClockedStage):
         self.run_sequence()
         self.end_step()
 
+    def cap_time_step(self, cap: float, bound: float) -> None:
+        """Coupled scenes: every step's dt is at most ``cap`` [s] (unless fixed by the user) and the
+        reported bound at most ``bound`` [s] (MPM-SDEM eq. 51's contact and DEM terms). Call before
+        the first step (a CUDA graph records the launch)."""
+        self.dt_cap = (float(cap), float(bound))
+
     def begin_step(self) -> None:
-        """dt of this step from the CFL speeds (or the fixed dt) onto the device clock."""
-        wp.launch(reduction_kernels.compute_dt, 1, inputs=[self.clock, self.max_speed, float(self.scene.cell_size)],
-                  device=self.device)
+        """dt of this step from the CFL speeds (or the fixed dt), capped in coupled scenes, onto the
+        device clock."""
+        cap, bound = self.dt_cap
+        wp.launch(reduction_kernels.compute_dt, 1,
+                  inputs=[self.clock, self.max_speed, float(self.scene.cell_size), cap, bound], device=self.device)
 
     def run_sequence(self) -> None:
         """P2G, grid update and G2P of the chosen stress-update order (the MPM stage of a step)."""
         G = self.G
-        if not self.config.granular:  # granular mode: the grid update clears the copies it used
+        if not self.clears_grid:  # (else the last grid update of the step before cleared the nodes it used)
             G.mass.zero_()
             G.mom.zero_()
             if not self.fused:
