@@ -8,6 +8,12 @@ For every size the reference runs first, then mpmdem; each is warmed up (JIT and
 capture excluded), then ``--steps`` steps are timed between two device synchronisations. One
 JSON line per run goes to stdout (and is appended to ``--out``).
 
+mpmdem is stepped (``--stepping``) either by ``Simulation.advance`` (a bare sequence of steps, no
+host sync and no automatic re-sorting) or by ``Simulation.advance_to`` (what ``run`` does: batches
+of steps with the stability check and, by default, the drift check of the automatic re-sorting,
+so a re-sort it triggers is inside the timed window). ``--shuffle`` defaults to advance_to: it
+then measures what a user gets from the default configuration once the points' order is lost.
+
 The reference is a three-kernel MLS-MPM step (P2G with APIC, quadratic B-spline weights and the
 Neo-Hookean stress fused; grid update; G2P), f32, fixed dt equal to mpmdem's first CFL step
 (κ h / c). On CUDA its step is captured as a graph too, as mpmdem's is.
@@ -38,6 +44,11 @@ POINTS_PER_CELL = 2
 WARMUP_STEPS = 5
 GPU_SIZES = (65536, 262144, 1048576, 4194304)
 CPU_SIZES = (16384,)
+STEPPINGS = ("advance", "advance_to")
+#: default timed steps on CUDA by stepping: through advance_to, a drifted order is found at the
+#: end of the first batch at least AUTO_SORT_CHECK_STEPS after the last check (batches are up to
+#: 400 steps), so the window is long enough for that delay to be a part, not the whole, of it
+GPU_STEPS = {"advance": 200, "advance_to": 1000}
 #: What the reference implements, for its rows.
 REFERENCE_CONFIG = SolverConfig(shape="bspline2", transfer="APIC", update="USL", precision="f32")
 
@@ -222,11 +233,18 @@ def time_reference(positions: np.ndarray, n: int, dt: float, steps: int, device)
     return seconds, bool(np.isfinite(ref.x.numpy()).all())
 
 
-def time_mpmdem(scene: Scene, config: SolverConfig, steps: int, device, shuffle: bool = False) -> tuple[float, bool]:
-    """Seconds for ``steps`` mpmdem steps, and whether the positions stayed finite.
+def time_mpmdem(scene: Scene, config: SolverConfig, steps: int, device, shuffle: bool = False,
+                stepping: str = "advance") -> tuple[float, bool, int, float]:
+    """Time mpmdem's steps: (seconds, whether the positions stayed finite, steps taken, drift after).
 
     shuffle: put the points in a random memory order after the warm-up (what a long flow does to
     them), so the effect of ``sort_interval`` shows.
+    stepping: "advance" times exactly ``steps`` steps of ``Simulation.advance``; "advance_to"
+    times ``Simulation.advance_to`` up to the time ``steps`` steps of the current dt reach, which
+    includes its host checks and any automatic re-sort (the CFL dt varies a little, so the steps
+    taken are counted on the device and returned).
+    The drift after is the fraction [-] of consecutive points in cells that are not neighbours
+    (``MPMSolver.order_drift``), read after the timed window.
     """
     sim = Simulation(scene, config, device=str(device))
     sim.advance_to(1.0e-12)  # loads the modules, records the CUDA graph, takes one step
@@ -235,30 +253,35 @@ def time_mpmdem(scene: Scene, config: SolverConfig, steps: int, device, shuffle:
     if shuffle:
         sim.mpm.shuffle_points()
     wp.synchronize_device(device)
-    steps_before = sim.mpm.read_clock()[3]
+    t_before, dt, _, steps_before, _ = sim.mpm.read_clock()
     start = time.perf_counter()
-    sim.mpm.set_stop_time(1.0e9)
-    sim.advance(steps)
+    if stepping == "advance_to":
+        sim.advance_to(t_before + steps * dt)
+    else:
+        sim.mpm.set_stop_time(1.0e9)
+        sim.advance(steps)
     wp.synchronize_device(device)
     seconds = time.perf_counter() - start
     taken = sim.mpm.read_clock()[3] - steps_before
-    if taken != steps:
+    if stepping == "advance" and taken != steps:
         raise RuntimeError(f"mpmdem took {taken} of {steps} timed steps (stop time reached?)")
-    return seconds, bool(np.isfinite(sim.mpm.P.x.numpy()).all())
+    return seconds, bool(np.isfinite(sim.mpm.P.x.numpy()).all()), taken, sim.mpm.order_drift()
 
 
 def row(impl: str, device, config: SolverConfig, particles: int, n: int, steps: int, seconds: float,
-        ratio_to: float | None, finite: bool, shuffled: bool = False) -> dict:
-    """One JSON record; ``ratio_to`` is the reference pups an mpmdem row is divided by."""
+        ratio_to: float | None, finite: bool, shuffled: bool = False, **extra) -> dict:
+    """One JSON record; ``ratio_to`` is the reference pups an mpmdem row is divided by; ``extra``
+    keys (stepping, drift_after on mpmdem rows) are appended."""
     pups = particles * steps / seconds
     return dict(case="neo-hookean-block", impl=impl, device=str(device), precision=config.precision,
                 shape=config.shape, transfer=config.transfer, update=config.update, particles=particles,
                 grid=n, steps=steps, seconds=seconds, pups=pups,
                 ratio=None if ratio_to is None else pups / ratio_to, finite=finite,
-                sort_interval=config.sort_interval, shuffled=shuffled)
+                sort_interval=config.sort_interval, shuffled=shuffled, **extra)
 
 
-def measure(particles: int, config: SolverConfig, steps: int, device, shuffle: bool = False) -> list[dict]:
+def measure(particles: int, config: SolverConfig, steps: int, device, shuffle: bool = False,
+            stepping: str = "advance") -> list[dict]:
     """Time the reference, then mpmdem, at one size; return their two rows."""
     n = grid_cells(particles)
     scene = build_scene(n)
@@ -270,8 +293,9 @@ def measure(particles: int, config: SolverConfig, steps: int, device, shuffle: b
     dt = config.cfl * scene.cell_size / scene.bodies[0].material.wave_speed
     ref_s, ref_ok = time_reference(positions, n, dt, steps, device)
     ref = row("reference", device, REFERENCE_CONFIG, count, n, steps, ref_s, None, ref_ok)
-    s, ok = time_mpmdem(scene, config, steps, device, shuffle)
-    return [ref, row("mpmdem", device, config, count, n, steps, s, ref["pups"], ok, shuffle)]
+    s, ok, taken, drift = time_mpmdem(scene, config, steps, device, shuffle, stepping)
+    return [ref, row("mpmdem", device, config, count, n, taken, s, ref["pups"], ok, shuffle, stepping=stepping,
+                     drift_after=drift)]
 
 
 def run_probe(path: str, n_grid: int, steps: int, device: str, sort: bool) -> dict:
@@ -289,15 +313,22 @@ def main(argv=None) -> None:
     parser.add_argument("--sizes", default=None,
                         help=f"comma-separated particle counts (default {','.join(map(str, GPU_SIZES))} "
                              f"on cuda, {','.join(map(str, CPU_SIZES))} on cpu)")
-    parser.add_argument("--steps", type=int, default=None, help="timed steps (default 200 on cuda, 20 on cpu)")
+    parser.add_argument("--steps", type=int, default=None,
+                        help="timed steps (default on cuda: 200 with --stepping advance, 1000 with advance_to; "
+                             "20 on cpu)")
     parser.add_argument("--shape", default="bspline2")
     parser.add_argument("--transfer", default="APIC")
     parser.add_argument("--update", default="USL")
     parser.add_argument("--precision", default="f32", choices=("f32", "f64"))
     parser.add_argument("--sort-interval", type=int, default=None,
-                        help="steps between re-sorts of the points by cell (default: never)")
+                        help="steps between re-sorts of the points by cell; 0: never (default: automatic, "
+                             "as the order drifts, which only --stepping advance_to does)")
     parser.add_argument("--shuffle", action="store_true",
                         help="randomise the points' memory order before timing (as a long flow would)")
+    parser.add_argument("--stepping", choices=STEPPINGS, default=None,
+                        help="how mpmdem is stepped in the timed window: advance (bare steps) or advance_to "
+                             "(batches with host checks and automatic re-sorting, as run does); default: "
+                             "advance_to with --shuffle, else advance")
     parser.add_argument("--probe", default=None,
                         help="path of the shared probe warp_mlsmpm2d.py: run it at each size in this process and "
                              "write probe_pups and ratio_to_probe on the mpmdem rows")
@@ -308,14 +339,15 @@ def main(argv=None) -> None:
     device = wp.get_device(args.device or ("cuda" if wp.get_cuda_device_count() > 0 else "cpu"))
     cuda = device.is_cuda
     sizes = [int(s) for s in args.sizes.split(",")] if args.sizes else list(GPU_SIZES if cuda else CPU_SIZES)
-    steps = args.steps or (200 if cuda else 20)
+    stepping = args.stepping or ("advance_to" if args.shuffle else "advance")
+    steps = args.steps or (GPU_STEPS[stepping] if cuda else 20)
     config = SolverConfig(shape=args.shape, transfer=args.transfer, update=args.update, precision=args.precision,
                           sort_interval=args.sort_interval)
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
     with wp.ScopedDevice(device):
         for particles in sizes:
-            rows = measure(particles, config, steps, device, args.shuffle)
+            rows = measure(particles, config, steps, device, args.shuffle, stepping)
             if args.probe:
                 probe = run_probe(args.probe, rows[0]["grid"], steps, str(device), sort=not args.shuffle)
                 for row in rows:

@@ -38,6 +38,7 @@ class PointSorter:
         self.points, self.domain, self.grid_shape = points, domain, grid_shape
         self.precision, self.staged, self.device = precision, staged, device
         self._scratch = None
+        self._drift_count = None
 
     def _buffers(self):
         if self._scratch is None:
@@ -56,13 +57,33 @@ class PointSorter:
             self._scratch = (scratch, keys, values)
         return self._scratch
 
+    def _rows_cols(self) -> tuple[int, int]:
+        """(rows, cols) of the cell keys: cells per grid column, and columns (the clamp of cx)."""
+        return self.grid_shape[1], self.grid_shape[0]
+
+    def drift(self) -> float:
+        """The fraction [-] of consecutive point pairs in memory whose cells are not neighbours
+        (``kernels.sorting.make_order_drift``): near 0 in cell order, near 1 in a random order.
+        One kernel and one 4-byte read back, so one host synchronisation."""
+        n = len(self.points.x)
+        if n < 2:
+            return 0.0
+        if self._drift_count is None:
+            self._drift_count = wp.zeros(1, dtype=wp.int32, device=self.device)
+        count = self._drift_count
+        count.zero_()
+        rows, cols = self._rows_cols()
+        wp.launch(sorting_kernels.make_order_drift(self.precision), n - 1,
+                  inputs=[self.points, self.domain, rows, cols, count], device=self.device)
+        return int(count.numpy()[0]) / (n - 1)
+
     def reorder(self, order: wp.array | None = None) -> None:
         """new[p] = old[order[p]] for every per-point array; None: by grid cell (radix sort)."""
         dev = self.device
         n = len(self.points.x)
         scratch, keys, values = self._buffers()
         if order is None:
-            rows, cols = self.grid_shape[1], self.grid_shape[0]
+            rows, cols = self._rows_cols()
             wp.launch(sorting_kernels.make_cell_keys(self.precision), n,
                       inputs=[self.points, self.domain, rows, cols, keys, values], device=dev)
             wp.utils.radix_sort_pairs(keys, values, n)

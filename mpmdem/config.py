@@ -120,9 +120,15 @@ class SolverConfig:
         blowup_energy_factor: stop when the total energy exceeds its initial scale by this
             factor (energy growth is the signature of an unstable explicit step).
         cuda_graph: record one step as a CUDA graph on GPUs and replay it.
-        sort_interval: re-sort the points by grid cell every this many steps, which keeps the
-            P2G atomics coalesced as material flows; None or 0 (default) never re-sorts (the
-            points start in cell order). Its GPU benefit is not measured yet, so it is opt-in.
+        sort_interval: re-sorting of the points by grid cell, which keeps the P2G atomics
+            coalesced as material flows (the points start in cell order). None (default):
+            automatic — ``Simulation.advance_to`` measures how far the memory order has drifted
+            after its batches of steps and re-sorts when it passed a threshold
+            (``mpmdem.auto_sort``); it runs on CUDA devices only, for scenes of at least
+            ``AUTO_SORT_MIN_POINTS`` points without rigid bodies, and is off (silently) elsewhere,
+            so CPU runs, small scenes and coupled scenes never re-sort. 0: never re-sort. N > 0:
+            re-sort every N steps, in ``advance`` too (not allowed in coupled scenes, whose
+            point–body lists follow the memory order).
         deterministic: make GPU runs bit-identical from run to run (ordered float atomics in
             P2G and in the DEM contact sums; slower). CPU runs always are. Needed for bit-for-bit
             checkpoint restarts on GPUs.
@@ -216,7 +222,9 @@ class SolverConfig:
         if not (isinstance(self.xpic_order, int) and self.xpic_order >= 1):
             raise InputError("xpic_order", self.xpic_order, "an integer >= 1 (the m of XPIC(m))")
         if self.sort_interval is not None and not (isinstance(self.sort_interval, int) and self.sort_interval >= 0):
-            raise InputError("sort_interval", self.sort_interval, "an integer >= 0 (steps), or None for the default")
+            raise InputError("sort_interval", self.sort_interval,
+                             "an integer >= 0 (steps between re-sorts; 0: never), or None (default: automatic, "
+                             "as the points' order drifts)")
         if not (float(self.damping) >= 0.0):
             raise InputError("damping", self.damping, "Cundall's coefficient D >= 0 (0 = off; 0.1 is typical)")
         if self.dt is not None and not (float(self.dt) > 0.0):

@@ -62,10 +62,12 @@ class CoupledStage(ClockedStage):
     """
 
     def __init__(self, scene: Scene, config: SolverConfig, device: str, mpm: MPMSolver, dem: DEMSolver):
+        # the point–body lists follow the points' memory order: no re-sort on a schedule, and the
+        # automatic re-sorting of sort_interval None is off in coupled scenes (mpmdem.auto_sort)
         if config.sort_interval:
             raise InputError("sort_interval", config.sort_interval,
                              "0 or None in a scene with rigid bodies and points (the point–body lists follow the "
-                             "points' memory order)")
+                             "points' memory order; None re-sorts nothing here)")
         self.scene, self.config, self.mpm, self.dem = scene, config, mpm, dem
         self.device = wp.get_device(device)
         if mpm.sim_clock is not dem.sim_clock:

@@ -346,6 +346,11 @@ class MPMSolver(ClockedStage):
         self._sorter.reorder()
         self.invalidate_interactions()
 
+    def order_drift(self) -> float:
+        """How far the points' memory order has drifted from cell order: the fraction [-] of
+        consecutive pairs whose cells are not neighbours (``PointSorter.drift``; one host sync)."""
+        return self._sorter.drift()
+
     def shuffle_points(self, seed: int = 0) -> None:
         """Put the points in a random memory order (benchmarks of sorting; results are unchanged)."""
         perm = np.random.default_rng(seed).permutation(self.particle_count).astype(np.int32)

@@ -23,6 +23,7 @@ import numpy as np
 import warp as wp
 
 from . import __version__
+from .auto_sort import AutoSort, auto_sort_applies
 from .config import SolverConfig
 from .dem import DEMSolver
 from .diagnostics import EnergyBalance, check_energy
@@ -106,8 +107,15 @@ class Simulation:
         self.stage: Stage = self.coupling or self.mpm or self.dem
         self._graph = None
         self._graph_many = None
+        #: steps between two re-sorts of the points by cell in ``advance``; 0 when it never
+        #: re-sorts on a schedule (sort_interval 0, or None: automatic)
         self.sort_interval = self.config.sort_interval or 0
         self._steps_since_sort = 0
+        # sort_interval None: re-sort when the memory order has drifted, checked after the batches
+        # of advance_to (mpmdem.auto_sort; None where it does not apply: CPU, small or coupled scenes)
+        self._auto_sort = AutoSort(self.mpm) if self.mpm is not None and auto_sort_applies(
+            self.config, cuda=wp.get_device(self.device).is_cuda, points=self.mpm.particle_count,
+            coupled=self.coupling is not None) else None
 
     @property
     def particle_count(self) -> int:
@@ -140,8 +148,9 @@ class Simulation:
         self._graph_many = cap.graph
 
     def advance(self, steps: int) -> None:
-        """Launch ``steps`` explicit steps without any host synchronisation (the points are
-        re-sorted by cell every ``sort_interval`` steps, between two steps)."""
+        """Launch ``steps`` explicit steps without any host synchronisation (with an explicit
+        ``sort_interval`` N > 0, the points are re-sorted by cell every N steps, between two steps;
+        the automatic re-sorting of the default runs only in ``advance_to``)."""
         left = steps
         while left > 0:
             until_sort = self.sort_interval - self._steps_since_sort if self.mpm and self.sort_interval else left
@@ -163,6 +172,10 @@ class Simulation:
     def advance_to(self, t_stop: float, *, max_batch: int | None = None, on_batch=None) -> tuple[float, int]:
         """Step until the clock reaches t_stop [s]; checks stability after each batch of steps.
 
+        With the automatic re-sorting (``mpmdem.auto_sort``), also measures after a batch how far
+        the points' memory order has drifted (at most every AUTO_SORT_CHECK_STEPS steps) and
+        re-sorts them by cell when it passed AUTO_SORT_DRIFT.
+
         Returns (time reached, steps taken). Raises BlowUpError on NaN/inf or escaped points.
         """
         self._capture()
@@ -176,6 +189,8 @@ class Simulation:
             self.advance(batch)
             t, dt, bound, steps, status = stage.read_clock()
             stage.check_status(t, dt, bound, status)
+            if self._auto_sort is not None:
+                self._auto_sort.after_batch(steps)
             if on_batch is not None:
                 on_batch(t, dt)
             # the steps left, as the device counts them (kernels.reductions.land_on_stop): an idle
