@@ -5,7 +5,8 @@ few µs whatever it does), so the count of nodes per step is the figure to cut. 
 each case of bench/small_scenes.py at its default size, takes a few steps, then records the
 launches of one more step as the step lays them out: kernel launches, memsets and conditional
 blocks (``launch_plan.IfFlag``, one conditional node in a CUDA graph, whose body runs only when its
-flag is set). On a CPU every launch of a conditional body is listed (indented) as well.
+flag is set; ``launch_plan.IfAny``, a kernel that ORs its flags and one conditional node). On a CPU
+every launch of a conditional body is listed (indented) as well.
 
 One JSON line per case (case, nodes: graph nodes of the step outside conditional bodies,
 conditional_nodes: the launches inside them, items: the listing) to stdout; ``--list`` prints the
@@ -54,7 +55,14 @@ class StepRecorder:
 
         def recorded_run_plan(plan, device, extensions=None):
             for item in plan:
-                if isinstance(item, launch_plan.IfFlag):
+                if isinstance(item, launch_plan.IfAny):
+                    # (in a CUDA graph: a one-thread kernel ORs the flags, then one conditional node)
+                    recorder.items.append((recorder.depth, f"or_flags of {len(item.flags)} (CUDA graphs only)"))
+                    recorder.items.append((recorder.depth, "if any flag:"))
+                    recorder.depth += 1
+                    recorded_run_plan(item.body, device, extensions)
+                    recorder.depth -= 1
+                elif isinstance(item, launch_plan.IfFlag):
                     recorder.items.append((recorder.depth, "if flag:"))
                     recorder.depth += 1
                     recorded_run_plan(item.body, device, extensions)

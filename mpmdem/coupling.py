@@ -29,7 +29,7 @@ from .dem import DEMSolver, spring_time_step_bound
 from .diagnostics import coupled_likely_cause
 from .errors import BlowUpError, InputError
 from .kernels import coupling as coupling_kernels
-from .launch_plan import IfFlag, Launch, run_plan
+from .launch_plan import IfAny, IfFlag, Launch, run_plan
 from .mpm import AFTER_FORCE_UPDATE, MPMSolver
 from .scene import Scene
 from .stage import ClockedStage
@@ -158,6 +158,8 @@ class CoupledStage(ClockedStage):
         self.cell_items = wp.zeros(ncell * self.cell_cap, dtype=wp.int32, device=dev)
         self.flags = wp.ones(1, dtype=wp.int32, device=dev)  # build in the first step
         self.rebuilds = wp.zeros(1, dtype=wp.int64, device=dev)
+        #: whether any list rebuild or relabel runs in this step (``start_plan``)
+        self.any_rebuild = wp.zeros(1, dtype=wp.int32, device=dev)
         self.status = wp.zeros(coupling_kernels.STATUS_SIZE, dtype=wp.int32, device=dev)
         self.diag = wp.zeros(len(coupling_kernels.IMP_DIAG_NAMES), dtype=wp.float64, device=dev)
 
@@ -219,12 +221,16 @@ class CoupledStage(ClockedStage):
         """One coupled explicit step (MPM-SDEM §4.2)."""
         mpm, dem = self.mpm, self.dem
         mpm.begin_step()  # (dt capped at dt_cap: ``MPMSolver.cap_time_step``)
-        dem.contact_stage()
+        dem.contact_checks()
         if self.liu is None:
-            self.contact_forces()
+            self.check_lists()
+        run_plan(self.start_plan, self.device, mpm.extensions)  # list rebuilds, relabel (when flagged)
+        dem.contact_forces()
+        if self.liu is None:
+            self.imp_forces()
         else:
             self._liu_carriers()
-        mpm.run_sequence()
+        mpm.run_sequence(start=False)
         dem.body_update()
         mpm.end_step()
 
@@ -247,15 +253,39 @@ class CoupledStage(ClockedStage):
 
     def contact_forces(self) -> None:
         """Point–body lists (rebuilt when flagged) and the IMP forces of this step."""
+        self.check_lists()
+        run_plan(self.rebuild_plan, self.device)
+        self.imp_forces()
+
+    def check_lists(self) -> None:
+        """Flag a rebuild of the point–body lists when a point or a moving body moved more than
+        half the skin since the last build."""
         k, L, params, dev = self.k, self.L, self.params, self.device
         points, B = self.mpm.P, self.dem.B
-        n = self.mpm.particle_count
-        clock, flags = self.clock, self.flags
-        wp.launch(k.check_points, n, inputs=[points, L, params, clock, flags], device=dev)
+        wp.launch(k.check_points, self.mpm.particle_count, inputs=[points, L, params, self.clock, self.flags],
+                  device=dev)
         if self.dem.moving:
-            wp.launch(k.check_bodies, self.dem.moving, inputs=[B, L, params, flags], device=dev)
-        run_plan(self.rebuild_plan, dev)
-        wp.launch(k.forces, n, inputs=[points, B, L, params, self.dem.world, clock, self.status], device=dev)
+            wp.launch(k.check_bodies, self.dem.moving, inputs=[B, L, params, self.flags], device=dev)
+
+    def imp_forces(self) -> None:
+        """The IMP forces of this step on the points (and their reactions on the bodies)."""
+        wp.launch(self.k.forces, self.mpm.particle_count,
+                  inputs=[self.mpm.P, self.dem.B, self.L, self.params, self.dem.world, self.clock, self.status],
+                  device=self.device)
+
+    @functools.cached_property
+    def start_plan(self) -> list:
+        """The conditional blocks of a step's start, decided before any force: the body–body list
+        rebuild, the point–body list rebuild and (granular mode) the relabel of the points, under
+        one conditional node (``IfAny``) when there are several: in most steps none runs, and one
+        skipped node costs less than three (bench/launch_floor.py). They touch disjoint arrays, so
+        their order among themselves and before the forces changes nothing."""
+        blocks = self.dem.contact_rebuild + (self.rebuild_plan if self.liu is None else []) + self.mpm.start_plan
+        conditional = [b for b in blocks if isinstance(b, IfFlag)]
+        rest = [b for b in blocks if not isinstance(b, IfFlag)]  # (domains that deform: every step)
+        if len(conditional) < 2:
+            return conditional + rest
+        return [IfAny([b.flag for b in conditional], self.any_rebuild, conditional)] + rest
 
     def status_counts(self) -> np.ndarray:
         """Status counts of both stages and the coupling, one after the other."""

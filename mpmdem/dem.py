@@ -318,7 +318,14 @@ class DEMSolver(ClockedStage):
     def contact_stage(self) -> None:
         """World vertices, Verlet lists (rebuilt only when flagged on the device) and the
         body–body contact forces of this step into ``B.force``, ``B.torque``."""
-        k, B, C, params, dev = self.k, self.B, self.C, self.params, self.device
+        self.contact_checks()
+        run_plan(self.contact_rebuild, self.device)
+        self.contact_forces()
+
+    def contact_checks(self) -> None:
+        """The start of the contact stage: world vertices of the moving bodies, this step's loads
+        cleared and, with free bodies, whether the lists must be rebuilt (a device flag)."""
+        k, B, params, dev = self.k, self.B, self.params, self.device
         if self.moving_vertices:
             wp.launch(k.world_vertices, self.moving_vertices, inputs=[B, self.local, self.owner, self.world],
                       device=dev)
@@ -329,9 +336,17 @@ class DEMSolver(ClockedStage):
             return
         # (this step's loads cleared in the same launch)
         wp.launch(k.check_displacement, self.body_count, inputs=[B, params, self.flags, self.moving], device=dev)
-        run_plan(self.rebuild_plan, dev)
-        wp.launch(k.contact_forces, self.body_count * self.slots,
-                  inputs=[B, C, params, self.world, self.clock, self.status], device=dev)
+
+    @property
+    def contact_rebuild(self) -> list:
+        """The plan of the list rebuild (``rebuild_plan``; nothing without a free body)."""
+        return self.rebuild_plan if self.free else []
+
+    def contact_forces(self) -> None:
+        """The body–body contact forces of this step (lists up to date), with free bodies."""
+        if self.free:
+            wp.launch(self.k.contact_forces, self.body_count * self.slots,
+                      inputs=[self.B, self.C, self.params, self.world, self.clock, self.status], device=self.device)
 
     def body_update(self) -> None:
         """Rigid-body update of the free and kinematic bodies (fixed bodies are not integrated)."""

@@ -242,8 +242,9 @@ class MPMSolver(ClockedStage):
         seq: list = []
         self._judge = None  # granular mode, non-deforming domains: the rebuild decision (end_step)
         check = None
+        self.start_plan: list = []  # granular mode: the relabel at the start of a step (as a block)
         if c.granular:
-            seq, self._judge, check = granular_state.granular_plan(self, grid_dim)
+            self.start_plan, self._judge, check = granular_state.granular_plan(self, grid_dim)
         if c.update == "USL":
             if self.fused:
                 seq += p2g(mass=True, momentum=True, force=True, fused_impulse=True)
@@ -311,19 +312,24 @@ class MPMSolver(ClockedStage):
         wp.launch(reduction_kernels.compute_dt, 1,
                   inputs=[self.clock, self.max_speed, float(self.scene.cell_size), cap, bound], device=self.device)
 
-    def run_sequence(self) -> None:
-        """P2G, grid update and G2P of the chosen stress-update order (the MPM stage of a step)."""
+    def run_sequence(self, start: bool = True) -> None:
+        """P2G, grid update and G2P of the chosen stress-update order (the MPM stage of a step),
+        after ``start_plan`` (granular mode: the relabel) unless ``start`` is False (a coupled
+        step runs it with its list rebuilds)."""
         G = self.G
         if not self.clears_grid:  # (else the last grid update of the step before cleared the nodes it used)
             G.mass.zero_()
             G.mom.zero_()
             if not self.fused:
                 G.force.zero_()
+        if start:
+            run_plan(self.start_plan, self.device, self.extensions)
         run_plan(self._sequence, self.device, self.extensions)
 
     def step_kernels(self) -> list:
         """Every kernel the MPM stage of a step may launch (those of conditional parts included)."""
-        return list(plan_kernels(self._sequence)) + ([self._judge] if self._judge is not None else [])
+        return (list(plan_kernels(self.start_plan + self._sequence))
+                + ([self._judge] if self._judge is not None else []))
 
     def end_step(self) -> None:
         """t += dt on the device clock (in granular mode with it, whether the next step rebuilds the
