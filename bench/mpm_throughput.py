@@ -46,8 +46,8 @@ GPU_SIZES = (65536, 262144, 1048576, 4194304)
 CPU_SIZES = (16384,)
 STEPPINGS = ("advance", "advance_to")
 #: default timed steps on CUDA by stepping: through advance_to, a drifted order is found at the
-#: end of the first batch at least AUTO_SORT_CHECK_STEPS after the last check (batches are up to
-#: 400 steps), so the window is long enough for that delay to be a part, not the whole, of it
+#: end of a batch (up to 400 steps; the first of a window is one step), and the window is long
+#: enough for the batches' host checks to weigh as they do in a run
 GPU_STEPS = {"advance": 200, "advance_to": 1000}
 #: What the reference implements, for its rows.
 REFERENCE_CONFIG = SolverConfig(shape="bspline2", transfer="APIC", update="USL", precision="f32")

@@ -82,9 +82,14 @@ def main(argv=None) -> int:
     p.add_argument("--steps-per-graph", type=int, default=None,
                    help="steps per CUDA-graph launch (default mpmdem.simulation.STEPS_PER_GRAPH; 1: one per step)")
     p.add_argument("--out", type=Path, default=RESULTS / "small_scenes.jsonl")
+    p.add_argument("--no-conditional", action="store_true",
+                   help="record conditional blocks as kernels that return at once instead of conditional graph "
+                        "nodes (Nsight Compute profiles no kernel node of a graph that has conditional nodes)")
     args, flags = p.parse_known_args(argv)
     if args.steps_per_graph is not None:
         simulation.STEPS_PER_GRAPH = args.steps_per_graph
+    if args.no_conditional:
+        wp.is_conditional_graph_supported = lambda: False
     rows = []
     for name in [c.strip() for c in args.cases.split(",") if c.strip()]:
         row = time_case(name, args.device, args.warmup, args.steps, flags)

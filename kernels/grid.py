@@ -375,7 +375,8 @@ def _mirror_node(i: int, j: int, lo: wp.vec2i, hi: wp.vec2i, kinds: wp.vec4i):
 def make_mirror_ghosts(precision: str, layered: bool = False, pair: bool = False):
     """Ghost nodes beyond a fixed or slip wall take the mirrored velocity of the interior:
     ``mirror_ghosts(field, second, D, clock, owner)`` mirrors ``field``, and with ``pair`` also
-    ``second`` (two fields in one launch; without it ``second`` is not read).
+    ``second`` (two fields in one launch; without it ``second`` is not read). Launched over the
+    nodes of ``band`` (``mpmdem.mpm_state.wall_band``: those within two ghost widths of the edge).
 
     Wide stencils (B-splines) reach one or two nodes past the wall. Setting those ghosts to the
     mirror image of the interior field (odd in every component for a fixed wall, odd in the
@@ -410,8 +411,11 @@ def make_mirror_ghosts(precision: str, layered: bool = False, pair: bool = False
 
     @kernel
     def mirror_ghosts(field: wp.array2d(dtype=t.vec2), second: wp.array2d(dtype=t.vec2), D: Domain,
-                      clock: wp.array(dtype=wp.float64), owner: wp.array2d(dtype=wp.int32)):
-        i, j = wp.tid()  # a node of one layer
+                      clock: wp.array(dtype=wp.float64), owner: wp.array2d(dtype=wp.int32),
+                      band: wp.array(dtype=wp.vec2i)):
+        node = band[wp.tid()]  # a node of one layer near its edge (mpm_state.wall_band)
+        i = node[0]
+        j = node[1]
         if clock[CLOCK_DT] <= wp.float64(0.0):
             return
         si, sj, sx, sy, mirrored = _mirror_node(i, j, D.node_lo, D.node_hi, D.bc_kind)
@@ -525,8 +529,10 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
             fold_vec(G.pk, r, j, rx, ry, gj, rxy, kx, ky)
 
     @kernel
-    def fold_ghosts(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
-        i, j = wp.tid()  # a node of one layer
+    def fold_ghosts(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), band: wp.array(dtype=wp.vec2i)):
+        node = band[wp.tid()]  # a node of one layer near its edge (mpm_state.wall_band)
+        i = node[0]
+        j = node[1]
         if clock[CLOCK_DT] <= wp.float64(0.0):
             return
         lo = D.node_lo

@@ -27,7 +27,7 @@ from .kernels import transfer as transfer_kernels
 from .kernels.shape_functions import SUPPORT_NODES
 from .kernels.types import scalar_types
 from .launch_plan import ExtensionPoint, Launch, Zero, plan_kernels, run_plan
-from .mpm_state import GHOST_NODES, STATE_FIELDS, make_domain, make_grid, make_points
+from .mpm_state import GHOST_NODES, STATE_FIELDS, make_domain, make_grid, make_points, wall_band
 from .scene import Scene
 from .stage import Clock, ClockedStage
 
@@ -173,19 +173,24 @@ class MPMSolver(ClockedStage):
         layered = c.granular
         grid_kernel_makers = {}
         mirror = grid_kernels.make_mirror_ghosts(prec, layered=layered)
+        # the wall images touch only the nodes near the grid's edge: their kernels run over those
+        band = wall_band(self.D.layer_rows, self.grid_shape[1]) if mirror_walls else np.zeros((1, 2), np.int32)
+        self.wall_band = wp.array(band, dtype=wp.vec2i, device=self.device)
+        band_dim = len(band)
         mirror_pair = grid_kernels.make_mirror_ghosts(prec, layered=layered, pair=True)
 
         def fold(**flags):
             if not mirror_walls:
                 return []
-            return [Launch(grid_kernels.make_fold_ghosts(prec, layered=layered, **flags), grid_dim, [G, D, clock])]
+            return [Launch(grid_kernels.make_fold_ghosts(prec, layered=layered, **flags), band_dim,
+                           [G, D, clock, self.wall_band])]
 
         def mirrored(*fields):
             if not mirror_walls or not fields:
                 return []
             if len(fields) == 2:  # (V and Ṽ in one launch)
-                return [Launch(mirror_pair, grid_dim, [fields[0], fields[1], D, clock, G.owner])]
-            return [Launch(mirror, grid_dim, [f, f, D, clock, G.owner]) for f in fields]
+                return [Launch(mirror_pair, band_dim, [fields[0], fields[1], D, clock, G.owner, self.wall_band])]
+            return [Launch(mirror, band_dim, [f, f, D, clock, G.owner, self.wall_band]) for f in fields]
 
         def p2g(**flags):
             kernel = transfer_kernels.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic,

@@ -19,7 +19,7 @@ from .kernels.types import scalar_types
 from .obstacles import solid_nodes
 from .scene import Scene
 
-__all__ = ["GHOST_NODES", "POINT_FIELDS", "STATE_FIELDS", "make_domain", "make_grid", "make_points"]
+__all__ = ["GHOST_NODES", "POINT_FIELDS", "STATE_FIELDS", "make_domain", "make_grid", "make_points", "wall_band"]
 
 #: Ghost node layers around the domain, enough for the widest stencil (4 nodes) of a point that
 #: sits on, or slightly beyond, the domain boundary.
@@ -132,4 +132,16 @@ def make_domain(scene: Scene, config: SolverConfig, layers: int, min_mass: float
     domain.layer_rows = nx + 1 + 2 * g
     domain.layers = layers
     return domain
+
+
+def wall_band(rows: int, cols: int, ghosts: int = GHOST_NODES) -> np.ndarray:
+    """(K, 2) int32: the nodes (i, j) of a layer of ``rows`` × ``cols`` nodes within 2 ``ghosts``
+    nodes of its edge, each once: the ghost nodes and the interior nodes they mirror, the only
+    nodes the wall images (kernels/grid.py: fold_ghosts, mirror_ghosts) touch. Those kernels run
+    over this band instead of the whole grid (at 1M points on an H100 they cost 23 µs a step over
+    the grid, mostly threads that return at once)."""
+    i, j = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
+    w = 2 * ghosts
+    near = (i <= w) | (i >= rows - 1 - w) | (j <= w) | (j >= cols - 1 - w)
+    return np.stack([i[near], j[near]], axis=1).astype(np.int32)
 

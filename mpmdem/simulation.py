@@ -173,7 +173,7 @@ class Simulation:
         """Step until the clock reaches t_stop [s]; checks stability after each batch of steps.
 
         With the automatic re-sorting (``mpmdem.auto_sort``), also measures after a batch how far
-        the points' memory order has drifted (at most every AUTO_SORT_CHECK_STEPS steps) and
+        the points' memory order has drifted (after each batch, or at most every AUTO_SORT_CHECK_STEPS steps) and
         re-sorts them by cell when it passed AUTO_SORT_DRIFT.
 
         Returns (time reached, steps taken). Raises BlowUpError on NaN/inf or escaped points.
