@@ -234,8 +234,9 @@ def time_reference(positions: np.ndarray, n: int, dt: float, steps: int, device)
 
 
 def time_mpmdem(scene: Scene, config: SolverConfig, steps: int, device, shuffle: bool = False,
-                stepping: str = "advance") -> tuple[float, bool, int, float]:
-    """Time mpmdem's steps: (seconds, whether the positions stayed finite, steps taken, drift after).
+                stepping: str = "advance") -> tuple[float, bool, int, float, int]:
+    """Time mpmdem's steps: (seconds, whether the positions stayed finite, steps taken, drift after,
+    automatic re-sorts in the timed window).
 
     shuffle: put the points in a random memory order after the warm-up (what a long flow does to
     them), so the effect of ``sort_interval`` shows.
@@ -254,6 +255,7 @@ def time_mpmdem(scene: Scene, config: SolverConfig, steps: int, device, shuffle:
         sim.mpm.shuffle_points()
     wp.synchronize_device(device)
     t_before, dt, _, steps_before, _ = sim.mpm.read_clock()
+    sorts_before = sim._auto_sort.sorts if sim._auto_sort is not None else 0
     start = time.perf_counter()
     if stepping == "advance_to":
         sim.advance_to(t_before + steps * dt)
@@ -265,7 +267,8 @@ def time_mpmdem(scene: Scene, config: SolverConfig, steps: int, device, shuffle:
     taken = sim.mpm.read_clock()[3] - steps_before
     if stepping == "advance" and taken != steps:
         raise RuntimeError(f"mpmdem took {taken} of {steps} timed steps (stop time reached?)")
-    return seconds, bool(np.isfinite(sim.mpm.P.x.numpy()).all()), taken, sim.mpm.order_drift()
+    sorts = (sim._auto_sort.sorts if sim._auto_sort is not None else 0) - sorts_before
+    return seconds, bool(np.isfinite(sim.mpm.P.x.numpy()).all()), taken, sim.mpm.order_drift(), sorts
 
 
 def row(impl: str, device, config: SolverConfig, particles: int, n: int, steps: int, seconds: float,
@@ -293,9 +296,9 @@ def measure(particles: int, config: SolverConfig, steps: int, device, shuffle: b
     dt = config.cfl * scene.cell_size / scene.bodies[0].material.wave_speed
     ref_s, ref_ok = time_reference(positions, n, dt, steps, device)
     ref = row("reference", device, REFERENCE_CONFIG, count, n, steps, ref_s, None, ref_ok)
-    s, ok, taken, drift = time_mpmdem(scene, config, steps, device, shuffle, stepping)
+    s, ok, taken, drift, sorts = time_mpmdem(scene, config, steps, device, shuffle, stepping)
     return [ref, row("mpmdem", device, config, count, n, taken, s, ref["pups"], ok, shuffle, stepping=stepping,
-                     drift_after=drift)]
+                     drift_after=drift, auto_sorts=sorts)]
 
 
 def run_probe(path: str, n_grid: int, steps: int, device: str, sort: bool) -> dict:

@@ -1,11 +1,15 @@
-"""Per-kernel GPU time from an Nsight Compute CSV (issue 27): where a step's device time goes.
+r"""Per-kernel GPU time from an Nsight Compute CSV (issue 27): where a step's device time goes.
 
 Run a bench under ``ncu`` with one metric, the kernel's duration, and graph nodes profiled one by
-one (so kernels replayed from CUDA graphs are timed as the step runs them):
+one (so kernels replayed from CUDA graphs are timed as the step runs them; Nsight Compute skips
+graphs with conditional nodes, hence bench/without_conditionals.py). ``--cache-control none``
+keeps the caches warm between kernels, as in a step (ncu's default flushes them, which inflates
+small kernels):
 
-    ncu --graph-profiling node --metrics gpu__time_duration.sum --clock-control none --csv \\
-        python bench/small_scenes.py --device cuda --cases normal-force --steps 64 --warmup 16 > nf.csv
-    python bench/ncu_split.py nf.csv --per 80
+    ncu --graph-profiling node --metrics gpu__time_duration.sum --clock-control none --cache-control none \
+        --csv python bench/without_conditionals.py bench/small_scenes.py --device cuda --cases normal-force \
+        --steps 64 --warmup 16 --out /dev/null > nf.csv
+    python bench/ncu_split.py nf.csv --last 64
 
 Each kernel's name (Warp's ``make_x__locals__name_hash`` shortened to ``name``), launches, mean and
 total µs. ``--per N`` divides launches and time by N (the steps the CSV holds) for a per-step

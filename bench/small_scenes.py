@@ -12,7 +12,9 @@ targets of issue 27 are per step, so a fixed number of steps measures them; a ca
 
 One JSON line per case to stdout and to ``--out`` (default bench/results/small_scenes.jsonl,
 appended): case, device, points, bodies, granular, steps, seconds (stepping only), us_per_step,
-the case's end time and dt (so its full run is end_time / dt steps). Nothing is asserted.
+the case's end time and dt (so its full run is end_time / dt steps), and how often the step's
+conditional parts ran (``list_rebuilds_per_step``, ``imp_rebuilds_per_step``, ``granular_rebuilds_per_step``,
+``granular_relabels_per_step``, where the scene has them). Nothing is asserted.
 
     python bench/small_scenes.py --device cuda
     python bench/small_scenes.py --device cpu --steps 200 --cases silo-discharge
@@ -33,6 +35,8 @@ from mpmdem import Simulation, simulation
 from mpmdem.runner import case_module, config_from_args, make_case_parser
 
 CASES = ("sand-blocks", "normal-force", "silo-filling", "silo-discharge")
+#: Diagnostics that count how often a conditional part of the step ran (its rate per step is written)
+REBUILD_COUNTS = ("list_rebuilds", "imp_rebuilds", "granular_rebuilds", "granular_relabels")
 RESULTS = Path(__file__).resolve().parent / "results"
 
 
@@ -60,6 +64,7 @@ def time_case(name: str, device: str, warmup: int, steps: int, flags: list[str])
     """µs per step of case ``name`` at its default size on ``device``."""
     sim, setup = build_case(name, device, flags)
     sim.advance(warmup)
+    before = sim.diagnostics()
     wp.synchronize_device(device)
     start = time.perf_counter()
     sim.advance(steps)
@@ -67,10 +72,14 @@ def time_case(name: str, device: str, warmup: int, steps: int, flags: list[str])
     seconds = time.perf_counter() - start
     t, dt, bound, done, status = sim.stage.read_clock()
     sim.stage.check_status(t, dt, bound, status)
+    after = sim.diagnostics()
+    # how often the conditional parts of a step ran in the timed steps (list rebuilds, relabels)
+    rates = {f"{k}_per_step": (after[k] - before[k]) / steps for k in REBUILD_COUNTS if k in after}
     return {"case": name, "device": str(wp.get_device(device).name if device != "cpu" else "cpu"),
             "points": sim.particle_count, "bodies": sim.body_count, "granular": sim.config.granular,
             "steps": steps, "seconds": seconds, "us_per_step": 1e6 * seconds / steps,
-            "end_time": setup.end_time, "dt": dt, "steps_per_graph": simulation.STEPS_PER_GRAPH, "commit": commit()}
+            "end_time": setup.end_time, "dt": dt, "steps_per_graph": simulation.STEPS_PER_GRAPH, **rates,
+            "commit": commit()}
 
 
 def main(argv=None) -> int:
@@ -82,14 +91,9 @@ def main(argv=None) -> int:
     p.add_argument("--steps-per-graph", type=int, default=None,
                    help="steps per CUDA-graph launch (default mpmdem.simulation.STEPS_PER_GRAPH; 1: one per step)")
     p.add_argument("--out", type=Path, default=RESULTS / "small_scenes.jsonl")
-    p.add_argument("--no-conditional", action="store_true",
-                   help="record conditional blocks as kernels that return at once instead of conditional graph "
-                        "nodes (Nsight Compute profiles no kernel node of a graph that has conditional nodes)")
     args, flags = p.parse_known_args(argv)
     if args.steps_per_graph is not None:
         simulation.STEPS_PER_GRAPH = args.steps_per_graph
-    if args.no_conditional:
-        wp.is_conditional_graph_supported = lambda: False
     rows = []
     for name in [c.strip() for c in args.cases.split(",") if c.strip()]:
         row = time_case(name, args.device, args.warmup, args.steps, flags)

@@ -62,6 +62,7 @@ class AutoSort:
         self.drift: float | None = None
         self.sorts = 0
         self._checked_at: int | None = None
+        mpm._sorter.prepare()  # (buffers and kernels loaded before the first step)
 
     def after_batch(self, steps: int) -> bool:
         """Called by ``Simulation.advance_to`` after a batch, when the host has just read the
