@@ -8,7 +8,7 @@ Kernels index it with these names (``clock[CLOCK_DT]``); the host side is ``mpmd
 import warp as wp
 
 __all__ = ["CLOCK_BOUND", "CLOCK_DT", "CLOCK_DT_FACTOR", "CLOCK_DT_FIXED", "CLOCK_SIZE", "CLOCK_T", "CLOCK_T_STOP",
-           "LANDING_SLACK", "ROUND_OFF", "land_on_stop"]
+           "LANDING_SLACK", "ROUND_OFF", "land", "land_on_stop"]
 
 #: t [s]: the time reached (advanced by dt at the end of each step).
 CLOCK_T = 0
@@ -35,6 +35,18 @@ ROUND_OFF = 1.0e-6
 
 
 @wp.func
+def land(t: wp.float64, t_stop: wp.float64, dt: wp.float64) -> wp.float64:
+    """``land_on_stop`` from the values t and t_stop [s] (a kernel that loaded them already: the
+    one-thread clock kernels load every slot first, so the loads leave together)."""
+    r = t_stop - t
+    out = dt
+    if dt > wp.float64(0.0) and r > wp.float64(0.0):
+        n = wp.max(wp.ceil(r / dt - wp.float64(LANDING_SLACK)), wp.float64(1.0))
+        out = r / n
+    return out
+
+
+@wp.func
 def land_on_stop(clock: wp.array(dtype=wp.float64), dt: wp.float64) -> wp.float64:
     """The step [s] no longer than ``dt`` (but for LANDING_SLACK) that splits the time left to
     t_stop into whole equal steps: R / n, n = ⌈R / dt − LANDING_SLACK⌉, R = t_stop − t, so the
@@ -47,9 +59,4 @@ def land_on_stop(clock: wp.array(dtype=wp.float64), dt: wp.float64) -> wp.float6
     between frames of order dt² / frame length, which keeps the update second order
     (tests/test_convergence.py).
     """
-    r = clock[CLOCK_T_STOP] - clock[CLOCK_T]
-    out = dt
-    if dt > wp.float64(0.0) and r > wp.float64(0.0):
-        n = wp.max(wp.ceil(r / dt - wp.float64(LANDING_SLACK)), wp.float64(1.0))
-        out = r / n
-    return out
+    return land(clock[CLOCK_T], clock[CLOCK_T_STOP], dt)

@@ -20,7 +20,7 @@ import functools
 
 import warp as wp
 
-from .clock import CLOCK_BOUND, CLOCK_DT, CLOCK_DT_FACTOR, CLOCK_DT_FIXED, CLOCK_T, CLOCK_T_STOP, land_on_stop
+from .clock import CLOCK_BOUND, CLOCK_DT, CLOCK_DT_FACTOR, CLOCK_DT_FIXED, CLOCK_T, CLOCK_T_STOP, land
 from .contact_geometry import make_contact_geometry, make_history_lookup
 from .types import Namespace, kernel, scalar_types
 
@@ -476,12 +476,17 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
     def dem_dt(clock: wp.array(dtype=wp.float64)):
         """dt = the fixed dt, or the factor × the bound (both set once: they depend on masses and k_n
         only), split evenly to end on t_stop; 0 once the clock has reached t_stop."""
-        dt = clock[CLOCK_DT_FIXED]
+        fixed = clock[CLOCK_DT_FIXED]  # (every load first: one round trip)
+        factor = clock[CLOCK_DT_FACTOR]
+        bound = clock[CLOCK_BOUND]
+        t = clock[CLOCK_T]
+        t_stop = clock[CLOCK_T_STOP]
+        dt = fixed
         if dt <= wp.float64(0.0):
-            dt = clock[CLOCK_DT_FACTOR] * clock[CLOCK_BOUND]
-        if clock[CLOCK_T] >= clock[CLOCK_T_STOP]:
+            dt = factor * bound
+        if t >= t_stop:
             dt = wp.float64(0.0)
-        clock[CLOCK_DT] = land_on_stop(clock, dt)  # whole steps end on t_stop
+        clock[CLOCK_DT] = land(t, t_stop, dt)  # whole steps end on t_stop
 
     # -- diagnostics ----------------------------------------------------------------------------
     @kernel

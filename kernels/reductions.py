@@ -17,7 +17,7 @@ from .clock import (
     CLOCK_T,
     CLOCK_T_STOP,
     ROUND_OFF,
-    land_on_stop,
+    land,
 )
 from .constitutive import make_strain_energy_density
 from .state import make_state_structs
@@ -128,6 +128,13 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
 
     Steps land on t_stop (the next output frame): see ``kernels.clock.land_on_stop``.
     """
+    # every load first: they leave together (one round trip, not one per slot read) on the critical
+    # path of every step
+    t = clock[CLOCK_T]
+    t_stop = clock[CLOCK_T_STOP]
+    fixed = clock[CLOCK_DT_FIXED]
+    factor = clock[CLOCK_DT_FACTOR]
+    last_bound = clock[CLOCK_BOUND]
     s = wp.float64(0.0)
     for k in range(wp.static(SPEED_SLOTS)):  # unrolled: independent loads
         s = wp.max(s, wp.float64(max_speed[k]))
@@ -135,20 +142,20 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
     if s > wp.float64(0.0):
         bound = h / s
     if not wp.isfinite(s):
-        bound = clock[CLOCK_BOUND]  # a NaN speed is reported by the status flags; keep the clock sane
-    dt = clock[CLOCK_DT_FIXED]
+        bound = last_bound  # a NaN speed is reported by the status flags; keep the clock sane
+    dt = fixed
     if dt <= wp.float64(0.0):
-        dt = clock[CLOCK_DT_FACTOR] * bound
-    if clock[CLOCK_T] >= clock[CLOCK_T_STOP]:
+        dt = factor * bound
+    if t >= t_stop:
         dt = wp.float64(0.0)
     else:
         for k in range(wp.static(SPEED_SLOTS)):
             max_speed[k] = wp.float32(0.0)  # refilled by this step's G2P
-    dt = land_on_stop(clock, dt)
+    dt = land(t, t_stop, dt)
     if cap > wp.float64(0.0):
         # (the landed step is compared with the cap, and the cap landed in its place)
-        if clock[CLOCK_DT_FIXED] <= wp.float64(0.0) and dt > cap:
-            dt = land_on_stop(clock, cap)
+        if fixed <= wp.float64(0.0) and dt > cap:
+            dt = land(t, t_stop, cap)
         bound = wp.min(bound, cap_bound)
     clock[CLOCK_BOUND] = bound
     clock[CLOCK_DT] = dt
@@ -158,13 +165,16 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
 def advance(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
     """t += dt; count steps taken (the end of a step). A time within round-off of t_stop is t_stop
     (``land_on_stop``'s steps sum to it up to a few ulps)."""
-    dt = clock[CLOCK_DT]
+    dt = clock[CLOCK_DT]  # (every load first: one round trip)
+    t = clock[CLOCK_T]
+    t_stop = clock[CLOCK_T_STOP]
+    taken = steps[0]
     if dt > wp.float64(0.0):
-        t = clock[CLOCK_T] + dt
-        if wp.abs(clock[CLOCK_T_STOP] - t) <= wp.float64(ROUND_OFF) * dt:
-            t = clock[CLOCK_T_STOP]
+        t = t + dt
+        if wp.abs(t_stop - t) <= wp.float64(ROUND_OFF) * dt:
+            t = t_stop
         clock[CLOCK_T] = t
-        steps[0] = steps[0] + wp.int64(1)
+        steps[0] = taken + wp.int64(1)
 
 
 @kernel
