@@ -56,6 +56,10 @@ KEY_KIND = 1 << 28
 KEY_VERTEX = 1 << 14
 
 
+#: Registers per thread of the body–body contact kernel on CUDA (None: the compiler's choice, 147
+#: on an H100, which caps its occupancy at 12.5 %); read when the kernels are built.
+CONTACT_REGISTERS: int | None = None
+
 @functools.cache
 def make_dem_kernels(precision: str, deterministic: bool = False):
     """Structs, functions and kernels of the DEM stage for one precision ("f32" or "f64")."""
@@ -311,7 +315,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         flags[0] = 0
 
     # -- contact forces (MPM-SDEM eq. 38-43) ------------------------------------------------------
-    @kernel(deterministic=deterministic)
+    @kernel(deterministic=deterministic, max_registers=CONTACT_REGISTERS)
     def contact_forces(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
                        clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
         """Forces and torques of one listed pair, added to both bodies (eq. 39-40)."""

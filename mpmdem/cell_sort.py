@@ -62,14 +62,14 @@ class PointSorter:
         return self.grid_shape[1], self.grid_shape[0]
 
     def prepare(self) -> None:
-        """Allocate the scratch arrays and load the sort's and the drift check's kernels onto the
-        device now, so that the first re-sort during a run costs what later ones do (a module
-        load inside a run's first re-sort took about 0.1 s at 1M points on an H100)."""
+        """Allocate the scratch arrays and compile and load the sort's and the drift check's kernels
+        now (each kernel is a module of its own: ``kernels.types.kernel``), so that the first
+        re-sort during a run costs what later ones do, not a compilation."""
         self._buffers()
-        sorting_kernels.make_cell_keys(self.precision)
-        sorting_kernels.make_gather_points(self.precision, self.staged)
-        sorting_kernels.make_order_drift(self.precision)
-        wp.load_module(sorting_kernels, device=self.device)
+        for k in (sorting_kernels.make_cell_keys(self.precision),
+                  sorting_kernels.make_gather_points(self.precision, self.staged),
+                  sorting_kernels.make_order_drift(self.precision)):
+            wp.load_module(k.module, device=self.device)
 
     def drift(self) -> float:
         """The fraction [-] of consecutive point pairs in memory whose cells are not neighbours
