@@ -56,10 +56,6 @@ COUPLING_SCHEMES = ("imp", "grid", "liu")
 #: spell the vectors of this length out.
 IMP_HISTORY = 2
 
-#: Registers per thread of the IMP force kernel on CUDA (None: the compiler's choice, 162 on an
-#: H100, which caps its occupancy at 12.5 %); read when the kernels are built.
-FORCES_REGISTERS: int | None = None
-
 STATUS_SLOT_OVERFLOW = 0
 STATUS_CELL_OVERFLOW = 1
 STATUS_SIZE = 2
@@ -260,7 +256,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
             L.slip[base + s] = slip
 
     # -- forces (MPM-SDEM eq. 43-46, 49-50) -----------------------------------------------------
-    @kernel(deterministic=deterministic, max_registers=FORCES_REGISTERS)
+    @kernel(deterministic=deterministic)
     def forces(P: Particles, B: Bodies, L: Links, prm: Params, world: wp.array(dtype=vec2),
                clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
         """Contact force f_p on point p from its listed bodies (eq. 44-46); reactions on the bodies."""

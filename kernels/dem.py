@@ -56,10 +56,6 @@ KEY_KIND = 1 << 28
 KEY_VERTEX = 1 << 14
 
 
-#: Registers per thread of the body–body contact kernel on CUDA (None: the compiler's choice, 147
-#: on an H100, which caps its occupancy at 12.5 %); read when the kernels are built.
-CONTACT_REGISTERS: int | None = None
-
 @functools.cache
 def make_dem_kernels(precision: str, deterministic: bool = False):
     """Structs, functions and kernels of the DEM stage for one precision ("f32" or "f64")."""
@@ -315,130 +311,138 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         flags[0] = 0
 
     # -- contact forces (MPM-SDEM eq. 38-43) ------------------------------------------------------
-    @kernel(deterministic=deterministic, max_registers=CONTACT_REGISTERS)
-    def contact_forces(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
-                       clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
-        """Forces and torques of one listed pair, added to both bodies (eq. 39-40)."""
-        tid = wp.tid()
-        if wp.static(not deterministic):
-            if tid >= C.total[0]:
+    def make_contact_forces(max_registers: int | None = None):
+        """The contact kernel with at most ``max_registers`` registers per thread on CUDA (None:
+        the compiler's choice; a cap raises the occupancy of large scenes: ``mpmdem.dem``)."""
+
+        @kernel(deterministic=deterministic, max_registers=max_registers)
+        def contact_forces(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
+                           clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
+            """Forces and torques of one listed pair, added to both bodies (eq. 39-40)."""
+            tid = wp.tid()
+            if wp.static(not deterministic):
+                if tid >= C.total[0]:
+                    return
+                tid = C.pairs[tid]
+            K = C.slots
+            i = tid // K
+            if tid - i * K >= C.count[i]:
                 return
-            tid = C.pairs[tid]
-        K = C.slots
-        i = tid // K
-        if tid - i * K >= C.count[i]:
-            return
-        j = C.nbr[tid]
-        dt = T(clock[CLOCK_DT])
-        xi = B.x[i]
-        xj = B.x[j]
-        ai = B.radius[i]
-        aj = B.radius[j]
-        reach = ai + aj
-        old_keys = C.key[tid]
-        old_slips = C.slip[tid]
-        keys = wp.vec4i(-1, -1, -1, -1)
-        slips = vec4()
-        n_hist = int(0)
-        energy = T(0.0)
-        lost = wp.vec2d(0.0, 0.0)
-        if wp.length(xj - xi) < B.core_radius[i] + B.core_radius[j] + reach:
-            fi = vec2()
-            ti = T(0.0)
-            fj = vec2()
-            tj = T(0.0)
-            vi = B.v[i]
-            vj = B.v[j]
-            wi = B.omega[i]
-            wj = B.omega[j]
-            inv_mi = B.inv_mass[i]
-            inv_mj = B.inv_mass[j]
-            inv_ii = B.inv_inertia[i]
-            inv_ij = B.inv_inertia[j]
-            mu = wp.min(B.friction[i], B.friction[j])
-            si = B.vstart[i]
-            ni = B.vcount[i]
-            sj = B.vstart[j]
-            nj = B.vcount[j]
-            for side in range(2):
-                # side 0: vertices of i against j; side 1: vertices of j against i
-                r_start = si
-                r_count = ni
-                o_start = sj
-                o_count = nj
-                c_o = xj
-                r_o = B.core_radius[j]
-                a_r = ai
-                if side == 1:
-                    r_start = sj
-                    r_count = nj
-                    o_start = si
-                    o_count = ni
-                    c_o = xi
-                    r_o = B.core_radius[i]
-                    a_r = aj
-                for k in range(r_count):
-                    X = world[r_start + k]
-                    if wp.length(X - c_o) >= r_o + reach:
-                        continue
-                    # candidate features of the other body: its edges when it has any, then (side 0
-                    # only) its vertices as corners, then the pass for a vertex gone inside its core
-                    n_feat = edge_count(o_count)
-                    n_corner = int(0)
-                    if side == 0:
-                        n_corner = o_count
-                    inside = o_count >= 3
-                    best_d = T(-1.0e30)
-                    best_f = int(-1)
-                    best_n = vec2()
-                    for f in range(n_feat + n_corner + 1):
-                        hit, N, d, feature, inside, best_d, best_f, best_n = vertex_feature(
-                            X, world, o_start, o_count, f, n_feat, n_corner, reach, r_start, r_count, k,
-                            inside, best_d, best_f, best_n)
-                        if hit:
-                            # key of the feature: vertex k against an edge (kind = side) or a corner (2)
-                            kind = side
-                            if feature >= n_feat:
-                                kind = 2
-                                feature = feature - n_feat
-                            key = kind * KEY_KIND + k * KEY_VERTEX + feature
-                            # overlap eq. 38, contact point eq. 41 (middle of the overlap), N from the
-                            # other body towards the vertex's body
-                            delta, p = contact_point(X, N, d, reach, a_r)
-                            vel = point_velocity(vi, wi, p - xi) - point_velocity(vj, wj, p - xj)
-                            if side == 1:
-                                vel = -vel
-                            # normal dashpot with the effective mass of the two bodies at p along N,
-                            # rotation included (1/m + (r×N)²/I each), so that ζ, and so e, hold for
-                            # off-centre impacts too
-                            lever_i = cross(p - xi, N)
-                            lever_j = cross(p - xj, N)
-                            inv_eff = inv_mi + inv_ii * lever_i * lever_i + inv_mj + inv_ij * lever_j * lever_j
-                            F, slip, e_pair, lost_pair = spring_dashpot(
-                                prm.kn, prm.kt, prm.zeta, mu, delta, vel, N, inv_eff,
-                                find_slip(old_keys, old_slips, key), dt)
-                            lost = lost + lost_pair
-                            energy += e_pair
-                            if n_hist < wp.static(HISTORY_SLOTS):
-                                keys[n_hist] = key
-                                slips[n_hist] = slip
-                                n_hist += 1
-                            else:
-                                wp.atomic_add(status, STATUS_HISTORY_OVERFLOW, 1)
-                            if side == 1:
-                                F = -F  # force on i
-                            fi += F
-                            ti += cross(p - xi, F)
-                            fj -= F
-                            tj -= cross(p - xj, F)
-            wp.atomic_add(B.force, i, fi)
-            wp.atomic_add(B.torque, i, ti)
-            wp.atomic_add(B.force, j, fj)
-            wp.atomic_add(B.torque, j, tj)
-        C.key[tid] = keys
-        C.slip[tid] = slips
-        C.energy[tid] = energy
-        C.dissipated[tid] = C.dissipated[tid] + lost
+            j = C.nbr[tid]
+            dt = T(clock[CLOCK_DT])
+            xi = B.x[i]
+            xj = B.x[j]
+            ai = B.radius[i]
+            aj = B.radius[j]
+            reach = ai + aj
+            old_keys = C.key[tid]
+            old_slips = C.slip[tid]
+            keys = wp.vec4i(-1, -1, -1, -1)
+            slips = vec4()
+            n_hist = int(0)
+            energy = T(0.0)
+            lost = wp.vec2d(0.0, 0.0)
+            if wp.length(xj - xi) < B.core_radius[i] + B.core_radius[j] + reach:
+                fi = vec2()
+                ti = T(0.0)
+                fj = vec2()
+                tj = T(0.0)
+                vi = B.v[i]
+                vj = B.v[j]
+                wi = B.omega[i]
+                wj = B.omega[j]
+                inv_mi = B.inv_mass[i]
+                inv_mj = B.inv_mass[j]
+                inv_ii = B.inv_inertia[i]
+                inv_ij = B.inv_inertia[j]
+                mu = wp.min(B.friction[i], B.friction[j])
+                si = B.vstart[i]
+                ni = B.vcount[i]
+                sj = B.vstart[j]
+                nj = B.vcount[j]
+                for side in range(2):
+                    # side 0: vertices of i against j; side 1: vertices of j against i
+                    r_start = si
+                    r_count = ni
+                    o_start = sj
+                    o_count = nj
+                    c_o = xj
+                    r_o = B.core_radius[j]
+                    a_r = ai
+                    if side == 1:
+                        r_start = sj
+                        r_count = nj
+                        o_start = si
+                        o_count = ni
+                        c_o = xi
+                        r_o = B.core_radius[i]
+                        a_r = aj
+                    for k in range(r_count):
+                        X = world[r_start + k]
+                        if wp.length(X - c_o) >= r_o + reach:
+                            continue
+                        # candidate features of the other body: its edges when it has any, then (side 0
+                        # only) its vertices as corners, then the pass for a vertex gone inside its core
+                        n_feat = edge_count(o_count)
+                        n_corner = int(0)
+                        if side == 0:
+                            n_corner = o_count
+                        inside = o_count >= 3
+                        best_d = T(-1.0e30)
+                        best_f = int(-1)
+                        best_n = vec2()
+                        for f in range(n_feat + n_corner + 1):
+                            hit, N, d, feature, inside, best_d, best_f, best_n = vertex_feature(
+                                X, world, o_start, o_count, f, n_feat, n_corner, reach, r_start, r_count, k,
+                                inside, best_d, best_f, best_n)
+                            if hit:
+                                # key of the feature: vertex k against an edge (kind = side) or a corner (2)
+                                kind = side
+                                if feature >= n_feat:
+                                    kind = 2
+                                    feature = feature - n_feat
+                                key = kind * KEY_KIND + k * KEY_VERTEX + feature
+                                # overlap eq. 38, contact point eq. 41 (middle of the overlap), N from the
+                                # other body towards the vertex's body
+                                delta, p = contact_point(X, N, d, reach, a_r)
+                                vel = point_velocity(vi, wi, p - xi) - point_velocity(vj, wj, p - xj)
+                                if side == 1:
+                                    vel = -vel
+                                # normal dashpot with the effective mass of the two bodies at p along N,
+                                # rotation included (1/m + (r×N)²/I each), so that ζ, and so e, hold for
+                                # off-centre impacts too
+                                lever_i = cross(p - xi, N)
+                                lever_j = cross(p - xj, N)
+                                inv_eff = inv_mi + inv_ii * lever_i * lever_i + inv_mj + inv_ij * lever_j * lever_j
+                                F, slip, e_pair, lost_pair = spring_dashpot(
+                                    prm.kn, prm.kt, prm.zeta, mu, delta, vel, N, inv_eff,
+                                    find_slip(old_keys, old_slips, key), dt)
+                                lost = lost + lost_pair
+                                energy += e_pair
+                                if n_hist < wp.static(HISTORY_SLOTS):
+                                    keys[n_hist] = key
+                                    slips[n_hist] = slip
+                                    n_hist += 1
+                                else:
+                                    wp.atomic_add(status, STATUS_HISTORY_OVERFLOW, 1)
+                                if side == 1:
+                                    F = -F  # force on i
+                                fi += F
+                                ti += cross(p - xi, F)
+                                fj -= F
+                                tj -= cross(p - xj, F)
+                wp.atomic_add(B.force, i, fi)
+                wp.atomic_add(B.torque, i, ti)
+                wp.atomic_add(B.force, j, fj)
+                wp.atomic_add(B.torque, j, tj)
+            C.key[tid] = keys
+            C.slip[tid] = slips
+            C.energy[tid] = energy
+            C.dissipated[tid] = C.dissipated[tid] + lost
+
+        return contact_forces
+
+    contact_forces = make_contact_forces()
 
     # -- rigid-body update ----------------------------------------------------------------------
     @kernel
@@ -527,7 +531,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         Bodies=Bodies, Contacts=Contacts, Params=Params, world_vertices=world_vertices,
         check_displacement=check_displacement, clear_loads=clear_loads, clear_cells=clear_cells, bin_bodies=bin_bodies,
         build_lists=build_lists, finish_rebuild=finish_rebuild, reset_total=reset_total,
-        contact_forces=contact_forces,
+        contact_forces=contact_forces, make_contact_forces=functools.cache(make_contact_forces),
         integrate=integrate, dem_dt=dem_dt, diagnostics=diagnostics,
         # list maintenance shared with the MPM-DEM coupling (kernels/coupling.py)
         needs_rebuild=needs_rebuild, cell_in=cell_in, sort_ids=sort_ids,

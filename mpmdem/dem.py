@@ -81,6 +81,15 @@ def spring_time_step_bound(law: ContactLaw, mass: float) -> float:
     return 2.0 * math.sqrt(mass / k) * (math.sqrt(1.0 + zeta * zeta) - zeta)
 
 
+#: Bodies from which the contact kernel is built with LARGE_SCENE_CONTACT_REGISTERS registers per
+#: thread. The compiler gives it 147 on an H100, which caps its occupancy at 12.5 %: that costs
+#: throughput when there are many pairs, while a small scene's step waits on the latency of a few
+#: pairs, which spilled registers lengthen (bench/README.md, "register caps").
+LARGE_SCENE_BODIES = 65536
+#: Registers per thread of the contact kernel in large scenes: 1M pentagons on an H100 stepped at
+#: 4.41e8 body-steps/s with 96, 3.88e8 with 64, 3.54e8 uncapped (one call).
+LARGE_SCENE_CONTACT_REGISTERS = 96
+
 class DEMSolver(ClockedStage):
     """Device state and step sequence of the DEM stage of one scene.
 
@@ -99,6 +108,9 @@ class DEMSolver(ClockedStage):
         self.config = config
         self.device = wp.get_device(device)
         self.k = dem_kernels.make_dem_kernels(config.precision, config.deterministic)
+        #: the body–body contact kernel: with capped registers in large scenes (LARGE_SCENE_BODIES)
+        self.contact_kernel = (self.k.make_contact_forces(LARGE_SCENE_CONTACT_REGISTERS)
+                               if len(scene.rigid_bodies) >= LARGE_SCENE_BODIES else self.k.contact_forces)
         self.dt_bound = dem_time_step_bound(scene)
         check_time_step(config, self.dt_bound, f"2 sqrt(m*/k_n) (sqrt(1+ζ²)−ζ) = {self.dt_bound:.6g} s of these "
                         f"bodies ({eq51_step(config, self.dt_bound)})")
@@ -345,7 +357,7 @@ class DEMSolver(ClockedStage):
     def contact_forces(self) -> None:
         """The body–body contact forces of this step (lists up to date), with free bodies."""
         if self.free:
-            wp.launch(self.k.contact_forces, self.body_count * self.slots,
+            wp.launch(self.contact_kernel, self.body_count * self.slots,
                       inputs=[self.B, self.C, self.params, self.world, self.clock, self.status], device=self.device)
 
     def body_update(self) -> None:
