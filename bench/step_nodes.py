@@ -103,7 +103,7 @@ def main(argv=None) -> int:
     args, flags = p.parse_known_args(argv)
     for name in [c.strip() for c in args.cases.split(",") if c.strip()]:
         row = step_nodes(name, args.device, flags)
-        print(json.dumps({k: v for k, v in row.items() if k != "items" or not args.list}), flush=True)
+        print(json.dumps({k: v for k, v in row.items() if k != "items"}), flush=True)
         if args.list:
             print("\n".join(row["items"]))
     return 0

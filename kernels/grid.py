@@ -156,7 +156,7 @@ def make_boundary(precision: str, bilateral_only: bool = False):
 @functools.cache
 def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impulse: bool = False,
                      remap: bool = False, damping: bool = False, layered: bool = False, obstacles: bool = False,
-                     clear: bool = False):
+                     clear: bool = False, zero_remap: bool = False):
     """Nodal velocity V = p/m, and/or Ṽ = V + dt (f/m + g), both with the wall conditions.
 
     fused_impulse: the momentum already holds p + dt f (USL + PIC), so Ṽ = p/m + dt g.
@@ -167,6 +167,8 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     of its node that components claimed (a prefix of the layers). clear (the step's last grid
     update, when nothing after it reads the nodal mass): zero the mass, momentum and force of the
     nodes (copies) used, so the next step needs no memset of the grid (of every layer).
+    zero_remap (MUSL, the update before the re-mapping P2G): zero ``Grid.vm`` at the nodes (copies)
+    it visits, which are those that P2G adds to, so the step needs no memset of it.
     obstacles: nodes marked in ``Grid.solid`` (inside a ``Scene.add_obstacle`` shape) are fixed
     (1) or slip along the obstacle's surface (2: no velocity along ``Grid.solid_normal``).
     The reaction impulses on walls and obstacles go to the IMPULSE_BASE slots of ``work``.
@@ -236,6 +238,8 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         # node (ib, j) of the grid, stored in row i (its copy's row in granular mode), whose mass,
         # momentum and force (``load_node``) are m, mom, fint
         dt = T(clock[CLOCK_DT])
+        if wp.static(zero_remap):
+            G.vm[i, j] = t.vec2()
         if wp.static(clear):
             # (a node or copy that received nothing is zero already: no stores, which in a run as
             # deep as its busiest node, or outside the material, are most of them. Momentum and

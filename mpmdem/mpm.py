@@ -9,6 +9,7 @@ update (USF, USL, MUSL, USAVG). The arrays are built by ``mpmdem.mpm_state`` (po
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -207,9 +208,10 @@ class MPMSolver(ClockedStage):
                 remap=flags.get("remap", False))
 
         def grid(**flags):
-            def make(clear=False):
+            def make(clear=False, zero_remap=False):
                 return grid_kernels.make_grid_update(prec, damping=c.damping > 0.0, layered=layered,
-                                                     obstacles=bool(self.scene.obstacles), clear=clear, **flags)
+                                                     obstacles=bool(self.scene.obstacles), clear=clear,
+                                                     zero_remap=zero_remap, **flags)
 
             kernel = make()
             grid_kernel_makers[id(kernel)] = make
@@ -275,7 +277,15 @@ class MPMSolver(ClockedStage):
             else:
                 seq += p2g(mass=True, momentum=True, force=True) + grid(velocity=True, force=True)
             seq += xpic_smoothing() + g2p(velocity=True, position=False, stress="none")
-            seq += [Zero(G.vm)] + p2g(mass=False, momentum=True, force=False, remap=True)
+            # the re-mapped momentum starts from zero: the grid update before clears it at the nodes
+            # (copies) it visits, which are those the re-mapping P2G adds to (no memset of the grid)
+            last = max(k for k, item in enumerate(seq)
+                       if isinstance(item, Launch) and id(item.kernel) in grid_kernel_makers)
+            item = seq[last]
+            seq[last] = Launch(grid_kernel_makers[id(item.kernel)](zero_remap=True), item.dim, item.inputs)
+            grid_kernel_makers[id(seq[last].kernel)] = functools.partial(grid_kernel_makers[id(item.kernel)],
+                                                                         zero_remap=True)
+            seq += p2g(mass=False, momentum=True, force=False, remap=True)
             seq += grid(velocity=False, force=False, remap=True)
             seq += g2p(velocity=False, position=True, stress="vm", stress_fraction=half)
         # the step's last grid update clears the nodes (copies) it used (kernels/grid.py), so no
