@@ -29,7 +29,7 @@ steps), then:
    in the order of ``CoupledStage.step``, without the graph, with ``wp.synchronize_device`` after
    each stage and ``time.perf_counter`` around it: ``dem`` (``DEMSolver.contact_stage``: body–body
    lists and forces), ``imp`` (``CoupledStage.contact_forces``: point–body lists and forces), ``mpm``
-   (``begin_step``, the dt cap, ``run_sequence``: P2G, grid, G2P, and ``end_step``), ``rigid``
+   (``run_sequence``: P2G, grid, G2P, and ``end_step``: t += dt and the next, capped dt), ``rigid``
    (``DEMSolver.body_update``). The plain run's split has ``mpm`` only. Taken without the graph and
    with a synchronisation after every stage, the split's sum exceeds the graph step (launch and
    sync latency); read its fractions, not its sum.
@@ -195,7 +195,6 @@ def split_step(sim: Simulation, acc: dict) -> None:
         return
     stage, dem = sim.coupling, sim.dem
 
-    _timed(acc, "mpm", device, mpm.begin_step)  # (dt capped by the coupling)
     _timed(acc, "dem", device, dem.contact_stage)
     _timed(acc, "imp", device, stage.contact_forces if stage.liu is None else stage._liu_carriers)
     _timed(acc, "mpm", device, mpm.run_sequence)

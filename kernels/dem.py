@@ -20,8 +20,19 @@ import functools
 
 import warp as wp
 
-from .clock import CLOCK_BOUND, CLOCK_DT, CLOCK_DT_FACTOR, CLOCK_DT_FIXED, CLOCK_T, CLOCK_T_STOP, land
+from .clock import (
+    CLOCK_BOUND,
+    CLOCK_BOUND_NEXT,
+    CLOCK_DT,
+    CLOCK_DT_FACTOR,
+    CLOCK_DT_FIXED,
+    CLOCK_T,
+    CLOCK_T_STOP,
+    set_step,
+    take_step,
+)
 from .contact_geometry import make_contact_geometry, make_history_lookup
+from .reductions import advance
 from .types import Namespace, kernel, scalar_types
 
 __all__ = [
@@ -481,20 +492,20 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
             wp.atomic_add(status, STATUS_OUTSIDE, 1)
 
     @kernel
-    def dem_dt(clock: wp.array(dtype=wp.float64)):
-        """dt = the fixed dt, or the factor × the bound (both set once: they depend on masses and k_n
-        only), split evenly to end on t_stop; 0 once the clock has reached t_stop."""
-        fixed = clock[CLOCK_DT_FIXED]  # (every load first: one round trip)
+    def end_step(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
+        """The last launch of a DEM step: t += dt (``reductions.advance``), the step recorded for the
+        host (``clock.take_step``) and the next step's dt set (``clock.set_step``): the fixed dt, or
+        the factor × the bound (both set once: they depend on masses and k_n only), split evenly to
+        end on t_stop; 0 once the clock has reached t_stop."""
+        dt = clock[CLOCK_DT]  # (every load first: one round trip)
+        t_stop = clock[CLOCK_T_STOP]
+        fixed = clock[CLOCK_DT_FIXED]
         factor = clock[CLOCK_DT_FACTOR]
         bound = clock[CLOCK_BOUND]
-        t = clock[CLOCK_T]
-        t_stop = clock[CLOCK_T_STOP]
-        dt = fixed
-        if dt <= wp.float64(0.0):
-            dt = factor * bound
-        if t >= t_stop:
-            dt = wp.float64(0.0)
-        clock[CLOCK_DT] = land(t, t_stop, dt)  # whole steps end on t_stop
+        bound_next = clock[CLOCK_BOUND_NEXT]
+        t = advance(clock, steps)
+        take_step(clock, dt, bound)
+        set_step(clock, t, t_stop, fixed, factor, bound_next, wp.float64(0.0), wp.float64(0.0))
 
     # -- diagnostics ----------------------------------------------------------------------------
     @kernel
@@ -532,7 +543,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         check_displacement=check_displacement, clear_loads=clear_loads, clear_cells=clear_cells, bin_bodies=bin_bodies,
         build_lists=build_lists, finish_rebuild=finish_rebuild, reset_total=reset_total,
         contact_forces=contact_forces, make_contact_forces=functools.cache(make_contact_forces),
-        integrate=integrate, dem_dt=dem_dt, diagnostics=diagnostics,
+        integrate=integrate, end_step=end_step, diagnostics=diagnostics,
         # list maintenance shared with the MPM-DEM coupling (kernels/coupling.py)
         needs_rebuild=needs_rebuild, cell_in=cell_in, sort_ids=sort_ids,
     )

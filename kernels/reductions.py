@@ -10,6 +10,7 @@ import warp as wp
 
 from .clock import (
     CLOCK_BOUND,
+    CLOCK_BOUND_NEXT,
     CLOCK_DT,
     CLOCK_DT_FACTOR,
     CLOCK_DT_FIXED,
@@ -17,7 +18,8 @@ from .clock import (
     CLOCK_T,
     CLOCK_T_STOP,
     ROUND_OFF,
-    land,
+    set_step,
+    take_step,
 )
 from .constitutive import make_strain_energy_density
 from .state import make_state_structs
@@ -29,8 +31,10 @@ __all__ = [
     "SPEED_SLOTS",
     "STATUS_NONFINITE",
     "STATUS_OUTSIDE",
-    "advance_time",
-    "compute_dt",
+    "end_step",
+    "finish_step",
+    "measure_bound",
+    "prime_step",
     "make_diagnostics",
     "make_probe_mass",
     "make_speed_check",
@@ -113,28 +117,11 @@ def make_wave_speed(precision: str):
     return wave_speed
 
 
-@kernel
-def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.float32), h: wp.float64,
-               cap: wp.float64, cap_bound: wp.float64):
-    """dt = κ h / max(c+|v|) (CFL) or the fixed dt; 0 once the clock has reached t_stop.
-
-    max(c+|v|) comes from the speed slots filled at the end of the previous step (or by the
-    initial wave_speed pass); they are cleared here for this step.
-
-    cap [s] > 0 (coupled scenes): dt = min(dt, cap) unless dt was fixed by the user (MPM-SDEM eq. 51
-    takes the smallest of the MPM, DEM and contact terms), and ``cap_bound`` [s], the stable step
-    of the contacts, lowers the reported bound; 0: no cap. (One launch for both: a small scene's
-    step is paid per launch.)
-
-    Steps land on t_stop (the next output frame): see ``kernels.clock.land_on_stop``.
-    """
-    # every load first: they leave together (one round trip, not one per slot read) on the critical
-    # path of every step
-    t = clock[CLOCK_T]
-    t_stop = clock[CLOCK_T_STOP]
-    fixed = clock[CLOCK_DT_FIXED]
-    factor = clock[CLOCK_DT_FACTOR]
-    last_bound = clock[CLOCK_BOUND]
+@wp.func
+def measure_bound(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.float32), h: wp.float64):
+    """The bound h / max(c+|v|) [s] the next step's dt comes from (CFL, "MPM notes" step 8), from
+    the speed slots the last G2P filled (or the initial wave_speed pass), stored as
+    CLOCK_BOUND_NEXT and returned; the slots are cleared for the next G2P."""
     s = wp.float64(0.0)
     for k in range(wp.static(SPEED_SLOTS)):  # unrolled: independent loads
         s = wp.max(s, wp.float64(max_speed[k]))
@@ -142,29 +129,24 @@ def compute_dt(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.f
     if s > wp.float64(0.0):
         bound = h / s
     if not wp.isfinite(s):
-        bound = last_bound  # a NaN speed is reported by the status flags; keep the clock sane
-    dt = fixed
-    if dt <= wp.float64(0.0):
-        dt = factor * bound
-    if t >= t_stop:
-        dt = wp.float64(0.0)
-    else:
-        for k in range(wp.static(SPEED_SLOTS)):
-            max_speed[k] = wp.float32(0.0)  # refilled by this step's G2P
-    dt = land(t, t_stop, dt)
-    if cap > wp.float64(0.0):
-        # (the landed step is compared with the cap, and the cap landed in its place)
-        if fixed <= wp.float64(0.0) and dt > cap:
-            dt = land(t, t_stop, cap)
-        bound = wp.min(bound, cap_bound)
-    clock[CLOCK_BOUND] = bound
-    clock[CLOCK_DT] = dt
+        bound = clock[CLOCK_BOUND]  # a NaN speed is reported by the status flags; keep the clock sane
+    for k in range(wp.static(SPEED_SLOTS)):
+        max_speed[k] = wp.float32(0.0)
+    clock[CLOCK_BOUND_NEXT] = bound
+    return bound
+
+
+@kernel
+def prime_step(clock: wp.array(dtype=wp.float64), max_speed: wp.array(dtype=wp.float32), h: wp.float64):
+    """CLOCK_BOUND_NEXT from the initial wave_speed pass, before the first step (whose dt the host
+    sets with ``clock.land_step`` when it sets the first stop time)."""
+    measure_bound(clock, max_speed, h)
 
 
 @wp.func
 def advance(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
-    """t += dt; count steps taken (the end of a step). A time within round-off of t_stop is t_stop
-    (``land_on_stop``'s steps sum to it up to a few ulps)."""
+    """t += dt and the step counted (the end of a step); returns the new t [s]. A time within
+    round-off of t_stop is t_stop (``land``'s steps sum to it up to a few ulps)."""
     dt = clock[CLOCK_DT]  # (every load first: one round trip)
     t = clock[CLOCK_T]
     t_stop = clock[CLOCK_T_STOP]
@@ -175,12 +157,34 @@ def advance(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
             t = t_stop
         clock[CLOCK_T] = t
         steps[0] = taken + wp.int64(1)
+    return t
+
+
+@wp.func
+def finish_step(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64),
+                max_speed: wp.array(dtype=wp.float32), h: wp.float64, cap: wp.float64, cap_bound: wp.float64):
+    """The end of an MPM (or coupled) step, in the step's last launch: t += dt and the step counted
+    (``advance``), the step recorded for the host (``clock.take_step``), and the next step's dt set
+    (``clock.set_step``) from the bound the step's G2P measured. A step at t_stop (dt = 0) moved
+    nothing: its G2P left the speed slots alone and CLOCK_BOUND_NEXT stands."""
+    dt = clock[CLOCK_DT]  # (every load first: one round trip)
+    t_stop = clock[CLOCK_T_STOP]
+    fixed = clock[CLOCK_DT_FIXED]
+    factor = clock[CLOCK_DT_FACTOR]
+    bound = clock[CLOCK_BOUND]
+    bound_next = clock[CLOCK_BOUND_NEXT]
+    t = advance(clock, steps)
+    take_step(clock, dt, bound)
+    if dt > wp.float64(0.0):
+        bound_next = measure_bound(clock, max_speed, h)
+    set_step(clock, t, t_stop, fixed, factor, bound_next, cap, cap_bound)
 
 
 @kernel
-def advance_time(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
-    """t += dt; count steps taken."""
-    advance(clock, steps)
+def end_step(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64),
+             max_speed: wp.array(dtype=wp.float32), h: wp.float64, cap: wp.float64, cap_bound: wp.float64):
+    """``finish_step``: the last launch of an MPM or coupled step (granular mode: the judge's)."""
+    finish_step(clock, steps, max_speed, h, cap, cap_bound)
 
 
 @functools.cache

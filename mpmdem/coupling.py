@@ -220,7 +220,6 @@ class CoupledStage(ClockedStage):
     def step(self) -> None:
         """One coupled explicit step (MPM-SDEM §4.2)."""
         mpm, dem = self.mpm, self.dem
-        mpm.begin_step()  # (dt capped at dt_cap: ``MPMSolver.cap_time_step``)
         dem.contact_checks()
         if self.liu is None:
             self.check_lists()

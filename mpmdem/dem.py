@@ -23,8 +23,8 @@ from .bodies import ContactLaw
 from .checks import check_time_step, eq51_step
 from .config import SolverConfig
 from .errors import BlowUpError, InputError
+from .kernels import clock as clock_kernels
 from .kernels import dem as dem_kernels
-from .kernels import reductions
 from .launch_plan import IfFlag, Launch, run_plan
 from .scene import Scene
 from .stage import Clock, ClockedStage
@@ -128,7 +128,9 @@ class DEMSolver(ClockedStage):
     def start_clock(self, clock: Clock) -> None:
         """Set this stage's dt policy on ``clock``: the fixed dt, else π κ2 × the DEM bound
         (dt = 2π κ2 sqrt(m/k), eq. 51; the bound depends on masses and k_n only)."""
-        clock.set_policy(dt_fixed=self.config.dt, factor=math.pi * self.config.dem_kappa, bound=self.dt_bound)
+        clock.set_policy(dt_fixed=self.config.dt, factor=math.pi * self.config.dem_kappa, bound=self.dt_bound,
+                         land=lambda: wp.launch(clock_kernels.land_step, 1, inputs=[clock.values, 0.0, 0.0],
+                                                device=self.device))
 
     # -- set-up -------------------------------------------------------------------------------
     def _layout(self) -> None:
@@ -300,13 +302,12 @@ class DEMSolver(ClockedStage):
 
     # -- stepping -------------------------------------------------------------------------------
     def step(self, own_clock: bool = True) -> None:
-        """Launch one DEM step (contacts, then the rigid-body update) on the device clock."""
-        if own_clock:
-            wp.launch(self.k.dem_dt, 1, inputs=[self.clock], device=self.device)
+        """Launch one DEM step (contacts, then the rigid-body update) on the device clock; with
+        ``own_clock`` it ends the step on the clock (t += dt, the next step's dt: one launch)."""
         self.contact_stage()
         self.body_update()
         if own_clock:
-            wp.launch(reductions.advance_time, 1, inputs=[self.clock, self.steps], device=self.device)
+            wp.launch(self.k.end_step, 1, inputs=[self.clock, self.steps], device=self.device)
 
     @functools.cached_property
     def rebuild_plan(self) -> list:

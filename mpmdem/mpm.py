@@ -21,6 +21,7 @@ from .cell_sort import PointSorter, device_order
 from .checks import check_time_step
 from .config import SolverConfig
 from .errors import InputError
+from .kernels import clock as clock_kernels
 from .kernels import granular as granular_kernels
 from .kernels import grid as grid_kernels
 from .kernels import reductions as reduction_kernels
@@ -91,9 +92,9 @@ class MPMSolver(ClockedStage):
         mats = scene.materials()
         self.critical = any(m.critical_density is not None for m in mats)
         self.order = device_order(host["x"], scene.domain[0], scene.cell_size)
-        if clock is None:
+        own_clock = clock is None
+        if own_clock:
             clock = Clock(self.device)
-            self.start_clock(clock)
         self.sim_clock = clock
         self.clock, self.steps = clock.values, clock.steps
         self._allocate({k: v[self.order] for k, v in host.items()})
@@ -103,10 +104,15 @@ class MPMSolver(ClockedStage):
         #: callables another stage runs at a named place of the step (``extend``)
         self.extensions: dict[str, list] = {}
         self._build()
+        if own_clock:
+            self.start_clock(clock)
 
     def start_clock(self, clock: Clock) -> None:
-        """Set this stage's dt policy on ``clock``: the fixed dt, else κ h / max(c + |v|)."""
-        clock.set_policy(dt_fixed=self.config.dt, factor=self.config.cfl)
+        """Set this stage's dt policy on ``clock`` (once, before the first step): the fixed dt, else
+        κ h / max(c + |v|), the speeds measured by the initial pass of ``_build``."""
+        clock.set_policy(dt_fixed=self.config.dt, factor=self.config.cfl, land=self.land_step)
+        wp.launch(reduction_kernels.prime_step, 1, inputs=[clock.values, self.max_speed, float(self.scene.cell_size)],
+                  device=self.device)
 
     def extend(self, place: str, launch) -> None:
         """Run ``launch()`` (host code that only launches kernels) at ``place`` of every step.
@@ -309,8 +315,8 @@ class MPMSolver(ClockedStage):
 
     # -- stepping -------------------------------------------------------------------------------
     def step(self) -> None:
-        """Launch one explicit step (dt from the device clock; a no-op once t reaches t_stop)."""
-        self.begin_step()
+        """Launch one explicit step (dt from the device clock, set by the step before or by
+        ``set_stop_time``; a no-op once t reaches t_stop)."""
         self.run_sequence()
         self.end_step()
 
@@ -320,12 +326,12 @@ class MPMSolver(ClockedStage):
         the first step (a CUDA graph records the launch)."""
         self.dt_cap = (float(cap), float(bound))
 
-    def begin_step(self) -> None:
-        """dt of this step from the CFL speeds (or the fixed dt), capped in coupled scenes, onto the
-        device clock."""
+    def land_step(self) -> None:
+        """The next step's dt onto the device clock after the host moved t_stop (the policy's
+        ``land``, ``Clock.set_policy``): from the bound the last step measured, capped in coupled
+        scenes, landed on t_stop (``kernels.clock.land_step``)."""
         cap, bound = self.dt_cap
-        wp.launch(reduction_kernels.compute_dt, 1,
-                  inputs=[self.clock, self.max_speed, float(self.scene.cell_size), cap, bound], device=self.device)
+        wp.launch(clock_kernels.land_step, 1, inputs=[self.clock, cap, bound], device=self.device)
 
     def run_sequence(self, start: bool = True) -> None:
         """P2G, grid update and G2P of the chosen stress-update order (the MPM stage of a step),
@@ -347,12 +353,15 @@ class MPMSolver(ClockedStage):
                 + ([self._judge] if self._judge is not None else []))
 
     def end_step(self) -> None:
-        """t += dt on the device clock (in granular mode with it, whether the next step rebuilds the
-        interaction graph: one launch)."""
+        """t += dt on the device clock and the next step's dt from the CFL speeds this step's G2P
+        measured, capped in coupled scenes (``kernels.reductions.finish_step``); in granular mode
+        with them, whether the next step rebuilds the interaction graph: one launch."""
+        cap, bound = self.dt_cap
+        clock = [self.clock, self.steps, self.max_speed, float(self.scene.cell_size), cap, bound]
         if self._judge is not None:
-            wp.launch(self._judge, 1, inputs=[self.interaction, self.clock, self.steps], device=self.device)
+            wp.launch(self._judge, 1, inputs=[self.interaction, *clock], device=self.device)
         else:
-            wp.launch(reduction_kernels.advance_time, 1, inputs=[self.clock, self.steps], device=self.device)
+            wp.launch(reduction_kernels.end_step, 1, inputs=clock, device=self.device)
 
     def invalidate_interactions(self) -> None:
         """Granular mode: the next step rebuilds the interaction graph (after the points were

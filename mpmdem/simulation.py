@@ -324,7 +324,14 @@ class Simulation:
                 json.dumps(self.scene.to_dict())
             ):
                 raise InputError("checkpoint", str(path), "a checkpoint of this same scene and config")
-            for name, a in self.stage.state_arrays().items():
+            arrays = self.stage.state_arrays()
+            for name, a in arrays.items():
+                shape = tuple(a.shape) + tuple(getattr(a.dtype, "_shape_", ()))  # (vector and matrix elements)
+                if name not in data.files or data[name].shape != shape:
+                    found = "missing" if name not in data.files else f"of shape {data[name].shape}"
+                    raise InputError("checkpoint", str(path), f"a checkpoint written by mpmdem {__version__} "
+                                     f"(its array {name!r} is {found}, expected {shape})")
+            for name, a in arrays.items():
                 a.assign(data[name])
         if self.mpm is not None:
             self.mpm.invalidate_interactions()

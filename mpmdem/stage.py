@@ -17,9 +17,11 @@ import warp as wp
 
 from .kernels.clock import (
     CLOCK_BOUND,
-    CLOCK_DT,
+    CLOCK_BOUND_NEXT,
+    CLOCK_BOUND_TAKEN,
     CLOCK_DT_FACTOR,
     CLOCK_DT_FIXED,
+    CLOCK_DT_TAKEN,
     CLOCK_SIZE,
     CLOCK_T,
     CLOCK_T_STOP,
@@ -53,24 +55,30 @@ class Clock:
         self.device = wp.get_device(device)
         self.values = wp.zeros(CLOCK_SIZE, dtype=wp.float64, device=self.device)
         self.steps = wp.zeros(1, dtype=wp.int64, device=self.device)
+        self._land = None
 
-    def set_policy(self, *, dt_fixed: float | None, factor: float, bound: float = 0.0) -> None:
+    def set_policy(self, *, dt_fixed: float | None, factor: float, bound: float = 0.0, land=None) -> None:
         """The dt rule of the stage that steps: ``dt_fixed`` [s] (None: dt = factor × bound), the
-        factor (CFL κ, or π κ2 of MPM-SDEM eq. 51) and the initial bound [s]."""
+        factor (CFL κ, or π κ2 of MPM-SDEM eq. 51) and the initial bound [s]; ``land()`` launches
+        the kernel that sets the next step's dt after the host moved t_stop (``kernels.clock``)."""
         host = np.zeros(CLOCK_SIZE)
-        host[CLOCK_BOUND] = bound
+        host[CLOCK_BOUND] = host[CLOCK_BOUND_NEXT] = host[CLOCK_BOUND_TAKEN] = bound
         host[CLOCK_DT_FIXED] = dt_fixed or 0.0
         host[CLOCK_DT_FACTOR] = factor
         self.values.assign(host)
+        self._land = land
 
     def set_stop_time(self, t_stop: float) -> None:
-        """Steps run until t reaches t_stop [s]; later steps do nothing (no host sync)."""
+        """Steps run until t reaches t_stop [s]; later steps do nothing (no host sync). The next
+        step's dt is set again to land on it (steps end on a frame's time: ``kernels.clock.land``)."""
         wp.copy(self.values, wp.array([t_stop], dtype=wp.float64, device="cpu"), dest_offset=CLOCK_T_STOP, count=1)
+        if self._land is not None:
+            self._land()
 
     def read(self) -> ClockReading:
-        """(t, dt, bound, steps): one host sync."""
+        """(t, dt, bound, steps) of the last step taken: one host sync."""
         c = self.values.numpy()
-        return ClockReading(float(c[CLOCK_T]), float(c[CLOCK_DT]), float(c[CLOCK_BOUND]),
+        return ClockReading(float(c[CLOCK_T]), float(c[CLOCK_DT_TAKEN]), float(c[CLOCK_BOUND_TAKEN]),
                             int(self.steps.numpy()[0]))
 
     @property

@@ -48,6 +48,21 @@ def test_checkpoint_of_another_config_is_refused(tmp_path):
         other.load_checkpoint(tmp_path / "c.npz")
 
 
+def test_checkpoint_of_another_layout_is_refused(tmp_path):
+    """Verify a checkpoint whose arrays do not have this version's shapes (the clock of an older
+    version had 6 slots) is refused with an error naming the array, before anything is overwritten."""
+    sim = Simulation(free_disk_scene(), SolverConfig(), device="cpu")
+    path = sim.save_checkpoint(tmp_path / "c.npz")
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    arrays["clock"] = arrays["clock"][:6]
+    np.savez(path, **arrays)
+    before = sim.stage.sim_clock.values.numpy().copy()
+    with pytest.raises(InputError, match="clock"):
+        sim.load_checkpoint(path)
+    assert np.array_equal(sim.stage.sim_clock.values.numpy(), before)
+
+
 def test_sorting_points_changes_only_round_off():
     """Verify re-sorting the points by cell every few steps leaves the results (in scene order) unchanged."""
     def run(interval):

@@ -22,7 +22,7 @@ import functools
 import warp as wp
 
 from ..clock import CLOCK_DT, CLOCK_T
-from ..reductions import advance
+from ..reductions import finish_step
 from ..state import make_state_structs
 from ..types import kernel, scalar_types
 from .cells import make_cells
@@ -190,20 +190,22 @@ def make_check(shape: str, precision: str, staged: bool = False):
 
 @functools.cache
 def make_rebuild_decision(precision: str):
-    """Kernel ``judge(S, clock, steps)``, one thread, the last of a step, after ``check``
+    """Kernel ``judge(S, clock, steps, max_speed, h, cap, cap_bound)``, one thread, the last of a step, after ``check``
     (non-deforming domains; deforming ones rebuild every step): the next step rebuilds the
     interaction graph if ``check`` found a changed node range, or unless one of the two bounds on
     the change of the pairs' offsets is below the margin of the last rebuild (module docstring); it
     relabels (without a rebuild) if ``check`` found a listed pair flipped or a point in another
     cell. A streak of rebuilds widens the band of the pair lists, then stops the checks for a while
-    (STREAK_START, WIDE_STEPS). It clears what ``check`` found, and advances the clock
-    (``reductions.advance``): one launch for both, on the critical path of every step."""
+    (STREAK_START, WIDE_STEPS). It clears what ``check`` found, and ends the step on the clock
+    (``reductions.finish_step``: t += dt and the next step's dt): one launch for all, on the
+    critical path of every step."""
     Interaction = make_interaction_struct(precision)
     T = scalar_types(precision).scalar
 
     @kernel(max_unroll=3 * EXT_SLOTS)
-    def judge(S: Interaction, clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
-        advance(clock, steps)
+    def judge(S: Interaction, clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64),
+              max_speed: wp.array(dtype=wp.float32), h: wp.float64, cap: wp.float64, cap_bound: wp.float64):
+        finish_step(clock, steps, max_speed, h, cap, cap_bound)
         # (every load first, then the decision: the loads leave together instead of one after
         # another, on the critical path of every step; the loops are unrolled for the same reason)
         forced = S.flags[FLAG_FORCED]
