@@ -107,6 +107,8 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         dissipated: wp.array(dtype=wp.vec2d)  # (points) damping, friction work since the start [J/m]
         contact_at: wp.array(dtype=vec2)  # (points) where the force acts ("grid" scheme) [m]
         active: wp.array(dtype=wp.int32)  # (points) contacts touching this step
+        listed: wp.array(dtype=wp.int32)  # (points) the points the force kernel visits, packed at each build
+        listed_count: wp.array(dtype=wp.int32)  # (1) how many
         slots: int
 
     @wp.struct
@@ -163,6 +165,8 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         if flags[0] == 0:
             return
         p = wp.tid()
+        if p == 0:
+            L.listed_count[0] = 0  # (``finish_lists`` packs them anew)
         S = L.slots
         base = p * S
         for s in range(S):
@@ -234,7 +238,8 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
     @kernel
     def finish_lists(L: Links, flags: wp.array(dtype=wp.int32)):
         """Sort each point's bodies (a fixed summation order) and carry the history of pairs
-        that stay listed."""
+        that stay listed; pack the points the force kernel must visit until the next build: those
+        with a body listed, and those whose contact must be cleared (``forces``)."""
         if flags[0] == 0:
             return
         p = wp.tid()
@@ -242,6 +247,8 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         base = p * S
         n = wp.min(L.count[p], S)
         L.count[p] = n
+        if n > 0 or L.active[p] != 0:
+            L.listed[wp.atomic_add(L.listed_count, 0, 1)] = p
         sort_ids(L.body, base, n)
         for s in range(S):
             key = veci(-1, -1)
@@ -259,8 +266,17 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
     @kernel(deterministic=deterministic)
     def forces(P: Particles, B: Bodies, L: Links, prm: Params, world: wp.array(dtype=vec2),
                clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
-        """Contact force f_p on point p from its listed bodies (eq. 44-46); reactions on the bodies."""
+        """Contact force f_p on point p from its listed bodies (eq. 44-46); reactions on the bodies.
+
+        Launched over every point; unless deterministic, thread k takes the k-th packed point
+        (``finish_lists``) and the threads past them return, so the warps that search are full
+        (a third of the points near bodies would otherwise hold nearly every warp in the search).
+        Deterministic runs keep thread p on point p: the packing order varies from run to run."""
         p = wp.tid()
+        if wp.static(not deterministic):
+            if p >= L.listed_count[0]:
+                return
+            p = L.listed[p]
         n = L.count[p]
         # a step with dt = 0 (the clock at its stop time) recomputes the same forces: the
         # outputs keep the loads of the last real step, and nothing slips or dissipates

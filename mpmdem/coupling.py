@@ -125,6 +125,8 @@ class CoupledStage(ClockedStage):
         L.dissipated = wp.zeros(n, dtype=wp.vec2d, device=dev)
         L.contact_at = mpm.contact_at
         L.active = wp.zeros(n, dtype=wp.int32, device=dev)
+        L.listed = wp.zeros(n, dtype=wp.int32, device=dev)
+        L.listed_count = wp.zeros(1, dtype=wp.int32, device=dev)
         self.L = L
 
         mats = scene.materials()
@@ -353,7 +355,7 @@ class CoupledStage(ClockedStage):
         arrays.update({f"dem.{k}": a for k, a in self.dem.state_arrays().items() if k not in ("clock", "steps")})
         L = self.L
         for name in ("body", "count", "key", "slip", "x_ref", "body_x_ref", "body_angle_ref", "energy",
-                     "dissipated", "active"):
+                     "dissipated", "active", "listed", "listed_count"):
             arrays[f"imp.{name}"] = getattr(L, name)
         arrays.update({"imp.flags": self.flags, "imp.rebuilds": self.rebuilds, "imp.status": self.status,
                        "imp.fcont": self.mpm.P.fcont})
