@@ -4,9 +4,9 @@ A material point within the Verlet distance of a rigid spheropolygon is an *iden
 point* (IMP): for the contact it is a disk of radius r_p centred on the point (MPM-SDEM Fig. 4–5).
 Per step (all kernels, no host sync, capturable in a CUDA graph):
 
-1. ``check_points`` / ``check_bodies``: flag a rebuild of the point–body lists when a point or a
-   moving body has moved (or turned) more than half the skin since the last build, or a staged
-   point has entered the scene — the DEM's Verlet rule.
+1. ``check_lists``: flag a rebuild of the point–body lists when a point or a moving body has moved
+   (or turned) more than half the skin since the last build, or a staged point has entered the
+   scene — the DEM's Verlet rule (and, without free bodies, clear the bodies' loads).
 2. On a flagged step only: points are binned in cells of the MPM grid; each body visits the cells
    its core's bounding box, grown by a, the largest r_p and the skin, covers (``tile`` threads per body
    share its cells, so a long wall is not one thread's work) and lists the points within
@@ -137,20 +137,25 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
 
     # -- list maintenance ---------------------------------------------------------------------
     @kernel
-    def check_points(P: Particles, L: Links, prm: Params, clock: wp.array(dtype=wp.float64),
-                     flags: wp.array(dtype=wp.int32)):
-        """Flag a rebuild when a point moved more than half the skin (or was just released)."""
-        p = wp.tid()
-        if not released(P, clock, p):
+    def check_lists(P: Particles, B: Bodies, L: Links, prm: Params, clock: wp.array(dtype=wp.float64),
+                    flags: wp.array(dtype=wp.int32), moving: int, clear: int):
+        """Flag a rebuild when point i moved more than half the skin (or was just released), or
+        moving body i (i < moving) moved or turned more than half the skin; body i < ``clear`` has
+        its loads of this step cleared (where the DEM stage has no contact launch to do it). One
+        launch over max(points, moving, clear) threads: a small scene's step is paid per launch."""
+        i = wp.tid()
+        if i < clear:
+            B.force[i] = vec2()
+            B.torque[i] = T(0.0)
+        if i < moving:
+            if needs_rebuild(B, i, L.body_x_ref, L.body_angle_ref, prm.skin):
+                flags[0] = 1
+        if i >= P.x.shape[0]:
             return
-        moved = wp.length(P.x[p] - L.x_ref[p])
+        if not released(P, clock, i):
+            return
+        moved = wp.length(P.x[i] - L.x_ref[i])
         if moved > T(0.5) * prm.skin or not wp.isfinite(moved):
-            flags[0] = 1
-
-    @kernel
-    def check_bodies(B: Bodies, L: Links, prm: Params, flags: wp.array(dtype=wp.int32)):
-        """Flag a rebuild when a moving body moved or turned more than half the skin."""
-        if needs_rebuild(B, wp.tid(), L.body_x_ref, L.body_angle_ref, prm.skin):
             flags[0] = 1
 
     @wp.func
@@ -382,7 +387,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         wp.atomic_add(out, 3, wp.float64(L.count[p]))
         wp.atomic_add(out, 4, wp.float64(L.active[p]))
 
-    return Namespace(Links=Links, Params=Params, check_points=check_points, check_bodies=check_bodies,
+    return Namespace(Links=Links, Params=Params, check_lists=check_lists,
                       clear_cells=dem.clear_cells, bin_points=bin_points, build_lists=build_lists,
                       finish_lists=finish_lists, forces=forces, diagnostics=diagnostics,
                       finish_rebuild=dem.finish_rebuild, FIXED=FIXED)

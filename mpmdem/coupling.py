@@ -222,7 +222,7 @@ class CoupledStage(ClockedStage):
     def step(self) -> None:
         """One coupled explicit step (MPM-SDEM §4.2)."""
         mpm, dem = self.mpm, self.dem
-        dem.contact_checks()
+        dem.contact_checks(clear_loads=not self.clears_loads)
         if self.liu is None:
             self.check_lists()
         run_plan(self.start_plan, self.device, mpm.extensions)  # list rebuilds, relabel (when flagged)
@@ -258,15 +258,21 @@ class CoupledStage(ClockedStage):
         run_plan(self.rebuild_plan, self.device)
         self.imp_forces()
 
+    @property
+    def clears_loads(self) -> bool:
+        """Whether ``check_lists`` clears the bodies' loads: with no free body the DEM stage has no
+        contact launch of its own to do it (``DEMSolver.contact_checks``), and the IMP step has."""
+        return self.liu is None and not self.dem.free
+
     def check_lists(self) -> None:
         """Flag a rebuild of the point–body lists when a point or a moving body moved more than
-        half the skin since the last build."""
-        k, L, params, dev = self.k, self.L, self.params, self.device
-        points, B = self.mpm.P, self.dem.B
-        wp.launch(k.check_points, self.mpm.particle_count, inputs=[points, L, params, self.clock, self.flags],
-                  device=dev)
-        if self.dem.moving:
-            wp.launch(k.check_bodies, self.dem.moving, inputs=[B, L, params, self.flags], device=dev)
+        half the skin since the last build (with ``clears_loads``, the bodies' loads cleared in
+        the same launch)."""
+        n, dem = self.mpm.particle_count, self.dem
+        clear = dem.body_count if self.clears_loads else 0
+        wp.launch(self.k.check_lists, max(n, dem.moving, clear),
+                  inputs=[self.mpm.P, dem.B, self.L, self.params, self.clock, self.flags, dem.moving, clear],
+                  device=self.device)
 
     def imp_forces(self) -> None:
         """The IMP forces of this step on the points (and their reactions on the bodies)."""

@@ -335,9 +335,11 @@ class DEMSolver(ClockedStage):
         run_plan(self.contact_rebuild, self.device)
         self.contact_forces()
 
-    def contact_checks(self) -> None:
+    def contact_checks(self, clear_loads: bool = True) -> None:
         """The start of the contact stage: world vertices of the moving bodies, this step's loads
-        cleared and, with free bodies, whether the lists must be rebuilt (a device flag)."""
+        cleared and, with free bodies, whether the lists must be rebuilt (a device flag). Without
+        free bodies, ``clear_loads`` False leaves the clearing to the caller's launch (the
+        coupling's ``check_lists``)."""
         k, B, params, dev = self.k, self.B, self.params, self.device
         if self.moving_vertices:
             wp.launch(k.world_vertices, self.moving_vertices, inputs=[B, self.local, self.owner, self.world],
@@ -345,7 +347,8 @@ class DEMSolver(ClockedStage):
         if not self.free:
             # no free body, so no body–body contact (a silo's walls, a fixed floor under points): the
             # lists would stay empty; only the coupling's reactions accumulate on the bodies
-            wp.launch(k.clear_loads, self.body_count, inputs=[B], device=dev)
+            if clear_loads:
+                wp.launch(k.clear_loads, self.body_count, inputs=[B], device=dev)
             return
         # (this step's loads cleared in the same launch)
         wp.launch(k.check_displacement, self.body_count, inputs=[B, params, self.flags, self.moving], device=dev)
