@@ -21,18 +21,12 @@ import functools
 import warp as wp
 
 from .clock import (
-    CLOCK_BOUND,
-    CLOCK_BOUND_NEXT,
     CLOCK_DT,
-    CLOCK_DT_FACTOR,
-    CLOCK_DT_FIXED,
     CLOCK_T,
-    CLOCK_T_STOP,
     set_step,
-    take_step,
 )
 from .contact_geometry import make_contact_geometry, make_history_lookup
-from .reductions import advance
+from .reductions import close_step
 from .types import Namespace, kernel, scalar_types
 
 __all__ = [
@@ -493,18 +487,11 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
 
     @kernel
     def end_step(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
-        """The last launch of a DEM step: t += dt (``reductions.advance``), the step recorded for the
-        host (``clock.take_step``) and the next step's dt set (``clock.set_step``): the fixed dt, or
+        """The last launch of a DEM step: t += dt and the step recorded for the host
+        (``reductions.close_step``), and the next step's dt set (``clock.set_step``): the fixed dt, or
         the factor × the bound (both set once: they depend on masses and k_n only), split evenly to
         end on t_stop; 0 once the clock has reached t_stop."""
-        dt = clock[CLOCK_DT]  # (every load first: one round trip)
-        t_stop = clock[CLOCK_T_STOP]
-        fixed = clock[CLOCK_DT_FIXED]
-        factor = clock[CLOCK_DT_FACTOR]
-        bound = clock[CLOCK_BOUND]
-        bound_next = clock[CLOCK_BOUND_NEXT]
-        t = advance(clock, steps)
-        take_step(clock, dt, bound)
+        dt, t, t_stop, fixed, factor, bound_next = close_step(clock, steps)
         set_step(clock, t, t_stop, fixed, factor, bound_next, wp.float64(0.0), wp.float64(0.0))
 
     # -- diagnostics ----------------------------------------------------------------------------

@@ -31,6 +31,7 @@ __all__ = [
     "SPEED_SLOTS",
     "STATUS_NONFINITE",
     "STATUS_OUTSIDE",
+    "close_step",
     "end_step",
     "finish_step",
     "measure_bound",
@@ -161,12 +162,10 @@ def advance(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
 
 
 @wp.func
-def finish_step(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64),
-                max_speed: wp.array(dtype=wp.float32), h: wp.float64, cap: wp.float64, cap_bound: wp.float64):
-    """The end of an MPM (or coupled) step, in the step's last launch: t += dt and the step counted
-    (``advance``), the step recorded for the host (``clock.take_step``), and the next step's dt set
-    (``clock.set_step``) from the bound the step's G2P measured. A step at t_stop (dt = 0) moved
-    nothing: its G2P left the speed slots alone and CLOCK_BOUND_NEXT stands."""
+def close_step(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64)):
+    """t += dt and the step counted (``advance``), the step recorded for the host
+    (``clock.take_step``); returns what the next step's dt is set from (``clock.set_step``):
+    (dt of this step, t, t_stop, fixed dt, factor, bound_next) [s]."""
     dt = clock[CLOCK_DT]  # (every load first: one round trip)
     t_stop = clock[CLOCK_T_STOP]
     fixed = clock[CLOCK_DT_FIXED]
@@ -175,6 +174,16 @@ def finish_step(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int6
     bound_next = clock[CLOCK_BOUND_NEXT]
     t = advance(clock, steps)
     take_step(clock, dt, bound)
+    return dt, t, t_stop, fixed, factor, bound_next
+
+
+@wp.func
+def finish_step(clock: wp.array(dtype=wp.float64), steps: wp.array(dtype=wp.int64),
+                max_speed: wp.array(dtype=wp.float32), h: wp.float64, cap: wp.float64, cap_bound: wp.float64):
+    """The end of an MPM (or coupled) step, in the step's last launch: ``close_step``, then the
+    next step's dt set (``clock.set_step``) from the bound the step's G2P measured. A step at
+    t_stop (dt = 0) moved nothing: its G2P left the speed slots alone and CLOCK_BOUND_NEXT stands."""
+    dt, t, t_stop, fixed, factor, bound_next = close_step(clock, steps)
     if dt > wp.float64(0.0):
         bound_next = measure_bound(clock, max_speed, h)
     set_step(clock, t, t_stop, fixed, factor, bound_next, cap, cap_bound)
