@@ -193,7 +193,7 @@ class Simulation:
                 self._auto_sort.after_batch(steps)
             if on_batch is not None:
                 on_batch(t, dt)
-            # the steps left, as the device counts them (kernels.reductions.land_on_stop): an idle
+            # the steps left, as the device counts them (kernels.clock.land): an idle
             # step past t_stop would leave dt = 0 in the frame's diagnostics
             est = (t_stop - t) / dt - ROUND_OFF if dt > 0 else 1
             batch = int(min(max_batch, max(1, math.ceil(est))))
