@@ -65,8 +65,9 @@ SPEED_SLOTS = 32
 
 @functools.cache
 def make_speed_check(precision: str):
-    """``speed_check(P, D, materials, p, max_speed, status)``: CFL speed c_p + |v_p| of point p
-    into ``max_speed``, and counts of non-finite and escaped points into ``status``."""
+    """``speed_check(P, D, materials, p, vol, max_speed, status)``: CFL speed c_p + |v_p| of point
+    p (volume ``vol`` [m²/m]) into ``max_speed``, and counts of non-finite and escaped points into
+    ``status``."""
     t = scalar_types(precision)
     T = t.scalar
     Particles, Grid, Domain = make_state_structs(precision)
@@ -77,11 +78,12 @@ def make_speed_check(precision: str):
         D: Domain,
         materials: wp.array(dtype=t.params),
         p: int,
+        vol: T,
         max_speed: wp.array(dtype=wp.float32),
         status: wp.array(dtype=wp.int32),
     ):
         m = materials[P.material[p]]
-        rho = P.mass[p] / P.vol[p]
+        rho = P.mass[p] / vol
         # dilatational wave speed sqrt((λ+2μ)/ρ) at the current density ("MPM notes" step 8)
         s = wp.sqrt((m[1] + T(2.0) * m[0]) / rho) + wp.length(P.v[p])
         x = P.x[p]
@@ -113,7 +115,8 @@ def make_wave_speed(precision: str):
         max_speed: wp.array(dtype=wp.float32),
         status: wp.array(dtype=wp.int32),
     ):
-        speed_check(P, D, materials, wp.tid(), max_speed, status)
+        p = wp.tid()
+        speed_check(P, D, materials, p, P.vol[p], max_speed, status)
 
     return wave_speed
 

@@ -10,7 +10,7 @@ import functools
 import warp as wp
 
 from .clock import CLOCK_DT, CLOCK_T
-from .constitutive import make_point_update
+from .constitutive import make_derived_state, make_point_update
 from .granular import NO_LAYER, STATUS_LAYER_OVERFLOW, make_layer_row, slot_words
 from .grid import WORK_INFLOW, WORK_PLASTIC, make_keep_inside_walls, work_slot
 from .reductions import make_speed_check
@@ -66,6 +66,7 @@ def make_p2g(
     layered: bool = False,
     staged: bool = False,
     contact: bool = False,
+    derived: tuple = (),
 ):
     """P2G of mass, momentum (with the affine term) and internal force.
 
@@ -78,6 +79,9 @@ def make_p2g(
     time (``P.release``) is still ahead take no part (``Scene.add_points(release_time=...)``).
     contact: the force pass also spreads the point's contact force from rigid bodies,
     f_I += N_I(x_p) f_p^cont (MPM-SDEM eq. 47-48; ``kernels.coupling``).
+    derived: the material kinds, when every point's stress and volume follow from its F
+    (``constitutive.stress_from_deformation``): the force pass computes V σ from F instead of
+    reading them (empty: read the stored ones).
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -92,10 +96,12 @@ def make_p2g(
     claim = layered and mass  # the step's first P2G claims the copies (kernels/granular.py)
     layer_row = make_layer_row(insert=True)
     WORDS = slot_words(NC * K * K)
+    from_F = bool(derived) and force
+    volume_stress = make_derived_state(tuple(derived) or (1,), precision).volume_stress
 
     @kernel(deterministic=deterministic)
     def p2g(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64),
-            status: wp.array(dtype=wp.int32)):
+            status: wp.array(dtype=wp.int32), materials: wp.array(dtype=t.params)):
         p = wp.tid()
         dt = T(clock[CLOCK_DT])
         if dt <= T(0.0):
@@ -115,7 +121,11 @@ def make_p2g(
         vs = t.mat22()
         if wp.static(force):
             # f_int,i = −Σ_p V_p σ_p ∇N_i(x_p) ("MPM notes" step 4; MPM-SDEM eq. 13)
-            vs = -P.vol[p] * P.stress[p]
+            if wp.static(from_F):
+                vol, sigma = volume_stress(P, p, materials[P.material[p]])
+                vs = -vol * sigma
+            else:
+                vs = -P.vol[p] * P.stress[p]
             if wp.static(fused_impulse):
                 vs = vs * dt
         fc = t.vec2()
@@ -196,6 +206,7 @@ def make_g2p(
     critical: bool = False,
     layered: bool = False,
     staged: bool = False,
+    derived: bool = False,
 ):
     """G2P: particle velocity, affine matrix, position, and (optionally fused) stress update.
 
@@ -207,7 +218,8 @@ def make_g2p(
     density_control, critical: see ``constitutive.make_point_update``; the energy the update
     dissipates goes to the "work_plastic" term of ``work``. layered: granular mode, each point
     reads its component's copy of every node (``kernels.granular``). staged: points not yet
-    released stay where they are, untouched.
+    released stay where they are, untouched. derived: stress and volume follow from F
+    (``constitutive.stress_from_deformation``), so the update stores F alone.
     position_mode "xpic": XPIC(m) velocity (eq. 40, from the smoothed field ``Grid.vs``) and
     position (eq. 41) updates; when velocity and position are split (MUSL) the displacement is
     kept in ``Particles.tmp`` between the two kernels.
@@ -220,7 +232,7 @@ def make_g2p(
     stencil, contribution, on_grid = make_stencil(shape, precision)
     point_on_grid = make_point_on_grid(shape, precision)
     node, point_layers = make_stencil_loop(precision, K, NC, contribution)
-    point_update = make_point_update(material_kinds, precision, density_control, critical)
+    point_update = make_point_update(material_kinds, precision, density_control, critical, derived)
     dissipative = critical or any(k >= 2 for k in material_kinds)
     X = float(flip_fraction)
     X_pic = 1.0 - X
@@ -374,15 +386,21 @@ def make_g2p(
             P.x[p] = x_old + P.tmp[p]
         if wp.static(position):
             P.x[p] = keep_inside_walls(P.x[p], D)  # no material past a wall, not even by round-off
+        vol = T(0.0)
         if wp.static(has_stress):
-            diss = point_update(P, p, materials[P.material[p]], L, dt * T(stress_dt))
+            diss, vol = point_update(P, p, materials[P.material[p]], L, dt * T(stress_dt))
             if wp.static(dissipative):
                 if diss != wp.float64(0.0):
                     wp.atomic_add(work, work_slot(WORK_PLASTIC, p, 0), diss)
         if wp.static(position):
             # the kernel that moves the points is the last of the step: it also gathers the
             # CFL speed for the next step and flags non-finite or escaped points
-            speed_check(P, D, materials, p, max_speed, status)
+            if wp.static(not has_stress):
+                if wp.static(derived):
+                    vol = P.vol0[p] * wp.determinant(P.F[p])
+                else:
+                    vol = P.vol[p]
+            speed_check(P, D, materials, p, vol, max_speed, status)
 
     return g2p
 

@@ -22,6 +22,7 @@ from .checks import check_time_step
 from .config import SolverConfig
 from .errors import InputError
 from .kernels import clock as clock_kernels
+from .kernels import constitutive as constitutive_kernels
 from .kernels import granular as granular_kernels
 from .kernels import grid as grid_kernels
 from .kernels import reductions as reduction_kernels
@@ -141,6 +142,9 @@ class MPMSolver(ClockedStage):
         n = self.particle_count
         self.point_contact_radius = host["contact_radius"]  # device order [m]
         self.material_kinds = tuple(sorted({m.kind_id for m in mats}))
+        #: hyperelastic scenes store F alone: σ and V are recomputed from it where needed
+        #: (``kernels.constitutive.stress_from_deformation``; ``refresh_derived`` for the host)
+        self.derived_stress = constitutive_kernels.stress_from_deformation(self.material_kinds, self.critical)
         self.points = make_points(scene, self.config, host, self.order, mat_index, staged=self.staged,
                                   coupled=self.coupled, device=dev)
         # where each point's contact force acts (the "grid" coupling scheme spreads it from there)
@@ -202,14 +206,15 @@ class MPMSolver(ClockedStage):
         def p2g(**flags):
             kernel = transfer_kernels.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic,
                                                layered=layered, staged=self.staged,
-                                               contact=self.coupled and c.coupling == "imp", **flags)
+                                               contact=self.coupled and c.coupling == "imp",
+                                               derived=self.material_kinds if self.derived_stress else (), **flags)
             fused = flags.get("fused_impulse", False)
             extra = []
             if self.coupled and c.coupling == "grid" and (flags["force"] or fused):
                 scatter = transfer_kernels.make_contact_scatter(prec, fused_impulse=fused,
                                                                 deterministic=c.deterministic)
                 extra = [Launch(scatter, n, [points, G, D, clock, self.contact_at])]
-            return [Launch(kernel, n, [points, G, D, clock, self.status])] + extra + fold(
+            return [Launch(kernel, n, [points, G, D, clock, self.status, mats])] + extra + fold(
                 mass=flags["mass"], momentum=flags["momentum"] or fused, force=flags["force"] and not fused,
                 remap=flags.get("remap", False))
 
@@ -232,7 +237,7 @@ class MPMSolver(ClockedStage):
         def g2p(**flags):
             k = transfer_kernels.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds,
                                           density_control=c.density_control, critical=self.critical,
-                                          layered=layered, staged=self.staged, **flags)
+                                          layered=layered, staged=self.staged, derived=self.derived_stress, **flags)
             return [Launch(k, n, [points, G, D, clock, mats, self.max_speed, self.status, work])]
 
         def xpic_smoothing():
@@ -395,8 +400,18 @@ class MPMSolver(ClockedStage):
         """Non-finite points, points outside, point-node contributions with no grid layer left."""
         return self.status.numpy()
 
+    def refresh_derived(self) -> None:
+        """Hyperelastic scenes (``derived_stress``): write every point's volume and stress from its F
+        into ``points.vol`` and ``points.stress``, which the step itself does not store; a no-op
+        otherwise. Anything that reads those arrays on the host calls this first."""
+        if self.derived_stress:
+            refresh = constitutive_kernels.make_derived_state(self.material_kinds, self.config.precision).refresh
+            wp.launch(refresh, self.particle_count, inputs=[self.points, self.materials], device=self.device)
+
     def state_arrays(self) -> dict[str, wp.array]:
-        """Every time-varying device array (what a checkpoint holds), by a stable name."""
+        """Every time-varying device array (what a checkpoint holds), by a stable name (volume and
+        stress refreshed first: ``refresh_derived``)."""
+        self.refresh_derived()
         arrays = {f"P.{name}": getattr(self.points, name)
                   for name in STATE_FIELDS + (("release",) if self.staged else ())}
         arrays.update(clock=self.clock, steps=self.steps, max_speed=self.max_speed, status=self.status,
@@ -434,6 +449,7 @@ class MPMSolver(ClockedStage):
     def fields(self) -> dict[str, np.ndarray]:
         """Host copies of the per-point output fields (copies: on the CPU ``numpy()`` is a view)."""
         points = self.points
+        self.refresh_derived()
         fields = {"x": points.x, "v": points.v, "stress": points.stress, "volume": points.vol,
                   "mass": points.mass, "F": points.F}
         pid = points.pid.numpy()
