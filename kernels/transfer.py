@@ -67,6 +67,7 @@ def make_p2g(
     staged: bool = False,
     contact: bool = False,
     derived: tuple = (),
+    tile: tuple = (),
 ):
     """P2G of mass, momentum (with the affine term) and internal force.
 
@@ -82,6 +83,12 @@ def make_p2g(
     derived: the material kinds, when every point's stress and volume follow from its F
     (``constitutive.stress_from_deformation``): the force pass computes V σ from F instead of
     reading them (empty: read the stored ones).
+    tile: (B, TX, TY) to sum in shared memory (CUDA, large scenes of cell-sorted points; launched
+    over whole blocks of B threads, ``tile_launch_size``): the B points of a block add into a
+    TX × TY tile of nodes placed at the block's first point, and the tile is added to the grid
+    once, which replaces about 27 global atomics a point by 3 TX TY / B; a node outside the tile
+    takes the global atomic as before. Not with layered, deterministic or multi-stencil variants.
+    Empty: one global atomic per point and node.
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -98,19 +105,55 @@ def make_p2g(
     WORDS = slot_words(NC * K * K)
     from_F = bool(derived) and force
     volume_stress = make_derived_state(tuple(derived) or (1,), precision).volume_stress
+    tiled = bool(tile)
+    if tiled and (layered or deterministic or NC != 1):
+        raise ValueError("a tiled P2G is built for single-stencil, non-layered, non-deterministic variants")
+    B, TX, TY = tile if tiled else (1, 1, 1)
+    mom_on = momentum or fused_impulse
+    force_on = force and not fused_impulse
+    # shapes of the shared tiles: (TX, TY) where the pass adds that field, else a 1 × 1 stand-in
+    mass_shape = (TX, TY) if (tiled and mass) else (1, 1)
+    mom_shape = (TX, TY) if (tiled and mom_on) else (1, 1)
+    force_shape = (TX, TY) if (tiled and force_on) else (1, 1)
+    vec2 = t.vec2
 
     @kernel(deterministic=deterministic)
     def p2g(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64),
             status: wp.array(dtype=wp.int32), materials: wp.array(dtype=t.params)):
         p = wp.tid()
         dt = T(clock[CLOCK_DT])
+        active = True
+        ox = int(0)
+        oy = int(0)
+        if wp.static(tiled):
+            # every thread of the block reaches the shared-tile calls: the early returns become
+            # "active", and threads past the last point take the last point's data, inactive
+            n = P.x.shape[0]
+            if p >= n:
+                active = False
+                p = n - 1
+            # the tile starts one column left of and two rows below the block's first point (points
+            # are sorted by cell column, then by height: the rest of the block lies above it)
+            c0 = (P.x[wp.min((p // wp.static(B)) * wp.static(B), n - 1)] - D.origin) * D.inv_h
+            ox = wp.clamp(int(wp.floor(c0[0])) - 1, 0, G.mass.shape[0] - wp.static(TX))
+            oy = wp.clamp(int(wp.floor(c0[1])) - 2, 0, G.mass.shape[1] - wp.static(TY))
+            mass_tile = wp.tile_zeros(shape=(wp.static(mass_shape[0]), wp.static(mass_shape[1])), dtype=T, storage="shared")
+            mom_tile = wp.tile_zeros(shape=(wp.static(mom_shape[0]), wp.static(mom_shape[1])), dtype=vec2, storage="shared")
+            force_tile = wp.tile_zeros(shape=(wp.static(force_shape[0]), wp.static(force_shape[1])), dtype=vec2, storage="shared")
         if dt <= T(0.0):
-            return
+            if wp.static(not tiled):
+                return
+            active = False
         if wp.static(staged):
             if clock[CLOCK_T] < P.release[p]:
-                return
+                if wp.static(not tiled):
+                    return
+                active = False
         if not point_on_grid(P, D, G, p):
-            return  # escaped (or non-finite) point: skipped here, flagged by the status check
+            # escaped (or non-finite) point: skipped here, flagged by the status check
+            if wp.static(not tiled):
+                return
+            active = False
         c = (P.x[p] - D.origin) * D.inv_h
         mp = P.mass[p]
         mv = mp * P.v[p]
@@ -160,24 +203,39 @@ def make_p2g(
                             packed[n // 4] = packed[n // 4] | (s << (8 * (n % 4)))
                         else:
                             row = copy_row(packed, n, gi, D.layer_rows)
-                    if row >= 0:
+                    mom = t.vec2()
+                    if wp.static(momentum):
+                        mom = w * mv
+                        if wp.static(has_affine):
+                            dpos = (t.vec2(T(gi), T(gj)) - c) * D.h
+                            mom = mom + w * (mC * dpos)
+                    f = t.vec2()
+                    if wp.static(force):
+                        f = vs * grad
+                        if wp.static(with_contact):
+                            f = f + w * fc  # eq. 47
+                        if wp.static(fused_impulse):
+                            mom = mom + f
+                    in_tile = False
+                    if wp.static(tiled):
+                        li = gi - ox
+                        lj = gj - oy
+                        in_tile = active and li >= 0 and li < wp.static(TX) and lj >= 0 and lj < wp.static(TY)
+                        if not in_tile:
+                            li = 0
+                            lj = 0
+                        if wp.static(mass):
+                            wp.tile_scatter_add(mass_tile, li, lj, w * mp, in_tile)
+                        if wp.static(mom_on):
+                            wp.tile_scatter_add(mom_tile, li, lj, mom, in_tile)
+                        if wp.static(force_on):
+                            wp.tile_scatter_add(force_tile, li, lj, f, in_tile)
+                    if row >= 0 and active and not in_tile:
                         if wp.static(mass):
                             wp.atomic_add(G.mass, row, gj, w * mp)
-                        mom = t.vec2()
-                        if wp.static(momentum):
-                            mom = w * mv
-                            if wp.static(has_affine):
-                                dpos = (t.vec2(T(gi), T(gj)) - c) * D.h
-                                mom = mom + w * (mC * dpos)
-                        if wp.static(force):
-                            f = vs * grad
-                            if wp.static(with_contact):
-                                f = f + w * fc  # eq. 47
-                            if wp.static(fused_impulse):
-                                mom = mom + f
-                            else:
-                                wp.atomic_add(G.force, row, gj, f)
-                        if wp.static(momentum or fused_impulse):
+                        if wp.static(force_on):
+                            wp.atomic_add(G.force, row, gj, f)
+                        if wp.static(mom_on):
                             if wp.static(remap):
                                 wp.atomic_add(G.vm, row, gj, mom)
                             else:
@@ -185,6 +243,20 @@ def make_p2g(
         if claiming:
             for word in range(wp.static(WORDS)):
                 P.slots[p, word] = packed[word]
+        if wp.static(tiled):
+            # the block's sums onto the grid: one atomic per tile node and field (each array through
+            # a local: Warp 1.19 cannot pass a struct's array to tile_atomic_add directly)
+            if wp.static(mass):
+                grid_mass = G.mass
+                wp.tile_atomic_add(grid_mass, mass_tile, offset=(ox, oy))
+            if wp.static(mom_on):
+                grid_mom = G.mom
+                if wp.static(remap):
+                    grid_mom = G.vm
+                wp.tile_atomic_add(grid_mom, mom_tile, offset=(ox, oy))
+            if wp.static(force_on):
+                grid_force = G.force
+                wp.tile_atomic_add(grid_force, force_tile, offset=(ox, oy))
 
     return p2g
 

@@ -36,6 +36,12 @@ from .stage import Clock, ClockedStage
 
 __all__ = ["AFTER_FORCE_UPDATE", "GHOST_NODES", "MPMSolver", "device_order", "initial_dt_bound"]
 
+#: From this many points on CUDA, P2G sums each block's points in a shared-memory tile first
+#: (``MPMSolver.p2g_tile``); below it a step is latency-bound and the tile's barriers only add.
+TILED_P2G_POINTS = 65536
+#: Threads (points) per block of the tiled P2G.
+TILED_P2G_BLOCK = 256
+
 #: Extension point of the step: after the grid's force update and before G2P (USL only). The
 #: coupling's momentum exchange of Liu et al. runs there (``MPMSolver.extend``).
 AFTER_FORCE_UPDATE = "after_force_update"
@@ -203,18 +209,24 @@ class MPMSolver(ClockedStage):
                 return [Launch(mirror_pair, band_dim, [fields[0], fields[1], D, clock, G.owner, self.wall_band])]
             return [Launch(mirror, band_dim, [f, f, D, clock, G.owner, self.wall_band]) for f in fields]
 
+        tile = self.p2g_tile()
+
         def p2g(**flags):
             kernel = transfer_kernels.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic,
                                                layered=layered, staged=self.staged,
                                                contact=self.coupled and c.coupling == "imp",
-                                               derived=self.material_kinds if self.derived_stress else (), **flags)
+                                               derived=self.material_kinds if self.derived_stress else (),
+                                               tile=tile, **flags)
             fused = flags.get("fused_impulse", False)
             extra = []
             if self.coupled and c.coupling == "grid" and (flags["force"] or fused):
                 scatter = transfer_kernels.make_contact_scatter(prec, fused_impulse=fused,
                                                                 deterministic=c.deterministic)
                 extra = [Launch(scatter, n, [points, G, D, clock, self.contact_at])]
-            return [Launch(kernel, n, [points, G, D, clock, self.status, mats])] + extra + fold(
+            launch = Launch(kernel, n, [points, G, D, clock, self.status, mats])
+            if tile:  # whole blocks: every thread of a block reaches the shared-tile calls
+                launch = Launch(kernel, -(-n // tile[0]) * tile[0], launch.inputs, block_dim=tile[0])
+            return [launch] + extra + fold(
                 mass=flags["mass"], momentum=flags["momentum"] or fused, force=flags["force"] and not fused,
                 remap=flags.get("remap", False))
 
@@ -317,6 +329,24 @@ class MPMSolver(ClockedStage):
         # speeds of the initial state, for the first step's dt (later steps: inside G2P)
         wp.launch(reduction_kernels.make_wave_speed(prec), n, inputs=[points, D, mats, self.max_speed, self.status],
                   device=self.device)
+
+    def p2g_tile(self) -> tuple:
+        """(B, TX, TY) of the shared-memory P2G (``kernels.transfer.make_p2g``'s ``tile``), or ()
+        for one global atomic per point and node: tiles pay on CUDA from TILED_P2G_POINTS points
+        on, for single-stencil shapes, outside granular and deterministic mode. A block of B
+        cell-sorted points spans about B / ppc cells of one cell column, so the tile is K + 1
+        nodes wide and B / ppc + K + 3 high (K the stencil's nodes per axis)."""
+        c = self.config
+        K = SUPPORT_NODES[c.shape]
+        if (not self.device.is_cuda or self.particle_count < TILED_P2G_POINTS or c.granular or c.deterministic
+                or transfer_kernels.CORNERS.get(c.shape, 1) != 1):
+            return ()
+        ppc = min(b.points_per_cell for b in self.scene.bodies) ** 2
+        B = TILED_P2G_BLOCK
+        TX, TY = K + 1, B // ppc + K + 3
+        if TX > self.grid_shape[0] or TY > self.grid_shape[1]:
+            return ()
+        return (B, TX, TY)
 
     # -- stepping -------------------------------------------------------------------------------
     def step(self) -> None:
