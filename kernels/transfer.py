@@ -111,11 +111,13 @@ def make_p2g(
     B, TX, TY = tile if tiled else (1, 1, 1)
     mom_on = momentum or fused_impulse
     force_on = force and not fused_impulse
-    # shapes of the shared tiles: (TX, TY) where the pass adds that field, else a 1 × 1 stand-in
-    mass_shape = (TX, TY) if (tiled and mass) else (1, 1)
-    mom_shape = (TX, TY) if (tiled and mom_on) else (1, 1)
-    force_shape = (TX, TY) if (tiled and force_on) else (1, 1)
-    vec2 = t.vec2
+    # one shared tile of (mass, momentum, force) per node, the components the pass adds, so that
+    # a node costs one scatter (each scatter ends in a block barrier)
+    M0 = 0
+    P0 = M0 + (1 if mass else 0)
+    F0 = P0 + (2 if mom_on else 0)
+    SUMS = max(1, F0 + (2 if force_on else 0))
+    sums = wp.types.vector(SUMS, T)
 
     @kernel(deterministic=deterministic)
     def p2g(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64),
@@ -123,23 +125,26 @@ def make_p2g(
         p = wp.tid()
         dt = T(clock[CLOCK_DT])
         active = True
+        lane = int(0)
+        threads = int(1)
         ox = int(0)
         oy = int(0)
         if wp.static(tiled):
             # every thread of the block reaches the shared-tile calls: the early returns become
             # "active", and threads past the last point take the last point's data, inactive
             n = P.x.shape[0]
+            threads = wp.block_dim()  # B on CUDA; 1 on the CPU, which runs a lane per block
+            lane = p - (p // threads) * threads
+            first = p - lane  # the block's first point (before p is clamped: the origin is the block's)
             if p >= n:
                 active = False
                 p = n - 1
             # the tile starts one column left of and two rows below the block's first point (points
             # are sorted by cell column, then by height: the rest of the block lies above it)
-            c0 = (P.x[wp.min((p // wp.static(B)) * wp.static(B), n - 1)] - D.origin) * D.inv_h
+            c0 = (P.x[wp.min(first, n - 1)] - D.origin) * D.inv_h
             ox = wp.clamp(int(wp.floor(c0[0])) - 1, 0, G.mass.shape[0] - wp.static(TX))
             oy = wp.clamp(int(wp.floor(c0[1])) - 2, 0, G.mass.shape[1] - wp.static(TY))
-            mass_tile = wp.tile_zeros(shape=(wp.static(mass_shape[0]), wp.static(mass_shape[1])), dtype=T, storage="shared")
-            mom_tile = wp.tile_zeros(shape=(wp.static(mom_shape[0]), wp.static(mom_shape[1])), dtype=vec2, storage="shared")
-            force_tile = wp.tile_zeros(shape=(wp.static(force_shape[0]), wp.static(force_shape[1])), dtype=vec2, storage="shared")
+            node_sums = wp.tile_zeros(shape=(wp.static(TX), wp.static(TY)), dtype=sums, storage="shared")
         if dt <= T(0.0):
             if wp.static(not tiled):
                 return
@@ -224,12 +229,16 @@ def make_p2g(
                         if not in_tile:
                             li = 0
                             lj = 0
+                        term = sums()
                         if wp.static(mass):
-                            wp.tile_scatter_add(mass_tile, li, lj, w * mp, in_tile)
+                            term[wp.static(M0)] = w * mp
                         if wp.static(mom_on):
-                            wp.tile_scatter_add(mom_tile, li, lj, mom, in_tile)
+                            term[wp.static(P0)] = mom[0]
+                            term[wp.static(P0 + 1)] = mom[1]
                         if wp.static(force_on):
-                            wp.tile_scatter_add(force_tile, li, lj, f, in_tile)
+                            term[wp.static(F0)] = f[0]
+                            term[wp.static(F0 + 1)] = f[1]
+                        wp.tile_scatter_add(node_sums, li, lj, term, in_tile)
                     if row >= 0 and active and not in_tile:
                         if wp.static(mass):
                             wp.atomic_add(G.mass, row, gj, w * mp)
@@ -244,19 +253,27 @@ def make_p2g(
             for word in range(wp.static(WORDS)):
                 P.slots[p, word] = packed[word]
         if wp.static(tiled):
-            # the block's sums onto the grid: one atomic per tile node and field (each array through
-            # a local: Warp 1.19 cannot pass a struct's array to tile_atomic_add directly)
-            if wp.static(mass):
-                grid_mass = G.mass
-                wp.tile_atomic_add(grid_mass, mass_tile, offset=(ox, oy))
-            if wp.static(mom_on):
-                grid_mom = G.mom
-                if wp.static(remap):
-                    grid_mom = G.vm
-                wp.tile_atomic_add(grid_mom, mom_tile, offset=(ox, oy))
-            if wp.static(force_on):
-                grid_force = G.force
-                wp.tile_atomic_add(grid_force, force_tile, offset=(ox, oy))
+            # the block's sums onto the grid, a node per thread, one atomic per field and node
+            # that holds something (the last scatter's barrier made the tile complete)
+            for e in range(lane, wp.static(TX * TY), threads):
+                a = e // wp.static(TY)
+                b = e - a * wp.static(TY)
+                v = wp.tile_extract(node_sums, a, b)
+                held = True
+                if wp.static(mass):
+                    held = v[wp.static(M0)] != T(0.0)
+                if held:
+                    gi = ox + a
+                    gj = oy + b
+                    if wp.static(mass):
+                        wp.atomic_add(G.mass, gi, gj, v[wp.static(M0)])
+                    if wp.static(mom_on):
+                        if wp.static(remap):
+                            wp.atomic_add(G.vm, gi, gj, t.vec2(v[wp.static(P0)], v[wp.static(P0 + 1)]))
+                        else:
+                            wp.atomic_add(G.mom, gi, gj, t.vec2(v[wp.static(P0)], v[wp.static(P0 + 1)]))
+                    if wp.static(force_on):
+                        wp.atomic_add(G.force, gi, gj, t.vec2(v[wp.static(F0)], v[wp.static(F0 + 1)]))
 
     return p2g
 
