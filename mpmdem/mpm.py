@@ -40,7 +40,7 @@ __all__ = ["AFTER_FORCE_UPDATE", "GHOST_NODES", "MPMSolver", "device_order", "in
 #: (``MPMSolver.p2g_tile``); below it a step is latency-bound and the tile's barriers only add.
 TILED_P2G_POINTS = 65536
 #: Threads (points) per block of the tiled P2G.
-TILED_P2G_BLOCK = 256
+TILED_P2G_BLOCK = 64
 
 #: Extension point of the step: after the grid's force update and before G2P (USL only). The
 #: coupling's momentum exchange of Liu et al. runs there (``MPMSolver.extend``).

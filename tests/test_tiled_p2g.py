@@ -13,7 +13,7 @@ import pytest
 from mpmdem import NeoHookean, Scene, Simulation, SolverConfig, rectangle
 from mpmdem.kernels import transfer
 from mpmdem.kernels.clock import CLOCK_DT
-from mpmdem.mpm import TILED_P2G_POINTS
+from mpmdem.mpm import TILED_P2G_BLOCK, TILED_P2G_POINTS
 
 BLOCK = 64
 
@@ -69,7 +69,7 @@ def test_tiles_only_where_they_pay(device):
     if device == "cpu":
         assert tile == ()
         return
-    assert tile == (256, 4, 256 // 4 + 6)
+    assert tile == (TILED_P2G_BLOCK, 4, TILED_P2G_BLOCK // 4 + 6)
     assert Simulation(scene, SolverConfig(precision="f32", shape="cpdi1"), device=device).mpm.p2g_tile() == ()
     assert Simulation(scene, SolverConfig(precision="f32", deterministic=True),
                       device=device).mpm.p2g_tile() == ()
