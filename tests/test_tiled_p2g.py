@@ -18,31 +18,46 @@ from mpmdem.mpm import TILED_P2G_BLOCK, TILED_P2G_POINTS
 BLOCK = 64
 
 
-def p2g_fields(sim, tile):
-    """Grid mass and momentum after the fused USL P2G with ``tile`` (() for the global atomics)."""
+#: The P2G passes of the stress-update orders: fused USL; mass and momentum with a separate force
+#: (USL with FLIP, MUSL's first pass); USF's two passes; MUSL's re-mapped momentum.
+PASSES = {
+    "fused": dict(mass=True, momentum=True, force=True, fused_impulse=True),
+    "separate-force": dict(mass=True, momentum=True, force=True),
+    "mass-momentum": dict(mass=True, momentum=True, force=False),
+    "force-only": dict(mass=False, momentum=False, force=True),
+    "remap": dict(mass=False, momentum=True, force=False, remap=True),
+}
+
+
+def p2g_fields(sim, tile, flags=PASSES["fused"]):
+    """Grid mass, momentum, force and re-mapped momentum after the P2G pass ``flags`` with ``tile``
+    (() for the global atomics)."""
     import warp as wp
 
     m = sim.mpm
     c = m.config
-    m.G.mass.zero_()
-    m.G.mom.zero_()
-    kernel = transfer.make_p2g(c.shape, c.scheme.affine, c.precision, mass=True, momentum=True, force=True,
-                               fused_impulse=True, derived=m.material_kinds if m.derived_stress else (), tile=tile)
+    for field in (m.G.mass, m.G.mom, m.G.force, m.G.vm):
+        field.zero_()
+    kernel = transfer.make_p2g(c.shape, c.scheme.affine, c.precision,
+                               derived=m.material_kinds if m.derived_stress else (), tile=tile, **flags)
     n = m.particle_count
     inputs = [m.points, m.G, m.D, m.clock, m.status, m.materials]
     if tile:
         wp.launch(kernel, -(-n // tile[0]) * tile[0], inputs=inputs, block_dim=tile[0], device=m.device)
     else:
         wp.launch(kernel, n, inputs=inputs, device=m.device)
-    return m.G.mass.numpy().copy(), m.G.mom.numpy().copy()
+    return [f.numpy().copy() for f in (m.G.mass, m.G.mom, m.G.force, m.G.vm)]
 
 
-@pytest.mark.parametrize("shuffled", [False, True])
-def test_tiled_p2g_adds_what_the_global_atomics_add(device, shuffled):
-    """Verify the tiled P2G's grid mass and momentum equal the global-atomic P2G's."""
+@pytest.mark.parametrize(("shuffled", "step_pass"), [(False, "fused"), (True, "fused"), (False, "separate-force"),
+                                                     (False, "mass-momentum"), (False, "force-only"),
+                                                     (False, "remap")])
+def test_tiled_p2g_adds_what_the_global_atomics_add(device, shuffled, step_pass):
+    """Verify the tiled P2G's grid fields equal the global-atomic P2G's, for every pass."""
     scene = Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=1 / 64)
     scene.add_mpm_body(rectangle(0.2, 0.1, 0.8, 0.6), NeoHookean(1e5, 0.3, 1000.0), velocity=(0.3, -0.2))
-    sim = Simulation(scene, SolverConfig(precision="f32", transfer="APIC"), device=device)
+    # (MUSL: the grid then has the re-mapped momentum field the "remap" pass adds to)
+    sim = Simulation(scene, SolverConfig(precision="f32", transfer="APIC", update="MUSL"), device=device)
     sim.run(0.005, frames=1, quiet=True)  # stresses and an affine field that are not zero
     if shuffled:
         sim.mpm.shuffle_points(seed=1)  # most points then fall outside their block's tile
@@ -51,11 +66,16 @@ def test_tiled_p2g_adds_what_the_global_atomics_add(device, shuffled):
     sim.mpm.clock.assign(clock)
     K = 3
     tile = (BLOCK, K + 1, BLOCK // 4 + K + 3)
-    mass, mom = p2g_fields(sim, ())
-    tiled_mass, tiled_mom = p2g_fields(sim, tile)
-    assert mass.sum() > 0 and np.abs(mom).max() > 0
-    np.testing.assert_allclose(tiled_mass, mass, rtol=0, atol=1e-5 * mass.max())
-    np.testing.assert_allclose(tiled_mom, mom, rtol=0, atol=1e-5 * np.abs(mom).max())
+    flags = PASSES[step_pass]
+    fields = p2g_fields(sim, (), flags)
+    tiled = p2g_fields(sim, tile, flags)
+    written = 0
+    for name, want, got in zip(("mass", "mom", "force", "vm"), fields, tiled, strict=True):
+        scale = np.abs(want).max()
+        written += scale > 0
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-5 * scale, err_msg=name)
+    assert written == sum(flags.get(k, False) for k in ("mass", "momentum", "force")) - (
+        1 if flags.get("fused_impulse") else 0)  # the pass wrote each of its fields (fused: force in mom)
 
 
 def test_tiles_only_where_they_pay(device):
