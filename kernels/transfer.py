@@ -83,12 +83,14 @@ def make_p2g(
     derived: the material kinds, when every point's stress and volume follow from its F
     (``constitutive.stress_from_deformation``): the force pass computes V σ from F instead of
     reading them (empty: read the stored ones).
-    tile: (B, TX, TY) to sum in shared memory (CUDA, large scenes of cell-sorted points; launched
-    over whole blocks of B threads, ``tile_launch_size``): the B points of a block add into a
-    TX × TY tile of nodes placed at the block's first point, and the tile is added to the grid
-    once, which replaces about 27 global atomics a point by 3 TX TY / B; a node outside the tile
-    takes the global atomic as before. Not with layered, deterministic or multi-stencil variants.
-    Empty: one global atomic per point and node.
+    tile: (B, TX, TY) to sum in shared memory (CUDA, large scenes of cell-sorted points,
+    ``MPMSolver.p2g_tile``; launched over whole blocks of B threads): the B points of a block add
+    their terms into one TX × TY tile of nodes placed at the block's first point, one scatter (and
+    block barrier) per stencil node, and the tile's non-empty nodes are then added to the grid,
+    one atomic per node and field: about 3 TX TY / B global atomics a point instead of 27 (f32,
+    bspline2: 4 × 22 nodes for 64 points). A node outside the tile takes the global atomic as
+    before, so any order is right, a cell-sorted one fast. Not with layered, deterministic or
+    multi-stencil variants. Empty: one global atomic per point and node.
     """
     t = scalar_types(precision)
     T = t.scalar
