@@ -23,6 +23,7 @@ from .config import SolverConfig
 from .errors import InputError
 from .kernels import clock as clock_kernels
 from .kernels import constitutive as constitutive_kernels
+from .kernels import contact_scatter as contact_scatter_kernels
 from .kernels import granular as granular_kernels
 from .kernels import grid as grid_kernels
 from .kernels import reductions as reduction_kernels
@@ -220,8 +221,8 @@ class MPMSolver(ClockedStage):
             fused = flags.get("fused_impulse", False)
             extra = []
             if self.coupled and c.coupling == "grid" and (flags["force"] or fused):
-                scatter = transfer_kernels.make_contact_scatter(prec, fused_impulse=fused,
-                                                                deterministic=c.deterministic)
+                scatter = contact_scatter_kernels.make_contact_scatter(prec, fused_impulse=fused,
+                                                                       deterministic=c.deterministic)
                 extra = [Launch(scatter, n, [points, G, D, clock, self.contact_at])]
             launch = Launch(kernel, n, [points, G, D, clock, self.status, mats])
             if tile:  # whole blocks: every thread of a block reaches the shared-tile calls
