@@ -109,6 +109,8 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         active: wp.array(dtype=wp.int32)  # (points) contacts touching this step
         listed: wp.array(dtype=wp.int32)  # (points) the points the force kernel visits, packed at each build
         listed_count: wp.array(dtype=wp.int32)  # (1) how many
+        near: wp.array(dtype=wp.int32)  # (points, large scenes) the listed points near a body this step (``sift``)
+        near_count: wp.array(dtype=wp.int32)  # (1) how many (reset by ``check_lists``)
         slots: int
 
     @wp.struct
@@ -144,6 +146,8 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         its loads of this step cleared (where the DEM stage has no contact launch to do it). One
         launch over max(points, moving, clear) threads: a small scene's step is paid per launch."""
         i = wp.tid()
+        if i == 0:
+            L.near_count[0] = 0  # (``sift`` packs this step's near points after it)
         if i < clear:
             B.force[i] = vec2()
             B.torque[i] = T(0.0)
@@ -268,113 +272,168 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
             L.slip[base + s] = slip
 
     # -- forces (MPM-SDEM eq. 43-46, 49-50) -----------------------------------------------------
-    @kernel(deterministic=deterministic)
-    def forces(P: Particles, B: Bodies, L: Links, prm: Params, world: wp.array(dtype=vec2),
-               clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
-        """Contact force f_p on point p from its listed bodies (eq. 44-46); reactions on the bodies.
+    @wp.func
+    def near_a_body(P: Particles, B: Bodies, L: Links, p: int, n: int):
+        """Whether point p is within the bounding circle (core radius + a + r_p) of one of its n
+        listed bodies: only then can it touch one (the feature search of ``forces``)."""
+        X = P.x[p]
+        rp = L.radius[p]
+        near = bool(False)
+        for s in range(n):
+            b = L.body[p * L.slots + s]
+            if wp.length(X - B.x[b]) < B.core_radius[b] + B.radius[b] + rp:
+                near = True
+        return near
 
-        Launched over every point; unless deterministic, thread k takes the k-th packed point
-        (``finish_lists``) and the threads past them return, so the warps that search are full
-        (a third of the points near bodies would otherwise hold nearly every warp in the search).
-        Deterministic runs keep thread p on point p: the packing order varies from run to run."""
-        p = wp.tid()
-        if wp.static(not deterministic):
-            if p >= L.listed_count[0]:
-                return
-            p = L.listed[p]
+    @kernel
+    def sift(P: Particles, B: Bodies, L: Links, clock: wp.array(dtype=wp.float64)):
+        """Large scenes, before ``forces``: of the listed points (``finish_lists``), pack those near
+        a body this step into ``L.near`` for the force kernel, and end the contacts of the others
+        here, as ``forces`` would (no force, no history; their dissipated work stays). Most listed
+        points are only within the skin; this light kernel (few registers, full occupancy) does
+        their reads, so the heavy search runs only where a contact can be."""
+        k = wp.tid()
+        if k >= L.listed_count[0]:
+            return
+        p = L.listed[k]
         n = L.count[p]
-        # a step with dt = 0 (the clock at its stop time) recomputes the same forces: the
-        # outputs keep the loads of the last real step, and nothing slips or dissipates
         if not released(P, clock, p):
             n = 0
-        if n == 0:
-            # most points are far from every body: two reads, and writes only when a contact ended
-            if L.active[p] != 0:
-                P.fcont[p] = vec2()
-                L.energy[p] = T(0.0)
-                L.active[p] = 0
-            return
-        fc = vec2()
-        dt = T(clock[CLOCK_DT])
-        S = L.slots
-        base = p * S
-        X = P.x[p]
-        vp = P.v[p]
-        rp = L.radius[p]
-        inv_mp = T(1.0) / P.mass[p]
-        mat = P.material[p]
-        energy = T(0.0)
-        lost = wp.vec2d(0.0, 0.0)
-        app = vec2()
-        app_w = T(0.0)
-        touching = int(0)
+        if n > 0:
+            if near_a_body(P, B, L, p, n):
+                L.near[wp.atomic_add(L.near_count, 0, 1)] = p
+                return
         for s in range(n):
-            b = L.body[base + s]
-            old_keys = L.key[base + s]
-            old_slips = L.slip[base + s]
-            keys = veci(-1, -1)
-            slips = vec2h()
-            n_hist = int(0)
-            xb = B.x[b]
-            reach = B.radius[b] + rp
-            if wp.length(X - xb) < B.core_radius[b] + reach:
-                start = B.vstart[b]
-                count = B.vcount[b]
-                vb = B.v[b]
-                wb = B.omega[b]
-                inv_mb = B.inv_mass[b]
-                inv_ib = B.inv_inertia[b]
-                mu = prm.friction[mat * prm.bodies + b]
-                n_edges = edge_count(count)
-                # a point past every edge line of a polygon core (inside a convex core) is pushed
-                # out through the nearest edge, the overlap growing as d turns negative
-                inside = count >= 3
-                best_d = T(-1.0e30)
-                best_f = int(-1)
-                best_n = vec2()
-                for f in range(n_edges + count + 1):
-                    # the point is a disk: a core of one vertex, in every corner region
-                    hit, N, d, key, inside, best_d, best_f, best_n = vertex_feature(
-                        X, world, start, count, f, n_edges, count, reach, 0, 1, 0, inside, best_d, best_f, best_n)
-                    if hit:
-                        # overlap eq. 44; contact point in the middle of the overlap (eq. 41);
-                        # N points from the body to the point
-                        delta, pc = contact_point(X, N, d, reach, rp)
-                        arm = X - xb
-                        if wp.static(lever_at_contact):
-                            arm = pc - xb
-                        vel = vp - point_velocity(vb, wb, pc - xb)
-                        lever = cross(arm, N)
-                        # the dashpot sees the point and the body (with its rotation) at the contact,
-                        # as two DEM bodies do
-                        inv_eff = inv_mp + inv_mb + inv_ib * lever * lever
-                        F, slip, e_contact, lost_contact = spring_dashpot(
-                            prm.kn, prm.kt, prm.zeta, mu, delta, vel, N, inv_eff,
-                            find_slip(old_keys, old_slips, key), dt)
-                        lost = lost + lost_contact
-                        energy += e_contact
-                        if n_hist < wp.static(IMP_HISTORY):
-                            keys[n_hist] = key
-                            slips[n_hist] = slip
-                            n_hist += 1
-                        fc += F  # on the point (eq. 46)
-                        wF = wp.length(F)
-                        app += wF * pc
-                        app_w += wF
-                        touching += 1
-                        # reaction on the body (eq. 49-50); fixed bodies keep it as their load
-                        wp.atomic_add(B.force, b, -F)
-                        wp.atomic_add(B.torque, b, -cross(arm, F))
-            L.key[base + s] = keys
-            L.slip[base + s] = slips
-        P.fcont[p] = fc
-        if app_w > T(0.0):
-            L.contact_at[p] = app / app_w
-        else:
-            L.contact_at[p] = X
-        L.energy[p] = energy
-        L.active[p] = touching
-        L.dissipated[p] = L.dissipated[p] + lost
+            key = L.key[p * L.slots + s]
+            if key[0] != -1 or key[1] != -1:
+                L.key[p * L.slots + s] = veci(-1, -1)
+                L.slip[p * L.slots + s] = vec2h()
+        if L.active[p] != 0:
+            P.fcont[p] = vec2()
+            L.energy[p] = T(0.0)
+            L.active[p] = 0
+            if n > 0:
+                L.contact_at[p] = P.x[p]
+
+    def make_forces(sifted: bool):
+        """The force kernel over the listed points, or (``sifted``) over those ``sift`` kept."""
+
+        @kernel(deterministic=deterministic)
+        def forces(P: Particles, B: Bodies, L: Links, prm: Params, world: wp.array(dtype=vec2),
+                   clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
+            """Contact force f_p on point p from its listed bodies (eq. 44-46); reactions on the bodies.
+
+            Launched over every point; unless deterministic, thread k takes the k-th packed point
+            (``finish_lists``, or ``sift``'s near points) and the threads past them return, so the
+            warps that search are full (a third of the points near bodies would otherwise hold nearly
+            every warp in the search). Deterministic runs keep thread p on point p: the packing order
+            varies from run to run."""
+            p = wp.tid()
+            if wp.static(sifted):
+                if p >= L.near_count[0]:
+                    return
+                p = L.near[p]
+            elif wp.static(not deterministic):
+                if p >= L.listed_count[0]:
+                    return
+                p = L.listed[p]
+            n = L.count[p]
+            # a step with dt = 0 (the clock at its stop time) recomputes the same forces: the
+            # outputs keep the loads of the last real step, and nothing slips or dissipates
+            if not released(P, clock, p):
+                n = 0
+            if n == 0:
+                # most points are far from every body: two reads, and writes only when a contact ended
+                if L.active[p] != 0:
+                    P.fcont[p] = vec2()
+                    L.energy[p] = T(0.0)
+                    L.active[p] = 0
+                return
+            fc = vec2()
+            dt = T(clock[CLOCK_DT])
+            S = L.slots
+            base = p * S
+            X = P.x[p]
+            vp = P.v[p]
+            rp = L.radius[p]
+            inv_mp = T(1.0) / P.mass[p]
+            mat = P.material[p]
+            energy = T(0.0)
+            lost = wp.vec2d(0.0, 0.0)
+            app = vec2()
+            app_w = T(0.0)
+            touching = int(0)
+            for s in range(n):
+                b = L.body[base + s]
+                old_keys = L.key[base + s]
+                old_slips = L.slip[base + s]
+                keys = veci(-1, -1)
+                slips = vec2h()
+                n_hist = int(0)
+                xb = B.x[b]
+                reach = B.radius[b] + rp
+                if wp.length(X - xb) < B.core_radius[b] + reach:
+                    start = B.vstart[b]
+                    count = B.vcount[b]
+                    vb = B.v[b]
+                    wb = B.omega[b]
+                    inv_mb = B.inv_mass[b]
+                    inv_ib = B.inv_inertia[b]
+                    mu = prm.friction[mat * prm.bodies + b]
+                    n_edges = edge_count(count)
+                    # a point past every edge line of a polygon core (inside a convex core) is pushed
+                    # out through the nearest edge, the overlap growing as d turns negative
+                    inside = count >= 3
+                    best_d = T(-1.0e30)
+                    best_f = int(-1)
+                    best_n = vec2()
+                    for f in range(n_edges + count + 1):
+                        # the point is a disk: a core of one vertex, in every corner region
+                        hit, N, d, key, inside, best_d, best_f, best_n = vertex_feature(
+                            X, world, start, count, f, n_edges, count, reach, 0, 1, 0, inside, best_d, best_f, best_n)
+                        if hit:
+                            # overlap eq. 44; contact point in the middle of the overlap (eq. 41);
+                            # N points from the body to the point
+                            delta, pc = contact_point(X, N, d, reach, rp)
+                            arm = X - xb
+                            if wp.static(lever_at_contact):
+                                arm = pc - xb
+                            vel = vp - point_velocity(vb, wb, pc - xb)
+                            lever = cross(arm, N)
+                            # the dashpot sees the point and the body (with its rotation) at the contact,
+                            # as two DEM bodies do
+                            inv_eff = inv_mp + inv_mb + inv_ib * lever * lever
+                            F, slip, e_contact, lost_contact = spring_dashpot(
+                                prm.kn, prm.kt, prm.zeta, mu, delta, vel, N, inv_eff,
+                                find_slip(old_keys, old_slips, key), dt)
+                            lost = lost + lost_contact
+                            energy += e_contact
+                            if n_hist < wp.static(IMP_HISTORY):
+                                keys[n_hist] = key
+                                slips[n_hist] = slip
+                                n_hist += 1
+                            fc += F  # on the point (eq. 46)
+                            wF = wp.length(F)
+                            app += wF * pc
+                            app_w += wF
+                            touching += 1
+                            # reaction on the body (eq. 49-50); fixed bodies keep it as their load
+                            wp.atomic_add(B.force, b, -F)
+                            wp.atomic_add(B.torque, b, -cross(arm, F))
+                L.key[base + s] = keys
+                L.slip[base + s] = slips
+            P.fcont[p] = fc
+            if app_w > T(0.0):
+                L.contact_at[p] = app / app_w
+            else:
+                L.contact_at[p] = X
+            L.energy[p] = energy
+            L.active[p] = touching
+            L.dissipated[p] = L.dissipated[p] + lost
+
+        return forces
+
+    forces = make_forces(False)
 
     @kernel(deterministic=deterministic)
     def diagnostics(L: Links, out: wp.array(dtype=wp.float64)):
@@ -389,7 +448,8 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
 
     return Namespace(Links=Links, Params=Params, check_lists=check_lists,
                       clear_cells=dem.clear_cells, bin_points=bin_points, build_lists=build_lists,
-                      finish_lists=finish_lists, forces=forces, diagnostics=diagnostics,
+                      finish_lists=finish_lists, forces=forces, make_forces=make_forces, sift=sift,
+                      diagnostics=diagnostics,
                       finish_rebuild=dem.finish_rebuild, FIXED=FIXED)
 
 

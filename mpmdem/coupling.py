@@ -38,6 +38,9 @@ __all__ = ["CoupledStage", "contact_time_step_bound"]
 
 #: Threads per body in the point–body list build (they share the cells the body covers).
 BUILD_TILE = 32
+#: From this many points (and not in deterministic mode) the listed points are sifted each step
+#: by a light kernel, and the force search runs only over those near a body (``imp_forces``).
+SIFTED_IMP_POINTS = 65536
 
 
 def contact_time_step_bound(scene: Scene, point_mass: float) -> float:
@@ -127,6 +130,11 @@ class CoupledStage(ClockedStage):
         L.active = wp.zeros(n, dtype=wp.int32, device=dev)
         L.listed = wp.zeros(n, dtype=wp.int32, device=dev)
         L.listed_count = wp.zeros(1, dtype=wp.int32, device=dev)
+        #: large scenes sift the listed points each step before the force search (``kernels.coupling.sift``)
+        self.sifted = not cfg.deterministic and n >= SIFTED_IMP_POINTS
+        L.near = wp.zeros(n if self.sifted else 1, dtype=wp.int32, device=dev)
+        L.near_count = wp.zeros(1, dtype=wp.int32, device=dev)
+        self.forces_kernel = k.make_forces(True) if self.sifted else k.forces
         self.L = L
 
         mats = scene.materials()
@@ -275,8 +283,12 @@ class CoupledStage(ClockedStage):
                   device=self.device)
 
     def imp_forces(self) -> None:
-        """The IMP forces of this step on the points (and their reactions on the bodies)."""
-        wp.launch(self.k.forces, self.mpm.particle_count,
+        """The IMP forces of this step on the points (and their reactions on the bodies); large
+        scenes first sift the listed points, and search only those near a body (``sifted``)."""
+        if self.sifted:
+            wp.launch(self.k.sift, self.mpm.particle_count, inputs=[self.mpm.P, self.dem.B, self.L, self.clock],
+                      device=self.device)
+        wp.launch(self.forces_kernel, self.mpm.particle_count,
                   inputs=[self.mpm.P, self.dem.B, self.L, self.params, self.dem.world, self.clock, self.status],
                   device=self.device)
 
