@@ -315,6 +315,28 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
             if n > 0:
                 L.contact_at[p] = P.x[p]
 
+    @wp.func
+    def point_contact(P: Particles, B: Bodies, L: Links, prm: Params, p: int, b: int, slot: int, X: vec2, N: vec2,
+                      d: T, reach: T, rp: T, key: int, dt: T):
+        """The force on point p [N/m] (eq. 46) of its touch at distance d along N from the core of body
+        b (list slot ``slot``): overlap eq. 44, contact point in the middle of the overlap (eq. 41),
+        spring–dashpot and Coulomb cap eq. 43, the dashpot seeing the point and the body (with its
+        rotation) at the contact, as two DEM bodies do. Returns (F, contact point [m], the lever arm
+        of the body's torque [m], δ_t, stored energy, dissipated work). The velocities, masses and
+        history are read here, at a touch, not held through the feature search (registers)."""
+        delta, pc = contact_point(X, N, d, reach, rp)
+        xb = B.x[b]
+        arm = X - xb
+        if wp.static(lever_at_contact):
+            arm = pc - xb
+        vel = P.v[p] - point_velocity(B.v[b], B.omega[b], pc - xb)
+        lever = cross(arm, N)
+        inv_eff = T(1.0) / P.mass[p] + B.inv_mass[b] + B.inv_inertia[b] * lever * lever
+        mu = prm.friction[P.material[p] * prm.bodies + b]
+        F, slip, e_contact, lost_contact = spring_dashpot(prm.kn, prm.kt, prm.zeta, mu, delta, vel, N, inv_eff,
+                                                          find_slip(L.key[slot], L.slip[slot], key), dt)
+        return F, pc, arm, slip, e_contact, lost_contact
+
     def make_forces(sifted: bool):
         """The force kernel over the listed points, or (``sifted``) over those ``sift`` kept."""
 
@@ -354,10 +376,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
             S = L.slots
             base = p * S
             X = P.x[p]
-            vp = P.v[p]
             rp = L.radius[p]
-            inv_mp = T(1.0) / P.mass[p]
-            mat = P.material[p]
             energy = T(0.0)
             lost = wp.vec2d(0.0, 0.0)
             app = vec2()
@@ -365,8 +384,6 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
             touching = int(0)
             for s in range(n):
                 b = L.body[base + s]
-                old_keys = L.key[base + s]
-                old_slips = L.slip[base + s]
                 keys = veci(-1, -1)
                 slips = vec2h()
                 n_hist = int(0)
@@ -375,11 +392,6 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                 if wp.length(X - xb) < B.core_radius[b] + reach:
                     start = B.vstart[b]
                     count = B.vcount[b]
-                    vb = B.v[b]
-                    wb = B.omega[b]
-                    inv_mb = B.inv_mass[b]
-                    inv_ib = B.inv_inertia[b]
-                    mu = prm.friction[mat * prm.bodies + b]
                     n_edges = edge_count(count)
                     # a point past every edge line of a polygon core (inside a convex core) is pushed
                     # out through the nearest edge, the overlap growing as d turns negative
@@ -392,20 +404,8 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                         hit, N, d, key, inside, best_d, best_f, best_n = vertex_feature(
                             X, world, start, count, f, n_edges, count, reach, 0, 1, 0, inside, best_d, best_f, best_n)
                         if hit:
-                            # overlap eq. 44; contact point in the middle of the overlap (eq. 41);
-                            # N points from the body to the point
-                            delta, pc = contact_point(X, N, d, reach, rp)
-                            arm = X - xb
-                            if wp.static(lever_at_contact):
-                                arm = pc - xb
-                            vel = vp - point_velocity(vb, wb, pc - xb)
-                            lever = cross(arm, N)
-                            # the dashpot sees the point and the body (with its rotation) at the contact,
-                            # as two DEM bodies do
-                            inv_eff = inv_mp + inv_mb + inv_ib * lever * lever
-                            F, slip, e_contact, lost_contact = spring_dashpot(
-                                prm.kn, prm.kt, prm.zeta, mu, delta, vel, N, inv_eff,
-                                find_slip(old_keys, old_slips, key), dt)
+                            F, pc, arm, slip, e_contact, lost_contact = point_contact(
+                                P, B, L, prm, p, b, base + s, X, N, d, reach, rp, key, dt)
                             lost = lost + lost_contact
                             energy += e_contact
                             if n_hist < wp.static(IMP_HISTORY):

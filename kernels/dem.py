@@ -316,6 +316,34 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         flags[0] = 0
 
     # -- contact forces (MPM-SDEM eq. 38-43) ------------------------------------------------------
+    @wp.func
+    def vertex_contact(B: Bodies, C: Contacts, prm: Params, tid: int, i: int, j: int, side: int, X: vec2, N: vec2,
+                       d: T, reach: T, a_r: T, key: int, dt: T):
+        """The force on body i [N/m] of one touching vertex X of pair slot ``tid`` (bodies i, j; X a
+        vertex of i on side 0, of j on side 1) at distance d along N (from the other core towards
+        X): overlap eq. 38, contact point eq. 41 (in the middle of the overlap), spring–dashpot and
+        Coulomb cap eq. 43. Returns (F on i, contact point p [m], δ_t, stored energy, dissipated work).
+        The bodies' velocities, masses and the pair's history are read here, at a touch, and not
+        held through the feature search (registers: ``mpmdem.dem``)."""
+        delta, p = contact_point(X, N, d, reach, a_r)
+        xi = B.x[i]
+        xj = B.x[j]
+        vel = point_velocity(B.v[i], B.omega[i], p - xi) - point_velocity(B.v[j], B.omega[j], p - xj)
+        if side == 1:
+            vel = -vel
+        # normal dashpot with the effective mass of the two bodies at p along N, rotation included
+        # (1/m + (r×N)²/I each), so that ζ, and so e, hold for off-centre impacts too
+        lever_i = cross(p - xi, N)
+        lever_j = cross(p - xj, N)
+        inv_eff = (B.inv_mass[i] + B.inv_inertia[i] * lever_i * lever_i + B.inv_mass[j]
+                   + B.inv_inertia[j] * lever_j * lever_j)
+        mu = wp.min(B.friction[i], B.friction[j])
+        F, slip, e_pair, lost_pair = spring_dashpot(prm.kn, prm.kt, prm.zeta, mu, delta, vel, N, inv_eff,
+                                                    find_slip(C.key[tid], C.slip[tid], key), dt)
+        if side == 1:
+            F = -F  # force on i
+        return F, p, slip, e_pair, lost_pair
+
     def make_contact_forces(max_registers: int | None = None):
         """The contact kernel with at most ``max_registers`` registers per thread on CUDA (None:
         the compiler's choice; a cap raises the occupancy of large scenes: ``mpmdem.dem``)."""
@@ -334,51 +362,37 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
             if tid - i * K >= C.count[i]:
                 return
             j = C.nbr[tid]
-            dt = T(clock[CLOCK_DT])
             xi = B.x[i]
             xj = B.x[j]
             ai = B.radius[i]
             aj = B.radius[j]
             reach = ai + aj
-            old_keys = C.key[tid]
-            old_slips = C.slip[tid]
             keys = wp.vec4i(-1, -1, -1, -1)
             slips = vec4()
             n_hist = int(0)
             energy = T(0.0)
             lost = wp.vec2d(0.0, 0.0)
             if wp.length(xj - xi) < B.core_radius[i] + B.core_radius[j] + reach:
+                dt = T(clock[CLOCK_DT])
                 fi = vec2()
                 ti = T(0.0)
                 fj = vec2()
                 tj = T(0.0)
-                vi = B.v[i]
-                vj = B.v[j]
-                wi = B.omega[i]
-                wj = B.omega[j]
-                inv_mi = B.inv_mass[i]
-                inv_mj = B.inv_mass[j]
-                inv_ii = B.inv_inertia[i]
-                inv_ij = B.inv_inertia[j]
-                mu = wp.min(B.friction[i], B.friction[j])
-                si = B.vstart[i]
-                ni = B.vcount[i]
-                sj = B.vstart[j]
-                nj = B.vcount[j]
-                for side in range(2):
+                sides = int(2)  # (a loop, not unrolled: one copy of the search in registers)
+                for side in range(sides):
                     # side 0: vertices of i against j; side 1: vertices of j against i
-                    r_start = si
-                    r_count = ni
-                    o_start = sj
-                    o_count = nj
+                    r_start = B.vstart[i]
+                    r_count = B.vcount[i]
+                    o_start = B.vstart[j]
+                    o_count = B.vcount[j]
                     c_o = xj
                     r_o = B.core_radius[j]
                     a_r = ai
                     if side == 1:
-                        r_start = sj
-                        r_count = nj
-                        o_start = si
-                        o_count = ni
+                        r_start = o_start
+                        r_count = o_count
+                        o_start = B.vstart[i]
+                        o_count = B.vcount[i]
                         c_o = xi
                         r_o = B.core_radius[i]
                         a_r = aj
@@ -407,21 +421,8 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                                     kind = 2
                                     feature = feature - n_feat
                                 key = kind * KEY_KIND + k * KEY_VERTEX + feature
-                                # overlap eq. 38, contact point eq. 41 (middle of the overlap), N from the
-                                # other body towards the vertex's body
-                                delta, p = contact_point(X, N, d, reach, a_r)
-                                vel = point_velocity(vi, wi, p - xi) - point_velocity(vj, wj, p - xj)
-                                if side == 1:
-                                    vel = -vel
-                                # normal dashpot with the effective mass of the two bodies at p along N,
-                                # rotation included (1/m + (r×N)²/I each), so that ζ, and so e, hold for
-                                # off-centre impacts too
-                                lever_i = cross(p - xi, N)
-                                lever_j = cross(p - xj, N)
-                                inv_eff = inv_mi + inv_ii * lever_i * lever_i + inv_mj + inv_ij * lever_j * lever_j
-                                F, slip, e_pair, lost_pair = spring_dashpot(
-                                    prm.kn, prm.kt, prm.zeta, mu, delta, vel, N, inv_eff,
-                                    find_slip(old_keys, old_slips, key), dt)
+                                F, p, slip, e_pair, lost_pair = vertex_contact(
+                                    B, C, prm, tid, i, j, side, X, N, d, reach, a_r, key, dt)
                                 lost = lost + lost_pair
                                 energy += e_pair
                                 if n_hist < wp.static(HISTORY_SLOTS):
@@ -430,8 +431,6 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                                     n_hist += 1
                                 else:
                                     wp.atomic_add(status, STATUS_HISTORY_OVERFLOW, 1)
-                                if side == 1:
-                                    F = -F  # force on i
                                 fi += F
                                 ti += cross(p - xi, F)
                                 fj -= F
