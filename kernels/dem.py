@@ -236,9 +236,12 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         i = wp.tid()
         K = C.slots
         base = i * K
-        # keep the old list for the history hand-over, fold the slots' dissipated work
+        # keep the old list for the history hand-over, fold the slots' dissipated work. Only the
+        # old_count slots listed are read and cleared: the slots past a list are kept clean (nbr −1,
+        # no key, slip, energy or work: the end of this kernel), and a body lists ~2 of its K
+        old_count = C.count[i]
         folded = C.body_dissipated[i]
-        for s in range(K):
+        for s in range(old_count):
             C.old_nbr[base + s] = C.nbr[base + s]
             C.old_key[base + s] = C.key[base + s]
             C.old_slip[base + s] = C.slip[base + s]
@@ -246,7 +249,6 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
             C.dissipated[base + s] = wp.vec2d(0.0, 0.0)
             C.nbr[base + s] = -1
         C.body_dissipated[i] = folded
-        old_count = C.count[i]
         xi = B.x[i]
         ri = B.core_radius[i] + B.radius[i]
         free_i = B.motion[i] == FREE  # pairs need one free body; others never meet
@@ -297,7 +299,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
             C.key[base + s] = key
             C.slip[base + s] = slip
             C.energy[base + s] = T(0.0)
-        for s in range(n, K):
+        for s in range(n, old_count):  # (the slots this list no longer uses; those past old_count are clean)
             C.key[base + s] = wp.vec4i(-1, -1, -1, -1)
             C.slip[base + s] = vec4()
             C.energy[base + s] = T(0.0)
