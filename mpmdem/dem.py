@@ -232,7 +232,8 @@ class DEMSolver(ClockedStage):
         B.angle_ref = arr(cols.angle, None)
         B.kin_v = arr([b.velocity if b.motion == "kinematic" else (0.0, 0.0) for b in bodies], None, (n, 2))
         B.kin_omega = arr([b.angular_velocity if b.motion == "kinematic" else 0.0 for b in bodies], None)
-        window = np.array([[b.active[0], min(b.active[1], 1e300)] for b in bodies], np.float64)
+        window = np.array([b.active for b in bodies], np.float64).reshape(n, 2)
+        window[:, 1] = np.minimum(window[:, 1], 1e300)
         B.kin_window = wp.array(window, dtype=wp.vec2d, device=dev)
         B.work = wp.zeros(n, dtype=wp.float64, device=dev)
         self.B = B

@@ -248,13 +248,13 @@ class Scene:
             x, y = body.position
             if not (x0 <= x <= x1 and y0 <= y <= y1):
                 raise InputError("position", body.position, f"a centroid inside the domain {self.domain}")
-            v = body.world_vertices()
-            bw, bh = np.ptp(v, axis=0) + 2.0 * body.shape.radius
             dw, dh = x1 - x0, y1 - y0
-            if bw > dw * (1.0 + 1e-9) or bh > dh * (1.0 + 1e-9):
-                raise InputError(f"rigid body {name!r} size", (float(f"{bw:.6g}"), float(f"{bh:.6g}")),
-                                 f"a free body no larger than the domain, {dw:g} x {dh:g} m (the size is the "
-                                 "bounding box width x height of the rounded body at its initial angle)")
+            if 2.0 * body.shape.bounding_radius * (1.0 + 1e-12) > min(dw, dh):  # else it fits at any angle
+                bw, bh = np.ptp(body.world_vertices(), axis=0) + 2.0 * body.shape.radius
+                if bw > dw * (1.0 + 1e-9) or bh > dh * (1.0 + 1e-9):
+                    raise InputError(f"rigid body {name!r} size", (float(f"{bw:.6g}"), float(f"{bh:.6g}")),
+                                     f"a free body no larger than the domain, {dw:g} x {dh:g} m (the size is the "
+                                     "bounding box width x height of the rounded body at its initial angle)")
         self.rigid_bodies.append(body)
         return body
 

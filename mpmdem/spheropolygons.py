@@ -257,7 +257,11 @@ def placed(points: np.ndarray, cos, sin, position) -> np.ndarray:
     c, s = np.asarray(cos)[..., None], np.asarray(sin)[..., None]
     p = np.asarray(position)
     x, y = points[..., 0], points[..., 1]
-    return np.stack([c * x - s * y + p[..., 0, None], s * x + c * y + p[..., 1, None]], axis=-1)
+    turned_x = c * x - s * y + p[..., 0, None]
+    out = np.empty((*turned_x.shape, 2))
+    out[..., 0] = turned_x
+    out[..., 1] = s * x + c * y + p[..., 1, None]
+    return out
 
 
 # ----------------------------------------------------------------------------------------------------
