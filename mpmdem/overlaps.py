@@ -66,7 +66,8 @@ def pairs_within(arrays: RigidArrays, reach: np.ndarray) -> tuple[np.ndarray, np
 
     Only pairs whose envelopes (body i's grown by reach[i], an STRtree query, which lists them in
     the tree's order whatever the query boxes) and bounding circles (core radii + reach[i], with a
-    round-off margin) come that close are measured: half as many distances as the query takes."""
+    round-off margin) come that close are measured, once per pair: fewer distances than the query,
+    which measures every pair its grown envelopes let through, both ways."""
     cores, free = arrays.cores, arrays.free
     x0, y0, x1, y1 = shapely.bounds(cores).T
     i, j = shapely.STRtree(cores).query(shapely.box(x0 - reach, y0 - reach, x1 + reach, y1 + reach))
