@@ -115,6 +115,20 @@ class RigidBody:
         }
 
 
+def _vector(name: str, value, allowed: str) -> tuple[float, float]:
+    """``value`` as finite (x, y) floats: a pair of numbers, or anything numpy reads as two numbers;
+    InputError(name, value, allowed) otherwise. A tuple or list of two ints or floats skips numpy
+    (the same floats, a few microseconds less per body for scenes of 10⁶ bodies)."""
+    if isinstance(value, (tuple, list)) and len(value) == 2 and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+        xy = (float(value[0]), float(value[1]))
+    else:
+        xy = tuple(float(v) for v in np.asarray(value, dtype=float).ravel())
+    if len(xy) != 2 or not all(math.isfinite(v) for v in xy):
+        raise InputError(name, value, allowed)
+    return xy
+
+
 def make_rigid_body(
     shape: Spheropolygon,
     *,
@@ -134,12 +148,8 @@ def make_rigid_body(
     rho = positive("density", density, "a density > 0 [kg/m^3]")
     if position is None:
         position = shape.origin
-    pos = tuple(float(v) for v in np.asarray(position, dtype=float).ravel())
-    if len(pos) != 2 or not all(math.isfinite(v) for v in pos):
-        raise InputError("position", position, "a finite centroid (x, y) [m]")
-    vel = tuple(float(v) for v in np.asarray(velocity, dtype=float).ravel())
-    if len(vel) != 2 or not all(math.isfinite(v) for v in vel):
-        raise InputError("velocity", velocity, "a finite (vx, vy) [m/s]")
+    pos = _vector("position", position, "a finite centroid (x, y) [m]")
+    vel = _vector("velocity", velocity, "a finite (vx, vy) [m/s]")
     ang = finite("angle", angle, "a finite angle [rad]")
     w = finite("angular_velocity", angular_velocity, "a finite angular velocity [rad/s]")
     if motion not in MOTIONS:

@@ -26,6 +26,7 @@ from .errors import BlowUpError, InputError
 from .kernels import clock as clock_kernels
 from .kernels import dem as dem_kernels
 from .launch_plan import IfFlag, Launch, run_plan
+from .rigid_arrays import RigidArrays, rigid_arrays
 from .scene import Scene
 from .stage import Clock, ClockedStage
 
@@ -43,14 +44,14 @@ _BODY_STATE = ("x", "angle", "v", "omega", "force", "torque", "x_ref", "angle_re
 _CONTACT_STATE = ("nbr", "count", "key", "slip", "energy", "dissipated", "body_dissipated", "pairs", "total")
 
 
-def effective_mass(body) -> float:
-    """Smallest mass [kg/m] a contact on the body can feel: a force at its farthest vertex, normal
-    to the lever arm, sees 1 / (1/m + R²/I) (m for a disk, m/4 for any rectangle)."""
-    m, inertia, r = body.mass, body.inertia, body.shape.core_radius
-    return 1.0 / (1.0 / m + r * r / inertia)
+def effective_mass(mass, inertia, core_radius):
+    """Smallest mass [kg/m] a contact on a body of mass m [kg/m], moment of inertia I [kg m²/m] and
+    core radius R [m] can feel (floats or arrays): a force at its farthest vertex, normal to the
+    lever arm, sees 1 / (1/m + R²/I) (m for a disk, m/4 for any rectangle)."""
+    return 1.0 / (1.0 / mass + core_radius * core_radius / inertia)
 
 
-def dem_time_step_bound(scene: Scene) -> float:
+def dem_time_step_bound(scene: Scene, arrays: RigidArrays | None = None) -> float:
     """Largest stable explicit step [s] of one free body on one damped contact spring,
     2 sqrt(m* / k) (sqrt(1 + ζ²) − ζ), with k the larger of k_n and k_t, m* the smallest
     effective mass of the free bodies and ζ the damping ratio of the contact law.
@@ -62,13 +63,15 @@ def dem_time_step_bound(scene: Scene) -> float:
     the rotational effective mass m* (``effective_mass``) stands in for m_min (for disks m* = m);
     and the explicit dashpot, acting on the lagged velocity, is stable only for
     ω dt < 2 (sqrt(1 + ζ²) − ζ) (a damped pentagon pile gained energy at eq. 51's step).
+    ``arrays``: ``rigid_arrays(scene.rigid_bodies)`` when the caller has them.
     """
-    masses = [effective_mass(b) for b in scene.rigid_bodies if b.motion == "free"]
-    if not masses:
+    b = rigid_arrays(scene.rigid_bodies) if arrays is None else arrays
+    masses = effective_mass(b.mass, b.inertia, b.core_radius)[b.free]
+    if not len(masses):
         if scene.has_mpm:  # fixed or driven bodies under material points: no DEM bound
             return math.inf
         raise InputError("rigid_bodies", [b.name for b in scene.rigid_bodies], "at least one free rigid body")
-    return spring_time_step_bound(scene.contact, min(masses))
+    return spring_time_step_bound(scene.contact, float(masses.min()))
 
 
 def spring_time_step_bound(law: ContactLaw, mass: float) -> float:
@@ -99,9 +102,13 @@ class DEMSolver(ClockedStage):
         device: Warp device.
         clock: the run's clock (``Simulation`` passes its own); None makes one with this stage's
             dt policy (MPM-SDEM eq. 51's DEM term, or the fixed dt).
+        initial_overlaps: ``scene.initial_overlaps()`` of the scene as it is now, when the caller
+            has just computed them (``Simulation`` passes what ``scene.validate()`` returned);
+            None computes them.
     """
 
-    def __init__(self, scene: Scene, config: SolverConfig, device: str, *, clock: Clock | None = None):
+    def __init__(self, scene: Scene, config: SolverConfig, device: str, *, clock: Clock | None = None,
+                 initial_overlaps: list[tuple[str, str, float]] | None = None):
         if scene.contact is None:
             raise InputError("contact", None, "a ContactLaw(normal_stiffness=...) in the Scene for rigid bodies")
         self.scene = scene
@@ -111,12 +118,14 @@ class DEMSolver(ClockedStage):
         #: the body–body contact kernel: with capped registers in large scenes (LARGE_SCENE_BODIES)
         self.contact_kernel = (self.k.make_contact_forces(LARGE_SCENE_CONTACT_REGISTERS)
                                if len(scene.rigid_bodies) >= LARGE_SCENE_BODIES else self.k.contact_forces)
-        self.dt_bound = dem_time_step_bound(scene)
+        #: columns of the scene's rigid bodies (scene order)
+        self.arrays = rigid_arrays(scene.rigid_bodies)
+        self.dt_bound = dem_time_step_bound(scene, self.arrays)
         check_time_step(config, self.dt_bound, f"2 sqrt(m*/k_n) (sqrt(1+ζ²)−ζ) = {self.dt_bound:.6g} s of these "
                         f"bodies ({eq51_step(config, self.dt_bound)})")
         self.body_count = len(scene.rigid_bodies)
         #: (body, body, depth [m]) of the pairs let start overlapping (Scene(allow_initial_overlap=True))
-        self.initial_overlaps = scene.initial_overlaps()
+        self.initial_overlaps = scene.initial_overlaps() if initial_overlaps is None else list(initial_overlaps)
         self._layout()
         if clock is None:
             clock = Clock(self.device)
@@ -137,8 +146,8 @@ class DEMSolver(ClockedStage):
         """Device order of the bodies, the large/small split, cell size, list sizes."""
         bodies = self.scene.rigid_bodies
         motion = np.array([_MOTION_IDS[b.motion] for b in bodies], np.int32)
-        pos = np.array([b.position for b in bodies], float).reshape(-1, 2)
-        bound = np.array([b.shape.bounding_radius for b in bodies])
+        pos = self.arrays.position
+        bound = self.arrays.bounding_radius
         ref = bound[motion == dem_kernels.FREE]
         if not len(ref):  # only fixed or driven bodies (under material points)
             ref = bound
@@ -169,7 +178,7 @@ class DEMSolver(ClockedStage):
         self.cell_origin = lo
         self.cells = tuple(int(v) for v in np.maximum(np.ceil((hi - lo) / self.cell), 1))
         # capacity of a cell: bodies whose centroids fit in it without overlapping much
-        areas = np.array([b.shape.area for b in bodies])[~is_large]
+        areas = self.arrays.area[~is_large]
         a_min = float(areas.min()) if len(areas) else 1.0
         self.cell_cap = int(min(128, math.ceil(1.5 * (self.cell + r_cut) ** 2 / a_min) + 4))
         if cfg.dem_max_neighbors is not None:
@@ -191,20 +200,20 @@ class DEMSolver(ClockedStage):
             a = np.asarray(values, dtype=T if dtype is None else dtype)
             return wp.array(a if shape is None else a.reshape(shape), dtype=self._wp(dtype, a), device=dev)
 
-        mass = np.array([b.mass for b in bodies])
-        inertia = np.array([b.inertia for b in bodies])
+        cols = self.arrays.take(self.order)
+        mass, inertia = cols.mass, cols.inertia
         free = self.motion == dem_kernels.FREE
-        counts = np.array([len(b.shape.vertices) for b in bodies], np.int32)
-        starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int32)
-        local = np.concatenate([b.shape.vertices for b in bodies]).astype(T)
+        counts = cols.counts.astype(np.int32)
+        starts = cols.starts.astype(np.int32)
+        local = cols.local.astype(T)
         owner = np.repeat(np.arange(n, dtype=np.int32), counts)
-        world = np.concatenate([b.world_vertices() for b in bodies]).astype(T)
+        world = cols.world.astype(T)
         self.vertex_count = int(counts.sum())
         self.moving_vertices = int(counts[: self.moving].sum())
 
         B = k.Bodies()
-        B.x = arr([b.position for b in bodies], None, (n, 2))
-        B.angle = arr([b.angle for b in bodies], None)
+        B.x = arr(cols.position, None, (n, 2))
+        B.angle = arr(cols.angle, None)
         B.v = arr([b.velocity if b.motion == "free" else (0.0, 0.0) for b in bodies], None, (n, 2))
         B.omega = arr([b.angular_velocity if b.motion == "free" else 0.0 for b in bodies], None)
         B.force = arr(np.zeros((n, 2)), None)
@@ -213,17 +222,18 @@ class DEMSolver(ClockedStage):
         B.inertia = arr(inertia, None)
         B.inv_mass = arr(np.where(free, 1.0 / mass, 0.0), None)
         B.inv_inertia = arr(np.where(free, 1.0 / inertia, 0.0), None)
-        B.radius = arr([b.shape.radius for b in bodies], None)
-        B.core_radius = arr([b.shape.core_radius for b in bodies], None)
+        B.radius = arr(cols.radius, None)
+        B.core_radius = arr(cols.core_radius, None)
         B.friction = arr([b.friction for b in bodies], None)
         B.motion = arr(self.motion, np.int32)
         B.vstart = arr(starts, np.int32)
         B.vcount = arr(counts, np.int32)
-        B.x_ref = arr([b.position for b in bodies], None, (n, 2))
-        B.angle_ref = arr([b.angle for b in bodies], None)
+        B.x_ref = arr(cols.position, None, (n, 2))
+        B.angle_ref = arr(cols.angle, None)
         B.kin_v = arr([b.velocity if b.motion == "kinematic" else (0.0, 0.0) for b in bodies], None, (n, 2))
         B.kin_omega = arr([b.angular_velocity if b.motion == "kinematic" else 0.0 for b in bodies], None)
-        window = np.array([[b.active[0], min(b.active[1], 1e300)] for b in bodies], np.float64)
+        window = np.array([b.active for b in bodies], np.float64).reshape(n, 2)
+        window[:, 1] = np.minimum(window[:, 1], 1e300)
         B.kin_window = wp.array(window, dtype=wp.vec2d, device=dev)
         B.work = wp.zeros(n, dtype=wp.float64, device=dev)
         self.B = B

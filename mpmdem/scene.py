@@ -19,8 +19,9 @@ from .bodies import ContactLaw, RigidBody, make_rigid_body
 from .boundaries import SIDES, Boundary, as_boundary, check_walls_on_grid_lines
 from .errors import InputError
 from .materials import Material
-from .overlaps import body_overlaps, core_geometry, depth_inside, overlap_tolerance
+from .overlaps import depth_inside, overlap_pairs, overlap_tolerance
 from .probes import MassProbe, make_mass_probe
+from .rigid_arrays import RigidArrays, rigid_arrays
 from .shapes import SEEDINGS, SeededPoints, Shape, rectangle, seed_points
 from .spheropolygons import Spheropolygon, rounded_rectangle
 
@@ -247,13 +248,13 @@ class Scene:
             x, y = body.position
             if not (x0 <= x <= x1 and y0 <= y <= y1):
                 raise InputError("position", body.position, f"a centroid inside the domain {self.domain}")
-            v = body.world_vertices()
-            bw, bh = np.ptp(v, axis=0) + 2.0 * body.shape.radius
             dw, dh = x1 - x0, y1 - y0
-            if bw > dw * (1.0 + 1e-9) or bh > dh * (1.0 + 1e-9):
-                raise InputError(f"rigid body {name!r} size", (float(f"{bw:.6g}"), float(f"{bh:.6g}")),
-                                 f"a free body no larger than the domain, {dw:g} x {dh:g} m (the size is the "
-                                 "bounding box width x height of the rounded body at its initial angle)")
+            if 2.0 * body.shape.bounding_radius * (1.0 + 1e-12) > min(dw, dh):  # else it fits at any angle
+                bw, bh = np.ptp(body.world_vertices(), axis=0) + 2.0 * body.shape.radius
+                if bw > dw * (1.0 + 1e-9) or bh > dh * (1.0 + 1e-9):
+                    raise InputError(f"rigid body {name!r} size", (float(f"{bw:.6g}"), float(f"{bh:.6g}")),
+                                     f"a free body no larger than the domain, {dw:g} x {dh:g} m (the size is the "
+                                     "bounding box width x height of the rounded body at its initial angle)")
         self.rigid_bodies.append(body)
         return body
 
@@ -379,9 +380,11 @@ class Scene:
         self.bodies.append(body)
         return body
 
-    def validate(self) -> None:
+    def validate(self) -> list[tuple[str, str, float]]:
         """Checks that need the whole scene (bodies may be added in any order); ``Simulation``
-        runs them before any kernel. Raises InputError.
+        runs them before any kernel. Raises InputError. Returns ``initial_overlaps()``, which it
+        computes on the way (``Simulation`` hands them to the DEM stage rather than computing
+        them twice).
 
         Material points must not start inside a rigid body (free, fixed, kinematic or a wall):
         a point is inside when its centre lies strictly inside the rounded body (core polygon
@@ -399,7 +402,15 @@ class Scene:
         names the deepest pair and its overlap; ``Scene(allow_initial_overlap=True)`` lets a
         deliberately pre-stressed pack through.
         """
-        self._check_initial_overlaps()
+        arrays = rigid_arrays(self.rigid_bodies)
+        overlaps = self._initial_overlaps(arrays)
+        if not self.allow_initial_overlap:
+            self._check_initial_overlaps(*overlaps)
+        self._check_points_outside_bodies(arrays)
+        return self._named(*overlaps[:3])
+
+    def _check_points_outside_bodies(self, arrays: RigidArrays) -> None:
+        """``validate``'s check that no material point starts inside a rigid body."""
         if not (self.bodies and self.rigid_bodies):
             return
         seeded = [self._seed(b).positions for b in self.bodies]
@@ -407,15 +418,13 @@ class Scene:
         owner = np.repeat(np.arange(len(seeded)), [len(p) for p in seeded])
         released = np.concatenate([b.release_times if b.release_times is not None else np.zeros(len(p))
                                    for b, p in zip(self.bodies, seeded, strict=True)]) > 0.0
-        cores = np.array([core_geometry(b) for b in self.rigid_bodies], dtype=object)
-        radius = np.array([b.shape.radius for b in self.rigid_bodies])
+        cores, radius = arrays.cores, arrays.radius
         points = shapely.points(x)
         # candidates: points within a of the core (closed); the exact depth below decides
         j, i = shapely.STRtree(points).query(cores, predicate="dwithin", distance=radius)
         if len(j) == 0:
             return
-        fixed = np.array([b.motion == "fixed" for b in self.rigid_bodies])
-        keep = ~released[i] | fixed[j]
+        keep = ~released[i] | arrays.fixed[j]
         j, i = j[keep], i[keep]
         depth = depth_inside(cores[j], radius[j], points[i])
         inside = depth > self._roundoff
@@ -445,38 +454,44 @@ class Scene:
         (x0, y0), (x1, y1) = self.domain
         return 1e-9 * max(x1 - x0, y1 - y0)
 
-    def _overlap_tolerance(self, i: int, j: int) -> float:
-        """The overlap [m] rigid bodies i and j may start with (``overlaps.overlap_tolerance``)."""
+    def _initial_overlaps(self, arrays: RigidArrays) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(i, j, depth [m], allowed overlap [m]) of the pairs of rigid bodies (``arrays`` of
+        ``rigid_bodies``) that can meet and start overlapping by more than
+        ``overlaps.overlap_tolerance``, deepest first."""
+        if self.contact is None:
+            none = np.zeros(0, dtype=np.intp)
+            return none, none, np.zeros(0), np.zeros(0)
+        i, j, depth = overlap_pairs(arrays)
         (x0, y0), (x1, y1) = self.domain
         gx, gy = self.gravity
         g = math.hypot(gx, gy)
         height = (abs(gx) * (x1 - x0) + abs(gy) * (y1 - y0)) / g if g > 0.0 else 0.0
-        return overlap_tolerance(self.rigid_bodies[i], self.rigid_bodies[j], roundoff=self._roundoff, gravity=g,
-                                 height=height, normal_stiffness=self.contact.normal_stiffness)
+        tol = overlap_tolerance(arrays, i, j, roundoff=self._roundoff, gravity=g, height=height,
+                                normal_stiffness=self.contact.normal_stiffness)
+        deep = depth > tol
+        return i[deep], j[deep], depth[deep], tol[deep]
+
+    def _named(self, i: np.ndarray, j: np.ndarray, depth: np.ndarray) -> list[tuple[str, str, float]]:
+        """(body, body, depth [m]) of pairs of rigid bodies given by index."""
+        bodies = self.rigid_bodies
+        return [(bodies[a].name, bodies[b].name, d) for a, b, d in zip(i.tolist(), j.tolist(), depth.tolist(),
+                                                                        strict=True)]
 
     def initial_overlaps(self) -> list[tuple[str, str, float]]:
         """(body, body, depth [m]) of every pair of rigid bodies that can meet and start overlapping
         by more than they may (``validate``), deepest first."""
-        bodies = self.rigid_bodies
-        if self.contact is None:
-            return []
-        return [(bodies[o.i].name, bodies[o.j].name, o.depth) for o in body_overlaps(bodies)
-                if o.depth > self._overlap_tolerance(o.i, o.j)]
+        return self._named(*self._initial_overlaps(rigid_arrays(self.rigid_bodies))[:3])
 
-    def _check_initial_overlaps(self) -> None:
-        if self.allow_initial_overlap:
+    def _check_initial_overlaps(self, i: np.ndarray, j: np.ndarray, depth: np.ndarray, tol: np.ndarray) -> None:
+        """InputError naming the deepest of the pairs (``_initial_overlaps``) that start too deep."""
+        if not len(i):
             return
-        deep = self.initial_overlaps()
-        if not deep:
-            return
-        a, b, depth = deep[0]
-        k = [o.name for o in self.rigid_bodies]
-        tol = self._overlap_tolerance(k.index(a), k.index(b))
-        more = f" ({len(deep)} pairs overlap in all)" if len(deep) > 1 else ""
-        raise InputError(f"rigid bodies {a!r} and {b!r}", f"overlapping by {depth:.4g} m",
-                         f"bodies that start apart or touching, overlapping by at most {tol:.3g} m (the larger of 1 % "
-                         "of the smaller body's size and 3 x the overlap under the weight of a column as tall as the "
-                         f"domain){more}: the first steps would turn the overlap into speed. "
+        a, b = self.rigid_bodies[int(i[0])].name, self.rigid_bodies[int(j[0])].name
+        more = f" ({len(i)} pairs overlap in all)" if len(i) > 1 else ""
+        raise InputError(f"rigid bodies {a!r} and {b!r}", f"overlapping by {float(depth[0]):.4g} m",
+                         f"bodies that start apart or touching, overlapping by at most {float(tol[0]):.3g} m (the "
+                         "larger of 1 % of the smaller body's size and 3 x the overlap under the weight of a column "
+                         f"as tall as the domain){more}: the first steps would turn the overlap into speed. "
                          "Move them apart, or pass Scene(allow_initial_overlap=True) for a deliberately "
                          "pre-stressed pack")
 

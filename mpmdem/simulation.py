@@ -90,11 +90,13 @@ class Simulation:
         self.device = str(wp.get_device(device))
         if not (scene.has_mpm or scene.has_dem):
             raise InputError("bodies", [], "at least one body (Scene.add_mpm_body or Scene.add_rigid_body)")
-        scene.validate()  # whole-scene input checks (points starting inside rigid bodies), before any kernel
+        # whole-scene input checks (points starting inside rigid bodies), before any kernel
+        overlaps = scene.validate()
         #: the time of the run, shared by every stage
         self.clock = Clock(self.device)
         self.mpm = MPMSolver(scene, self.config, self.device, clock=self.clock) if scene.has_mpm else None
-        self.dem = DEMSolver(scene, self.config, self.device, clock=self.clock) if scene.has_dem else None
+        self.dem = (DEMSolver(scene, self.config, self.device, clock=self.clock, initial_overlaps=overlaps)
+                    if scene.has_dem else None)
         # the dt policy of the stage that starts each step (with points, the MPM stage's CFL bound,
         # capped by the coupling's contact bound in a coupled step)
         (self.mpm or self.dem).start_clock(self.clock)

@@ -250,6 +250,20 @@ def _mass_moments(v: np.ndarray, a: float) -> tuple[float, np.ndarray, float]:
     return float(area), ref + c, float(jj - area * (c @ c))
 
 
+def placed(points: np.ndarray, cos, sin, position) -> np.ndarray:
+    """Body-frame points (..., k, 2) [m] turned about the body origin by the angle whose cosine and
+    sine are ``cos``, ``sin`` (shape (...)), then moved to ``position`` (..., 2) [m]: (..., k, 2) [m].
+    One shape's vertices (``Spheropolygon.world_vertices``) or many bodies' at once, the same floats."""
+    c, s = np.asarray(cos)[..., None], np.asarray(sin)[..., None]
+    p = np.asarray(position)
+    x, y = points[..., 0], points[..., 1]
+    turned_x = c * x - s * y + p[..., 0, None]
+    out = np.empty((*turned_x.shape, 2))
+    out[..., 0] = turned_x
+    out[..., 1] = s * x + c * y + p[..., 1, None]
+    return out
+
+
 # ----------------------------------------------------------------------------------------------------
 # The shape
 # ----------------------------------------------------------------------------------------------------
@@ -295,6 +309,7 @@ class Spheropolygon:
         kind: "disk", "rod", "rectangle", "regular_polygon", "convex", "polygon" or "file".
         params: the constructor's parameters, as (name, value) pairs of JSON-serialisable values.
         area: exact area of the dilated shape [m²].
+        core_radius: max_k |V_k| [m], the circle about the centroid holding the core polygon.
         second_moment: exact polar second moment of area ∫|r|² dA about the centroid [m⁴].
         convex: whether the core polygon is convex.
 
@@ -309,6 +324,7 @@ class Spheropolygon:
     kind: str = "polygon"
     params: tuple[tuple[str, object], ...] = ()
     area: float = field(init=False)
+    core_radius: float = field(init=False)
     second_moment: float = field(init=False)
     convex: bool = field(init=False)
 
@@ -339,13 +355,9 @@ class Spheropolygon:
         object.__setattr__(self, "origin", (float(o[0]), float(o[1])))
         object.__setattr__(self, "params", tuple((str(k), val) for k, val in self.params))
         object.__setattr__(self, "area", area)
+        object.__setattr__(self, "core_radius", float(np.hypot(v[:, 0], v[:, 1]).max()))
         object.__setattr__(self, "second_moment", second)
         object.__setattr__(self, "convex", _is_convex(v))
-
-    @property
-    def core_radius(self) -> float:
-        """max_k |V_k| [m]: the circle about the centroid holding the core polygon."""
-        return float(np.hypot(self.vertices[:, 0], self.vertices[:, 1]).max())
 
     @property
     def bounding_radius(self) -> float:
@@ -370,9 +382,7 @@ class Spheropolygon:
         if p.shape != (2,) or not np.isfinite(p).all():
             raise InputError("position", position, "a finite (x, y) [m]")
         th = finite("angle", angle, "a finite angle [rad]")
-        c, s = math.cos(th), math.sin(th)
-        v = self.vertices
-        return np.column_stack([c * v[:, 0] - s * v[:, 1] + p[0], s * v[:, 0] + c * v[:, 1] + p[1]])
+        return placed(self.vertices, math.cos(th), math.sin(th), p)
 
     def to_dict(self) -> dict:
         """JSON-serialisable description: kind, params, radius [m], body-frame vertices [m] and origin [m]."""
