@@ -7,6 +7,7 @@ through a loop it does not need there, shows here before any GPU time is spent.
 
     python bench/kernel_registers.py dem_contact --caps none,128,96,80,64
     python bench/kernel_registers.py imp_forces
+    python bench/kernel_registers.py dem_split_search
 
 One JSON line per (kernel, cap): registers, spill_stores and spill_loads [bytes], stack [bytes],
 blocks_per_sm (256 threads). Needs ``ptxas`` on the PATH (the CUDA toolkit); the PTX version line
@@ -36,13 +37,18 @@ def kernels(name: str, cap: int | None):
         from mpmdem.kernels.dem import make_dem_kernels
 
         return make_dem_kernels("f32", False).make_contact_forces(cap)
+    if name.startswith("dem_split_"):  # dem_split_candidates, dem_split_search, dem_split_assemble
+        from mpmdem.kernels.dem_split import make_split_search
+
+        return getattr(make_split_search("f32", assemble_registers=cap), name.removeprefix("dem_split_"))
     if name == "imp_forces":
         from mpmdem.kernels.coupling import make_coupling_kernels
 
         if cap is not None:
             raise SystemExit("imp_forces has no register cap option")
         return make_coupling_kernels("f32").forces
-    raise SystemExit(f"unknown kernel {name!r} (dem_contact, imp_forces)")
+    raise SystemExit(f"unknown kernel {name!r} (dem_contact, dem_split_candidates, dem_split_search, "
+                   "dem_split_assemble, imp_forces)")
 
 
 def ptxas_version() -> str:

@@ -346,6 +346,128 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
             F = -F  # force on i
         return F, p, slip, e_pair, lost_pair
 
+    @wp.func
+    def pair_side(B: Bodies, i: int, j: int, side: int):
+        """The search of one side of pair (i, j): side 0 the vertices of i against the core of j,
+        side 1 those of j against i. Returns (first vertex and count of the searching core, first
+        vertex and count of the other, the other's centroid [m] and core radius [m], the searching
+        body's sphero radius a [m])."""
+        if side == 0:
+            return B.vstart[i], B.vcount[i], B.vstart[j], B.vcount[j], B.x[j], B.core_radius[j], B.radius[i]
+        return B.vstart[j], B.vcount[j], B.vstart[i], B.vcount[i], B.x[i], B.core_radius[i], B.radius[j]
+
+    @wp.func
+    def corner_count(side: int, o_count: int):
+        """Corners of the other core a vertex is tested against: its vertices on side 0, none on side 1
+        (a vertex–vertex contact is found once)."""
+        n = int(0)
+        if side == 0:
+            n = o_count
+        return n
+
+    @wp.func
+    def add_touch(B: Bodies, C: Contacts, prm: Params, tid: int, i: int, j: int, side: int, k: int, X: vec2,
+                  N: vec2, d: T, feature: int, n_feat: int, reach: T, a_r: T, dt: T, xi: vec2, xj: vec2,
+                  keys: wp.vec4i, slips: vec4, n_hist: int, energy: T, lost: wp.vec2d, fi: vec2, ti: T,
+                  fj: vec2, tj: T, status: wp.array(dtype=wp.int32)):
+        """One touch of pair slot ``tid`` (``vertex_feature``'s hit of vertex k on ``side``) added to the
+        pair's sums: its feature key and δ_t into the history, its energy and dissipated work, its
+        force and torques on i and j (eq. 39-40). Returns the sums."""
+        # key of the feature: vertex k against an edge (kind = side) or a corner (2)
+        kind = side
+        if feature >= n_feat:
+            kind = 2
+            feature = feature - n_feat
+        key = kind * KEY_KIND + k * KEY_VERTEX + feature
+        F, p, slip, e_pair, lost_pair = vertex_contact(B, C, prm, tid, i, j, side, X, N, d, reach, a_r, key, dt)
+        lost = lost + lost_pair
+        energy += e_pair
+        if n_hist < wp.static(HISTORY_SLOTS):
+            keys[n_hist] = key
+            slips[n_hist] = slip
+            n_hist += 1
+        else:
+            wp.atomic_add(status, STATUS_HISTORY_OVERFLOW, 1)
+        fi += F
+        ti += cross(p - xi, F)
+        fj -= F
+        tj -= cross(p - xj, F)
+        return keys, slips, n_hist, energy, lost, fi, ti, fj, tj
+
+    @wp.func
+    def search_pair(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2), tid: int, i: int, j: int,
+                    xi: vec2, xj: vec2, reach: T, dt: T, status: wp.array(dtype=wp.int32)):
+        """Every touch of the pair in slot ``tid`` (bodies i, j), searched in turn: each vertex of
+        either core within the other's bounding circle against the other's features. Returns the
+        history (keys, δ_t), energy, dissipated work and the forces and torques on i and j."""
+        keys = wp.vec4i(-1, -1, -1, -1)
+        slips = vec4()
+        n_hist = int(0)
+        energy = T(0.0)
+        lost = wp.vec2d(0.0, 0.0)
+        fi = vec2()
+        ti = T(0.0)
+        fj = vec2()
+        tj = T(0.0)
+        sides = int(2)  # (a loop, not unrolled: one copy of the search in registers)
+        for side in range(sides):
+            r_start, r_count, o_start, o_count, c_o, r_o, a_r = pair_side(B, i, j, side)
+            for k in range(r_count):
+                X = world[r_start + k]
+                if wp.length(X - c_o) >= r_o + reach:
+                    continue
+                # candidate features of the other body: its edges when it has any, then (side 0
+                # only) its vertices as corners, then the pass for a vertex gone inside its core
+                n_feat = edge_count(o_count)
+                n_corner = corner_count(side, o_count)
+                inside = o_count >= 3
+                best_d = T(-1.0e30)
+                best_f = int(-1)
+                best_n = vec2()
+                for f in range(n_feat + n_corner + 1):
+                    hit, N, d, feature, inside, best_d, best_f, best_n = vertex_feature(
+                        X, world, o_start, o_count, f, n_feat, n_corner, reach, r_start, r_count, k,
+                        inside, best_d, best_f, best_n)
+                    if hit:
+                        keys, slips, n_hist, energy, lost, fi, ti, fj, tj = add_touch(
+                            B, C, prm, tid, i, j, side, k, X, N, d, feature, n_feat, reach, a_r, dt, xi, xj,
+                            keys, slips, n_hist, energy, lost, fi, ti, fj, tj, status)
+        return keys, slips, energy, lost, fi, ti, fj, tj
+
+    @wp.func
+    def listed_pair(C: Contacts, q: int):
+        """The slot of the q-th listed pair (the packed list; slot q itself in deterministic mode),
+        −1 past the list."""
+        tid = q
+        if wp.static(not deterministic):
+            if q >= C.total[0]:
+                return -1
+            tid = C.pairs[q]
+        i = tid // C.slots
+        if tid - i * C.slots >= C.count[i]:
+            return -1
+        return tid
+
+    @wp.func
+    def overlapping_circles(B: Bodies, i: int, j: int):
+        """Whether the bounding circles of bodies i and j overlap: only then can they touch."""
+        return wp.length(B.x[j] - B.x[i]) < B.core_radius[i] + B.core_radius[j] + (B.radius[i] + B.radius[j])
+
+    @wp.func
+    def store_pair(B: Bodies, C: Contacts, tid: int, i: int, j: int, touching: bool, keys: wp.vec4i, slips: vec4,
+                   energy: T, lost: wp.vec2d, fi: vec2, ti: T, fj: vec2, tj: T):
+        """The pair's forces and torques added to both bodies (when their circles overlap), its history,
+        energy and dissipated work stored."""
+        if touching:
+            wp.atomic_add(B.force, i, fi)
+            wp.atomic_add(B.torque, i, ti)
+            wp.atomic_add(B.force, j, fj)
+            wp.atomic_add(B.torque, j, tj)
+        C.key[tid] = keys
+        C.slip[tid] = slips
+        C.energy[tid] = energy
+        C.dissipated[tid] = C.dissipated[tid] + lost
+
     def make_contact_forces(max_registers: int | None = None):
         """The contact kernel with at most ``max_registers`` registers per thread on CUDA (None:
         the compiler's choice; a cap raises the occupancy of large scenes: ``mpmdem.dem``)."""
@@ -354,97 +476,26 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         def contact_forces(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
                            clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
             """Forces and torques of one listed pair, added to both bodies (eq. 39-40)."""
-            tid = wp.tid()
-            if wp.static(not deterministic):
-                if tid >= C.total[0]:
-                    return
-                tid = C.pairs[tid]
-            K = C.slots
-            i = tid // K
-            if tid - i * K >= C.count[i]:
+            tid = listed_pair(C, wp.tid())
+            if tid < 0:
                 return
+            i = tid // C.slots
             j = C.nbr[tid]
             xi = B.x[i]
             xj = B.x[j]
-            ai = B.radius[i]
-            aj = B.radius[j]
-            reach = ai + aj
             keys = wp.vec4i(-1, -1, -1, -1)
             slips = vec4()
-            n_hist = int(0)
             energy = T(0.0)
             lost = wp.vec2d(0.0, 0.0)
-            if wp.length(xj - xi) < B.core_radius[i] + B.core_radius[j] + reach:
-                dt = T(clock[CLOCK_DT])
-                fi = vec2()
-                ti = T(0.0)
-                fj = vec2()
-                tj = T(0.0)
-                sides = int(2)  # (a loop, not unrolled: one copy of the search in registers)
-                for side in range(sides):
-                    # side 0: vertices of i against j; side 1: vertices of j against i
-                    r_start = B.vstart[i]
-                    r_count = B.vcount[i]
-                    o_start = B.vstart[j]
-                    o_count = B.vcount[j]
-                    c_o = xj
-                    r_o = B.core_radius[j]
-                    a_r = ai
-                    if side == 1:
-                        r_start = o_start
-                        r_count = o_count
-                        o_start = B.vstart[i]
-                        o_count = B.vcount[i]
-                        c_o = xi
-                        r_o = B.core_radius[i]
-                        a_r = aj
-                    for k in range(r_count):
-                        X = world[r_start + k]
-                        if wp.length(X - c_o) >= r_o + reach:
-                            continue
-                        # candidate features of the other body: its edges when it has any, then (side 0
-                        # only) its vertices as corners, then the pass for a vertex gone inside its core
-                        n_feat = edge_count(o_count)
-                        n_corner = int(0)
-                        if side == 0:
-                            n_corner = o_count
-                        inside = o_count >= 3
-                        best_d = T(-1.0e30)
-                        best_f = int(-1)
-                        best_n = vec2()
-                        for f in range(n_feat + n_corner + 1):
-                            hit, N, d, feature, inside, best_d, best_f, best_n = vertex_feature(
-                                X, world, o_start, o_count, f, n_feat, n_corner, reach, r_start, r_count, k,
-                                inside, best_d, best_f, best_n)
-                            if hit:
-                                # key of the feature: vertex k against an edge (kind = side) or a corner (2)
-                                kind = side
-                                if feature >= n_feat:
-                                    kind = 2
-                                    feature = feature - n_feat
-                                key = kind * KEY_KIND + k * KEY_VERTEX + feature
-                                F, p, slip, e_pair, lost_pair = vertex_contact(
-                                    B, C, prm, tid, i, j, side, X, N, d, reach, a_r, key, dt)
-                                lost = lost + lost_pair
-                                energy += e_pair
-                                if n_hist < wp.static(HISTORY_SLOTS):
-                                    keys[n_hist] = key
-                                    slips[n_hist] = slip
-                                    n_hist += 1
-                                else:
-                                    wp.atomic_add(status, STATUS_HISTORY_OVERFLOW, 1)
-                                fi += F
-                                ti += cross(p - xi, F)
-                                fj -= F
-                                tj -= cross(p - xj, F)
-                wp.atomic_add(B.force, i, fi)
-                wp.atomic_add(B.torque, i, ti)
-                wp.atomic_add(B.force, j, fj)
-                wp.atomic_add(B.torque, j, tj)
-            C.key[tid] = keys
-            C.slip[tid] = slips
-            C.energy[tid] = energy
-            C.dissipated[tid] = C.dissipated[tid] + lost
+            fi = vec2()
+            ti = T(0.0)
+            fj = vec2()
+            tj = T(0.0)
+            touching = overlapping_circles(B, i, j)
+            if touching:
+                keys, slips, energy, lost, fi, ti, fj, tj = search_pair(
+                    B, C, prm, world, tid, i, j, xi, xj, B.radius[i] + B.radius[j], T(clock[CLOCK_DT]), status)
+            store_pair(B, C, tid, i, j, touching, keys, slips, energy, lost, fi, ti, fj, tj)
 
         return contact_forces
 
@@ -531,6 +582,10 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         check_displacement=check_displacement, clear_loads=clear_loads, clear_cells=clear_cells, bin_bodies=bin_bodies,
         build_lists=build_lists, finish_rebuild=finish_rebuild, reset_total=reset_total,
         contact_forces=contact_forces, make_contact_forces=functools.cache(make_contact_forces),
+        # the pieces of the pair search, for the search split over candidate vertices (kernels/dem_split.py)
+        pair_side=pair_side, corner_count=corner_count, add_touch=add_touch, search_pair=search_pair,
+        listed_pair=listed_pair, overlapping_circles=overlapping_circles, store_pair=store_pair,
+        vertex_feature=vertex_feature, edge_count=edge_count,
         integrate=integrate, end_step=end_step, diagnostics=diagnostics,
         # list maintenance shared with the MPM-DEM coupling (kernels/coupling.py)
         needs_rebuild=needs_rebuild, cell_in=cell_in, sort_ids=sort_ids,

@@ -25,6 +25,7 @@ from .config import SolverConfig
 from .errors import BlowUpError, InputError
 from .kernels import clock as clock_kernels
 from .kernels import dem as dem_kernels
+from .kernels import dem_split
 from .launch_plan import IfFlag, Launch, run_plan
 from .rigid_arrays import RigidArrays, rigid_arrays
 from .scene import Scene
@@ -92,6 +93,23 @@ LARGE_SCENE_BODIES = 65536
 #: Registers per thread of the contact kernel in large scenes: 1M pentagons on an H100 stepped at
 #: 4.41e8 body-steps/s with 96, 3.88e8 with 64, 3.54e8 uncapped (one call).
 LARGE_SCENE_CONTACT_REGISTERS = 96
+
+#: Bodies from which the pair search is split over candidate vertices (``kernels.dem_split``) on
+#: the devices of SPLIT_SEARCH_DEVICES, outside deterministic mode (bench/README.md, "DEM with
+#: real steps"). The results are the same to the bit as the one-kernel search's.
+SPLIT_SEARCH_BODIES = 65536
+SPLIT_SEARCH_DEVICES = ("cuda",)
+#: Listed pairs per body with records of the split search, and candidate vertices per body: a pair
+#: past them is searched whole (a body lists about 2 pairs, with about 4 candidate vertices each).
+SPLIT_PAIRS_PER_BODY = 4
+SPLIT_CANDIDATES_PER_BODY = 16
+#: Threads of the split search's candidate pass on CUDA, per SM (they stride over the candidates).
+SPLIT_THREADS_PER_SM = 2048
+#: Registers per thread of the split search's ``assemble`` on CUDA: the compiler takes 140 (the
+#: whole-pair search it falls back on), one block of 256 threads an SM; 128 spills 32 bytes.
+SPLIT_ASSEMBLE_REGISTERS = 128
+#: The same on a CPU (its threads run one after another: fewer take the candidates out of order).
+SPLIT_CPU_THREADS = 4096
 
 class DEMSolver(ClockedStage):
     """Device state and step sequence of the DEM stage of one scene.
@@ -257,6 +275,7 @@ class DEMSolver(ClockedStage):
         C.pairs = wp.zeros(n * K, dtype=wp.int32, device=dev)
         C.total = wp.zeros(1, dtype=wp.int32, device=dev)
         self.C = C
+        self.split = self._split_search(n, int(np.max(counts)) if n else 0)
 
         law = self.scene.contact
         (x0, y0), (x1, y1) = self.scene.domain
@@ -368,11 +387,44 @@ class DEMSolver(ClockedStage):
         """The plan of the list rebuild (``rebuild_plan``; nothing without a free body)."""
         return self.rebuild_plan if self.free else []
 
+    def _split_search(self, n: int, max_vertices: int):
+        """The kernels and records of the split pair search (``kernels.dem_split``) where this scene
+        takes it (SPLIT_SEARCH_BODIES, SPLIT_SEARCH_DEVICES, not deterministic, every core of at most
+        ``dem_split.MAX_VERTICES`` vertices), else None: the one-kernel search."""
+        dev = self.device
+        if (n < SPLIT_SEARCH_BODIES or dev.is_cpu and "cpu" not in SPLIT_SEARCH_DEVICES
+                or dev.is_cuda and "cuda" not in SPLIT_SEARCH_DEVICES or self.config.deterministic
+                or not self.free or max_vertices > dem_split.MAX_VERTICES):
+            return None
+        kernels = dem_split.make_split_search(self.config.precision, dem_split.HITS_PER_PAIR, SPLIT_ASSEMBLE_REGISTERS)
+        S = kernels.Split()
+        S.pairs = min(n * SPLIT_PAIRS_PER_BODY, n * self.slots, 1 << 25)  # (a candidate's code holds q < 2^25)
+        cap = n * SPLIT_CANDIDATES_PER_BODY
+        S.candidate = wp.zeros(cap, dtype=wp.int32, device=dev)
+        S.candidate_count = wp.zeros(1, dtype=wp.int32, device=dev)
+        S.whole = wp.zeros(S.pairs, dtype=wp.int32, device=dev)
+        S.touches = wp.zeros(S.pairs, dtype=wp.int32, device=dev)
+        hits = S.pairs * dem_split.HITS_PER_PAIR
+        S.code = wp.zeros(hits, dtype=wp.int32, device=dev)
+        S.normal = wp.zeros(hits, dtype=self._vec2, device=dev)
+        S.distance = wp.zeros(hits, dtype=self._scalar, device=dev)
+        threads = min(cap, SPLIT_THREADS_PER_SM * dev.sm_count if dev.is_cuda else SPLIT_CPU_THREADS)
+        return kernels, S, threads
+
     def contact_forces(self) -> None:
         """The body–body contact forces of this step (lists up to date), with free bodies."""
-        if self.free:
-            wp.launch(self.contact_kernel, self.body_count * self.slots,
-                      inputs=[self.B, self.C, self.params, self.world, self.clock, self.status], device=self.device)
+        if not self.free:
+            return
+        B, C, world, dev = self.B, self.C, self.world, self.device
+        pairs = self.body_count * self.slots
+        if self.split is None:
+            wp.launch(self.contact_kernel, pairs, inputs=[B, C, self.params, world, self.clock, self.status],
+                      device=dev)
+            return
+        k, S, threads = self.split
+        wp.launch(k.candidates, pairs, inputs=[B, C, world, S], device=dev)
+        wp.launch(k.search, threads, inputs=[B, C, world, S, threads], device=dev)
+        wp.launch(k.assemble, pairs, inputs=[B, C, self.params, world, S, self.clock, self.status], device=dev)
 
     def body_update(self) -> None:
         """Rigid-body update of the free and kinematic bodies (fixed bodies are not integrated)."""

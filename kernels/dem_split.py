@@ -1,0 +1,190 @@
+"""The DEM pair search split over candidate vertices (large scenes on CUDA): the same touches, forces
+and history as ``dem.contact_forces``, to the bit, found by three kernels instead of one.
+
+``contact_forces`` gives each listed pair one thread, which tests in turn every vertex of either
+core that lies within the other body's bounding circle against all the other's features (~34
+feature tests for two touching pentagons). The pairs of a warp need different numbers of tests,
+so most lanes wait (8.7 of 32 active at 100k pentagons). Split:
+
+1. ``candidates`` (a thread per listed pair): the pair's bounding circles, then each vertex's
+   circle test; the vertices that pass are packed into one list (``Split.candidate``).
+2. ``search`` (threads striding over that list): one vertex's feature tests, as in
+   ``search_pair``; each touch is recorded for its pair (feature, normal, distance).
+3. ``assemble`` (a thread per listed pair): the pair's touches in the order ``search_pair`` meets
+   them (side, vertex, feature), each through the same ``add_touch``: forces, torques, history.
+
+A pair whose touches or candidates do not fit the records (more than ``hits`` touches, the
+candidate list full, or past ``pairs`` listed pairs) is searched whole by ``assemble`` with
+``search_pair``: every result is the one of ``contact_forces``.
+"""
+
+import functools
+
+import warp as wp
+
+from .clock import CLOCK_DT
+from .dem import make_dem_kernels
+from .types import Namespace, kernel, scalar_types
+
+__all__ = ["HITS_PER_PAIR", "MAX_VERTICES", "make_split_search"]
+
+#: Vertices of a core the split search takes (5 bits of a candidate's code); scenes with more
+#: keep ``contact_forces``.
+MAX_VERTICES = 31
+_VERTEX_BITS = 5
+_FEATURE_BITS = 6  # features of a vertex's search: at most 2 × 31 + 1 < 64
+#: Touches recorded per pair (two pentagons touch at 1-2 spots; face on face at up to 4).
+HITS_PER_PAIR = 4
+
+
+@functools.cache
+def make_split_search(precision: str, hits: int = HITS_PER_PAIR, assemble_registers: int | None = None):
+    """Struct ``Split`` and kernels ``candidates``, ``search``, ``assemble`` for one precision;
+    ``hits`` touches recorded per pair (more: that pair is searched whole); ``assemble`` built with
+    at most ``assemble_registers`` registers per thread on CUDA (None: the compiler's choice)."""
+    t = scalar_types(precision)
+    T = t.scalar
+    vec2 = t.vec2
+    vec4 = t.vec4
+    dem = make_dem_kernels(precision, False)
+    Bodies, Contacts, Params = dem.Bodies, dem.Contacts, dem.Params
+    pair_side, corner_count, add_touch = dem.pair_side, dem.corner_count, dem.add_touch
+    search_pair, listed_pair = dem.search_pair, dem.listed_pair
+    overlapping_circles, store_pair = dem.overlapping_circles, dem.store_pair
+    vertex_feature, edge_count = dem.vertex_feature, dem.edge_count
+    H = hits
+
+    @wp.struct
+    class Split:
+        candidate: wp.array(dtype=wp.int32)  # (capacity) q, side, vertex of each candidate vertex
+        candidate_count: wp.array(dtype=wp.int32)  # (1) candidates this step (reset by ``assemble``)
+        whole: wp.array(dtype=wp.int32)  # (pairs) 1: search pair q whole in ``assemble``
+        touches: wp.array(dtype=wp.int32)  # (pairs) touches recorded for pair q
+        code: wp.array(dtype=wp.int32)  # (pairs * hits) side, vertex, loop index and feature of a touch
+        normal: wp.array(dtype=vec2)  # (pairs * hits) N of the touch
+        distance: wp.array(dtype=T)  # (pairs * hits) d of the touch [m]
+        pairs: int  # listed pairs with records
+
+    @wp.func
+    def order_of(code: int):
+        """The position of a touch in ``search_pair``'s order: side, vertex, then loop index."""
+        return code >> _FEATURE_BITS
+
+    @kernel
+    def candidates(B: Bodies, C: Contacts, world: wp.array(dtype=vec2), S: Split):
+        """Listed pair q: its vertices within the other body's bounding circle, packed as candidates
+        (q, side, vertex) into ``S.candidate``; its touches reset."""
+        q = wp.tid()
+        tid = listed_pair(C, q)
+        if tid < 0 or q >= S.pairs:
+            return
+        S.touches[q] = 0
+        S.whole[q] = 0
+        i = tid // C.slots
+        j = C.nbr[tid]
+        if not overlapping_circles(B, i, j):
+            return
+        reach = B.radius[i] + B.radius[j]
+        for side in range(2):
+            r_start, r_count, o_start, o_count, c_o, r_o, a_r = pair_side(B, i, j, side)
+            for k in range(r_count):
+                if wp.length(world[r_start + k] - c_o) < r_o + reach:
+                    c = wp.atomic_add(S.candidate_count, 0, 1)
+                    if c < S.candidate.shape[0]:
+                        S.candidate[c] = (q << (1 + _VERTEX_BITS)) | (side << _VERTEX_BITS) | k
+                    else:
+                        S.whole[q] = 1
+
+    @kernel
+    def search(B: Bodies, C: Contacts, world: wp.array(dtype=vec2), S: Split, threads: int):
+        """Candidates tid, tid + threads, ... (``threads`` launched): the vertex's feature tests
+        (``search_pair``'s inner loop); each touch recorded for its pair."""
+        n = wp.min(S.candidate_count[0], S.candidate.shape[0])
+        for c in range(wp.tid(), n, threads):
+            code = S.candidate[c]
+            q = code >> (1 + _VERTEX_BITS)
+            side = (code >> _VERTEX_BITS) & 1
+            k = code & ((1 << _VERTEX_BITS) - 1)
+            tid = C.pairs[q]
+            i = tid // C.slots
+            j = C.nbr[tid]
+            reach = B.radius[i] + B.radius[j]
+            r_start, r_count, o_start, o_count, c_o, r_o, a_r = pair_side(B, i, j, side)
+            X = world[r_start + k]
+            n_feat = edge_count(o_count)
+            n_corner = corner_count(side, o_count)
+            inside = o_count >= 3
+            best_d = T(-1.0e30)
+            best_f = int(-1)
+            best_n = vec2()
+            for f in range(n_feat + n_corner + 1):
+                hit, N, d, feature, inside, best_d, best_f, best_n = vertex_feature(
+                    X, world, o_start, o_count, f, n_feat, n_corner, reach, r_start, r_count, k,
+                    inside, best_d, best_f, best_n)
+                if hit:
+                    h = wp.atomic_add(S.touches, q, 1)
+                    if h < H:
+                        at = q * H + h
+                        S.code[at] = (((((side << _VERTEX_BITS) | k) << _FEATURE_BITS) | f) << _FEATURE_BITS) | feature
+                        S.normal[at] = N
+                        S.distance[at] = d
+
+    @kernel(max_registers=assemble_registers)
+    def assemble(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2), S: Split,
+                 clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
+        """Listed pair q: its recorded touches in ``search_pair``'s order through ``add_touch`` (or
+        the whole search, when they did not fit), stored as ``contact_forces`` stores them."""
+        q = wp.tid()
+        if q == 0:
+            S.candidate_count[0] = 0  # (``search`` has read it)
+        tid = listed_pair(C, q)
+        if tid < 0:
+            return
+        i = tid // C.slots
+        j = C.nbr[tid]
+        xi = B.x[i]
+        xj = B.x[j]
+        keys = wp.vec4i(-1, -1, -1, -1)
+        slips = vec4()
+        energy = T(0.0)
+        lost = wp.vec2d(0.0, 0.0)
+        fi = vec2()
+        ti = T(0.0)
+        fj = vec2()
+        tj = T(0.0)
+        touching = overlapping_circles(B, i, j)
+        if touching:
+            reach = B.radius[i] + B.radius[j]
+            dt = T(clock[CLOCK_DT])
+            n = int(H + 1)
+            if q < S.pairs:
+                n = S.touches[q]
+                if S.whole[q] != 0:
+                    n = H + 1
+            if n > H:
+                keys, slips, energy, lost, fi, ti, fj, tj = search_pair(
+                    B, C, prm, world, tid, i, j, xi, xj, reach, dt, status)
+            else:
+                n_hist = int(0)
+                done = int(-1)  # the order of the last touch added
+                for _m in range(n):
+                    # the next touch in search order (n <= hits: a selection among a few)
+                    pick = int(-1)
+                    for h in range(n):
+                        o = order_of(S.code[q * H + h])
+                        if o > done and (pick < 0 or o < order_of(S.code[q * H + pick])):
+                            pick = h
+                    at = q * H + pick
+                    code = S.code[at]
+                    done = order_of(code)
+                    feature = code & ((1 << _FEATURE_BITS) - 1)
+                    k = (code >> (2 * _FEATURE_BITS)) & ((1 << _VERTEX_BITS) - 1)
+                    side = code >> (2 * _FEATURE_BITS + _VERTEX_BITS)
+                    r_start, r_count, o_start, o_count, c_o, r_o, a_r = pair_side(B, i, j, side)
+                    keys, slips, n_hist, energy, lost, fi, ti, fj, tj = add_touch(
+                        B, C, prm, tid, i, j, side, k, world[r_start + k], S.normal[at], S.distance[at], feature,
+                        edge_count(o_count), reach, a_r, dt, xi, xj, keys, slips, n_hist, energy, lost, fi, ti, fj,
+                        tj, status)
+        store_pair(B, C, tid, i, j, touching, keys, slips, energy, lost, fi, ti, fj, tj)
+
+    return Namespace(Split=Split, candidates=candidates, search=search, assemble=assemble)

@@ -1,0 +1,95 @@
+"""The DEM pair search split over candidate vertices (``kernels.dem_split``, large scenes on CUDA).
+
+Three kernels (candidate vertices, their feature tests, the pairs' sums) replace the one-thread-a-
+pair search of ``contact_forces``. They must compute what it computes: the touches are added
+through the same function in the same order, so on the CPU a pack's trajectory, forces and contact
+history are the same bits after many steps, with the records big enough and with every overflow
+path taken (pairs past the records, a full candidate list, more touches than a pair's records),
+where the pair is searched whole. Reference: the one-kernel search, itself tested against a
+brute-force shapely search and the contact laws in tests/test_dem.py.
+"""
+
+import numpy as np
+import pytest
+
+import mpmdem.dem as dem_module
+from mpmdem import ContactLaw, Scene, Simulation, SolverConfig
+from mpmdem.kernels import dem_split
+from mpmdem.spheropolygons import random_convex_polygon, rounded_rectangle
+
+STEPS = 150
+
+
+def pack(seed: int = 5) -> Scene:
+    """36 bodies of 3-7 vertices (and rounded squares: face-on-face contacts of 2-4 touches) thrown
+    into a box with walls: contacts made, held with history, and ended."""
+    rng = np.random.default_rng(seed)
+    scene = Scene(domain=((0.0, 0.0), (1.2, 1.2)), gravity=(0.0, -9.81), contact=ContactLaw(1e5, restitution=0.3))
+    scene.add_walls(("left", "right", "bottom"), friction=0.4)
+    size = 1.2 / 6
+    for i in range(6):
+        for j in range(6):
+            if (i + j) % 4 == 0:
+                shape = rounded_rectangle(0.6 * size, 0.6 * size, 0.05 * size)
+            else:
+                shape = random_convex_polygon(rng, int(rng.integers(3, 8)), 0.3 * size, radius=0.1 * size)
+            scene.add_rigid_body(shape, density=1000.0, position=((i + 0.5) * size, (j + 0.5) * 0.8 * size),
+                                 angle=float(rng.uniform(0, 2 * np.pi)), velocity=tuple(rng.normal(0, 0.3, 2)),
+                                 friction=0.5)
+    return scene
+
+
+def run(monkeypatch, device, split: bool, **records):
+    monkeypatch.setattr(dem_module, "SPLIT_SEARCH_BODIES", 1 if split else 10**9)
+    monkeypatch.setattr(dem_module, "SPLIT_SEARCH_DEVICES", ("cpu", "cuda"))
+    for name, value in records.items():
+        monkeypatch.setattr(*((dem_split, name) if name == "HITS_PER_PAIR" else (dem_module, name)), value)
+    sim = Simulation(pack(), SolverConfig(precision="f64"), device=device)
+    assert (sim.dem.split is not None) == split
+    worst = {"touches": 0, "whole": 0}
+    sim.stage.set_stop_time(1e30)
+    for _ in range(STEPS):
+        sim.advance(1)
+        if split:
+            _, S, _ = sim.dem.split
+            worst["touches"] = max(worst["touches"], int(S.touches.numpy().max()))
+            worst["whole"] = max(worst["whole"], int(S.whole.numpy().max()))
+    C = sim.dem.C
+    state = {**sim.body_fields(), "key": C.key.numpy(), "slip": C.slip.numpy(), "energy": C.energy.numpy(),
+             "dissipated": C.dissipated.numpy()}
+    return state, sim.diagnostics(), worst
+
+
+@pytest.mark.parametrize("records", [
+    {},  # records for every pair and touch
+    {"SPLIT_CPU_THREADS": 3},  # candidates taken out of order: touches recorded out of order
+    {"SPLIT_PAIRS_PER_BODY": 1, "SPLIT_CANDIDATES_PER_BODY": 2, "HITS_PER_PAIR": 1},  # overflows: searched whole
+], ids=["fits", "unordered", "overflows"])
+def test_split_search_is_the_one_kernel_search(monkeypatch, device, records):
+    """Verify the split search gives the one-kernel search's trajectory, forces and history: the same
+    bits on the CPU; on a GPU both sum the bodies' forces with atomics in varying order, so they
+    agree to round-off grown over the steps (1e-9 m on positions of order 1 m, in f64)."""
+    ref, ref_diag, _ = run(monkeypatch, device, False)
+    got, diag, worst = run(monkeypatch, device, True, **records)
+    assert (ref["key"] >= 0).sum() > 20  # contacts with history: the comparison means something
+    if "HITS_PER_PAIR" in records:
+        assert worst["whole"] == 1 and worst["touches"] > 1  # the overflow paths were taken
+    if device == "cpu":
+        for name in ("x", "angle", "v", "omega", "force", "torque", "key", "slip", "energy", "dissipated"):
+            np.testing.assert_array_equal(got[name], ref[name], err_msg=name)
+    else:
+        np.testing.assert_allclose(got["x"], ref["x"], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(got["omega"], ref["omega"], rtol=0, atol=1e-6)
+
+
+def test_split_search_only_where_it_applies(monkeypatch):
+    """Verify the one-kernel search stays for deterministic runs, small scenes and cores of more than
+    MAX_VERTICES vertices."""
+    monkeypatch.setattr(dem_module, "SPLIT_SEARCH_DEVICES", ("cpu", "cuda"))
+    monkeypatch.setattr(dem_module, "SPLIT_SEARCH_BODIES", 1)
+    assert Simulation(pack(), SolverConfig(deterministic=True), device="cpu").dem.split is None
+    monkeypatch.setattr(dem_module, "SPLIT_SEARCH_BODIES", 10**9)
+    assert Simulation(pack(), SolverConfig(), device="cpu").dem.split is None
+    monkeypatch.setattr(dem_module, "SPLIT_SEARCH_BODIES", 1)
+    monkeypatch.setattr(dem_split, "MAX_VERTICES", 4)
+    assert Simulation(pack(), SolverConfig(), device="cpu").dem.split is None
