@@ -366,6 +366,18 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         return n
 
     @wp.func
+    def no_touches():
+        """The sums of a pair before its first touch: (history keys, δ_t, energy, dissipated work,
+        force and torque on i, force and torque on j)."""
+        return wp.vec4i(-1, -1, -1, -1), vec4(), T(0.0), wp.vec2d(0.0, 0.0), vec2(), T(0.0), vec2(), T(0.0)
+
+    @wp.func
+    def vertex_search(side: int, o_count: int):
+        """The start of one vertex's feature search against a core of ``o_count`` vertices: (edges,
+        corners, and the last pass's state for ``vertex_feature``: inside, best_d, best_f, best_n)."""
+        return edge_count(o_count), corner_count(side, o_count), o_count >= 3, T(-1.0e30), int(-1), vec2()
+
+    @wp.func
     def add_touch(B: Bodies, C: Contacts, prm: Params, tid: int, i: int, j: int, side: int, k: int, X: vec2,
                   N: vec2, d: T, feature: int, n_feat: int, reach: T, a_r: T, dt: T, xi: vec2, xj: vec2,
                   keys: wp.vec4i, slips: vec4, n_hist: int, energy: T, lost: wp.vec2d, fi: vec2, ti: T,
@@ -400,15 +412,8 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         """Every touch of the pair in slot ``tid`` (bodies i, j), searched in turn: each vertex of
         either core within the other's bounding circle against the other's features. Returns the
         history (keys, δ_t), energy, dissipated work and the forces and torques on i and j."""
-        keys = wp.vec4i(-1, -1, -1, -1)
-        slips = vec4()
+        keys, slips, energy, lost, fi, ti, fj, tj = no_touches()
         n_hist = int(0)
-        energy = T(0.0)
-        lost = wp.vec2d(0.0, 0.0)
-        fi = vec2()
-        ti = T(0.0)
-        fj = vec2()
-        tj = T(0.0)
         sides = int(2)  # (a loop, not unrolled: one copy of the search in registers)
         for side in range(sides):
             r_start, r_count, o_start, o_count, c_o, r_o, a_r = pair_side(B, i, j, side)
@@ -418,12 +423,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                     continue
                 # candidate features of the other body: its edges when it has any, then (side 0
                 # only) its vertices as corners, then the pass for a vertex gone inside its core
-                n_feat = edge_count(o_count)
-                n_corner = corner_count(side, o_count)
-                inside = o_count >= 3
-                best_d = T(-1.0e30)
-                best_f = int(-1)
-                best_n = vec2()
+                n_feat, n_corner, inside, best_d, best_f, best_n = vertex_search(side, o_count)
                 for f in range(n_feat + n_corner + 1):
                     hit, N, d, feature, inside, best_d, best_f, best_n = vertex_feature(
                         X, world, o_start, o_count, f, n_feat, n_corner, reach, r_start, r_count, k,
@@ -447,6 +447,13 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         if tid - i * C.slots >= C.count[i]:
             return -1
         return tid
+
+    @wp.func
+    def pair_bodies(B: Bodies, C: Contacts, tid: int):
+        """Bodies i (the owner of slot ``tid``) and j of a listed pair, and their centroids [m]."""
+        i = tid // C.slots
+        j = C.nbr[tid]
+        return i, j, B.x[i], B.x[j]
 
     @wp.func
     def overlapping_circles(B: Bodies, i: int, j: int):
@@ -479,18 +486,8 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
             tid = listed_pair(C, wp.tid())
             if tid < 0:
                 return
-            i = tid // C.slots
-            j = C.nbr[tid]
-            xi = B.x[i]
-            xj = B.x[j]
-            keys = wp.vec4i(-1, -1, -1, -1)
-            slips = vec4()
-            energy = T(0.0)
-            lost = wp.vec2d(0.0, 0.0)
-            fi = vec2()
-            ti = T(0.0)
-            fj = vec2()
-            tj = T(0.0)
+            i, j, xi, xj = pair_bodies(B, C, tid)
+            keys, slips, energy, lost, fi, ti, fj, tj = no_touches()
             touching = overlapping_circles(B, i, j)
             if touching:
                 keys, slips, energy, lost, fi, ti, fj, tj = search_pair(
@@ -583,7 +580,8 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         build_lists=build_lists, finish_rebuild=finish_rebuild, reset_total=reset_total,
         contact_forces=contact_forces, make_contact_forces=functools.cache(make_contact_forces),
         # the pieces of the pair search, for the search split over candidate vertices (kernels/dem_split.py)
-        pair_side=pair_side, corner_count=corner_count, add_touch=add_touch, search_pair=search_pair,
+        pair_side=pair_side, no_touches=no_touches, vertex_search=vertex_search, add_touch=add_touch,
+        search_pair=search_pair, pair_bodies=pair_bodies,
         listed_pair=listed_pair, overlapping_circles=overlapping_circles, store_pair=store_pair,
         vertex_feature=vertex_feature, edge_count=edge_count,
         integrate=integrate, end_step=end_step, diagnostics=diagnostics,

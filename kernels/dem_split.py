@@ -45,11 +45,10 @@ def make_split_search(precision: str, hits: int = HITS_PER_PAIR, assemble_regist
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2
-    vec4 = t.vec4
     dem = make_dem_kernels(precision, False)
     Bodies, Contacts, Params = dem.Bodies, dem.Contacts, dem.Params
-    pair_side, corner_count, add_touch = dem.pair_side, dem.corner_count, dem.add_touch
-    search_pair, listed_pair = dem.search_pair, dem.listed_pair
+    pair_side, no_touches, vertex_search, add_touch = dem.pair_side, dem.no_touches, dem.vertex_search, dem.add_touch
+    search_pair, listed_pair, pair_bodies = dem.search_pair, dem.listed_pair, dem.pair_bodies
     overlapping_circles, store_pair = dem.overlapping_circles, dem.store_pair
     vertex_feature, edge_count = dem.vertex_feature, dem.edge_count
     H = hits
@@ -111,12 +110,7 @@ def make_split_search(precision: str, hits: int = HITS_PER_PAIR, assemble_regist
             reach = B.radius[i] + B.radius[j]
             r_start, r_count, o_start, o_count, c_o, r_o, a_r = pair_side(B, i, j, side)
             X = world[r_start + k]
-            n_feat = edge_count(o_count)
-            n_corner = corner_count(side, o_count)
-            inside = o_count >= 3
-            best_d = T(-1.0e30)
-            best_f = int(-1)
-            best_n = vec2()
+            n_feat, n_corner, inside, best_d, best_f, best_n = vertex_search(side, o_count)
             for f in range(n_feat + n_corner + 1):
                 hit, N, d, feature, inside, best_d, best_f, best_n = vertex_feature(
                     X, world, o_start, o_count, f, n_feat, n_corner, reach, r_start, r_count, k,
@@ -140,18 +134,8 @@ def make_split_search(precision: str, hits: int = HITS_PER_PAIR, assemble_regist
         tid = listed_pair(C, q)
         if tid < 0:
             return
-        i = tid // C.slots
-        j = C.nbr[tid]
-        xi = B.x[i]
-        xj = B.x[j]
-        keys = wp.vec4i(-1, -1, -1, -1)
-        slips = vec4()
-        energy = T(0.0)
-        lost = wp.vec2d(0.0, 0.0)
-        fi = vec2()
-        ti = T(0.0)
-        fj = vec2()
-        tj = T(0.0)
+        i, j, xi, xj = pair_bodies(B, C, tid)
+        keys, slips, energy, lost, fi, ti, fj, tj = no_touches()
         touching = overlapping_circles(B, i, j)
         if touching:
             reach = B.radius[i] + B.radius[j]
