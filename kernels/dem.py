@@ -29,18 +29,8 @@ from .contact_geometry import make_contact_geometry, make_history_lookup
 from .reductions import close_step
 from .types import Namespace, kernel, scalar_types
 
-__all__ = [
-    "FREE",
-    "FIXED",
-    "HISTORY_SLOTS",
-    "KINEMATIC",
-    "STATUS_CELL_OVERFLOW",
-    "STATUS_HISTORY_OVERFLOW",
-    "STATUS_NEIGHBOR_OVERFLOW",
-    "STATUS_NONFINITE",
-    "STATUS_OUTSIDE",
-    "make_dem_kernels",
-]
+__all__ = ["FREE", "FIXED", "HISTORY_SLOTS", "KINEMATIC", "STATUS_CELL_OVERFLOW", "STATUS_HISTORY_OVERFLOW",
+           "STATUS_NEIGHBOR_OVERFLOW", "STATUS_NONFINITE", "STATUS_OUTSIDE", "make_dem_kernels"]
 
 FREE = 0
 FIXED = 1

@@ -382,9 +382,8 @@ class Scene:
 
     def validate(self) -> list[tuple[str, str, float]]:
         """Checks that need the whole scene (bodies may be added in any order); ``Simulation``
-        runs them before any kernel. Raises InputError. Returns ``initial_overlaps()``, which it
-        computes on the way (``Simulation`` hands them to the DEM stage rather than computing
-        them twice).
+        runs them before any kernel. Raises InputError. Returns ``initial_overlaps()``, computed on
+        the way (``Simulation`` hands them to the DEM stage, which would compute them again).
 
         Material points must not start inside a rigid body (free, fixed, kinematic or a wall):
         a point is inside when its centre lies strictly inside the rounded body (core polygon
