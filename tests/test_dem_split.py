@@ -15,14 +15,15 @@ import pytest
 import mpmdem.dem as dem_module
 from mpmdem import ContactLaw, Scene, Simulation, SolverConfig
 from mpmdem.kernels import dem_split
-from mpmdem.spheropolygons import random_convex_polygon, rounded_rectangle
+from mpmdem.spheropolygons import random_convex_polygon, rod, rounded_rectangle, sphero_disk
 
 STEPS = 150
 
 
 def pack(seed: int = 5) -> Scene:
-    """36 bodies of 3-7 vertices (and rounded squares: face-on-face contacts of 2-4 touches) thrown
-    into a box with walls: contacts made, held with history, and ended."""
+    """36 bodies thrown into a box with walls: polygons of 3-7 vertices, rounded squares (face-on-face
+    contacts of 2-4 touches), disks (one vertex) and rods (two): contacts made, held with history,
+    and ended."""
     rng = np.random.default_rng(seed)
     scene = Scene(domain=((0.0, 0.0), (1.2, 1.2)), gravity=(0.0, -9.81), contact=ContactLaw(1e5, restitution=0.3))
     scene.add_walls(("left", "right", "bottom"), friction=0.4)
@@ -31,6 +32,10 @@ def pack(seed: int = 5) -> Scene:
         for j in range(6):
             if (i + j) % 4 == 0:
                 shape = rounded_rectangle(0.6 * size, 0.6 * size, 0.05 * size)
+            elif (i + 2 * j) % 7 == 1:
+                shape = sphero_disk(0.3 * size)
+            elif (i + 2 * j) % 7 == 3:
+                shape = rod(0.7 * size, 0.1 * size)
             else:
                 shape = random_convex_polygon(rng, int(rng.integers(3, 8)), 0.3 * size, radius=0.1 * size)
             scene.add_rigid_body(shape, density=1000.0, position=((i + 0.5) * size, (j + 0.5) * 0.8 * size),
