@@ -5,7 +5,8 @@ No physics here (that is ``mpmdem.kernels.dem``): this module lays the bodies ou
 cells and the Verlet lists, and launches the kernels of a step:
 
 world vertices → displacement check → (list rebuild, only when flagged on the device) →
-contact forces → rigid-body update → clock.
+contact forces (one kernel; in large GPU scenes three, the search split over candidate vertices:
+``kernels.dem_split``) → rigid-body update → clock.
 
 The rebuild kernels run every step but return at once unless the device flag is set, so the
 step never waits on the host and can be recorded as one CUDA graph.
@@ -110,6 +111,7 @@ SPLIT_THREADS_PER_SM = 2048
 SPLIT_ASSEMBLE_REGISTERS = 128
 #: The same on a CPU (its threads run one after another: fewer take the candidates out of order).
 SPLIT_CPU_THREADS = 4096
+
 
 class DEMSolver(ClockedStage):
     """Device state and step sequence of the DEM stage of one scene.
