@@ -92,7 +92,8 @@ def spring_time_step_bound(law: ContactLaw, mass: float) -> float:
 #: pairs, which spilled registers lengthen (bench/README.md, "register caps").
 LARGE_SCENE_BODIES = 65536
 #: Registers per thread of the contact kernel in large scenes: 1M pentagons on an H100 stepped at
-#: 4.41e8 body-steps/s with 96, 3.88e8 with 64, 3.54e8 uncapped (one call).
+#: 4.41e8 body-steps/s with 96, 3.88e8 with 64, 3.54e8 uncapped (one call; a pack held still, dt = 0:
+#: bench/README.md, "DEM with real steps"). Large CUDA scenes now take the split search.
 LARGE_SCENE_CONTACT_REGISTERS = 96
 
 #: Bodies from which the pair search is split over candidate vertices (``kernels.dem_split``) on
