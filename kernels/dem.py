@@ -27,6 +27,7 @@ from .clock import (
 )
 from .contact_geometry import make_contact_geometry, make_history_lookup
 from .reductions import close_step
+from .scan import block_append
 from .types import Namespace, kernel, scalar_types
 
 __all__ = ["FREE", "FIXED", "HISTORY_SLOTS", "KINEMATIC", "STATUS_CELL_OVERFLOW", "STATUS_HISTORY_OVERFLOW",
@@ -215,20 +216,18 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
             wp.atomic_add(status, STATUS_NEIGHBOR_OVERFLOW, 1)
         return n + 1
 
-    @kernel
-    def build_lists(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
-                    is_large: wp.array(dtype=wp.int32), large: wp.array(dtype=wp.int32), n_large: int,
-                    flags: wp.array(dtype=wp.int32), cell_count: wp.array(dtype=wp.int32),
-                    cell_items: wp.array(dtype=wp.int32), status: wp.array(dtype=wp.int32)):
-        """Rebuild body i's owned pairs (sorted by partner) and carry over their history."""
-        if flags[0] == 0:
-            return
-        i = wp.tid()
+    @wp.func
+    def list_pairs(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
+                   is_large: wp.array(dtype=wp.int32), large: wp.array(dtype=wp.int32), n_large: int,
+                   cell_count: wp.array(dtype=wp.int32), cell_items: wp.array(dtype=wp.int32),
+                   status: wp.array(dtype=wp.int32), i: int):
+        """Body i's owned pairs listed anew (sorted by partner), their history carried over; returns
+        how many."""
         K = C.slots
         base = i * K
         # keep the old list for the history hand-over, fold the slots' dissipated work. Only the
         # old_count slots listed are read and cleared: the slots past a list are kept clean (nbr −1,
-        # no key, slip, energy or work: the end of this kernel), and a body lists ~2 of its K
+        # no key, slip, energy or work: the end of this function), and a body lists ~2 of its K
         old_count = C.count[i]
         folded = C.body_dissipated[i]
         for s in range(old_count):
@@ -265,13 +264,6 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
                         n = add_pair(C, i, j, n, status)
         n = wp.min(n, K)
         C.count[i] = n
-        if wp.static(not deterministic):
-            # pack the listed slots at the front of C.pairs, so the force pass runs on full warps
-            # (a body lists ~3 of its K slots); the order of the bodies there follows the atomics,
-            # which deterministic mode cannot have: it runs one thread per slot instead
-            off = wp.atomic_add(C.total, 0, n)
-            for s in range(n):
-                C.pairs[off + s] = base + s
         # insertion sort by partner: the pair order (and so the force sums) do not depend on the
         # order in which threads filled the cells
         sort_ids(C.nbr, base, n)
@@ -295,6 +287,29 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
             C.energy[base + s] = T(0.0)
         B.x_ref[i] = xi
         B.angle_ref[i] = B.angle[i]
+        return n
+
+    @kernel
+    def build_lists(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
+                    is_large: wp.array(dtype=wp.int32), large: wp.array(dtype=wp.int32), n_large: int,
+                    flags: wp.array(dtype=wp.int32), cell_count: wp.array(dtype=wp.int32),
+                    cell_items: wp.array(dtype=wp.int32), status: wp.array(dtype=wp.int32),
+                    total: wp.array(dtype=wp.int32), bodies: int):
+        """Rebuild the lists of bodies i < ``bodies`` (``list_pairs``); outside deterministic mode,
+        pack the listed slots at the front of ``C.pairs`` (``total`` is ``C.total``), so the force
+        pass runs on full warps (a body lists ~3 of its K slots), one atomic a block
+        (``block_append``: launched over whole blocks). The order of the bodies there follows the
+        atomics, which deterministic mode cannot have: it runs one thread per slot instead."""
+        if flags[0] == 0:
+            return
+        i = wp.tid()
+        n = int(0)
+        if i < bodies:
+            n = list_pairs(B, C, prm, world, is_large, large, n_large, cell_count, cell_items, status, i)
+        if wp.static(not deterministic):
+            off = block_append(total, n)
+            for s in range(n):
+                C.pairs[off + s] = i * C.slots + s
 
     @kernel
     def reset_total(flags: wp.array(dtype=wp.int32), C: Contacts):

@@ -6,11 +6,12 @@ core that lies within the other body's bounding circle against all the other's f
 feature tests for two touching pentagons). The pairs of a warp need different numbers of tests,
 so most lanes wait (8.7 of 32 active at 100k pentagons). Split:
 
-1. ``candidates`` (a thread per listed pair): the pair's bounding circles, then each vertex's
-   circle test; the vertices that pass are packed into one list (``Split.candidate``).
+1. ``candidates`` (threads striding over the listed pairs): the pair's bounding circles, then each
+   vertex's circle test; the vertices that pass are packed into one list (``Split.candidate``),
+   one atomic a block (``scan.block_append``: a million appends on one counter queued for 0.5 ms).
 2. ``search`` (threads striding over that list): one vertex's feature tests, as in
    ``search_pair``; each touch is recorded for its pair (feature, normal, distance).
-3. ``assemble`` (a thread per listed pair): the pair's touches in the order ``search_pair`` meets
+3. ``assemble`` (threads striding over the listed pairs): the pair's touches in the order ``search_pair`` meets
    them (side, vertex, feature), each through the same ``add_touch``: forces, torques, history.
 
 A pair whose touches or candidates do not fit the records (more than ``hits`` touches, the
@@ -24,6 +25,7 @@ import warp as wp
 
 from .clock import CLOCK_DT
 from .dem import make_dem_kernels
+from .scan import block_append
 from .types import Namespace, kernel, scalar_types
 
 __all__ = ["HITS_PER_PAIR", "MAX_VERTICES", "make_split_search"]
@@ -70,29 +72,56 @@ def make_split_search(precision: str, hits: int = HITS_PER_PAIR, assemble_regist
         return code >> _FEATURE_BITS
 
     @kernel
-    def candidates(B: Bodies, C: Contacts, world: wp.array(dtype=vec2), S: Split):
-        """Listed pair q: its vertices within the other body's bounding circle, packed as candidates
-        (q, side, vertex) into ``S.candidate``; its touches reset."""
-        q = wp.tid()
-        tid = listed_pair(C, q)
-        if tid < 0 or q >= S.pairs:
-            return
-        S.touches[q] = 0
-        S.whole[q] = 0
-        i = tid // C.slots
-        j = C.nbr[tid]
-        if not overlapping_circles(B, i, j):
-            return
-        reach = B.radius[i] + B.radius[j]
-        for side in range(2):
-            r_start, r_count, o_start, o_count, c_o, r_o, a_r = pair_side(B, i, j, side)
-            for k in range(r_count):
-                if wp.length(world[r_start + k] - c_o) < r_o + reach:
-                    c = wp.atomic_add(S.candidate_count, 0, 1)
-                    if c < S.candidate.shape[0]:
-                        S.candidate[c] = (q << (1 + _VERTEX_BITS)) | (side << _VERTEX_BITS) | k
-                    else:
-                        S.whole[q] = 1
+    def candidates(B: Bodies, C: Contacts, world: wp.array(dtype=vec2), S: Split, count: wp.array(dtype=wp.int32),
+                   threads: int):
+        """Listed pairs tid, tid + threads, ... (``threads`` launched, whole blocks): each pair's
+        vertices within the other body's bounding circle, packed as candidates (q, side, vertex)
+        into ``S.candidate`` with one atomic a block on ``count`` (``S.candidate_count``:
+        ``block_append``); its touches reset."""
+        listed = C.total[0]
+        for r in range((listed + threads - 1) // threads):  # (the same rounds for every thread of a block)
+            q = r * threads + wp.tid()
+            tid = int(-1)
+            if q < listed and q < S.pairs:
+                tid = listed_pair(C, q)
+            near0 = int(0)  # bit k: vertex k of side 0 (of side 1 in near1) is a candidate
+            near1 = int(0)
+            n = int(0)
+            if tid >= 0:
+                S.touches[q] = 0
+                S.whole[q] = 0
+                i = tid // C.slots
+                j = C.nbr[tid]
+                if overlapping_circles(B, i, j):
+                    reach = B.radius[i] + B.radius[j]
+                    for side in range(2):
+                        r_start, r_count, o_start, o_count, c_o, r_o, a_r = pair_side(B, i, j, side)
+                        for k in range(r_count):
+                            if wp.length(world[r_start + k] - c_o) < r_o + reach:
+                                if side == 0:
+                                    near0 = near0 | (1 << k)
+                                else:
+                                    near1 = near1 | (1 << k)
+                                n += 1
+            c = block_append(count, n)
+            for m in range(n):
+                # the m-th candidate: the lowest bit left of side 0, then of side 1
+                side = int(0)
+                bits = near0
+                if bits == 0:
+                    side = 1
+                    bits = near1
+                k = int(0)
+                while (bits >> k) & 1 == 0:
+                    k += 1
+                if side == 0:
+                    near0 = near0 ^ (1 << k)
+                else:
+                    near1 = near1 ^ (1 << k)
+                if c + m < S.candidate.shape[0]:
+                    S.candidate[c + m] = (q << (1 + _VERTEX_BITS)) | (side << _VERTEX_BITS) | k
+                else:
+                    S.whole[q] = 1
 
     @kernel
     def search(B: Bodies, C: Contacts, world: wp.array(dtype=vec2), S: Split, threads: int):
@@ -123,17 +152,12 @@ def make_split_search(precision: str, hits: int = HITS_PER_PAIR, assemble_regist
                         S.normal[at] = N
                         S.distance[at] = d
 
-    @kernel(max_registers=assemble_registers)
-    def assemble(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2), S: Split,
-                 clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
-        """Listed pair q: its recorded touches in ``search_pair``'s order through ``add_touch`` (or
-        the whole search, when they did not fit), stored as ``contact_forces`` stores them."""
-        q = wp.tid()
-        if q == 0:
-            S.candidate_count[0] = 0  # (``search`` has read it)
-        tid = listed_pair(C, q)
-        if tid < 0:
-            return
+    @wp.func
+    def assemble_pair(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2), S: Split,
+                      clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32), q: int, tid: int):
+        """Listed pair q (slot tid): its recorded touches in ``search_pair``'s order through
+        ``add_touch`` (or the whole search, when they did not fit), stored as ``contact_forces``
+        stores them."""
         i, j, xi, xj = pair_bodies(B, C, tid)
         keys, slips, energy, lost, fi, ti, fj, tj = no_touches()
         touching = overlapping_circles(B, i, j)
@@ -170,5 +194,16 @@ def make_split_search(precision: str, hits: int = HITS_PER_PAIR, assemble_regist
                         edge_count(o_count), reach, a_r, dt, xi, xj, keys, slips, n_hist, energy, lost, fi, ti, fj,
                         tj, status)
         store_pair(B, C, tid, i, j, touching, keys, slips, energy, lost, fi, ti, fj, tj)
+
+    @kernel(max_registers=assemble_registers)
+    def assemble(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2), S: Split,
+                 clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32), threads: int):
+        """Listed pairs tid, tid + threads, ... (``threads`` launched): ``assemble_pair``."""
+        if wp.tid() == 0:
+            S.candidate_count[0] = 0  # (``search`` has read it)
+        for q in range(wp.tid(), C.total[0], threads):
+            tid = listed_pair(C, q)
+            if tid >= 0:
+                assemble_pair(B, C, prm, world, S, clock, status, q, tid)
 
     return Namespace(Split=Split, candidates=candidates, search=search, assemble=assemble)

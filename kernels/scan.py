@@ -15,14 +15,16 @@ import warp as wp
 
 from .types import kernel
 
-__all__ = ["SCAN_BITS", "SCAN_THREADS", "SCAN_TILE", "make_serial_scan", "make_tile_scan", "prefix_sum",
-           "scan_lengths"]
+__all__ = ["PACK_BLOCK", "SCAN_BITS", "SCAN_THREADS", "SCAN_TILE", "block_append", "make_serial_scan",
+           "make_tile_scan", "pack_launch", "prefix_sum", "scan_lengths"]
 
 SCAN_BITS = 10
 #: Entries per tile of each level.
 SCAN_TILE = 1 << SCAN_BITS
 #: Threads per block of a tile scan.
 SCAN_THREADS = 256
+#: Threads per block of the kernels that append to a packed list through ``block_append``.
+PACK_BLOCK = 256
 
 
 def scan_lengths(entries: int) -> tuple[int, int]:
@@ -79,3 +81,24 @@ def prefix_sum(prefix1: wp.array(dtype=wp.int32), prefix2: wp.array(dtype=wp.int
                prefix3: wp.array(dtype=wp.int32), i: int):
     """Sum of the counts before entry i, from the three levels of ``tile_scan``."""
     return prefix1[i] + prefix2[i >> SCAN_BITS] + prefix3[i >> (2 * SCAN_BITS)]
+
+
+@wp.func
+def block_append(counter: wp.array(dtype=wp.int32), n: int):
+    """Where this thread's n entries start in a list packed by ``counter[0]`` (its length so far),
+    counter[0] advanced by the block's total: one atomic a block instead of one a thread (a million
+    atomics on one address queue in one L2 slice). The block's threads get consecutive ranges, in
+    thread order. Every thread of the block must call it (it holds block barriers): launch over a
+    whole number of blocks (``pack_launch``), with n = 0 for the threads past the work. On the CPU a
+    block is one thread: this is ``atomic_add(counter, 0, n)``."""
+    counts = wp.tile(n)
+    start = wp.tile_atomic_add(counter, wp.tile_sum(counts))
+    return wp.tile_extract(start, 0) + wp.untile(wp.tile_scan_exclusive(counts))
+
+
+def pack_launch(threads: int, device) -> tuple[int, int | None]:
+    """(launch dim, block_dim) of a kernel calling ``block_append`` over ``threads`` threads: on CUDA
+    a whole number of PACK_BLOCK blocks, on the CPU the threads themselves (a block is one thread)."""
+    if device.is_cuda:
+        return -(-threads // PACK_BLOCK) * PACK_BLOCK, PACK_BLOCK
+    return threads, None

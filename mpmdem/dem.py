@@ -27,6 +27,7 @@ from .errors import BlowUpError, InputError
 from .kernels import clock as clock_kernels
 from .kernels import dem as dem_kernels
 from .kernels import dem_split
+from .kernels.scan import pack_launch
 from .launch_plan import IfFlag, Launch, run_plan
 from .rigid_arrays import RigidArrays, rigid_arrays
 from .scene import Scene
@@ -351,11 +352,12 @@ class DEMSolver(ClockedStage):
         if len(self.small):
             rebuild.append(Launch(k.bin_bodies, len(self.small),
                                   [B, params, self.small, self.flags, self.cell_count, self.cell_items, self.status]))
+        dim, block = pack_launch(self.body_count, self.device)  # (build_lists packs the pairs a block at a time)
         rebuild += [
             Launch(k.reset_total, 1, [self.flags, C]),
-            Launch(k.build_lists, self.body_count,
+            Launch(k.build_lists, dim,
                    [B, C, params, self.world, self.is_large_arr, self.large_ids, len(self.large), self.flags,
-                    self.cell_count, self.cell_items, self.status]),
+                    self.cell_count, self.cell_items, self.status, C.total, self.body_count], block_dim=block),
             Launch(k.finish_rebuild, 1, [self.flags, self.rebuilds]),
         ]
         return [IfFlag(self.flags, rebuild)]
@@ -425,9 +427,14 @@ class DEMSolver(ClockedStage):
                       device=dev)
             return
         k, S, threads = self.split
-        wp.launch(k.candidates, pairs, inputs=[B, C, world, S], device=dev)
+        dim, block = pack_launch(threads, dev)
+        wp.launch(k.candidates, dim, inputs=[B, C, world, S, S.candidate_count, dim], device=dev,
+                  **({"block_dim": block} if block else {}))
         wp.launch(k.search, threads, inputs=[B, C, world, S, threads], device=dev)
-        wp.launch(k.assemble, pairs, inputs=[B, C, self.params, world, S, self.clock, self.status], device=dev)
+        # (on the CPU a thread a pair, in order: the bodies' forces summed as ``contact_forces`` sums them)
+        assemblers = threads if dev.is_cuda else pairs
+        wp.launch(k.assemble, assemblers, inputs=[B, C, self.params, world, S, self.clock, self.status, assemblers],
+                  device=dev)
 
     def body_update(self) -> None:
         """Rigid-body update of the free and kinematic bodies (fixed bodies are not integrated)."""
