@@ -164,22 +164,15 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         world[k] = B.x[b] + rotate(B.angle[b], local[k])
 
     @kernel
-    def check_displacement(B: Bodies, prm: Params, flags: wp.array(dtype=wp.int32), moving: int,
-                           local: wp.array(dtype=vec2), world: wp.array(dtype=vec2)):
+    def check_displacement(B: Bodies, prm: Params, flags: wp.array(dtype=wp.int32), moving: int):
         """Body i's contact force and torque of this step cleared (every body: fixed ones collect
-        the points' reactions as their load); for a moving body (i < moving) its world vertices
-        (``world_vertices``' arithmetic, its position and angle read once) and a rebuild flagged
-        when it moved or turned more than half the skin since the last build. (One launch for all
-        three: a small scene's step is paid per launch, and a large one reads each body once.)"""
+        the points' reactions as their load), and a rebuild flagged when a moving body (i < moving)
+        moved or turned more than half the skin since the last build. (One launch for both: a
+        small scene's step is paid per launch.)"""
         i = wp.tid()
         B.force[i] = vec2()
         B.torque[i] = T(0.0)
         if i < moving:
-            xb = B.x[i]
-            angle = B.angle[i]
-            start = B.vstart[i]
-            for k in range(start, start + B.vcount[i]):
-                world[k] = xb + rotate(angle, local[k])
             if needs_rebuild(B, i, B.x_ref, B.angle_ref, prm.skin):
                 flags[0] = 1
 

@@ -375,18 +375,17 @@ class DEMSolver(ClockedStage):
         free bodies, ``clear_loads`` False leaves the clearing to the caller's launch (the
         coupling's ``check_lists``)."""
         k, B, params, dev = self.k, self.B, self.params, self.device
-        if self.free:
-            # the world vertices of the moving bodies and this step's loads cleared in the same launch
-            wp.launch(k.check_displacement, self.body_count,
-                      inputs=[B, params, self.flags, self.moving, self.local, self.world], device=dev)
-            return
-        # no free body, so no body–body contact (a silo's walls, a fixed floor under points): the
-        # lists would stay empty; only the coupling's reactions accumulate on the bodies
         if self.moving_vertices:
             wp.launch(k.world_vertices, self.moving_vertices, inputs=[B, self.local, self.owner, self.world],
                       device=dev)
-        if clear_loads:
-            wp.launch(k.clear_loads, self.body_count, inputs=[B], device=dev)
+        if not self.free:
+            # no free body, so no body–body contact (a silo's walls, a fixed floor under points): the
+            # lists would stay empty; only the coupling's reactions accumulate on the bodies
+            if clear_loads:
+                wp.launch(k.clear_loads, self.body_count, inputs=[B], device=dev)
+            return
+        # (this step's loads cleared in the same launch)
+        wp.launch(k.check_displacement, self.body_count, inputs=[B, params, self.flags, self.moving], device=dev)
 
     @property
     def contact_rebuild(self) -> list:
