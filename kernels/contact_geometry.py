@@ -72,6 +72,20 @@ def make_contact_geometry(precision: str):
         return d
 
     @wp.func
+    def box_distance(p: vec2, world: wp.array(dtype=vec2), start: int, count: int):
+        """Distance [m] from p to the bounding box of the core's vertices (0 inside it): never more
+        than ``polygon_distance``, since the outline lies in the box; a cheap test before it."""
+        lo = world[start]
+        hi = lo
+        for e in range(1, count):
+            w = world[start + e]
+            lo = vec2(wp.min(lo[0], w[0]), wp.min(lo[1], w[1]))
+            hi = vec2(wp.max(hi[0], w[0]), wp.max(hi[1], w[1]))
+        dx = wp.max(wp.max(lo[0] - p[0], p[0] - hi[0]), T(0.0))
+        dy = wp.max(wp.max(lo[1] - p[1], p[1] - hi[1]), T(0.0))
+        return wp.sqrt(dx * dx + dy * dy)
+
+    @wp.func
     def in_corner(p: vec2, world: wp.array(dtype=vec2), start: int, count: int, k: int):
         """Is p in the corner region of vertex k: beyond both edges that meet there (always, for
         a core of one vertex: a disk, or a material point)."""
@@ -183,7 +197,8 @@ def make_contact_geometry(precision: str):
 
     return Namespace(
         rotate=rotate, cross=cross, spin=spin, point_velocity=point_velocity, segment_distance=segment_distance,
-        polygon_distance=polygon_distance, in_corner=in_corner, edge_contact=edge_contact, edge_count=edge_count,
+        polygon_distance=polygon_distance, box_distance=box_distance, in_corner=in_corner, edge_contact=edge_contact,
+        edge_count=edge_count,
         vertex_feature=vertex_feature, contact_point=contact_point, spring_dashpot=spring_dashpot,
     )
 

@@ -61,6 +61,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
     vec4 = t.vec4
     geometry = make_contact_geometry(precision)
     rotate, cross, polygon_distance = geometry.rotate, geometry.cross, geometry.polygon_distance
+    box_distance = geometry.box_distance
     point_velocity, edge_count, vertex_feature = geometry.point_velocity, geometry.edge_count, geometry.vertex_feature
     contact_point, spring_dashpot = geometry.contact_point, geometry.spring_dashpot
     find_slip = make_history_lookup(precision, HISTORY_SLOTS)
@@ -257,10 +258,19 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
             j = large[s]
             if j != i and (is_large[i] == 0 or j > i):
                 if free_i or B.motion[j] == FREE:
-                    gap = polygon_distance(xi, world, B.vstart[j], B.vcount[j]) - ri - B.radius[j]
+                    listed = False
                     if is_large[i] != 0:
-                        gap = wp.length(B.x[j] - xi) - ri - B.core_radius[j] - B.radius[j]
-                    if gap < prm.skin:
+                        listed = wp.length(B.x[j] - xi) - ri - B.core_radius[j] - B.radius[j] < prm.skin
+                    else:
+                        # a large core's outline only where its bounding box comes near (a wall is far
+                        # from most bodies); the box test keeps a margin well above round-off, so the
+                        # pairs listed are those of the outline test alone
+                        reach = ri + B.radius[j] + prm.skin
+                        start = B.vstart[j]
+                        count = B.vcount[j]
+                        if box_distance(xi, world, start, count) < reach + T(1.0e-3) * (reach + wp.length(xi)):
+                            listed = polygon_distance(xi, world, start, count) - ri - B.radius[j] < prm.skin
+                    if listed:
                         n = add_pair(C, i, j, n, status)
         n = wp.min(n, K)
         C.count[i] = n

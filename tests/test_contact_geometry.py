@@ -107,3 +107,32 @@ def test_spring_dashpot_normal_force_and_coulomb_cap():
     np.testing.assert_allclose(abs(force[2, 0]), mu * kn * delta[2], rtol=1e-12)
     np.testing.assert_allclose(slip[2], mu * kn * delta[2] / kt, rtol=1e-12)
     np.testing.assert_allclose(energy, 0.5 * (kn * delta**2 + kt * slip**2), rtol=1e-12)
+
+
+@wp.kernel(module="unique")
+def outline_distances(points: wp.array(dtype=vec2), world: wp.array(dtype=vec2), count: int,
+                      box: wp.array(dtype=wp.float64), outline: wp.array(dtype=wp.float64)):
+    p = wp.tid()
+    box[p] = geometry.box_distance(points[p], world, 0, count)
+    outline[p] = geometry.polygon_distance(points[p], world, 0, count)
+
+
+def test_box_distance_is_the_bounding_box_distance_and_a_lower_bound():
+    """Verify ``box_distance`` (the DEM's cheap test before a large core's outline) is shapely's
+    distance to the vertices' bounding box, and never more than the outline distance, which is
+    shapely's distance to the boundary: so the test it guards lists the same pairs."""
+    rng = np.random.default_rng(11)
+    angles = np.sort(rng.uniform(0.0, 2.0 * np.pi, 6))
+    core = np.c_[2.0 + 1.5 * np.cos(angles), -1.0 + 0.7 * np.sin(angles)]
+    x = rng.uniform(-1.0, 5.0, (3000, 2)) + np.array([0.0, -2.5])
+    box = wp.zeros(len(x), dtype=wp.float64)
+    outline = wp.zeros(len(x), dtype=wp.float64)
+    wp.launch(outline_distances, len(x), inputs=[wp.array(x, dtype=vec2), wp.array(core, dtype=vec2), len(core),
+                                                 box, outline])
+    points = shapely.points(x)
+    ref_box = shapely.distance(shapely.box(*core.min(0), *core.max(0)), points)
+    ref_outline = shapely.distance(shapely.Polygon(core).exterior, points)
+    np.testing.assert_allclose(box.numpy(), ref_box, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(outline.numpy(), ref_outline, rtol=0, atol=1e-12)
+    assert np.all(box.numpy() <= outline.numpy())
+    assert (ref_box > 0).sum() > 1000 and (ref_box == 0).sum() > 100  # points outside and inside the box
