@@ -34,7 +34,6 @@ import warp as wp
 from .clock import CLOCK_DT, CLOCK_T
 from .contact_geometry import make_contact_geometry, make_history_lookup
 from .dem import FIXED, make_dem_kernels
-from .scan import block_append
 from .state import make_state_structs
 from .types import Namespace, kernel, scalar_types
 
@@ -287,41 +286,34 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         return near
 
     @kernel
-    def sift(P: Particles, B: Bodies, L: Links, clock: wp.array(dtype=wp.float64),
-             near_count: wp.array(dtype=wp.int32)):
+    def sift(P: Particles, B: Bodies, L: Links, clock: wp.array(dtype=wp.float64)):
         """Large scenes, before ``forces``: of the listed points (``finish_lists``), pack those near
-        a body this step into ``L.near`` for the force kernel, one atomic a block on ``near_count``
-        (``L.near_count``; ``block_append``: launched over whole blocks), and end the contacts of
-        the others here, as ``forces`` would (no force, no history; their dissipated work stays).
-        Most listed points are only within the skin; this light kernel (few registers, full
-        occupancy) does their reads, so the heavy search runs only where a contact can be."""
+        a body this step into ``L.near`` for the force kernel, and end the contacts of the others
+        here, as ``forces`` would (no force, no history; their dissipated work stays). Most listed
+        points are only within the skin; this light kernel (few registers, full occupancy) does
+        their reads, so the heavy search runs only where a contact can be."""
         k = wp.tid()
-        p = int(-1)
-        n = int(0)
-        if k < L.listed_count[0]:
-            p = L.listed[k]
-            n = L.count[p]
-            if not released(P, clock, p):
-                n = 0
-        near = int(0)
+        if k >= L.listed_count[0]:
+            return
+        p = L.listed[k]
+        n = L.count[p]
+        if not released(P, clock, p):
+            n = 0
         if n > 0:
             if near_a_body(P, B, L, p, n):
-                near = 1
-        at = block_append(near_count, near)
-        if near != 0:
-            L.near[at] = p
-        elif p >= 0:
-            for s in range(n):
-                key = L.key[p * L.slots + s]
-                if key[0] != -1 or key[1] != -1:
-                    L.key[p * L.slots + s] = veci(-1, -1)
-                    L.slip[p * L.slots + s] = vec2h()
-            if L.active[p] != 0:
-                P.fcont[p] = vec2()
-                L.energy[p] = T(0.0)
-                L.active[p] = 0
-                if n > 0:
-                    L.contact_at[p] = P.x[p]
+                L.near[wp.atomic_add(L.near_count, 0, 1)] = p
+                return
+        for s in range(n):
+            key = L.key[p * L.slots + s]
+            if key[0] != -1 or key[1] != -1:
+                L.key[p * L.slots + s] = veci(-1, -1)
+                L.slip[p * L.slots + s] = vec2h()
+        if L.active[p] != 0:
+            P.fcont[p] = vec2()
+            L.energy[p] = T(0.0)
+            L.active[p] = 0
+            if n > 0:
+                L.contact_at[p] = P.x[p]
 
     @wp.func
     def point_contact(P: Particles, B: Bodies, L: Links, prm: Params, p: int, b: int, slot: int, X: vec2, N: vec2,

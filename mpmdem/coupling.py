@@ -29,7 +29,6 @@ from .dem import DEMSolver, spring_time_step_bound
 from .diagnostics import coupled_likely_cause
 from .errors import BlowUpError, InputError
 from .kernels import coupling as coupling_kernels
-from .kernels.scan import pack_launch
 from .launch_plan import IfAny, IfFlag, Launch, run_plan
 from .mpm import AFTER_FORCE_UPDATE, MPMSolver
 from .scene import Scene
@@ -287,9 +286,8 @@ class CoupledStage(ClockedStage):
         """The IMP forces of this step on the points (and their reactions on the bodies); large
         scenes first sift the listed points, and search only those near a body (``sifted``)."""
         if self.sifted:
-            dim, block = pack_launch(self.mpm.particle_count, wp.get_device(self.device))
-            wp.launch(self.k.sift, dim, inputs=[self.mpm.P, self.dem.B, self.L, self.clock, self.L.near_count],
-                      device=self.device, **({"block_dim": block} if block else {}))
+            wp.launch(self.k.sift, self.mpm.particle_count, inputs=[self.mpm.P, self.dem.B, self.L, self.clock],
+                      device=self.device)
         wp.launch(self.forces_kernel, self.mpm.particle_count,
                   inputs=[self.mpm.P, self.dem.B, self.L, self.params, self.dem.world, self.clock, self.status],
                   device=self.device)
