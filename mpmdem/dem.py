@@ -106,8 +106,14 @@ SPLIT_SEARCH_DEVICES = ("cuda",)
 #: past them is searched whole (a body lists about 2 pairs, with about 4 candidate vertices each).
 SPLIT_PAIRS_PER_BODY = 4
 SPLIT_CANDIDATES_PER_BODY = 16
-#: Threads of the split search's candidate pass on CUDA, per SM (they stride over the candidates).
+#: Threads of the split search's kernels on CUDA (they stride over the listed pairs, or over the
+#: candidates): at least SPLIT_THREADS_PER_SM per SM, and SPLIT_THREADS_PER_BODY per body, about a
+#: thread per listed pair. A thread that strides over several pairs runs them one after another,
+#: so 1M pentagons ran at 4.96e8 body-steps/s with 2048 threads an SM and 6.12e8 with 32768 (4.3
+#: a body); 100k at 4.74e8 with 2048 (2.7 a body) and 4.62e8 with 8192 (11 a body) (bench/README.md,
+#: "The split search's launch").
 SPLIT_THREADS_PER_SM = 2048
+SPLIT_THREADS_PER_BODY = 4
 #: Registers per thread of the split search's ``assemble`` on CUDA: the compiler takes 140 (the
 #: whole-pair search it falls back on), one block of 256 threads an SM; 128 spills 32 bytes.
 SPLIT_ASSEMBLE_REGISTERS = 128
@@ -413,7 +419,8 @@ class DEMSolver(ClockedStage):
         S.code = wp.zeros(hits, dtype=wp.int32, device=dev)
         S.normal = wp.zeros(hits, dtype=self._vec2, device=dev)
         S.distance = wp.zeros(hits, dtype=self._scalar, device=dev)
-        threads = min(cap, SPLIT_THREADS_PER_SM * dev.sm_count if dev.is_cuda else SPLIT_CPU_THREADS)
+        threads = (min(cap, max(SPLIT_THREADS_PER_SM * dev.sm_count, SPLIT_THREADS_PER_BODY * n)) if dev.is_cuda
+                   else min(cap, SPLIT_CPU_THREADS))
         return kernels, S, threads
 
     def contact_forces(self) -> None:
