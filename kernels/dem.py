@@ -492,7 +492,8 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
 
     def make_contact_forces(max_registers: int | None = None):
         """The contact kernel with at most ``max_registers`` registers per thread on CUDA (None:
-        the compiler's choice; a cap raises the occupancy of large scenes: ``mpmdem.dem``)."""
+        the compiler's choice, which the stage uses; capped builds are for
+        ``bench/kernel_registers.py``)."""
 
         @kernel(deterministic=deterministic, max_registers=max_registers)
         def contact_forces(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),

@@ -87,16 +87,6 @@ def spring_time_step_bound(law: ContactLaw, mass: float) -> float:
     return 2.0 * math.sqrt(mass / k) * (math.sqrt(1.0 + zeta * zeta) - zeta)
 
 
-#: Bodies from which the contact kernel is built with LARGE_SCENE_CONTACT_REGISTERS registers per
-#: thread. The compiler gives it 147 on an H100, which caps its occupancy at 12.5 %: that costs
-#: throughput when there are many pairs, while a small scene's step waits on the latency of a few
-#: pairs, which spilled registers lengthen (bench/README.md, "register caps").
-LARGE_SCENE_BODIES = 65536
-#: Registers per thread of the contact kernel in large scenes: 1M pentagons on an H100 stepped at
-#: 4.41e8 body-steps/s with 96, 3.88e8 with 64, 3.54e8 uncapped (one call; a pack held still, dt = 0:
-#: bench/README.md, "DEM with real steps"). Large CUDA scenes now take the split search.
-LARGE_SCENE_CONTACT_REGISTERS = 96
-
 #: Bodies from which the pair search is split over candidate vertices (``kernels.dem_split``) on
 #: the devices of SPLIT_SEARCH_DEVICES, outside deterministic mode (bench/README.md, "DEM with
 #: real steps"). The results are the same to the bit as the one-kernel search's.
@@ -143,9 +133,10 @@ class DEMSolver(ClockedStage):
         self.config = config
         self.device = wp.get_device(device)
         self.k = dem_kernels.make_dem_kernels(config.precision, config.deterministic)
-        #: the body–body contact kernel: with capped registers in large scenes (LARGE_SCENE_BODIES)
-        self.contact_kernel = (self.k.make_contact_forces(LARGE_SCENE_CONTACT_REGISTERS)
-                               if len(scene.rigid_bodies) >= LARGE_SCENE_BODIES else self.k.contact_forces)
+        #: the body–body contact kernel of the one-kernel search, built uncapped: a cap of 96
+        #: registers made large scenes slower with real steps (bench/README.md, "The one-kernel
+        #: search uncapped")
+        self.contact_kernel = self.k.contact_forces
         #: columns of the scene's rigid bodies (scene order)
         self.arrays = rigid_arrays(scene.rigid_bodies)
         self.dt_bound = dem_time_step_bound(scene, self.arrays)

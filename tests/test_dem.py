@@ -308,29 +308,3 @@ def test_kinematic_pusher_and_fixed_bodies():
     assert d["energy_total"][-1] == pytest.approx(
         d["work_driven"][-1] + d["work_contact_damping"][-1] + d["work_contact_friction"][-1],
         rel=0.01)
-
-
-# -- the large-scene build of the contact kernel ----------------------------------------------------------
-def test_large_scene_contact_kernel_is_the_same_computation(monkeypatch, device):
-    """Verify scenes of LARGE_SCENE_BODIES bodies or more launch the contact kernel built with a
-    register cap, and that it computes what the default build does: the cap only changes how the
-    compiler allocates registers (on a CPU it is ignored), so the pack's trajectory after 200 steps
-    must be identical on the CPU and agree to round-off on a GPU, 1e-9 m on positions of order 1 m
-    in f64 (the two builds may contract multiply-adds differently)."""
-    import mpmdem.dem as dem_module
-
-    runs = {}
-    for capped in (False, True):
-        monkeypatch.setattr(dem_module, "LARGE_SCENE_BODIES", 1 if capped else 10**9)
-        # (deterministic: the GPU's float atomics sum in a fixed order, so the runs differ only by
-        # what the two builds compute)
-        sim = Simulation(random_pack(), SolverConfig(precision="f64", deterministic=True), device=device)
-        expected = sim.dem.k.make_contact_forces(dem_module.LARGE_SCENE_CONTACT_REGISTERS)
-        assert (sim.dem.contact_kernel is expected) == capped
-        run_steps(sim, 200)
-        runs[capped] = body_state(sim)["x"]
-    assert np.abs(runs[True]).max() > 0.1  # (bodies away from the origin: the comparison means something)
-    if device == "cpu":
-        assert np.array_equal(runs[True], runs[False])
-    else:
-        np.testing.assert_allclose(runs[True], runs[False], atol=1e-9)
