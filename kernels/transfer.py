@@ -68,6 +68,7 @@ def make_p2g(
     contact: bool = False,
     derived: tuple = (),
     tile: tuple = (),
+    rows: bool = False,
 ):
     """P2G of mass, momentum (with the affine term) and internal force.
 
@@ -91,6 +92,11 @@ def make_p2g(
     bspline2: 4 × 22 nodes for 64 points). A node outside the tile takes the global atomic as
     before, so any order is right, a cell-sorted one fast. Not with layered, deterministic or
     multi-stencil variants. Empty: one global atomic per point and node.
+    rows: a point's K stencil rows over K threads (launched over K n threads: thread K p + i takes
+    row i of point p), each reading the point and adding its row's K nodes: a small scene's P2G is
+    as long as one warp's chain of instructions (bench/README.md, "Where a small step's kernels
+    wait"), and a third of the node loop shortens it. Each node still gets its points' terms in
+    point order. Not with layered, tiled or multi-stencil variants.
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -111,6 +117,9 @@ def make_p2g(
     if tiled and (layered or deterministic or NC != 1):
         raise ValueError("a tiled P2G is built for single-stencil, non-layered, non-deterministic variants")
     B, TX, TY = tile if tiled else (1, 1, 1)
+    if rows and (layered or tiled or NC != 1):
+        raise ValueError("a P2G by stencil rows is built for single-stencil, non-layered, untiled variants")
+    ROWS = 1 if rows else K  # rows of the stencil a thread adds
     mom_on = momentum or fused_impulse
     force_on = force and not fused_impulse
     # one shared tile of (mass, momentum, force) per node, the components the pass adds, so that
@@ -125,6 +134,10 @@ def make_p2g(
     def p2g(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64),
             status: wp.array(dtype=wp.int32), materials: wp.array(dtype=t.params)):
         p = wp.tid()
+        own_row = int(0)
+        if wp.static(rows):
+            own_row = p - (p // wp.static(K)) * wp.static(K)
+            p = p // wp.static(K)
         dt = T(clock[CLOCK_DT])
         active = True
         lane = int(0)
@@ -197,7 +210,10 @@ def make_p2g(
                 packed = wp.vec4i()
         for k in range(wp.static(NC)):
             bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
-            for i in range(wp.static(K)):
+            for r in range(wp.static(ROWS)):
+                i = r
+                if wp.static(rows):
+                    i = own_row  # (this thread's row: the same loop for every thread of a warp)
                 for j in range(wp.static(K)):
                     w, grad, gi, gj, n = node(bx, by, wx, wy, dwx, dwy, g, k, i, j, D.inv_h)
                     row = gi

@@ -42,6 +42,11 @@ __all__ = ["AFTER_FORCE_UPDATE", "GHOST_NODES", "MPMSolver", "device_order", "in
 TILED_P2G_POINTS = 65536
 #: Threads (points) per block of the tiled P2G.
 TILED_P2G_BLOCK = 64
+#: Scenes of fewer points than this run P2G a stencil row a thread (``kernels.transfer.make_p2g``'s
+#: ``rows``) on the devices of ROW_P2G_DEVICES, outside granular mode: their GPU is nearly idle and
+#: each kernel as long as one warp's chain of instructions (bench/README.md, "P2G by stencil rows").
+ROW_P2G_POINTS = 16384
+ROW_P2G_DEVICES = ("cuda",)
 
 #: Extension point of the step: after the grid's force update and before G2P (USL only). The
 #: coupling's momentum exchange of Liu et al. runs there (``MPMSolver.extend``).
@@ -211,20 +216,21 @@ class MPMSolver(ClockedStage):
             return [Launch(mirror, band_dim, [f, f, D, clock, G.owner, self.wall_band]) for f in fields]
 
         tile = self.p2g_tile()
+        rows = self.p2g_rows(tile)
 
         def p2g(**flags):
             kernel = transfer_kernels.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic,
                                                layered=layered, staged=self.staged,
                                                contact=self.coupled and c.coupling == "imp",
                                                derived=self.material_kinds if self.derived_stress else (),
-                                               tile=tile, **flags)
+                                               tile=tile, rows=rows, **flags)
             fused = flags.get("fused_impulse", False)
             extra = []
             if self.coupled and c.coupling == "grid" and (flags["force"] or fused):
                 scatter = contact_scatter_kernels.make_contact_scatter(prec, fused_impulse=fused,
                                                                        deterministic=c.deterministic)
                 extra = [Launch(scatter, n, [points, G, D, clock, self.contact_at])]
-            launch = Launch(kernel, n, [points, G, D, clock, self.status, mats])
+            launch = Launch(kernel, n * SUPPORT_NODES[c.shape] if rows else n, [points, G, D, clock, self.status, mats])
             if tile:  # whole blocks: every thread of a block reaches the shared-tile calls
                 launch = Launch(kernel, -(-n // tile[0]) * tile[0], launch.inputs, block_dim=tile[0])
             return [launch] + extra + fold(
@@ -348,6 +354,16 @@ class MPMSolver(ClockedStage):
         if TX > self.grid_shape[0] or TY > self.grid_shape[1]:
             return ()
         return (B, TX, TY)
+
+    def p2g_rows(self, tile: tuple) -> bool:
+        """Whether P2G runs a stencil row a thread (``kernels.transfer.make_p2g``'s ``rows``): in
+        scenes of fewer than ROW_P2G_POINTS points on the devices of ROW_P2G_DEVICES, for
+        single-stencil shapes, untiled, outside granular mode (its first P2G claims the point's
+        node copies all at once)."""
+        c = self.config
+        device = "cuda" if self.device.is_cuda else "cpu"
+        return (device in ROW_P2G_DEVICES and self.particle_count < ROW_P2G_POINTS and not tile
+                and not c.granular and transfer_kernels.CORNERS.get(c.shape, 1) == 1)
 
     # -- stepping -------------------------------------------------------------------------------
     def step(self) -> None:
