@@ -285,10 +285,17 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                 near = True
         return near
 
-    @wp.func
-    def sift_point(P: Particles, B: Bodies, L: Links, clock: wp.array(dtype=wp.float64), p: int):
-        """``sift`` of listed point p: packed into ``L.near`` when near a body, else its contacts
-        ended as ``forces`` would end them."""
+    @kernel
+    def sift(P: Particles, B: Bodies, L: Links, clock: wp.array(dtype=wp.float64)):
+        """Large scenes, before ``forces``: of the listed points (``finish_lists``), pack those near
+        a body this step into ``L.near`` for the force kernel, and end the contacts of the others
+        here, as ``forces`` would (no force, no history; their dissipated work stays). Most listed
+        points are only within the skin; this light kernel (few registers, full occupancy) does
+        their reads, so the heavy search runs only where a contact can be."""
+        k = wp.tid()
+        if k >= L.listed_count[0]:
+            return
+        p = L.listed[k]
         n = L.count[p]
         if not released(P, clock, p):
             n = 0
@@ -307,18 +314,6 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
             L.active[p] = 0
             if n > 0:
                 L.contact_at[p] = P.x[p]
-
-    @kernel
-    def sift(P: Particles, B: Bodies, L: Links, clock: wp.array(dtype=wp.float64), threads: int):
-        """Large scenes, before ``forces``: of the listed points (``finish_lists``), pack those near
-        a body this step into ``L.near`` for the force kernel, and end the contacts of the others
-        here, as ``forces`` would (no force, no history; their dissipated work stays). Most listed
-        points are only within the skin; this light kernel (few registers, full occupancy) does
-        their reads, so the heavy search runs only where a contact can be. ``threads`` launched,
-        striding over the listed points (a launch over every point would be mostly threads that
-        return at once: ~10 µs at 1M)."""
-        for k in range(wp.tid(), L.listed_count[0], threads):
-            sift_point(P, B, L, clock, L.listed[k])
 
     @wp.func
     def point_contact(P: Particles, B: Bodies, L: Links, prm: Params, p: int, b: int, slot: int, X: vec2, N: vec2,
@@ -342,105 +337,99 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                                                           find_slip(L.key[slot], L.slip[slot], key), dt)
         return F, pc, arm, slip, e_contact, lost_contact
 
-    @wp.func
-    def point_forces(P: Particles, B: Bodies, L: Links, prm: Params, world: wp.array(dtype=vec2),
-                     clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32), p: int):
-        """Contact force f_p on point p from its listed bodies (eq. 44-46); reactions on the bodies."""
-        n = L.count[p]
-        # a step with dt = 0 (the clock at its stop time) recomputes the same forces: the
-        # outputs keep the loads of the last real step, and nothing slips or dissipates
-        if not released(P, clock, p):
-            n = 0
-        if n == 0:
-            # most points are far from every body: two reads, and writes only when a contact ended
-            if L.active[p] != 0:
-                P.fcont[p] = vec2()
-                L.energy[p] = T(0.0)
-                L.active[p] = 0
-            return
-        fc = vec2()
-        dt = T(clock[CLOCK_DT])
-        S = L.slots
-        base = p * S
-        X = P.x[p]
-        rp = L.radius[p]
-        energy = T(0.0)
-        lost = wp.vec2d(0.0, 0.0)
-        app = vec2()
-        app_w = T(0.0)
-        touching = int(0)
-        for s in range(n):
-            b = L.body[base + s]
-            keys = veci(-1, -1)
-            slips = vec2h()
-            n_hist = int(0)
-            xb = B.x[b]
-            reach = B.radius[b] + rp
-            if wp.length(X - xb) < B.core_radius[b] + reach:
-                start = B.vstart[b]
-                count = B.vcount[b]
-                n_edges = edge_count(count)
-                # a point past every edge line of a polygon core (inside a convex core) is pushed
-                # out through the nearest edge, the overlap growing as d turns negative
-                inside = count >= 3
-                best_d = T(-1.0e30)
-                best_f = int(-1)
-                best_n = vec2()
-                for f in range(n_edges + count + 1):
-                    # the point is a disk: a core of one vertex, in every corner region
-                    hit, N, d, key, inside, best_d, best_f, best_n = vertex_feature(
-                        X, world, start, count, f, n_edges, count, reach, 0, 1, 0, inside, best_d, best_f, best_n)
-                    if hit:
-                        F, pc, arm, slip, e_contact, lost_contact = point_contact(
-                            P, B, L, prm, p, b, base + s, X, N, d, reach, rp, key, dt)
-                        lost = lost + lost_contact
-                        energy += e_contact
-                        if n_hist < wp.static(IMP_HISTORY):
-                            keys[n_hist] = key
-                            slips[n_hist] = slip
-                            n_hist += 1
-                        fc += F  # on the point (eq. 46)
-                        wF = wp.length(F)
-                        app += wF * pc
-                        app_w += wF
-                        touching += 1
-                        # reaction on the body (eq. 49-50); fixed bodies keep it as their load
-                        wp.atomic_add(B.force, b, -F)
-                        wp.atomic_add(B.torque, b, -cross(arm, F))
-            L.key[base + s] = keys
-            L.slip[base + s] = slips
-        P.fcont[p] = fc
-        if app_w > T(0.0):
-            L.contact_at[p] = app / app_w
-        else:
-            L.contact_at[p] = X
-        L.energy[p] = energy
-        L.active[p] = touching
-        L.dissipated[p] = L.dissipated[p] + lost
-
     def make_forces(sifted: bool):
         """The force kernel over the listed points, or (``sifted``) over those ``sift`` kept."""
 
         @kernel(deterministic=deterministic)
         def forces(P: Particles, B: Bodies, L: Links, prm: Params, world: wp.array(dtype=vec2),
-                   clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32), threads: int):
-            """Contact forces of the listed points (``point_forces``).
+                   clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
+            """Contact force f_p on point p from its listed bodies (eq. 44-46); reactions on the bodies.
 
-            Unless deterministic, thread k takes the k-th packed point (``finish_lists``), and the
-            threads past them return, so the warps that search are full (a third of the points near
-            bodies would otherwise hold nearly every warp in the search); sifted, the ``threads``
-            launched stride over ``sift``'s near points. Deterministic runs keep thread p on point p:
-            the packing order varies from run to run."""
+            Launched over every point; unless deterministic, thread k takes the k-th packed point
+            (``finish_lists``, or ``sift``'s near points) and the threads past them return, so the
+            warps that search are full (a third of the points near bodies would otherwise hold nearly
+            every warp in the search). Deterministic runs keep thread p on point p: the packing order
+            varies from run to run."""
             p = wp.tid()
             if wp.static(sifted):
-                for k in range(p, L.near_count[0], threads):
-                    point_forces(P, B, L, prm, world, clock, status, L.near[k])
-                return
+                if p >= L.near_count[0]:
+                    return
+                p = L.near[p]
             elif wp.static(not deterministic):
                 if p >= L.listed_count[0]:
                     return
                 p = L.listed[p]
-            point_forces(P, B, L, prm, world, clock, status, p)
+            n = L.count[p]
+            # a step with dt = 0 (the clock at its stop time) recomputes the same forces: the
+            # outputs keep the loads of the last real step, and nothing slips or dissipates
+            if not released(P, clock, p):
+                n = 0
+            if n == 0:
+                # most points are far from every body: two reads, and writes only when a contact ended
+                if L.active[p] != 0:
+                    P.fcont[p] = vec2()
+                    L.energy[p] = T(0.0)
+                    L.active[p] = 0
+                return
+            fc = vec2()
+            dt = T(clock[CLOCK_DT])
+            S = L.slots
+            base = p * S
+            X = P.x[p]
+            rp = L.radius[p]
+            energy = T(0.0)
+            lost = wp.vec2d(0.0, 0.0)
+            app = vec2()
+            app_w = T(0.0)
+            touching = int(0)
+            for s in range(n):
+                b = L.body[base + s]
+                keys = veci(-1, -1)
+                slips = vec2h()
+                n_hist = int(0)
+                xb = B.x[b]
+                reach = B.radius[b] + rp
+                if wp.length(X - xb) < B.core_radius[b] + reach:
+                    start = B.vstart[b]
+                    count = B.vcount[b]
+                    n_edges = edge_count(count)
+                    # a point past every edge line of a polygon core (inside a convex core) is pushed
+                    # out through the nearest edge, the overlap growing as d turns negative
+                    inside = count >= 3
+                    best_d = T(-1.0e30)
+                    best_f = int(-1)
+                    best_n = vec2()
+                    for f in range(n_edges + count + 1):
+                        # the point is a disk: a core of one vertex, in every corner region
+                        hit, N, d, key, inside, best_d, best_f, best_n = vertex_feature(
+                            X, world, start, count, f, n_edges, count, reach, 0, 1, 0, inside, best_d, best_f, best_n)
+                        if hit:
+                            F, pc, arm, slip, e_contact, lost_contact = point_contact(
+                                P, B, L, prm, p, b, base + s, X, N, d, reach, rp, key, dt)
+                            lost = lost + lost_contact
+                            energy += e_contact
+                            if n_hist < wp.static(IMP_HISTORY):
+                                keys[n_hist] = key
+                                slips[n_hist] = slip
+                                n_hist += 1
+                            fc += F  # on the point (eq. 46)
+                            wF = wp.length(F)
+                            app += wF * pc
+                            app_w += wF
+                            touching += 1
+                            # reaction on the body (eq. 49-50); fixed bodies keep it as their load
+                            wp.atomic_add(B.force, b, -F)
+                            wp.atomic_add(B.torque, b, -cross(arm, F))
+                L.key[base + s] = keys
+                L.slip[base + s] = slips
+            P.fcont[p] = fc
+            if app_w > T(0.0):
+                L.contact_at[p] = app / app_w
+            else:
+                L.contact_at[p] = X
+            L.energy[p] = energy
+            L.active[p] = touching
+            L.dissipated[p] = L.dissipated[p] + lost
 
         return forces
 

@@ -41,10 +41,6 @@ BUILD_TILE = 32
 #: From this many points (and not in deterministic mode) the listed points are sifted each step
 #: by a light kernel, and the force search runs only over those near a body (``imp_forces``).
 SIFTED_IMP_POINTS = 65536
-#: Threads an SM of the sift and the sifted force search on CUDA (at most one a point): they stride
-#: over the listed points and the near ones, a fraction of all (a launch over every point was
-#: mostly threads that return at once).
-SIFTED_THREADS_PER_SM = 4096
 
 
 def contact_time_step_bound(scene: Scene, point_mass: float) -> float:
@@ -289,18 +285,12 @@ class CoupledStage(ClockedStage):
     def imp_forces(self) -> None:
         """The IMP forces of this step on the points (and their reactions on the bodies); large
         scenes first sift the listed points, and search only those near a body (``sifted``)."""
-        n = self.mpm.particle_count
-        threads = n  # (unsifted: a thread a point; the packed ones first)
         if self.sifted:
-            # the listed and the near points are a fraction of all: a bounded launch strides over
-            # them (on the CPU a thread a point, in order: the sums of the unsifted kernel)
-            dev = wp.get_device(self.device)
-            threads = min(n, SIFTED_THREADS_PER_SM * dev.sm_count) if dev.is_cuda else n
-            wp.launch(self.k.sift, threads, inputs=[self.mpm.P, self.dem.B, self.L, self.clock, threads],
+            wp.launch(self.k.sift, self.mpm.particle_count, inputs=[self.mpm.P, self.dem.B, self.L, self.clock],
                       device=self.device)
-        wp.launch(self.forces_kernel, threads,
-                  inputs=[self.mpm.P, self.dem.B, self.L, self.params, self.dem.world, self.clock, self.status,
-                          threads], device=self.device)
+        wp.launch(self.forces_kernel, self.mpm.particle_count,
+                  inputs=[self.mpm.P, self.dem.B, self.L, self.params, self.dem.world, self.clock, self.status],
+                  device=self.device)
 
     @functools.cached_property
     def start_plan(self) -> list:
