@@ -276,7 +276,9 @@ class DEMSolver(ClockedStage):
         C.pairs = wp.zeros(n * K, dtype=wp.int32, device=dev)
         C.total = wp.zeros(1, dtype=wp.int32, device=dev)
         self.C = C
-        self.split = self._split_search(n, int(np.max(counts)) if n else 0)
+        #: the most vertices of a core in the scene
+        self.max_vertices = int(np.max(counts)) if n else 0
+        self.split = self._split_search(n, self.max_vertices)
 
         law = self.scene.contact
         (x0, y0), (x1, y1) = self.scene.domain
