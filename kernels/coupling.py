@@ -68,15 +68,11 @@ _UNLISTED = 1.0e30
 
 
 @functools.cache
-def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool = False, deterministic: bool = False,
-                          features: int = 0):
+def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool = False, deterministic: bool = False):
     """Structs and kernels of the IMP coupling for one precision and coupling scheme.
 
     scheme "imp" and "liu" take the body's torque about x_p, "grid" about the contact point.
     staged: points whose release time is still ahead take no part.
-    features: when > 0, no core of the scene has more than that many features to test against a
-    point (2 V + 1 for V vertices), and the force search unrolls its loop over them; 0: a loop
-    as long as each core's.
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -341,36 +337,6 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                                                           find_slip(L.key[slot], L.slip[slot], key), dt)
         return F, pc, arm, slip, e_contact, lost_contact
 
-    @wp.func
-    def point_feature(P: Particles, B: Bodies, L: Links, prm: Params, world: wp.array(dtype=vec2), p: int, b: int,
-                      slot: int, X: vec2, reach: T, rp: T, start: int, count: int, n_edges: int, f: int, dt: T,
-                      inside: bool, best_d: T, best_f: int, best_n: vec2, keys: veci, slips: vec2h, n_hist: int,
-                      fc: vec2, app: vec2, app_w: T, touching: int, energy: T, lost: wp.vec2d):
-        """Feature f of body b's core tested against point p (a disk: a core of one vertex, in every
-        corner region; ``vertex_feature``) and, on a touch, its force added to the point's sums and
-        its reaction to the body's (eq. 46, 49-50; ``point_contact``). Returns the search state and
-        the sums."""
-        hit, N, d, key, inside, best_d, best_f, best_n = vertex_feature(
-            X, world, start, count, f, n_edges, count, reach, 0, 1, 0, inside, best_d, best_f, best_n)
-        if hit:
-            F, pc, arm, slip, e_contact, lost_contact = point_contact(
-                P, B, L, prm, p, b, slot, X, N, d, reach, rp, key, dt)
-            lost = lost + lost_contact
-            energy += e_contact
-            if n_hist < wp.static(IMP_HISTORY):
-                keys[n_hist] = key
-                slips[n_hist] = slip
-                n_hist += 1
-            fc += F  # on the point (eq. 46)
-            wF = wp.length(F)
-            app += wF * pc
-            app_w += wF
-            touching += 1
-            # reaction on the body (eq. 49-50); fixed bodies keep it as their load
-            wp.atomic_add(B.force, b, -F)
-            wp.atomic_add(B.torque, b, -cross(arm, F))
-        return inside, best_d, best_f, best_n, keys, slips, n_hist, fc, app, app_w, touching, energy, lost
-
     def make_forces(sifted: bool):
         """The force kernel over the listed points, or (``sifted``) over those ``sift`` kept."""
 
@@ -433,23 +399,27 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                     best_d = T(-1.0e30)
                     best_f = int(-1)
                     best_n = vec2()
-                    if wp.static(features > 0):
-                        # unrolled (every core of the scene has at most `features` to test): the
-                        # features' loads and tests overlap instead of running one after another
-                        for f in range(wp.static(features)):
-                            if f < n_edges + count + 1:
-                                (inside, best_d, best_f, best_n, keys, slips, n_hist, fc, app, app_w, touching, energy,
-                                 lost) = point_feature(
-                                    P, B, L, prm, world, p, b, base + s, X, reach, rp, start, count, n_edges, f, dt,
-                                    inside, best_d, best_f, best_n, keys, slips, n_hist, fc, app, app_w, touching,
-                                    energy, lost)
-                    else:
-                        for f in range(n_edges + count + 1):
-                            (inside, best_d, best_f, best_n, keys, slips, n_hist, fc, app, app_w, touching, energy,
-                             lost) = point_feature(
-                                P, B, L, prm, world, p, b, base + s, X, reach, rp, start, count, n_edges, f, dt,
-                                inside, best_d, best_f, best_n, keys, slips, n_hist, fc, app, app_w, touching,
-                                energy, lost)
+                    for f in range(n_edges + count + 1):
+                        # the point is a disk: a core of one vertex, in every corner region
+                        hit, N, d, key, inside, best_d, best_f, best_n = vertex_feature(
+                            X, world, start, count, f, n_edges, count, reach, 0, 1, 0, inside, best_d, best_f, best_n)
+                        if hit:
+                            F, pc, arm, slip, e_contact, lost_contact = point_contact(
+                                P, B, L, prm, p, b, base + s, X, N, d, reach, rp, key, dt)
+                            lost = lost + lost_contact
+                            energy += e_contact
+                            if n_hist < wp.static(IMP_HISTORY):
+                                keys[n_hist] = key
+                                slips[n_hist] = slip
+                                n_hist += 1
+                            fc += F  # on the point (eq. 46)
+                            wF = wp.length(F)
+                            app += wF * pc
+                            app_w += wF
+                            touching += 1
+                            # reaction on the body (eq. 49-50); fixed bodies keep it as their load
+                            wp.atomic_add(B.force, b, -F)
+                            wp.atomic_add(B.torque, b, -cross(arm, F))
                 L.key[base + s] = keys
                 L.slip[base + s] = slips
             P.fcont[p] = fc

@@ -41,9 +41,6 @@ BUILD_TILE = 32
 #: From this many points (and not in deterministic mode) the listed points are sifted each step
 #: by a light kernel, and the force search runs only over those near a body (``imp_forces``).
 SIFTED_IMP_POINTS = 65536
-#: The IMP force search unrolls its loop over a core's features when no core of the scene has more
-#: than this many (2 V + 1 for V vertices: up to 7-gons); larger cores keep a loop as long as each.
-UNROLLED_FEATURES = 15
 
 
 def contact_time_step_bound(scene: Scene, point_mass: float) -> float:
@@ -92,10 +89,8 @@ class CoupledStage(ClockedStage):
         check_time_step(config, self.dt_bound, f"{self.dt_bound:.6g} s of the contacts (a point of the smallest mass "
                         f"on k_n: {self.contact_bound:.6g} s; the rigid bodies: {dem.dt_bound:.6g} s); "
                         f"{eq51_step(config, self.dt_bound)}")
-        features = 2 * dem.max_vertices + 1  # (edges, corners and the last pass of the largest core)
         self.k = coupling_kernels.make_coupling_kernels(config.precision, config.coupling, staged=mpm.staged,
-                                                        deterministic=config.deterministic,
-                                                        features=features if features <= UNROLLED_FEATURES else 0)
+                                           deterministic=config.deterministic)
         self._allocate()
         self.liu = None
         if config.coupling == "liu":

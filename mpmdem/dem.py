@@ -276,9 +276,7 @@ class DEMSolver(ClockedStage):
         C.pairs = wp.zeros(n * K, dtype=wp.int32, device=dev)
         C.total = wp.zeros(1, dtype=wp.int32, device=dev)
         self.C = C
-        #: the most vertices of a core in the scene
-        self.max_vertices = int(np.max(counts)) if n else 0
-        self.split = self._split_search(n, self.max_vertices)
+        self.split = self._split_search(n, int(np.max(counts)) if n else 0)
 
         law = self.scene.contact
         (x0, y0), (x1, y1) = self.scene.domain

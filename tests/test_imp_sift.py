@@ -53,34 +53,3 @@ def test_sifted_force_search_changes_nothing(monkeypatch, device):
         np.testing.assert_allclose(s_fields["x"], fields["x"], rtol=0, atol=1e-6)
         np.testing.assert_allclose(s_bodies["omega"], bodies["omega"], rtol=1e-6)
         assert s_diag["work_imp_friction"] == pytest.approx(diag["work_imp_friction"], rel=1e-6)
-
-
-def disk_onto_a_diamond():
-    """An elastic disk dropped onto the corner of a fixed square turned 45°: its points touch the
-    corner and the two edges beside it, and slide down them."""
-    scene = m.Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=0.02, contact=m.ContactLaw(1.0e6, restitution=0.5),
-                    boundaries=dict.fromkeys(("left", "right", "bottom", "top"), "free"))
-    mat = m.NeoHookean(youngs_modulus=2.0e5, poisson_ratio=0.3, density=1000.0)
-    scene.add_mpm_body(m.disk(center=(0.52, 0.75), radius=0.08), mat, points_per_cell=2, velocity=(0.0, -2.0))
-    scene.add_rigid_body(rounded_rectangle(0.2, 0.2, 0.01), density=1000.0, position=(0.5, 0.5),
-                         angle=np.pi / 4, friction=0.3, motion="fixed")
-    sim = m.Simulation(scene, m.SolverConfig(transfer="APIC", precision="f64"), device="cpu")
-    sim.advance_to(0.1)
-    return sim, sim.fields(), sim.diagnostics()
-
-
-def test_unrolled_feature_search_changes_nothing(monkeypatch):
-    """Verify the IMP force search unrolled over a core's features (scenes whose cores have at most
-    ``UNROLLED_FEATURES`` features) gives the looped search's trajectory, to the bit on the CPU:
-    the same tests, touches and sums in the same order (a disk on a corner: corner and edge touches)."""
-    runs = {}
-    for limit in (0, coupling.UNROLLED_FEATURES):
-        monkeypatch.setattr(coupling, "UNROLLED_FEATURES", limit)
-        sim, fields, diag = disk_onto_a_diamond()
-        assert (limit > 0) == (coupling.UNROLLED_FEATURES >= 2 * sim.dem.max_vertices + 1)
-        runs[limit] = fields, diag
-    (fields, diag), (u_fields, u_diag) = runs[0], runs[coupling.UNROLLED_FEATURES]
-    assert diag["work_imp_friction"] < 0.0  # the points slid: history was made and used
-    for name in ("x", "v", "contact_force"):
-        np.testing.assert_array_equal(u_fields[name], fields[name], err_msg=name)
-    assert u_diag == diag
