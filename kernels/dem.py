@@ -1,4 +1,5 @@
-"""Device code of the spheropolygon DEM: world vertices, Verlet lists, contacts, rigid-body update.
+"""Device code of the spheropolygon DEM: world vertices, list checks, contacts, rigid-body update
+(the lists themselves are built in ``kernels.dem_lists``).
 
 A body is a spheropolygon (a core polygon ⊕ a disk of radius a, MPM-SDEM eq. 37) moved as a
 rigid body. Contacts are vertex–edge and vertex–vertex pairs (MPM-SDEM eq. 38–43): every vertex
@@ -27,7 +28,6 @@ from .clock import (
 )
 from .contact_geometry import make_contact_geometry, make_history_lookup
 from .reductions import close_step
-from .scan import block_append
 from .types import Namespace, kernel, scalar_types
 
 __all__ = ["FREE", "FIXED", "HISTORY_SLOTS", "KINEMATIC", "STATUS_CELL_OVERFLOW", "STATUS_HISTORY_OVERFLOW",
@@ -60,8 +60,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
     vec2 = t.vec2
     vec4 = t.vec4
     geometry = make_contact_geometry(precision)
-    rotate, cross, polygon_distance = geometry.rotate, geometry.cross, geometry.polygon_distance
-    box_distance = geometry.box_distance
+    rotate, cross = geometry.rotate, geometry.cross
     point_velocity, edge_count, vertex_feature = geometry.point_velocity, geometry.edge_count, geometry.vertex_feature
     contact_point, spring_dashpot = geometry.contact_point, geometry.spring_dashpot
     find_slip = make_history_lookup(precision, HISTORY_SLOTS)
@@ -184,142 +183,11 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         B.force[i] = vec2()
         B.torque[i] = T(0.0)
 
-    @wp.func
-    def cell_of(x: vec2, prm: Params):
-        return cell_in(x, prm.cell_origin, prm.inv_cell, prm.cells_x, prm.cells_y)
-
     @kernel
     def clear_cells(flags: wp.array(dtype=wp.int32), cell_count: wp.array(dtype=wp.int32)):
         if flags[0] == 0:
             return
         cell_count[wp.tid()] = 0
-
-    @kernel
-    def bin_bodies(B: Bodies, prm: Params, small: wp.array(dtype=wp.int32), flags: wp.array(dtype=wp.int32),
-                   cell_count: wp.array(dtype=wp.int32), cell_items: wp.array(dtype=wp.int32),
-                   status: wp.array(dtype=wp.int32)):
-        if flags[0] == 0:
-            return
-        i = small[wp.tid()]
-        cx, cy = cell_of(B.x[i], prm)
-        c = cx * prm.cells_y + cy
-        s = wp.atomic_add(cell_count, c, 1)
-        if s < prm.cell_cap:
-            cell_items[c * prm.cell_cap + s] = i
-        else:
-            wp.atomic_add(status, STATUS_CELL_OVERFLOW, 1)
-
-    @wp.func
-    def add_pair(C: Contacts, i: int, j: int, n: int, status: wp.array(dtype=wp.int32)):
-        if n < C.slots:
-            C.nbr[i * C.slots + n] = j
-        else:
-            wp.atomic_add(status, STATUS_NEIGHBOR_OVERFLOW, 1)
-        return n + 1
-
-    @wp.func
-    def list_pairs(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
-                   is_large: wp.array(dtype=wp.int32), large: wp.array(dtype=wp.int32), n_large: int,
-                   cell_count: wp.array(dtype=wp.int32), cell_items: wp.array(dtype=wp.int32),
-                   status: wp.array(dtype=wp.int32), i: int):
-        """Body i's owned pairs listed anew (sorted by partner), their history carried over; returns
-        how many."""
-        K = C.slots
-        base = i * K
-        # keep the old list for the history hand-over, fold the slots' dissipated work. Only the
-        # old_count slots listed are read and cleared: the slots past a list are kept clean (nbr −1,
-        # no key, slip, energy or work: the end of this function), and a body lists ~2 of its K
-        old_count = C.count[i]
-        folded = C.body_dissipated[i]
-        for s in range(old_count):
-            C.old_nbr[base + s] = C.nbr[base + s]
-            C.old_key[base + s] = C.key[base + s]
-            C.old_slip[base + s] = C.slip[base + s]
-            folded = folded + C.dissipated[base + s]
-            C.dissipated[base + s] = wp.vec2d(0.0, 0.0)
-            C.nbr[base + s] = -1
-        C.body_dissipated[i] = folded
-        xi = B.x[i]
-        ri = B.core_radius[i] + B.radius[i]
-        free_i = B.motion[i] == FREE  # pairs need one free body; others never meet
-        n = int(0)
-        if is_large[i] == 0:
-            cx, cy = cell_of(xi, prm)
-            for gx in range(wp.max(cx - 1, 0), wp.min(cx + 2, prm.cells_x)):
-                for gy in range(wp.max(cy - 1, 0), wp.min(cy + 2, prm.cells_y)):
-                    c = gx * prm.cells_y + gy
-                    for s in range(wp.min(cell_count[c], prm.cell_cap)):
-                        j = cell_items[c * prm.cell_cap + s]
-                        if j > i and (free_i or B.motion[j] == FREE):
-                            rj = B.core_radius[j] + B.radius[j]
-                            if wp.length(B.x[j] - xi) < ri + rj + prm.skin:
-                                n = add_pair(C, i, j, n, status)
-        for s in range(n_large):
-            j = large[s]
-            if j != i and (is_large[i] == 0 or j > i):
-                if free_i or B.motion[j] == FREE:
-                    listed = False
-                    if is_large[i] != 0:
-                        listed = wp.length(B.x[j] - xi) - ri - B.core_radius[j] - B.radius[j] < prm.skin
-                    else:
-                        # a large core's outline only where its bounding box comes near (a wall is far
-                        # from most bodies); the box test keeps a margin well above round-off, so the
-                        # pairs listed are those of the outline test alone
-                        reach = ri + B.radius[j] + prm.skin
-                        start = B.vstart[j]
-                        count = B.vcount[j]
-                        if box_distance(xi, world, start, count) < reach + T(1.0e-3) * (reach + wp.length(xi)):
-                            listed = polygon_distance(xi, world, start, count) - ri - B.radius[j] < prm.skin
-                    if listed:
-                        n = add_pair(C, i, j, n, status)
-        n = wp.min(n, K)
-        C.count[i] = n
-        # insertion sort by partner: the pair order (and so the force sums) do not depend on the
-        # order in which threads filled the cells
-        sort_ids(C.nbr, base, n)
-        # history of pairs that stay listed (both lists are sorted)
-        o = int(0)
-        for s in range(n):
-            j = C.nbr[base + s]
-            key = wp.vec4i(-1, -1, -1, -1)
-            slip = vec4()
-            while o < old_count and C.old_nbr[base + o] < j:
-                o += 1
-            if o < old_count and C.old_nbr[base + o] == j:
-                key = C.old_key[base + o]
-                slip = C.old_slip[base + o]
-            C.key[base + s] = key
-            C.slip[base + s] = slip
-            C.energy[base + s] = T(0.0)
-        for s in range(n, old_count):  # (the slots this list no longer uses; those past old_count are clean)
-            C.key[base + s] = wp.vec4i(-1, -1, -1, -1)
-            C.slip[base + s] = vec4()
-            C.energy[base + s] = T(0.0)
-        B.x_ref[i] = xi
-        B.angle_ref[i] = B.angle[i]
-        return n
-
-    @kernel
-    def build_lists(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
-                    is_large: wp.array(dtype=wp.int32), large: wp.array(dtype=wp.int32), n_large: int,
-                    flags: wp.array(dtype=wp.int32), cell_count: wp.array(dtype=wp.int32),
-                    cell_items: wp.array(dtype=wp.int32), status: wp.array(dtype=wp.int32),
-                    total: wp.array(dtype=wp.int32), bodies: int):
-        """Rebuild the lists of bodies i < ``bodies`` (``list_pairs``); outside deterministic mode,
-        pack the listed slots at the front of ``C.pairs`` (``total`` is ``C.total``), so the force
-        pass runs on full warps (a body lists ~3 of its K slots), one atomic a block
-        (``block_append``: launched over whole blocks). The order of the bodies there follows the
-        atomics, which deterministic mode cannot have: it runs one thread per slot instead."""
-        if flags[0] == 0:
-            return
-        i = wp.tid()
-        n = int(0)
-        if i < bodies:
-            n = list_pairs(B, C, prm, world, is_large, large, n_large, cell_count, cell_items, status, i)
-        if wp.static(not deterministic):
-            off = block_append(total, n)
-            for s in range(n):
-                C.pairs[off + s] = i * C.slots + s
 
     @kernel
     def reset_total(flags: wp.array(dtype=wp.int32), C: Contacts):
@@ -592,8 +460,8 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
 
     return Namespace(
         Bodies=Bodies, Contacts=Contacts, Params=Params, world_vertices=world_vertices,
-        check_displacement=check_displacement, clear_loads=clear_loads, clear_cells=clear_cells, bin_bodies=bin_bodies,
-        build_lists=build_lists, finish_rebuild=finish_rebuild, reset_total=reset_total,
+        check_displacement=check_displacement, clear_loads=clear_loads, clear_cells=clear_cells,
+        finish_rebuild=finish_rebuild, reset_total=reset_total,
         contact_forces=contact_forces, make_contact_forces=functools.cache(make_contact_forces),
         # the pieces of the pair search, for the search split over candidate vertices (kernels/dem_split.py)
         pair_side=pair_side, no_touches=no_touches, vertex_search=vertex_search, add_touch=add_touch,
@@ -601,7 +469,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         listed_pair=listed_pair, overlapping_circles=overlapping_circles, store_pair=store_pair,
         vertex_feature=vertex_feature, edge_count=edge_count,
         integrate=integrate, end_step=end_step, diagnostics=diagnostics,
-        # list maintenance shared with the MPM-DEM coupling (kernels/coupling.py)
+        # list maintenance shared with the body-pair lists (kernels/dem_lists.py) and the MPM-DEM coupling
         needs_rebuild=needs_rebuild, cell_in=cell_in, sort_ids=sort_ids,
     )
 

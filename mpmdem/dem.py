@@ -26,7 +26,7 @@ from .config import SolverConfig
 from .errors import BlowUpError, InputError
 from .kernels import clock as clock_kernels
 from .kernels import dem as dem_kernels
-from .kernels import dem_split
+from .kernels import dem_lists, dem_split
 from .kernels.scan import pack_launch
 from .launch_plan import IfFlag, Launch, run_plan
 from .rigid_arrays import RigidArrays, rigid_arrays
@@ -345,14 +345,15 @@ class DEMSolver(ClockedStage):
         unless the rebuild flag is set, so in a CUDA graph it is one conditional node instead of
         five launches (built once: the arrays it names live as long as the stage)."""
         k, B, C, params = self.k, self.B, self.C, self.params
+        lists = dem_lists.make_dem_lists(self.config.precision, self.config.deterministic)
         rebuild = [Launch(k.clear_cells, len(self.cell_count), [self.flags, self.cell_count])]
         if len(self.small):
-            rebuild.append(Launch(k.bin_bodies, len(self.small),
+            rebuild.append(Launch(lists.bin_bodies, len(self.small),
                                   [B, params, self.small, self.flags, self.cell_count, self.cell_items, self.status]))
         dim, block = pack_launch(self.body_count, self.device)  # (build_lists packs the pairs a block at a time)
         rebuild += [
             Launch(k.reset_total, 1, [self.flags, C]),
-            Launch(k.build_lists, dim,
+            Launch(lists.build_lists, dim,
                    [B, C, params, self.world, self.is_large_arr, self.large_ids, len(self.large), self.flags,
                     self.cell_count, self.cell_items, self.status, C.total, self.body_count], block_dim=block),
             Launch(k.finish_rebuild, 1, [self.flags, self.rebuilds]),

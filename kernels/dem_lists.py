@@ -1,0 +1,170 @@
+"""The Verlet lists of body pairs of the DEM, rebuilt on the device when a body moved half a skin.
+
+Bodies of ordinary size are binned in uniform cells (``bin_bodies``); each body then lists the
+pairs it owns (the lower index of two small bodies, the small one of a small–large pair) whose
+bounding circles come within the skin, or, for a large core (a wall), whose outline does
+(``list_pairs``), sorted by partner so that the force sums do not depend on the order in which
+threads filled the cells, and hands over the tangential history of the pairs that stay listed.
+Outside deterministic mode ``build_lists`` also packs the listed slots at the front of
+``Contacts.pairs``, one atomic a block (``scan.block_append``), so that the force pass runs on
+full warps. The structs and the rest of the DEM are ``kernels.dem``'s.
+"""
+
+import functools
+
+import warp as wp
+
+from .contact_geometry import make_contact_geometry
+from .dem import FREE, STATUS_CELL_OVERFLOW, STATUS_NEIGHBOR_OVERFLOW, make_dem_kernels
+from .scan import block_append
+from .types import Namespace, kernel, scalar_types
+
+__all__ = ["make_dem_lists"]
+
+
+@functools.cache
+def make_dem_lists(precision: str, deterministic: bool = False):
+    """Kernels ``bin_bodies`` and ``build_lists`` of the body-pair lists for one precision (the
+    packing of the listed slots only outside deterministic mode)."""
+    t = scalar_types(precision)
+    T = t.scalar
+    vec2 = t.vec2
+    vec4 = t.vec4
+    dem = make_dem_kernels(precision, deterministic)
+    Bodies, Contacts, Params = dem.Bodies, dem.Contacts, dem.Params
+    sort_ids, cell_in = dem.sort_ids, dem.cell_in
+    geometry = make_contact_geometry(precision)
+    polygon_distance, box_distance = geometry.polygon_distance, geometry.box_distance
+
+    @wp.func
+    def cell_of(x: vec2, prm: Params):
+        return cell_in(x, prm.cell_origin, prm.inv_cell, prm.cells_x, prm.cells_y)
+
+    @kernel
+    def bin_bodies(B: Bodies, prm: Params, small: wp.array(dtype=wp.int32), flags: wp.array(dtype=wp.int32),
+                   cell_count: wp.array(dtype=wp.int32), cell_items: wp.array(dtype=wp.int32),
+                   status: wp.array(dtype=wp.int32)):
+        if flags[0] == 0:
+            return
+        i = small[wp.tid()]
+        cx, cy = cell_of(B.x[i], prm)
+        c = cx * prm.cells_y + cy
+        s = wp.atomic_add(cell_count, c, 1)
+        if s < prm.cell_cap:
+            cell_items[c * prm.cell_cap + s] = i
+        else:
+            wp.atomic_add(status, STATUS_CELL_OVERFLOW, 1)
+
+    @wp.func
+    def add_pair(C: Contacts, i: int, j: int, n: int, status: wp.array(dtype=wp.int32)):
+        if n < C.slots:
+            C.nbr[i * C.slots + n] = j
+        else:
+            wp.atomic_add(status, STATUS_NEIGHBOR_OVERFLOW, 1)
+        return n + 1
+
+    @wp.func
+    def list_pairs(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
+                   is_large: wp.array(dtype=wp.int32), large: wp.array(dtype=wp.int32), n_large: int,
+                   cell_count: wp.array(dtype=wp.int32), cell_items: wp.array(dtype=wp.int32),
+                   status: wp.array(dtype=wp.int32), i: int):
+        """Body i's owned pairs listed anew (sorted by partner), their history carried over; returns
+        how many."""
+        K = C.slots
+        base = i * K
+        # keep the old list for the history hand-over, fold the slots' dissipated work. Only the
+        # old_count slots listed are read and cleared: the slots past a list are kept clean (nbr −1,
+        # no key, slip, energy or work: the end of this function), and a body lists ~2 of its K
+        old_count = C.count[i]
+        folded = C.body_dissipated[i]
+        for s in range(old_count):
+            C.old_nbr[base + s] = C.nbr[base + s]
+            C.old_key[base + s] = C.key[base + s]
+            C.old_slip[base + s] = C.slip[base + s]
+            folded = folded + C.dissipated[base + s]
+            C.dissipated[base + s] = wp.vec2d(0.0, 0.0)
+            C.nbr[base + s] = -1
+        C.body_dissipated[i] = folded
+        xi = B.x[i]
+        ri = B.core_radius[i] + B.radius[i]
+        free_i = B.motion[i] == FREE  # pairs need one free body; others never meet
+        n = int(0)
+        if is_large[i] == 0:
+            cx, cy = cell_of(xi, prm)
+            for gx in range(wp.max(cx - 1, 0), wp.min(cx + 2, prm.cells_x)):
+                for gy in range(wp.max(cy - 1, 0), wp.min(cy + 2, prm.cells_y)):
+                    c = gx * prm.cells_y + gy
+                    for s in range(wp.min(cell_count[c], prm.cell_cap)):
+                        j = cell_items[c * prm.cell_cap + s]
+                        if j > i and (free_i or B.motion[j] == FREE):
+                            rj = B.core_radius[j] + B.radius[j]
+                            if wp.length(B.x[j] - xi) < ri + rj + prm.skin:
+                                n = add_pair(C, i, j, n, status)
+        for s in range(n_large):
+            j = large[s]
+            if j != i and (is_large[i] == 0 or j > i):
+                if free_i or B.motion[j] == FREE:
+                    listed = False
+                    if is_large[i] != 0:
+                        listed = wp.length(B.x[j] - xi) - ri - B.core_radius[j] - B.radius[j] < prm.skin
+                    else:
+                        # a large core's outline only where its bounding box comes near (a wall is far
+                        # from most bodies); the box test keeps a margin well above round-off, so the
+                        # pairs listed are those of the outline test alone
+                        reach = ri + B.radius[j] + prm.skin
+                        start = B.vstart[j]
+                        count = B.vcount[j]
+                        if box_distance(xi, world, start, count) < reach + T(1.0e-3) * (reach + wp.length(xi)):
+                            listed = polygon_distance(xi, world, start, count) - ri - B.radius[j] < prm.skin
+                    if listed:
+                        n = add_pair(C, i, j, n, status)
+        n = wp.min(n, K)
+        C.count[i] = n
+        # insertion sort by partner: the pair order (and so the force sums) do not depend on the
+        # order in which threads filled the cells
+        sort_ids(C.nbr, base, n)
+        # history of pairs that stay listed (both lists are sorted)
+        o = int(0)
+        for s in range(n):
+            j = C.nbr[base + s]
+            key = wp.vec4i(-1, -1, -1, -1)
+            slip = vec4()
+            while o < old_count and C.old_nbr[base + o] < j:
+                o += 1
+            if o < old_count and C.old_nbr[base + o] == j:
+                key = C.old_key[base + o]
+                slip = C.old_slip[base + o]
+            C.key[base + s] = key
+            C.slip[base + s] = slip
+            C.energy[base + s] = T(0.0)
+        for s in range(n, old_count):  # (the slots this list no longer uses; those past old_count are clean)
+            C.key[base + s] = wp.vec4i(-1, -1, -1, -1)
+            C.slip[base + s] = vec4()
+            C.energy[base + s] = T(0.0)
+        B.x_ref[i] = xi
+        B.angle_ref[i] = B.angle[i]
+        return n
+
+    @kernel
+    def build_lists(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
+                    is_large: wp.array(dtype=wp.int32), large: wp.array(dtype=wp.int32), n_large: int,
+                    flags: wp.array(dtype=wp.int32), cell_count: wp.array(dtype=wp.int32),
+                    cell_items: wp.array(dtype=wp.int32), status: wp.array(dtype=wp.int32),
+                    total: wp.array(dtype=wp.int32), bodies: int):
+        """Rebuild the lists of bodies i < ``bodies`` (``list_pairs``); outside deterministic mode,
+        pack the listed slots at the front of ``C.pairs`` (``total`` is ``C.total``), so the force
+        pass runs on full warps (a body lists ~3 of its K slots), one atomic a block
+        (``block_append``: launched over whole blocks). The order of the bodies there follows the
+        atomics, which deterministic mode cannot have: it runs one thread per slot instead."""
+        if flags[0] == 0:
+            return
+        i = wp.tid()
+        n = int(0)
+        if i < bodies:
+            n = list_pairs(B, C, prm, world, is_large, large, n_large, cell_count, cell_items, status, i)
+        if wp.static(not deterministic):
+            off = block_append(total, n)
+            for s in range(n):
+                C.pairs[off + s] = i * C.slots + s
+
+    return Namespace(bin_bodies=bin_bodies, build_lists=build_lists)
