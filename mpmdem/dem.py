@@ -101,7 +101,7 @@ SPLIT_CANDIDATES_PER_BODY = 16
 #: thread per listed pair. A thread that strides over several pairs runs them one after another,
 #: so 1M pentagons ran at 4.96e8 body-steps/s with 2048 threads an SM and 6.12e8 with 32768 (4.3
 #: a body); 100k at 4.74e8 with 2048 (2.7 a body) and 4.62e8 with 8192 (11 a body) (bench/README.md,
-#: "The split search's launch").
+#: "DEM: one atomic a block, a thread a pair").
 SPLIT_THREADS_PER_SM = 2048
 SPLIT_THREADS_PER_BODY = 4
 #: Registers per thread of the split search's ``assemble`` on CUDA: the compiler takes 140 (the
