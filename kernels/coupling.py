@@ -82,7 +82,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
     Bodies = dem.Bodies
     needs_rebuild, sort_ids, cell_in = dem.needs_rebuild, dem.sort_ids, dem.cell_in
     geometry = make_contact_geometry(precision)
-    cross, polygon_distance = geometry.cross, geometry.polygon_distance
+    cross, polygon_distance, box_distance = geometry.cross, geometry.polygon_distance, geometry.box_distance
     point_velocity, edge_count, vertex_feature = geometry.point_velocity, geometry.edge_count, geometry.vertex_feature
     contact_point, spring_dashpot = geometry.contact_point, geometry.spring_dashpot
     find_slip = make_history_lookup(precision, IMP_HISTORY)
@@ -337,8 +337,16 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                                                           find_slip(L.key[slot], L.slip[slot], key), dt)
         return F, pc, arm, slip, e_contact, lost_contact
 
-    def make_forces(sifted: bool):
-        """The force kernel over the listed points, or (``sifted``) over those ``sift`` kept."""
+    @functools.cache
+    def make_forces(sifted: bool, boxed: bool = False):
+        """The force kernel over the listed points, or (``sifted``) over those ``sift`` kept.
+
+        boxed: every point lists every body (``mpmdem.coupling.STATIC_IMP_BODIES``), so a body is
+        searched only where the point is within reach of its core's bounding box, as well as of
+        its bounding circle: a long wall's circle covers most of a scene, its box a strip. The box
+        is never farther than any feature a touch is found at (a touch is within reach of an edge
+        or a vertex, or inside the core), so this test changes no force; it is taken with the
+        same round-off margin as the DEM's (``kernels.dem_lists``)."""
 
         @kernel(deterministic=deterministic)
         def forces(P: Particles, B: Bodies, L: Links, prm: Params, world: wp.array(dtype=vec2),
@@ -389,9 +397,15 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                 n_hist = int(0)
                 xb = B.x[b]
                 reach = B.radius[b] + rp
-                if wp.length(X - xb) < B.core_radius[b] + reach:
+                near = wp.length(X - xb) < B.core_radius[b] + reach
+                start = int(0)
+                count = int(0)
+                if near:
                     start = B.vstart[b]
                     count = B.vcount[b]
+                    if wp.static(boxed):
+                        near = box_distance(X, world, start, count) < reach + T(1.0e-3) * (reach + wp.length(X))
+                if near:
                     n_edges = edge_count(count)
                     # a point past every edge line of a polygon core (inside a convex core) is pushed
                     # out through the nearest edge, the overlap growing as d turns negative

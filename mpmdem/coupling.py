@@ -41,6 +41,14 @@ BUILD_TILE = 32
 #: From this many points (and not in deterministic mode) the listed points are sifted each step
 #: by a light kernel, and the force search runs only over those near a body (``imp_forces``).
 SIFTED_IMP_POINTS = 65536
+#: With at most this many rigid bodies, in scenes of fewer than SIFTED_IMP_POINTS points, on the
+#: devices of STATIC_IMP_DEVICES, every point lists every body once and for all (``static_lists``):
+#: the step then has no list check and no conditional rebuild, which a small scene pays per step
+#: (a skipped conditional node costs ~4.8 µs on an H100, bench/launch_floor.py), and the force
+#: kernel finds the bodies within reach by their bounding circle and box. The CPU keeps the
+#: Verlet lists (its steps are paid in work, not in launches); both give the same forces.
+STATIC_IMP_BODIES = 8
+STATIC_IMP_DEVICES = ("cuda",)
 
 
 def contact_time_step_bound(scene: Scene, point_mass: float) -> float:
@@ -109,17 +117,27 @@ class CoupledStage(ClockedStage):
         veci = wp.types.vector(coupling_kernels.IMP_HISTORY, wp.int32)
         vech = wp.types.vector(coupling_kernels.IMP_HISTORY, t.scalar)
 
+        nb = dem.body_count
+        device = "cuda" if dev.is_cuda else "cpu"
+        #: every point lists every body, for the whole run (STATIC_IMP_BODIES)
+        self.static_lists = (cfg.coupling != "liu" and nb <= STATIC_IMP_BODIES and n < SIFTED_IMP_POINTS
+                             and device in STATIC_IMP_DEVICES)
+        if self.static_lists:
+            S = nb
         L = k.Links()
         L.slots = S
-        L.body = wp.full(n * S, -1, dtype=wp.int32, device=dev)
-        L.count = wp.zeros(n, dtype=wp.int32, device=dev)
+        if self.static_lists:  # slot s of every point holds body s, sorted as finish_lists sorts
+            L.body = wp.array(np.tile(np.arange(nb, dtype=np.int32), n), dtype=wp.int32, device=dev)
+            L.count = wp.full(n, nb, dtype=wp.int32, device=dev)
+        else:
+            L.body = wp.full(n * S, -1, dtype=wp.int32, device=dev)
+            L.count = wp.zeros(n, dtype=wp.int32, device=dev)
         L.key = wp.full(n * S, veci(-1, -1), dtype=veci, device=dev)
         L.slip = wp.zeros(n * S, dtype=vech, device=dev)
         L.old_body = wp.full(n * S, -1, dtype=wp.int32, device=dev)
         L.old_key = wp.full(n * S, veci(-1, -1), dtype=veci, device=dev)
         L.old_slip = wp.zeros(n * S, dtype=vech, device=dev)
         L.x_ref = wp.full(n, t.vec2(1.0e30, 1.0e30), dtype=t.vec2, device=dev)
-        nb = dem.body_count
         L.body_x_ref = wp.clone(dem.B.x)
         L.body_angle_ref = wp.clone(dem.B.angle)
         radius = mpm.point_contact_radius.astype(T)
@@ -128,13 +146,17 @@ class CoupledStage(ClockedStage):
         L.dissipated = wp.zeros(n, dtype=wp.vec2d, device=dev)
         L.contact_at = mpm.contact_at
         L.active = wp.zeros(n, dtype=wp.int32, device=dev)
-        L.listed = wp.zeros(n, dtype=wp.int32, device=dev)
-        L.listed_count = wp.zeros(1, dtype=wp.int32, device=dev)
+        if self.static_lists:  # every point, in order: the force kernel visits them all
+            L.listed = wp.array(np.arange(n, dtype=np.int32), dtype=wp.int32, device=dev)
+            L.listed_count = wp.full(1, n, dtype=wp.int32, device=dev)
+        else:
+            L.listed = wp.zeros(n, dtype=wp.int32, device=dev)
+            L.listed_count = wp.zeros(1, dtype=wp.int32, device=dev)
         #: large scenes sift the listed points each step before the force search (``kernels.coupling.sift``)
         self.sifted = not cfg.deterministic and n >= SIFTED_IMP_POINTS
         L.near = wp.zeros(n if self.sifted else 1, dtype=wp.int32, device=dev)
         L.near_count = wp.zeros(1, dtype=wp.int32, device=dev)
-        self.forces_kernel = k.make_forces(True) if self.sifted else k.forces
+        self.forces_kernel = k.make_forces(self.sifted, self.static_lists)
         self.L = L
 
         mats = scene.materials()
@@ -166,7 +188,7 @@ class CoupledStage(ClockedStage):
         ncell = self.cells[0] * self.cells[1]
         self.cell_count = wp.zeros(ncell, dtype=wp.int32, device=dev)
         self.cell_items = wp.zeros(ncell * self.cell_cap, dtype=wp.int32, device=dev)
-        self.flags = wp.ones(1, dtype=wp.int32, device=dev)  # build in the first step
+        self.flags = wp.full(1, 0 if self.static_lists else 1, dtype=wp.int32, device=dev)  # build in the first step
         self.rebuilds = wp.zeros(1, dtype=wp.int64, device=dev)
         #: whether a list rebuild runs in this step (``start_plan``)
         self.any_rebuild = wp.zeros(1, dtype=wp.int32, device=dev)
@@ -231,7 +253,7 @@ class CoupledStage(ClockedStage):
         """One coupled explicit step (MPM-SDEM §4.2)."""
         mpm, dem = self.mpm, self.dem
         dem.contact_checks(clear_loads=not self.clears_loads)
-        if self.liu is None:
+        if self.listed:
             self.check_lists()
         run_plan(self.start_plan, self.device, mpm.extensions)  # list rebuilds, relabel (when flagged)
         dem.contact_forces()
@@ -262,15 +284,22 @@ class CoupledStage(ClockedStage):
 
     def contact_forces(self) -> None:
         """Point–body lists (rebuilt when flagged) and the IMP forces of this step."""
-        self.check_lists()
-        run_plan(self.rebuild_plan, self.device)
+        if self.listed:
+            self.check_lists()
+            run_plan(self.rebuild_plan, self.device)
         self.imp_forces()
+
+    @property
+    def listed(self) -> bool:
+        """Whether the step keeps Verlet point–body lists (checked, and rebuilt when flagged): the
+        IMP schemes, unless every point lists every body (``static_lists``)."""
+        return self.liu is None and not self.static_lists
 
     @property
     def clears_loads(self) -> bool:
         """Whether ``check_lists`` clears the bodies' loads: with no free body the DEM stage has no
         contact launch of its own to do it (``DEMSolver.contact_checks``), and the IMP step has."""
-        return self.liu is None and not self.dem.free
+        return self.listed and not self.dem.free
 
     def check_lists(self) -> None:
         """Flag a rebuild of the point–body lists when a point or a moving body moved more than
@@ -303,7 +332,7 @@ class CoupledStage(ClockedStage):
         and silo-discharge on an H100), and grouped with the lists it would make them pay the
         group's node as well (sand-blocks 159 → 168 µs a step with all three grouped). The blocks touch disjoint
         arrays, so their order among themselves and before the forces changes nothing."""
-        lists = self.dem.contact_rebuild + (self.rebuild_plan if self.liu is None else [])
+        lists = self.dem.contact_rebuild + (self.rebuild_plan if self.listed else [])
         if len(lists) == 2:
             lists = [IfAny([block.flag for block in lists], self.any_rebuild, lists)]
         return lists + self.mpm.start_plan
