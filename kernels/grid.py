@@ -25,6 +25,7 @@ __all__ = [
     "make_fold_ghosts",
     "make_grid_update",
     "make_mirror_ghosts",
+    "make_mirrored_source",
     "make_xpic_grid",
 ]
 
@@ -373,6 +374,35 @@ def _mirror_node(i: int, j: int, lo: wp.vec2i, hi: wp.vec2i, kinds: wp.vec4i):
             sx = -sx
         mirrored = True
     return si, sj, sx, sy, mirrored
+
+
+@functools.cache
+def make_mirrored_source(layered: bool):
+    """``mirrored_source(owner, row, i, j, lo, hi, kinds, layer_rows, layers) -> (src, sj, sx, sy)``:
+    where the velocities of node (i, j) (its copy in ``row``, granular mode) are read when the wall
+    images are not written (``transfer.make_g2p``'s ``mirror``): the node itself (signs 1), or,
+    beyond a fixed or slip wall, its interior mirror with the signs of ``make_mirror_ghosts``, in
+    granular mode the mirror's copy of the same component (src −1 where it has none: zero, as
+    there). The same values, bit for bit, as reading the ghost after ``mirror_ghosts``."""
+    find_row = _layer_row_find()
+
+    @wp.func
+    def mirrored_source(owner: wp.array2d(dtype=wp.int32), row: int, i: int, j: int, lo: wp.vec2i, hi: wp.vec2i,
+                        kinds: wp.vec4i, layer_rows: int, layers: int):
+        si, sj, sx, sy, mirrored = _mirror_node(i, j, lo, hi, kinds)
+        src = row
+        if not mirrored:
+            return src, j, 1.0, 1.0
+        if wp.static(layered):
+            c = owner[row, j]
+            if c < 0:
+                return src, j, 1.0, 1.0  # (no copy of a component here: mirror_ghosts leaves it)
+            src = find_row(owner, si, sj, c, layer_rows, layers)
+        else:
+            src = si
+        return src, sj, sx, sy
+
+    return mirrored_source
 
 
 @functools.cache

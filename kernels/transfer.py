@@ -12,7 +12,7 @@ import warp as wp
 from .clock import CLOCK_DT, CLOCK_T
 from .constitutive import make_derived_state, make_point_update
 from .granular import NO_LAYER, STATUS_LAYER_OVERFLOW, make_layer_row, slot_words
-from .grid import WORK_INFLOW, WORK_PLASTIC, make_keep_inside_walls, work_slot
+from .grid import WORK_INFLOW, WORK_PLASTIC, make_keep_inside_walls, make_mirrored_source, work_slot
 from .reductions import make_speed_check
 from .shape_functions import CORNERS, SUPPORT_NODES, make_stencil
 from .state import make_state_structs
@@ -314,6 +314,7 @@ def make_g2p(
     layered: bool = False,
     staged: bool = False,
     derived: bool = False,
+    mirror: bool = False,
 ):
     """G2P: particle velocity, affine matrix, position, and (optionally fused) stress update.
 
@@ -330,11 +331,16 @@ def make_g2p(
     position_mode "xpic": XPIC(m) velocity (eq. 40, from the smoothed field ``Grid.vs``) and
     position (eq. 41) updates; when velocity and position are split (MUSL) the displacement is
     kept in ``Particles.tmp`` between the two kernels.
+    mirror: the wall images are read here: a stencil node beyond a fixed or slip wall gives the
+    velocities of its interior mirror, reflected (``grid.mirrored_source``), the values
+    ``grid.make_mirror_ghosts`` would have written there, so that launch is left out of the step.
+    Only where nothing else reads the ghost nodes' velocities between the grid update and G2P.
     """
     t = scalar_types(precision)
     T = t.scalar
     K = SUPPORT_NODES[shape]
     NC = CORNERS.get(shape, 1)
+    mirrored_source = make_mirrored_source(layered)
     Particles, Grid, Domain = make_state_structs(precision)
     stencil, contribution, on_grid = make_stencil(shape, precision)
     point_on_grid = make_point_on_grid(shape, precision)
@@ -359,12 +365,22 @@ def make_g2p(
     keep_inside_walls = make_keep_inside_walls(precision)
 
     @wp.func
-    def stress_velocity(G: Grid, row: int, gj: int):
+    def read(field: wp.array2d(dtype=t.vec2), row: int, gj: int, sx: float, sy: float):
+        # a nodal velocity, reflected where it is a wall image's (``mirror``; row −1: none, zero)
+        v = t.vec2()
+        if row >= 0:
+            v = field[row, gj]
+        if wp.static(mirror):
+            v = t.vec2(T(sx) * v[0], T(sy) * v[1])
+        return v
+
+    @wp.func
+    def stress_velocity(G: Grid, row: int, gj: int, sx: float, sy: float):
         # the nodal velocity a separate stress update takes: V before the force update (USF) or
         # the re-mapped one (MUSL)
         if wp.static(stress == "vm"):
-            return G.vm[row, gj]
-        return G.v[row, gj]
+            return read(G.vm, row, gj, sx, sy)
+        return read(G.v, row, gj, sx, sy)
 
     @kernel
     def g2p(
@@ -420,11 +436,18 @@ def make_g2p(
                             row = gi
                             w = T(0.0)  # a node the point put nothing on (a layer overflow)
                             grad = t.vec2()
-                    vt = G.vt[row, gj]
+                    src = row  # where the node's velocities are read
+                    sj = gj
+                    sx = 1.0
+                    sy = 1.0
+                    if wp.static(mirror):
+                        src, sj, sx, sy = mirrored_source(G.owner, row, gi, gj, D.node_lo, D.node_hi, D.bc_kind,
+                                                          D.layer_rows, D.layers)
+                    vt = read(G.vt, src, sj, sx, sy)
                     if wp.static(velocity or position):
                         v_pic = v_pic + w * vt  # G→P of Ṽ ("Motion integration" eq. 31)
                     if wp.static(need_v_old):
-                        v_old = v_old + w * G.v[row, gj]
+                        v_old = v_old + w * read(G.v, src, sj, sx, sy)
                     if wp.static(velocity and xpic):
                         v_s = v_s + w * G.vs[row, gj]  # G of the smoothed field, eq. 39-40
                     if wp.static(velocity and apic):
@@ -438,7 +461,7 @@ def make_g2p(
                             if w > T(0.0):
                                 gsum = gsum + grad
                     if wp.static(stress == "v" or stress == "vm"):
-                        vn = stress_velocity(G, row, gj)
+                        vn = stress_velocity(G, src, sj, sx, sy)
                         L = L + wp.outer(vn, grad)
                         if wp.static(layered):
                             if w > T(0.0):

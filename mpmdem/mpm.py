@@ -47,6 +47,10 @@ TILED_P2G_BLOCK = 64
 #: each kernel as long as one warp's chain of instructions (bench/README.md, "P2G by stencil rows").
 ROW_P2G_POINTS = 16384
 ROW_P2G_DEVICES = ("cuda",)
+#: G2P reads the wall images (velocities of a ghost node's interior mirror, reflected) instead of a
+#: launch writing them after each grid update (``kernels.grid.make_mirrored_source``): one launch
+#: fewer per grid update in scenes with fixed or slip walls, the same bits.
+MIRROR_IN_G2P = True
 
 #: Extension point of the step: after the grid's force update and before G2P (USL only). The
 #: coupling's momentum exchange of Liu et al. runs there (``MPMSolver.extend``).
@@ -201,6 +205,10 @@ class MPMSolver(ClockedStage):
         self.wall_band = wp.array(band, dtype=wp.vec2i, device=self.device)
         band_dim = len(band)
         mirror_pair = grid_kernels.make_mirror_ghosts(prec, layered=layered, pair=True)
+        #: G2P reads the wall images itself (``transfer.make_g2p``'s ``mirror``): USL and MUSL,
+        #: where only G2P reads the mirrored velocities, not XPIC's passes or Liu's exchange
+        self.mirror_in_g2p = (mirror_walls and MIRROR_IN_G2P and c.update in ("USL", "MUSL") and not s.xpic
+                              and not (self.coupled and c.coupling == "liu"))
 
         def fold(**flags):
             if not mirror_walls:
@@ -209,7 +217,7 @@ class MPMSolver(ClockedStage):
                            [G, D, clock, self.wall_band])]
 
         def mirrored(*fields):
-            if not mirror_walls or not fields:
+            if not mirror_walls or not fields or self.mirror_in_g2p:
                 return []
             if len(fields) == 2:  # (V and Ṽ in one launch)
                 return [Launch(mirror_pair, band_dim, [fields[0], fields[1], D, clock, G.owner, self.wall_band])]
@@ -256,7 +264,8 @@ class MPMSolver(ClockedStage):
         def g2p(**flags):
             k = transfer_kernels.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds,
                                           density_control=c.density_control, critical=self.critical,
-                                          layered=layered, staged=self.staged, derived=self.derived_stress, **flags)
+                                          layered=layered, staged=self.staged, derived=self.derived_stress,
+                                          mirror=self.mirror_in_g2p, **flags)
             return [Launch(k, n, [points, G, D, clock, mats, self.max_speed, self.status, work])]
 
         def xpic_smoothing():

@@ -1,0 +1,65 @@
+"""G2P reads the wall images itself (``mpm.MIRROR_IN_G2P``, ``kernels.grid.make_mirrored_source``).
+
+Beyond a fixed or slip wall, wide stencils reach ghost nodes whose velocities are the interior
+mirror's, reflected (odd in every component at a fixed wall, in the normal one at a slip wall).
+A launch used to write them after each grid update; a small scene pays per launch, so G2P now
+reads the mirror's velocities where a stencil node is a ghost (in granular mode, the mirror's copy
+of the point's component). It must change nothing: the same values reach every point, so on the
+CPU the trajectory is the same bits as with the launch, in both the plain and the granular grid,
+USL and MUSL. Reference: the mirror launch, itself tested against the wall conditions in
+tests/test_walls.py and tests/test_transfer.py.
+"""
+
+import numpy as np
+import pytest
+
+import mpmdem as m
+from mpmdem import mpm
+
+
+def pile_in_a_box(granular: bool, shape: str, transfer: str, update: str):
+    """A block thrown into the lower right corner of a box (slip floor, fixed right side) under gravity:
+    points reach the ghost nodes of two walls and of the corner."""
+    scene = m.Scene(domain=((0.0, 0.0), (0.3, 0.3)), cell_size=0.01, gravity=(0.0, -9.81),
+                    boundaries={"left": "slip", "right": "fixed", "bottom": "slip", "top": "free"})
+    if granular:
+        mat = m.MohrCoulomb(2.0e5, 0.3, 1500.0, friction_angle=30.0, critical_density=1485.0)
+    else:
+        mat = m.NeoHookean(youngs_modulus=2.0e5, poisson_ratio=0.3, density=1000.0)
+    scene.add_mpm_body(m.rectangle(0.16, 0.0, 0.26, 0.1), mat, points_per_cell=2, velocity=(2.0, -1.0))
+    config = m.SolverConfig(granular=granular, shape=shape, transfer=transfer, update=update, precision="f64")
+    return m.Simulation(scene, config, device="cpu")
+
+
+@pytest.mark.parametrize("variant", [
+    (False, "bspline2", "APIC", "USL"),
+    (False, "bspline3", "FLIP", "MUSL"),
+    (False, "cpgimp", "PIC", "USL"),
+    (True, "bspline2", "PIC", "MUSL"),
+    (True, "bspline2", "FLIP", "USL"),
+], ids=lambda v: ("granular-" if v[0] else "") + "-".join(v[1:]))
+def test_mirror_read_in_g2p_changes_nothing(monkeypatch, variant):
+    """Verify G2P reading the wall images gives the trajectory of the mirror launch, to the bit."""
+    runs = {}
+    for fused in (False, True):
+        monkeypatch.setattr(mpm, "MIRROR_IN_G2P", fused)
+        sim = pile_in_a_box(*variant)
+        assert sim.mpm.mirror_in_g2p == fused
+        sim.advance_to(0.02)  # (the block reaches the right wall at ~0.01 s and bounces off by ~0.03 s)
+        runs[fused] = sim.fields(), sim.diagnostics()
+    (plain, plain_diag), (fused, fused_diag) = runs[False], runs[True]
+    x = plain["x"]
+    h = 0.01
+    # points came within a stencil of the floor and the right wall: ghost nodes were read
+    assert x[:, 1].min() < 1.5 * h and x[:, 0].max() > 0.3 - 1.5 * h
+    for name in ("x", "v"):
+        np.testing.assert_array_equal(fused[name], plain[name], err_msg=name)
+    assert fused_diag == plain_diag
+
+
+def test_xpic_keeps_the_mirror_launch():
+    """Verify XPIC, whose smoothing passes read the ghosts' velocities, keeps the launch."""
+    scene = m.Scene(domain=((0.0, 0.0), (0.3, 0.3)), cell_size=0.01, boundaries={"bottom": "fixed", "top": "free"})
+    scene.add_mpm_body(m.rectangle(0.1, 0.0, 0.2, 0.1), m.NeoHookean(2.0e5, 0.3, 1000.0))
+    sim = m.Simulation(scene, m.SolverConfig(transfer="XPIC"), device="cpu")
+    assert not sim.mpm.mirror_in_g2p
