@@ -23,6 +23,7 @@ __all__ = [
     "make_boundary",
     "make_boundary_condition",
     "make_fold_ghosts",
+    "make_fold_node",
     "make_grid_update",
     "make_mirror_ghosts",
     "make_mirrored_source",
@@ -157,7 +158,7 @@ def make_boundary(precision: str, bilateral_only: bool = False):
 @functools.cache
 def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impulse: bool = False,
                      remap: bool = False, damping: bool = False, layered: bool = False, obstacles: bool = False,
-                     clear: bool = False, zero_remap: bool = False):
+                     clear: bool = False, zero_remap: bool = False, fold: tuple = ()):
     """Nodal velocity V = p/m, and/or Ṽ = V + dt (f/m + g), both with the wall conditions.
 
     fused_impulse: the momentum already holds p + dt f (USL + PIC), so Ṽ = p/m + dt g.
@@ -173,10 +174,20 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     obstacles: nodes marked in ``Grid.solid`` (inside a ``Scene.add_obstacle`` shape) are fixed
     (1) or slip along the obstacle's surface (2: no velocity along ``Grid.solid_normal``).
     The reaction impulses on walls and obstacles go to the IMPULSE_BASE slots of ``work``.
+    fold: (mass, momentum, force) of ``make_fold_node``: each thread first folds the ghost images
+    of its node onto it, in place of a ``fold_ghosts`` launch before (the same sums, in the same
+    order). Only where this update writes none of the fields the fold reads at the ghosts (not a
+    clearing update, not a re-mapped one): the ghosts' own threads may run first.
     """
     t = scalar_types(precision)
     T = t.scalar
     Particles, Grid, Domain = make_state_structs(precision)
+    if fold:
+        if clear or remap:
+            raise ValueError("make_grid_update: fold with clear or remap would race with the ghosts' own threads")
+        fold_mass, fold_momentum, fold_force = fold
+        fold_node = make_fold_node(precision, mass=fold_mass, momentum=fold_momentum, force=fold_force,
+                                   layered=layered)
     boundary = make_boundary(precision)
     dirichlet = make_boundary(precision, bilateral_only=True)
 
@@ -297,6 +308,8 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         i, j = wp.tid()
         if clock[CLOCK_DT] <= wp.float64(0.0):
             return
+        if wp.static(bool(fold)):
+            fold_node(G, D, i, j)  # (the wall images onto this node first, ``fold``)
         if wp.static(layered):
             # launched over one layer: the copies in use at a node are a prefix (claimed first-fit);
             # every node of a run goes as deep as the busiest one (COPY_RUN), so that the clearing
@@ -477,20 +490,16 @@ def _image(i: int, lo: int, hi: int, kind_lo: int, kind_hi: int, n: int):
 
 
 @functools.cache
-def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool, remap: bool = False,
-                     xpic: bool = False, layered: bool = False):
-    """Fold what points put on ghost nodes back onto their interior mirrors.
+def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, remap: bool = False,
+                   xpic: bool = False, layered: bool = False):
+    """``fold_node(G, D, i, j)``: fold what points put on the ghost images of node (i, j) back onto
+    it (all its copies in use, granular mode); nothing at a node no ghost mirrors. The body of
+    ``make_fold_ghosts``, and of a grid update that folds its own node first (``make_grid_update``'s
+    ``fold``): a node reads only ghost nodes and writes only itself.
 
-    This is the image-point method: a point near a fixed or slip wall has a mirror image beyond
-    it (velocity reflected as in ``make_mirror_ghosts``), and that image would put on interior
-    node k exactly what the point puts on ghost node −k. Adding it makes the nodes next to a wall
-    see a complete B-spline/GIMP support, so wide stencils keep their order of accuracy at walls.
-    (Exact for slip walls; for fixed walls the odd extension is exact in 1D and a close
-    approximation in 2D.) Each interior node gathers its images in a fixed order (no atomics),
-    so the fold is deterministic. In a domain narrower than the stencil, ghosts farther out than
-    the opposite wall have no interior mirror and are not folded. layered (granular mode): launched
-    over one layer; each copy in use of an interior node gathers from the ghost copies of its own
-    component (``G.owner``).
+    In a domain narrower than the stencil, ghosts farther out than the opposite wall have no
+    interior mirror and are not folded. layered (granular mode): each copy in use of an interior
+    node gathers from the ghost copies of its own component (``G.owner``).
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -562,13 +571,8 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
         if wp.static(xpic):
             fold_vec(G.pk, r, j, rx, ry, gj, rxy, kx, ky)
 
-    @kernel
-    def fold_ghosts(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), band: wp.array(dtype=wp.vec2i)):
-        node = band[wp.tid()]  # a node of one layer near its edge (mpm_state.wall_band)
-        i = node[0]
-        j = node[1]
-        if clock[CLOCK_DT] <= wp.float64(0.0):
-            return
+    @wp.func
+    def fold_node(G: Grid, D: Domain, i: int, j: int):
         lo = D.node_lo
         hi = D.node_hi
         if i < lo[0] or i > hi[0] or j < lo[1] or j > hi[1]:
@@ -587,6 +591,34 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
                 fold_copy(G, D, r, i, j, gi, gj, kx, ky)
         else:
             fold_copy(G, D, i, i, j, gi, gj, kx, ky)
+
+    return fold_node
+
+
+@functools.cache
+def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool, remap: bool = False,
+                     xpic: bool = False, layered: bool = False):
+    """Fold what points put on ghost nodes back onto their interior mirrors.
+
+    This is the image-point method: a point near a fixed or slip wall has a mirror image beyond
+    it (velocity reflected as in ``make_mirror_ghosts``), and that image would put on interior
+    node k exactly what the point puts on ghost node −k. Adding it makes the nodes next to a wall
+    see a complete B-spline/GIMP support, so wide stencils keep their order of accuracy at walls.
+    (Exact for slip walls; for fixed walls the odd extension is exact in 1D and a close
+    approximation in 2D.) Each interior node gathers its images in a fixed order (no atomics),
+    so the fold is deterministic (``make_fold_node``). Launched over the nodes near the grid's
+    edge (``mpmdem.mpm_state.wall_band``).
+    """
+    Particles, Grid, Domain = make_state_structs(precision)
+    fold_node = make_fold_node(precision, mass=mass, momentum=momentum, force=force, remap=remap, xpic=xpic,
+                               layered=layered)
+
+    @kernel
+    def fold_ghosts(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), band: wp.array(dtype=wp.vec2i)):
+        node = band[wp.tid()]  # a node of one layer near its edge (mpm_state.wall_band)
+        if clock[CLOCK_DT] <= wp.float64(0.0):
+            return
+        fold_node(G, D, node[0], node[1])
 
     return fold_ghosts
 

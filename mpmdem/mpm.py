@@ -51,6 +51,11 @@ ROW_P2G_DEVICES = ("cuda",)
 #: launch writing them after each grid update (``kernels.grid.make_mirrored_source``): one launch
 #: fewer per grid update in scenes with fixed or slip walls, the same bits.
 MIRROR_IN_G2P = True
+#: A grid update that clears nothing and re-maps nothing folds the wall images onto its own node
+#: first (``kernels.grid.make_grid_update``'s ``fold``), in place of the fold launch before it: the
+#: first grid update of MUSL, USF and USAVG steps (a step's last one clears the grid, so its ghost
+#: nodes' threads would race with the fold's reads). The same bits.
+FOLD_IN_GRID_UPDATE = True
 
 #: Extension point of the step: after the grid's force update and before G2P (USL only). The
 #: coupling's momentum exchange of Liu et al. runs there (``MPMSolver.extend``).
@@ -210,11 +215,15 @@ class MPMSolver(ClockedStage):
         self.mirror_in_g2p = (mirror_walls and MIRROR_IN_G2P and c.update in ("USL", "MUSL") and not s.xpic
                               and not (self.coupled and c.coupling == "liu"))
 
+        fold_flags = {}  # id(fold kernel) -> its flags (for the fusion below)
+        remapping = set()  # ids of the re-mapping grid updates (MUSL's second)
+
         def fold(**flags):
             if not mirror_walls:
                 return []
-            return [Launch(grid_kernels.make_fold_ghosts(prec, layered=layered, **flags), band_dim,
-                           [G, D, clock, self.wall_band])]
+            kernel = grid_kernels.make_fold_ghosts(prec, layered=layered, **flags)
+            fold_flags[id(kernel)] = flags
+            return [Launch(kernel, band_dim, [G, D, clock, self.wall_band])]
 
         def mirrored(*fields):
             if not mirror_walls or not fields or self.mirror_in_g2p:
@@ -246,13 +255,15 @@ class MPMSolver(ClockedStage):
                 remap=flags.get("remap", False))
 
         def grid(**flags):
-            def make(clear=False, zero_remap=False):
+            def make(clear=False, zero_remap=False, fold=()):
                 return grid_kernels.make_grid_update(prec, damping=c.damping > 0.0, layered=layered,
                                                      obstacles=bool(self.scene.obstacles), clear=clear,
-                                                     zero_remap=zero_remap, **flags)
+                                                     zero_remap=zero_remap, fold=fold, **flags)
 
             kernel = make()
             grid_kernel_makers[id(kernel)] = make
+            if flags.get("remap"):
+                remapping.add(id(kernel))
             if flags.get("remap"):
                 fields = [G.vm]
             elif flags.get("fused_impulse"):
@@ -336,6 +347,19 @@ class MPMSolver(ClockedStage):
                        if isinstance(item, Launch) and id(item.kernel) in grid_kernel_makers)
             item = seq[last]
             seq[last] = Launch(grid_kernel_makers[id(item.kernel)](clear=True), item.dim, item.inputs)
+        if FOLD_IN_GRID_UPDATE:
+            # a fold launch right before a grid update that clears and re-maps nothing: the update
+            # folds its own node first (the clearing update is not in grid_kernel_makers any more)
+            for k in range(len(seq) - 1):
+                a, b = seq[k], seq[k + 1]
+                flags = fold_flags.get(id(getattr(a, "kernel", None)))
+                make = grid_kernel_makers.get(id(getattr(b, "kernel", None)))
+                if flags is None or make is None or flags.get("remap") or id(b.kernel) in remapping:
+                    continue
+                fused = make(fold=(flags["mass"], flags["momentum"], flags["force"]))
+                seq[k] = None
+                seq[k + 1] = Launch(fused, b.dim, b.inputs)
+            seq = [item for item in seq if item is not None]
         if layered and check is not None:
             # the positions the next step starts from are final: whether it may keep the labels
             seq += [check]

@@ -1,12 +1,14 @@
-"""G2P reads the wall images itself (``mpm.MIRROR_IN_G2P``, ``kernels.grid.make_mirrored_source``).
+"""The wall images without launches of their own (``mpm.MIRROR_IN_G2P``, ``mpm.FOLD_IN_GRID_UPDATE``).
 
-Beyond a fixed or slip wall, wide stencils reach ghost nodes whose velocities are the interior
-mirror's, reflected (odd in every component at a fixed wall, in the normal one at a slip wall).
-A launch used to write them after each grid update; a small scene pays per launch, so G2P now
-reads the mirror's velocities where a stencil node is a ghost (in granular mode, the mirror's copy
-of the point's component). It must change nothing: the same values reach every point, so on the
-CPU the trajectory is the same bits as with the launch, in both the plain and the granular grid,
-USL and MUSL. Reference: the mirror launch, itself tested against the wall conditions in
+Beyond a fixed or slip wall, wide stencils reach ghost nodes. What points put there is folded
+onto the interior mirrors before the grid update, and after it the ghosts take the mirrors'
+velocities, reflected (odd in every component at a fixed wall, in the normal one at a slip wall).
+Each was a launch per grid update; a small scene pays per launch, so G2P now reads the mirror's
+velocities where a stencil node is a ghost (in granular mode, the mirror's copy of the point's
+component), and a grid update that clears and re-maps nothing folds its own node's images first.
+Neither may change anything: the same values reach every node and point, so on the CPU the
+trajectory is the same bits as with the launches, in both the plain and the granular grid, USL,
+MUSL, USF and USAVG. Reference: the launches, themselves tested against the wall conditions in
 tests/test_walls.py and tests/test_transfer.py.
 """
 
@@ -31,20 +33,34 @@ def pile_in_a_box(granular: bool, shape: str, transfer: str, update: str):
     return m.Simulation(scene, config, device="cpu")
 
 
-@pytest.mark.parametrize("variant", [
+VARIANTS = [
     (False, "bspline2", "APIC", "USL"),
     (False, "bspline3", "FLIP", "MUSL"),
     (False, "cpgimp", "PIC", "USL"),
+    (False, "bspline2", "APIC", "USF"),
+    (False, "bspline2", "FLIP", "USAVG"),
     (True, "bspline2", "PIC", "MUSL"),
     (True, "bspline2", "FLIP", "USL"),
-], ids=lambda v: ("granular-" if v[0] else "") + "-".join(v[1:]))
-def test_mirror_read_in_g2p_changes_nothing(monkeypatch, variant):
-    """Verify G2P reading the wall images gives the trajectory of the mirror launch, to the bit."""
+]
+
+
+@pytest.mark.parametrize("flag", ["MIRROR_IN_G2P", "FOLD_IN_GRID_UPDATE"])
+@pytest.mark.parametrize("variant", VARIANTS, ids=lambda v: ("granular-" if v[0] else "") + "-".join(v[1:]))
+def test_wall_images_without_their_launches_change_nothing(monkeypatch, variant, flag):
+    """Verify G2P reading the wall images, and grid updates folding them, give the trajectory of
+    the fold and mirror launches, to the bit."""
     runs = {}
     for fused in (False, True):
-        monkeypatch.setattr(mpm, "MIRROR_IN_G2P", fused)
+        monkeypatch.setattr(mpm, flag, fused)
         sim = pile_in_a_box(*variant)
-        assert sim.mpm.mirror_in_g2p == fused
+        launches = [getattr(item, "kernel", None) for item in sim.mpm._sequence]
+        names = [k.key for k in launches if k is not None]
+        if flag == "MIRROR_IN_G2P":
+            assert sim.mpm.mirror_in_g2p == (fused and variant[3] in ("USL", "MUSL"))
+        else:
+            folds = sum("fold_ghosts" in name for name in names)
+            # (a step's last grid update clears the grid: its fold stays a launch)
+            assert folds == {"USL": 1, "MUSL": 2 - fused, "USF": 2 - fused, "USAVG": 3 - 2 * fused}[variant[3]]
         sim.advance_to(0.02)  # (the block reaches the right wall at ~0.01 s and bounces off by ~0.03 s)
         runs[fused] = sim.fields(), sim.diagnostics()
     (plain, plain_diag), (fused, fused_diag) = runs[False], runs[True]
