@@ -426,6 +426,10 @@ def make_g2p(
             packed = point_layers(P, p)
         for k in range(wp.static(NC)):
             bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
+            at_wall = bool(False)  # (``mirror``: whether this stencil reaches past the walls' node lines)
+            if wp.static(mirror):
+                at_wall = (bx < D.node_lo[0] or by < D.node_lo[1] or bx + wp.static(K - 1) > D.node_hi[0]
+                           or by + wp.static(K - 1) > D.node_hi[1])
             for i in range(wp.static(K)):
                 for j in range(wp.static(K)):
                     w, grad, gi, gj, n = node(bx, by, wx, wy, dwx, dwy, g, k, i, j, D.inv_h)
@@ -441,8 +445,9 @@ def make_g2p(
                     sx = 1.0
                     sy = 1.0
                     if wp.static(mirror):
-                        src, sj, sx, sy = mirrored_source(G.owner, row, gi, gj, D.node_lo, D.node_hi, D.bc_kind,
-                                                          D.layer_rows, D.layers)
+                        if at_wall:
+                            src, sj, sx, sy = mirrored_source(G.owner, row, gi, gj, D.node_lo, D.node_hi,
+                                                              D.bc_kind, D.layer_rows, D.layers)
                     vt = read(G.vt, src, sj, sx, sy)
                     if wp.static(velocity or position):
                         v_pic = v_pic + w * vt  # G→P of Ṽ ("Motion integration" eq. 31)
