@@ -156,31 +156,32 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         return cx, cy
 
     # -- per-step kernels -----------------------------------------------------------------------
-    @functools.cache
-    def make_start_contacts(check: bool):
-        """The start of a contact stage in one launch over max(vertices, bodies) threads (a small
-        scene's step is paid per launch): world vertex k of the moving bodies (k < ``vertices``),
-        body k's contact force and torque of this step cleared (k < ``bodies``: fixed ones collect
-        the points' reactions as their load) and, with ``check``, a rebuild flagged when moving
-        body k (k < ``moving``) moved or turned more than half the skin since the last build."""
+    @kernel
+    def world_vertices(B: Bodies, local: wp.array(dtype=vec2), owner: wp.array(dtype=wp.int32),
+                       world: wp.array(dtype=vec2)):
+        k = wp.tid()
+        b = owner[k]
+        world[k] = B.x[b] + rotate(B.angle[b], local[k])
 
-        @kernel
-        def start_contacts(B: Bodies, prm: Params, local: wp.array(dtype=vec2), owner: wp.array(dtype=wp.int32),
-                           world: wp.array(dtype=vec2), flags: wp.array(dtype=wp.int32), vertices: int, bodies: int,
-                           moving: int):
-            k = wp.tid()
-            if k < vertices:
-                b = owner[k]
-                world[k] = B.x[b] + rotate(B.angle[b], local[k])
-            if k < bodies:
-                B.force[k] = vec2()
-                B.torque[k] = T(0.0)
-            if wp.static(check):
-                if k < moving:
-                    if needs_rebuild(B, k, B.x_ref, B.angle_ref, prm.skin):
-                        flags[0] = 1
+    @kernel
+    def check_displacement(B: Bodies, prm: Params, flags: wp.array(dtype=wp.int32), moving: int):
+        """Body i's contact force and torque of this step cleared (every body: fixed ones collect
+        the points' reactions as their load), and a rebuild flagged when a moving body (i < moving)
+        moved or turned more than half the skin since the last build. (One launch for both: a
+        small scene's step is paid per launch.)"""
+        i = wp.tid()
+        B.force[i] = vec2()
+        B.torque[i] = T(0.0)
+        if i < moving:
+            if needs_rebuild(B, i, B.x_ref, B.angle_ref, prm.skin):
+                flags[0] = 1
 
-        return start_contacts
+    @kernel
+    def clear_loads(B: Bodies):
+        """Body i's contact force [N/m] and torque [N m/m] of this step cleared."""
+        i = wp.tid()
+        B.force[i] = vec2()
+        B.torque[i] = T(0.0)
 
     @kernel
     def clear_cells(flags: wp.array(dtype=wp.int32), cell_count: wp.array(dtype=wp.int32)):
@@ -458,8 +459,8 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         wp.atomic_add(out, 6, m)
 
     return Namespace(
-        Bodies=Bodies, Contacts=Contacts, Params=Params, make_start_contacts=make_start_contacts,
-        clear_cells=clear_cells,
+        Bodies=Bodies, Contacts=Contacts, Params=Params, world_vertices=world_vertices,
+        check_displacement=check_displacement, clear_loads=clear_loads, clear_cells=clear_cells,
         finish_rebuild=finish_rebuild, reset_total=reset_total,
         contact_forces=contact_forces, make_contact_forces=functools.cache(make_contact_forces),
         # the pieces of the pair search, for the search split over candidate vertices (kernels/dem_split.py)

@@ -90,14 +90,6 @@ def spring_time_step_bound(law: ContactLaw, mass: float) -> float:
 #: Bodies from which the pair search is split over candidate vertices (``kernels.dem_split``) on
 #: the devices of SPLIT_SEARCH_DEVICES, outside deterministic mode (bench/README.md, "DEM with
 #: real steps"). The results are the same to the bit as the one-kernel search's.
-#: With at most this many bodies (one of them free), on the devices of STATIC_PAIR_DEVICES, every pair
-#: that can touch is listed once and for all (``static_pairs``): the step has no displacement check
-#: and no conditional rebuild, which a small scene pays per step (a skipped conditional node costs
-#: ~4.8 µs on an H100), and the contact kernel tests each pair's bounding circles, as it does a
-#: listed pair's. The pairs are owned and ordered as ``kernels.dem_lists.list_pairs`` would list them
-#: all, so the forces are the same bits; the CPU keeps the Verlet lists.
-STATIC_PAIR_BODIES = 8
-STATIC_PAIR_DEVICES = ("cuda",)
 SPLIT_SEARCH_BODIES = 65536
 SPLIT_SEARCH_DEVICES = ("cuda",)
 #: Listed pairs per body with records of the split search, and candidate vertices per body: a pair
@@ -285,12 +277,6 @@ class DEMSolver(ClockedStage):
         C.total = wp.zeros(1, dtype=wp.int32, device=dev)
         self.C = C
         self.split = self._split_search(n, int(np.max(counts)) if n else 0)
-        device = "cuda" if dev.is_cuda else "cpu"
-        #: every pair that can touch is listed for the whole run (STATIC_PAIR_BODIES)
-        self.static_pairs = bool(self.free and n <= STATIC_PAIR_BODIES and device in STATIC_PAIR_DEVICES
-                                 and self.split is None and n - 1 <= K)
-        if self.static_pairs:
-            self._list_every_pair()
 
         law = self.scene.contact
         (x0, y0), (x1, y1) = self.scene.domain
@@ -317,33 +303,10 @@ class DEMSolver(ClockedStage):
         ncell = self.cells[0] * self.cells[1]
         self.cell_count = wp.zeros(ncell, dtype=wp.int32, device=dev)
         self.cell_items = wp.zeros(ncell * self.cell_cap, dtype=wp.int32, device=dev)
-        # build the lists in the first step (static pairs: never)
-        self.flags = wp.full(1, 0 if self.static_pairs else 1, dtype=wp.int32, device=dev)
+        self.flags = wp.ones(1, dtype=wp.int32, device=dev)  # build the lists in the first step
         self.rebuilds = wp.zeros(1, dtype=wp.int64, device=dev)
         self.status = wp.zeros(dem_kernels.STATUS_SIZE, dtype=wp.int32, device=dev)
         self.diag = wp.zeros(len(dem_kernels.DIAG_NAMES), dtype=wp.float64, device=dev)
-
-    def _list_every_pair(self) -> None:
-        """Body i's slots hold every partner it would own in ``kernels.dem_lists.list_pairs``
-        (a small body owns its pairs with larger-index small bodies and with every large one, a
-        large body those with larger-index large ones; one of the two free), sorted by partner;
-        the slots packed in order, as that kernel packs them on the CPU."""
-        n, K = self.body_count, self.slots
-        free = self.motion == dem_kernels.FREE
-        large = self.is_large
-        nbr = np.full(n * K, -1, np.int32)
-        count = np.zeros(n, np.int32)
-        pairs = []
-        for i in range(n):
-            owned = [j for j in range(n) if j != i and (free[i] or free[j])
-                     and ((not large[i] and (j > i or large[j])) or (large[i] and large[j] and j > i))]
-            nbr[i * K:i * K + len(owned)] = owned
-            count[i] = len(owned)
-            pairs += [i * K + s for s in range(len(owned))]
-        self.C.nbr.assign(nbr)
-        self.C.count.assign(count)
-        self.C.pairs.assign(np.array(pairs + [0] * (n * K - len(pairs)), np.int32))
-        self.C.total.assign(np.array([len(pairs)], np.int32))
 
     @property
     def _scalar(self):
@@ -409,23 +372,23 @@ class DEMSolver(ClockedStage):
         cleared and, with free bodies, whether the lists must be rebuilt (a device flag). Without
         free bodies, ``clear_loads`` False leaves the clearing to the caller's launch (the
         coupling's ``check_lists``)."""
-        k, B, dev = self.k, self.B, self.device
-        # the lists are checked where a free body is (a pair needs one) and some pair is not listed for good
-        check = bool(self.free) and not self.static_pairs
-        # no free body: no body–body contact (a silo's walls, a fixed floor under points), the lists
-        # stay empty; only the coupling's reactions accumulate on the bodies
-        bodies = self.body_count if (self.free or clear_loads) else 0
-        threads = max(self.moving_vertices, bodies, self.moving if check else 0)
-        if threads:
-            wp.launch(k.make_start_contacts(check), threads,
-                      inputs=[B, self.params, self.local, self.owner, self.world, self.flags, self.moving_vertices,
-                              bodies, self.moving], device=dev)
+        k, B, params, dev = self.k, self.B, self.params, self.device
+        if self.moving_vertices:
+            wp.launch(k.world_vertices, self.moving_vertices, inputs=[B, self.local, self.owner, self.world],
+                      device=dev)
+        if not self.free:
+            # no free body, so no body–body contact (a silo's walls, a fixed floor under points): the
+            # lists would stay empty; only the coupling's reactions accumulate on the bodies
+            if clear_loads:
+                wp.launch(k.clear_loads, self.body_count, inputs=[B], device=dev)
+            return
+        # (this step's loads cleared in the same launch)
+        wp.launch(k.check_displacement, self.body_count, inputs=[B, params, self.flags, self.moving], device=dev)
 
     @property
     def contact_rebuild(self) -> list:
-        """The plan of the list rebuild (``rebuild_plan``; nothing without a free body, or with every
-        pair listed once and for all)."""
-        return self.rebuild_plan if self.free and not self.static_pairs else []
+        """The plan of the list rebuild (``rebuild_plan``; nothing without a free body)."""
+        return self.rebuild_plan if self.free else []
 
     def _split_search(self, n: int, max_vertices: int):
         """The kernels and records of the split pair search (``kernels.dem_split``) where this scene
