@@ -338,15 +338,18 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         return F, pc, arm, slip, e_contact, lost_contact
 
     @functools.cache
-    def make_forces(sifted: bool, boxed: bool = False):
+    def make_forces(sifted: bool, static_bodies: int = 0):
         """The force kernel over the listed points, or (``sifted``) over those ``sift`` kept.
 
-        boxed: every point lists every body (``mpmdem.coupling.STATIC_IMP_BODIES``), so a body is
-        searched only where the point is within reach of its core's bounding box, as well as of
-        its bounding circle: a long wall's circle covers most of a scene, its box a strip. The box
-        is never farther than any feature a touch is found at (a touch is within reach of an edge
-        or a vertex, or inside the core), so this test changes no force; it is taken with the
+        static_bodies > 0: every point lists these bodies, slot s holding body s, for the whole run
+        (``mpmdem.coupling.STATIC_IMP_BODIES``). The bodies' bounding circles are tested first, all
+        at once (an unrolled loop: their loads leave together, where the listed loop would wait on
+        each body's in turn), and a body is searched only where the point is also within reach of
+        its core's bounding box: a long wall's circle covers most of a scene, its box a strip. The
+        box is never farther than any feature a touch is found at (a touch is within reach of an
+        edge or a vertex, or inside the core), so this test changes no force; it is taken with the
         same round-off margin as the DEM's (``kernels.dem_lists``)."""
+        boxed = static_bodies > 0
 
         @kernel(deterministic=deterministic)
         def forces(P: Particles, B: Bodies, L: Links, prm: Params, world: wp.array(dtype=vec2),
@@ -390,14 +393,25 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
             app = vec2()
             app_w = T(0.0)
             touching = int(0)
+            near_mask = int(0)  # (static bodies: bit s, whether the point is in body s's bounding circle)
+            if wp.static(boxed):
+                for s in range(wp.static(static_bodies)):
+                    if wp.length(X - B.x[s]) < B.core_radius[s] + (B.radius[s] + rp):
+                        near_mask = near_mask | (1 << s)
             for s in range(n):
-                b = L.body[base + s]
                 keys = veci(-1, -1)
                 slips = vec2h()
                 n_hist = int(0)
-                xb = B.x[b]
-                reach = B.radius[b] + rp
-                near = wp.length(X - xb) < B.core_radius[b] + reach
+                b = s
+                near = bool(False)
+                reach = T(0.0)
+                if wp.static(boxed):
+                    reach = B.radius[b] + rp
+                    near = ((near_mask >> s) & 1) != 0
+                else:
+                    b = L.body[base + s]
+                    reach = B.radius[b] + rp
+                    near = wp.length(X - B.x[b]) < B.core_radius[b] + reach
                 start = int(0)
                 count = int(0)
                 if near:

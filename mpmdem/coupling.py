@@ -156,7 +156,7 @@ class CoupledStage(ClockedStage):
         self.sifted = not cfg.deterministic and n >= SIFTED_IMP_POINTS
         L.near = wp.zeros(n if self.sifted else 1, dtype=wp.int32, device=dev)
         L.near_count = wp.zeros(1, dtype=wp.int32, device=dev)
-        self.forces_kernel = k.make_forces(self.sifted, self.static_lists)
+        self.forces_kernel = k.make_forces(self.sifted, nb if self.static_lists else 0)
         self.L = L
 
         mats = scene.materials()
