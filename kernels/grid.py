@@ -7,7 +7,7 @@ import warp as wp
 from .clock import CLOCK_DT, CLOCK_T
 from .granular import COPY_RUN, make_layer_row
 from .state import make_state_structs
-from .types import kernel, scalar_types
+from .types import Namespace, kernel, scalar_types
 
 __all__ = [
     "BC_FIXED",
@@ -158,7 +158,7 @@ def make_boundary(precision: str, bilateral_only: bool = False):
 @functools.cache
 def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impulse: bool = False,
                      remap: bool = False, damping: bool = False, layered: bool = False, obstacles: bool = False,
-                     clear: bool = False, zero_remap: bool = False, fold: tuple = ()):
+                     clear: bool = False, zero_remap: bool = False, fold: tuple = (), images: bool = False):
     """Nodal velocity V = p/m, and/or Ṽ = V + dt (f/m + g), both with the wall conditions.
 
     fused_impulse: the momentum already holds p + dt f (USL + PIC), so Ṽ = p/m + dt g.
@@ -174,20 +174,28 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     obstacles: nodes marked in ``Grid.solid`` (inside a ``Scene.add_obstacle`` shape) are fixed
     (1) or slip along the obstacle's surface (2: no velocity along ``Grid.solid_normal``).
     The reaction impulses on walls and obstacles go to the IMPULSE_BASE slots of ``work``.
-    fold: (mass, momentum, force) of ``make_fold_node``: each thread first folds the ghost images
+    fold: (mass, momentum, force, remap) of ``make_fold_node``: each thread first folds the ghost images
     of its node onto it, in place of a ``fold_ghosts`` launch before (the same sums, in the same
     order). Only where this update writes none of the fields the fold reads at the ghosts (not a
-    clearing update, not a re-mapped one): the ghosts' own threads may run first.
+    clearing update, not a re-mapped one), unless ``images``: the ghosts' own threads may run first.
+    images (with fold): the ghosts beyond fixed and slip walls are not updated, since nothing
+    reads what the update would put there (G2P reads the wall images from the interior,
+    ``transfer.make_g2p``'s ``mirror``, and such walls do no work); in a clearing update their
+    copies are cleared by the node that folds them, or by their own thread where none does.
     """
     t = scalar_types(precision)
     T = t.scalar
     Particles, Grid, Domain = make_state_structs(precision)
     if fold:
-        if clear or remap:
+        if (clear or remap) and not images:
             raise ValueError("make_grid_update: fold with clear or remap would race with the ghosts' own threads")
-        fold_mass, fold_momentum, fold_force = fold
-        fold_node = make_fold_node(precision, mass=fold_mass, momentum=fold_momentum, force=fold_force,
-                                   layered=layered)
+        fold_mass, fold_momentum, fold_force, fold_remap = fold
+        folding = make_fold_node(precision, mass=fold_mass, momentum=fold_momentum, force=fold_force,
+                                 remap=fold_remap, layered=layered, clear_images=images and clear,
+                                 clear_force=not fused_impulse)
+        fold_node, leave_ghost = folding.fold_node, folding.leave_ghost
+    elif images:
+        raise ValueError("make_grid_update: images needs fold (the ghosts' values reach the interior by it)")
     boundary = make_boundary(precision)
     dirichlet = make_boundary(precision, bilateral_only=True)
 
@@ -308,6 +316,9 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         i, j = wp.tid()
         if clock[CLOCK_DT] <= wp.float64(0.0):
             return
+        if wp.static(images):
+            if leave_ghost(G, D, i, j):
+                return  # (a ghost beyond a fixed or slip wall: nothing reads its update, ``images``)
         if wp.static(bool(fold)):
             fold_node(G, D, i, j)  # (the wall images onto this node first, ``fold``)
         if wp.static(layered):
@@ -491,7 +502,7 @@ def _image(i: int, lo: int, hi: int, kind_lo: int, kind_hi: int, n: int):
 
 @functools.cache
 def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, remap: bool = False,
-                   xpic: bool = False, layered: bool = False):
+                   xpic: bool = False, layered: bool = False, clear_images: bool = False, clear_force: bool = True):
     """``fold_node(G, D, i, j)``: fold what points put on the ghost images of node (i, j) back onto
     it (all its copies in use, granular mode); nothing at a node no ghost mirrors. The body of
     ``make_fold_ghosts``, and of a grid update that folds its own node first (``make_grid_update``'s
@@ -500,6 +511,9 @@ def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, r
     In a domain narrower than the stencil, ghosts farther out than the opposite wall have no
     interior mirror and are not folded. layered (granular mode): each copy in use of an interior
     node gathers from the ghost copies of its own component (``G.owner``).
+    clear_images (a clearing grid update that leaves the ghosts alone, ``make_grid_update``'s
+    ``images``): the ghost copies read are cleared here after the read (mass, momentum and, with
+    clear_force, force: what the update would clear there), each by the one node that folds it.
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -570,6 +584,20 @@ def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, r
             fold_vec(G.force, r, j, rx, ry, gj, rxy, kx, ky)
         if wp.static(xpic):
             fold_vec(G.pk, r, j, rx, ry, gj, rxy, kx, ky)
+        if wp.static(clear_images):
+            if rx >= 0:
+                clear_copy(G, rx, j)
+            if ry >= 0:
+                clear_copy(G, ry, gj)
+            if rxy >= 0:
+                clear_copy(G, rxy, gj)
+
+    @wp.func
+    def clear_copy(G: Grid, r: int, j: int):
+        G.mass[r, j] = T(0.0)
+        G.mom[r, j] = t.vec2()
+        if wp.static(clear_force):
+            G.force[r, j] = t.vec2()
 
     @wp.func
     def fold_node(G: Grid, D: Domain, i: int, j: int):
@@ -592,7 +620,68 @@ def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, r
         else:
             fold_copy(G, D, i, i, j, gi, gj, kx, ky)
 
-    return fold_node
+    @wp.func
+    def folded_by(G: Grid, D: Domain, i: int, j: int, r: int):
+        """Whether copy r of ghost node (i, j) is read by a fold: the interior node that mirrors it
+        has (i, j) as its image on each axis it lies out on, and (granular) a copy of the same
+        component."""
+        lo = D.node_lo
+        hi = D.node_hi
+        ii = i
+        jj = j
+        if i < lo[0]:
+            ii = 2 * lo[0] - i
+        elif i > hi[0]:
+            ii = 2 * hi[0] - i
+        if j < lo[1]:
+            jj = 2 * lo[1] - j
+        elif j > hi[1]:
+            jj = 2 * hi[1] - j
+        if ii < lo[0] or ii > hi[0] or jj < lo[1] or jj > hi[1]:
+            return False
+        if ii != i:
+            gi, wx = _image(ii, lo[0], hi[0], D.bc_kind[0], D.bc_kind[1], D.layer_rows)
+            if gi != i:
+                return False
+        if jj != j:
+            gj, wy = _image(jj, lo[1], hi[1], D.bc_kind[2], D.bc_kind[3], G.mass.shape[1])
+            if gj != j:
+                return False
+        if wp.static(layered):
+            return find_row(G.owner, ii, jj, G.owner[r, j], D.layer_rows, D.layers) >= 0
+        return True
+
+    @wp.func
+    def leave_ghost(G: Grid, D: Domain, i: int, j: int):
+        """Whether node (i, j) is a ghost left out of the update (``make_grid_update``'s ``images``):
+        out of the interior only beyond fixed or slip walls. Its copies that no fold reads are
+        cleared here; the others by the node that folds them (``clear_images``)."""
+        lo = D.node_lo
+        hi = D.node_hi
+        out_x = i < lo[0] or i > hi[0]
+        out_y = j < lo[1] or j > hi[1]
+        if not (out_x or out_y):
+            return False
+        if out_x:
+            if (i < lo[0] and D.bc_kind[0] == BC_FREE) or (i > hi[0] and D.bc_kind[1] == BC_FREE):
+                return False  # (beyond a free side: a node like any other)
+        if out_y:
+            if (j < lo[1] and D.bc_kind[2] == BC_FREE) or (j > hi[1] and D.bc_kind[3] == BC_FREE):
+                return False
+        if wp.static(clear_images):
+            if wp.static(layered):
+                for s in range(D.layers):
+                    r = s * D.layer_rows + i
+                    if G.owner[r, j] < 0:
+                        break
+                    if not folded_by(G, D, i, j, r):
+                        clear_copy(G, r, j)
+            else:
+                if not folded_by(G, D, i, j, i):
+                    clear_copy(G, i, j)
+        return True
+
+    return Namespace(fold_node=fold_node, leave_ghost=leave_ghost)
 
 
 @functools.cache
@@ -611,7 +700,7 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
     """
     Particles, Grid, Domain = make_state_structs(precision)
     fold_node = make_fold_node(precision, mass=mass, momentum=momentum, force=force, remap=remap, xpic=xpic,
-                               layered=layered)
+                               layered=layered).fold_node
 
     @kernel
     def fold_ghosts(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), band: wp.array(dtype=wp.vec2i)):

@@ -51,10 +51,11 @@ ROW_P2G_DEVICES = ("cuda",)
 #: launch writing them after each grid update (``kernels.grid.make_mirrored_source``): one launch
 #: fewer per grid update in scenes with fixed or slip walls, the same bits.
 MIRROR_IN_G2P = True
-#: A grid update that clears nothing and re-maps nothing folds the wall images onto its own node
-#: first (``kernels.grid.make_grid_update``'s ``fold``), in place of the fold launch before it: the
-#: first grid update of MUSL, USF and USAVG steps (a step's last one clears the grid, so its ghost
-#: nodes' threads would race with the fold's reads). The same bits.
+#: A grid update folds the wall images onto its own node first (``kernels.grid.make_grid_update``'s
+#: ``fold``), in place of the fold launch before it: the first grid update of MUSL, USF and USAVG
+#: steps, and the step's last (clearing) one where G2P reads the wall images and every wall is
+#: fixed, slip or free (its ghosts then are not updated, so their threads cannot race with the
+#: fold's reads). The same bits.
 FOLD_IN_GRID_UPDATE = True
 
 #: Extension point of the step: after the grid's force update and before G2P (USL only). The
@@ -255,10 +256,10 @@ class MPMSolver(ClockedStage):
                 remap=flags.get("remap", False))
 
         def grid(**flags):
-            def make(clear=False, zero_remap=False, fold=()):
+            def make(clear=False, zero_remap=False, fold=(), images=False):
                 return grid_kernels.make_grid_update(prec, damping=c.damping > 0.0, layered=layered,
                                                      obstacles=bool(self.scene.obstacles), clear=clear,
-                                                     zero_remap=zero_remap, fold=fold, **flags)
+                                                     zero_remap=zero_remap, fold=fold, images=images, **flags)
 
             kernel = make()
             grid_kernel_makers[id(kernel)] = make
@@ -342,21 +343,35 @@ class MPMSolver(ClockedStage):
         # memset of the grid starts the next step; not where something after it reads the nodal
         # mass (XPIC's updates, Liu et al.'s exchange): there the grid is cleared at the start
         self.clears_grid = layered or not (s.xpic or (self.coupled and c.coupling == "liu"))
+        clearing = {}  # id(the clearing grid update) -> its maker
         if self.clears_grid:
             last = max(k for k, item in enumerate(seq)
                        if isinstance(item, Launch) and id(item.kernel) in grid_kernel_makers)
             item = seq[last]
-            seq[last] = Launch(grid_kernel_makers[id(item.kernel)](clear=True), item.dim, item.inputs)
+            make = grid_kernel_makers[id(item.kernel)]
+            seq[last] = Launch(make(clear=True), item.dim, item.inputs)
+            clearing[id(seq[last].kernel)] = make
+        # the ghosts beyond the walls need no update where G2P reads the wall images and the walls
+        # do no work (fixed and slip; no obstacle node among them): then the clearing update folds
+        # too, each node clearing the ghost copies it read (``kernels.grid.make_grid_update``'s images)
+        kinds = {b.kind for b in self.scene.boundaries.values()}
+        images = self.mirror_in_g2p and kinds <= {"fixed", "slip", "free"} and not self._obstacle_ghosts()
         if FOLD_IN_GRID_UPDATE:
-            # a fold launch right before a grid update that clears and re-maps nothing: the update
-            # folds its own node first (the clearing update is not in grid_kernel_makers any more)
+            # a fold launch right before a grid update that clears and re-maps nothing (or, with
+            # images, the clearing one): the update folds its own node first
             for k in range(len(seq) - 1):
                 a, b = seq[k], seq[k + 1]
                 flags = fold_flags.get(id(getattr(a, "kernel", None)))
-                make = grid_kernel_makers.get(id(getattr(b, "kernel", None)))
-                if flags is None or make is None or flags.get("remap") or id(b.kernel) in remapping:
+                if flags is None or flags.get("xpic"):
                     continue
-                fused = make(fold=(flags["mass"], flags["momentum"], flags["force"]))
+                fold = (flags["mass"], flags["momentum"], flags["force"], flags.get("remap", False))
+                make = grid_kernel_makers.get(id(getattr(b, "kernel", None)))
+                if make is not None and not fold[3] and id(b.kernel) not in remapping:
+                    fused = make(fold=fold)
+                elif images and id(getattr(b, "kernel", None)) in clearing:
+                    fused = clearing[id(b.kernel)](clear=True, fold=fold, images=True)
+                else:
+                    continue
                 seq[k] = None
                 seq[k + 1] = Launch(fused, b.dim, b.inputs)
             seq = [item for item in seq if item is not None]
@@ -369,6 +384,17 @@ class MPMSolver(ClockedStage):
         # speeds of the initial state, for the first step's dt (later steps: inside G2P)
         wp.launch(reduction_kernels.make_wave_speed(prec), n, inputs=[points, D, mats, self.max_speed, self.status],
                   device=self.device)
+
+    def _obstacle_ghosts(self) -> bool:
+        """Whether an obstacle marks a ghost node (beyond the domain's edge): there a grid update
+        reads the obstacle's load, so the ghosts must be updated."""
+        if not self.scene.obstacles:
+            return False
+        solid = self.G.solid.numpy()
+        lo, hi = self.D.node_lo, self.D.node_hi
+        inner = np.zeros(solid.shape, bool)
+        inner[lo[0]:hi[0] + 1, lo[1]:hi[1] + 1] = True
+        return bool(np.any(solid[~inner] != 0))
 
     def p2g_tile(self) -> tuple:
         """(B, TX, TY) of the shared-memory P2G (``kernels.transfer.make_p2g``'s ``tile``), or ()
