@@ -351,11 +351,13 @@ class MPMSolver(ClockedStage):
             make = grid_kernel_makers[id(item.kernel)]
             seq[last] = Launch(make(clear=True), item.dim, item.inputs)
             clearing[id(seq[last].kernel)] = make
-        # the ghosts beyond the walls need no update where G2P reads the wall images and the walls
-        # do no work (fixed and slip; no obstacle node among them): then the clearing update folds
-        # too, each node clearing the ghost copies it read (``kernels.grid.make_grid_update``'s images)
+        # the ghosts beyond the walls need no update where G2P reads the wall images and nothing
+        # there does work (fixed and slip walls, no damping, no obstacle node among them): then the
+        # clearing update folds too, each node clearing the ghost copies it read
+        # (``kernels.grid.make_grid_update``'s images)
         kinds = {b.kind for b in self.scene.boundaries.values()}
-        images = self.mirror_in_g2p and kinds <= {"fixed", "slip", "free"} and not self._obstacle_ghosts()
+        images = (self.mirror_in_g2p and kinds <= {"fixed", "slip", "free"} and c.damping == 0.0
+                  and not self._obstacle_ghosts())
         if FOLD_IN_GRID_UPDATE:
             # a fold launch right before a grid update that clears and re-maps nothing (or, with
             # images, the clearing one): the update folds its own node first

@@ -19,7 +19,7 @@ import mpmdem as m
 from mpmdem import mpm
 
 
-def pile_in_a_box(granular: bool, shape: str, transfer: str, update: str):
+def pile_in_a_box(granular: bool, shape: str, transfer: str, update: str, damping: float = 0.0):
     """A block thrown into the lower right corner of a box (slip floor, fixed right side) under gravity:
     points reach the ghost nodes of two walls and of the corner."""
     scene = m.Scene(domain=((0.0, 0.0), (0.3, 0.3)), cell_size=0.01, gravity=(0.0, -9.81),
@@ -29,7 +29,8 @@ def pile_in_a_box(granular: bool, shape: str, transfer: str, update: str):
     else:
         mat = m.NeoHookean(youngs_modulus=2.0e5, poisson_ratio=0.3, density=1000.0)
     scene.add_mpm_body(m.rectangle(0.16, 0.0, 0.26, 0.1), mat, points_per_cell=2, velocity=(2.0, -1.0))
-    config = m.SolverConfig(granular=granular, shape=shape, transfer=transfer, update=update, precision="f64")
+    config = m.SolverConfig(granular=granular, shape=shape, transfer=transfer, update=update, precision="f64",
+                            damping=damping)
     return m.Simulation(scene, config, device="cpu")
 
 
@@ -106,4 +107,22 @@ def test_channel_one_cell_wide_folds_to_the_same_bits_and_a_clear_grid(monkeypat
     (plain, plain_diag), (fused, fused_diag) = runs[False], runs[True]
     for name in ("x", "v"):
         np.testing.assert_array_equal(fused[name], plain[name], err_msg=name)
+    assert fused_diag == plain_diag
+
+
+def test_damped_grid_keeps_its_ghost_updates(monkeypatch):
+    """Verify a damped scene (Cundall's damping does work at the ghost nodes too, in the energy
+    balance) keeps the clearing update's fold launch, and so its ghosts' updates: the same bits,
+    diagnostics included."""
+    runs = {}
+    for fused in (False, True):
+        monkeypatch.setattr(mpm, "FOLD_IN_GRID_UPDATE", fused)
+        sim = pile_in_a_box(False, "bspline2", "PIC", "USL", damping=0.2)
+        names = [getattr(item, "kernel", None) for item in sim.mpm._sequence]
+        assert sum(k is not None and "fold_ghosts" in k.key for k in names) == 1
+        sim.advance_to(0.02)
+        runs[fused] = sim.fields(), sim.diagnostics()
+    (plain, plain_diag), (fused, fused_diag) = runs[False], runs[True]
+    assert plain_diag["work_damping"] < 0.0
+    np.testing.assert_array_equal(fused["x"], plain["x"])
     assert fused_diag == plain_diag
