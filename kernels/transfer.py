@@ -12,12 +12,13 @@ import warp as wp
 from .clock import CLOCK_DT, CLOCK_T
 from .constitutive import make_derived_state, make_point_update
 from .granular import NO_LAYER, STATUS_LAYER_OVERFLOW, make_layer_row, slot_words
-from .grid import WORK_INFLOW, WORK_PLASTIC, make_keep_inside_walls, make_mirrored_source, work_slot
+from .grid import WORK_INFLOW, WORK_PLASTIC, make_keep_inside_walls, work_slot
 from .reductions import make_speed_check
 from .shape_functions import CORNERS, SUPPORT_NODES, make_stencil
 from .state import make_state_structs
 from .stencil_loop import make_stencil_loop
 from .types import kernel, scalar_types
+from .wall_images import make_mirrored_source
 
 __all__ = ["CORNERS", "make_g2p", "make_p2g", "make_stencil", "make_xpic_gather", "make_xpic_scatter"]
 
@@ -332,8 +333,8 @@ def make_g2p(
     position (eq. 41) updates; when velocity and position are split (MUSL) the displacement is
     kept in ``Particles.tmp`` between the two kernels.
     mirror: the wall images are read here: a stencil node beyond a fixed or slip wall gives the
-    velocities of its interior mirror, reflected (``grid.mirrored_source``), the values
-    ``grid.make_mirror_ghosts`` would have written there, so that launch is left out of the step.
+    velocities of its interior mirror, reflected (``wall_images.make_mirrored_source``), the values
+    ``wall_images.make_mirror_ghosts`` would have written there, so that launch is left out of the step.
     Only where nothing else reads the ghost nodes' velocities between the grid update and G2P.
     """
     t = scalar_types(precision)

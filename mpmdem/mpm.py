@@ -28,6 +28,7 @@ from .kernels import granular as granular_kernels
 from .kernels import grid as grid_kernels
 from .kernels import reductions as reduction_kernels
 from .kernels import transfer as transfer_kernels
+from .kernels import wall_images as wall_image_kernels
 from .kernels.shape_functions import SUPPORT_NODES
 from .kernels.types import scalar_types
 from .launch_plan import ExtensionPoint, Launch, Zero, plan_kernels, run_plan
@@ -48,7 +49,7 @@ TILED_P2G_BLOCK = 64
 ROW_P2G_POINTS = 16384
 ROW_P2G_DEVICES = ("cuda",)
 #: G2P reads the wall images (velocities of a ghost node's interior mirror, reflected) instead of a
-#: launch writing them after each grid update (``kernels.grid.make_mirrored_source``): one launch
+#: launch writing them after each grid update (``kernels.wall_images.make_mirrored_source``): one launch
 #: fewer per grid update in scenes with fixed or slip walls, the same bits.
 MIRROR_IN_G2P = True
 #: A grid update folds the wall images onto its own node first (``kernels.grid.make_grid_update``'s
@@ -201,16 +202,16 @@ class MPMSolver(ClockedStage):
         # grid kernels run over the nodes of one layer (in granular mode they loop over the copies)
         grid_dim = (self.D.layer_rows, self.grid_shape[1])
         points, G, D, clock, mats, work = self.points, self.G, self.D, self.clock, self.materials, self.work
-        # image points at walls (kernels/grid.py: fold_ghosts, mirror_ghosts)
+        # image points at walls (kernels/wall_images.py: fold_ghosts, mirror_ghosts)
         mirror_walls = any(b.kind != "free" for b in self.scene.boundaries.values())
         layered = c.granular
         grid_kernel_makers = {}
-        mirror = grid_kernels.make_mirror_ghosts(prec, layered=layered)
+        mirror = wall_image_kernels.make_mirror_ghosts(prec, layered=layered)
         # the wall images touch only the nodes near the grid's edge: their kernels run over those
         band = wall_band(self.D.layer_rows, self.grid_shape[1]) if mirror_walls else np.zeros((1, 2), np.int32)
         self.wall_band = wp.array(band, dtype=wp.vec2i, device=self.device)
         band_dim = len(band)
-        mirror_pair = grid_kernels.make_mirror_ghosts(prec, layered=layered, pair=True)
+        mirror_pair = wall_image_kernels.make_mirror_ghosts(prec, layered=layered, pair=True)
         #: G2P reads the wall images itself (``transfer.make_g2p``'s ``mirror``): USL and MUSL,
         #: where only G2P reads the mirrored velocities, not XPIC's passes or Liu's exchange
         self.mirror_in_g2p = (mirror_walls and MIRROR_IN_G2P and c.update in ("USL", "MUSL") and not s.xpic
@@ -222,7 +223,7 @@ class MPMSolver(ClockedStage):
         def fold(**flags):
             if not mirror_walls:
                 return []
-            kernel = grid_kernels.make_fold_ghosts(prec, layered=layered, **flags)
+            kernel = wall_image_kernels.make_fold_ghosts(prec, layered=layered, **flags)
             fold_flags[id(kernel)] = flags
             return [Launch(kernel, band_dim, [G, D, clock, self.wall_band])]
 

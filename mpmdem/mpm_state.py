@@ -137,7 +137,7 @@ def make_domain(scene: Scene, config: SolverConfig, layers: int, min_mass: float
 def wall_band(rows: int, cols: int, ghosts: int = GHOST_NODES) -> np.ndarray:
     """(K, 2) int32: the nodes (i, j) of a layer of ``rows`` × ``cols`` nodes within 2 ``ghosts``
     nodes of its edge, each once: the ghost nodes and the interior nodes they mirror, the only
-    nodes the wall images (kernels/grid.py: fold_ghosts, mirror_ghosts) touch. Those kernels run
+    nodes the wall images (kernels/wall_images.py: fold_ghosts, mirror_ghosts) touch. Those kernels run
     over this band instead of the whole grid (at 1M points on an H100 they cost 23 µs a step over
     the grid, mostly threads that return at once)."""
     i, j = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
