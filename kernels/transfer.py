@@ -368,12 +368,12 @@ def make_g2p(
     @wp.func
     def read(field: wp.array2d(dtype=t.vec2), row: int, gj: int, sx: float, sy: float):
         # a nodal velocity, reflected where it is a wall image's (``mirror``; row −1: none, zero)
-        v = t.vec2()
-        if row >= 0:
-            v = field[row, gj]
         if wp.static(mirror):
-            v = t.vec2(T(sx) * v[0], T(sy) * v[1])
-        return v
+            v = t.vec2()
+            if row >= 0:
+                v = field[row, gj]
+            return t.vec2(T(sx) * v[0], T(sy) * v[1])
+        return field[row, gj]
 
     @wp.func
     def stress_velocity(G: Grid, row: int, gj: int, sx: float, sy: float):

@@ -58,6 +58,12 @@ MIRROR_IN_G2P = True
 #: fixed, slip or free (its ghosts then are not updated, so their threads cannot race with the
 #: fold's reads). The same bits.
 FOLD_IN_GRID_UPDATE = True
+#: Both only in scenes of fewer points than this: they trade a launch for work in kernels that run
+#: over every point or node, which pays in small scenes, paid per launch, and costs in large ones,
+#: paid in bandwidth (1M points, slip walls, H100: G2P 45 -> 132 us, the grid update 10 -> 18 us;
+#: bench/README.md, "Small scenes without list checks or wall-image launches"). Not tuned between
+#: the 19152 points of silo-discharge and 1M.
+IMAGES_IN_KERNELS_POINTS = 65536
 
 #: Extension point of the step: after the grid's force update and before G2P (USL only). The
 #: coupling's momentum exchange of Liu et al. runs there (``MPMSolver.extend``).
@@ -215,7 +221,7 @@ class MPMSolver(ClockedStage):
         #: G2P reads the wall images itself (``transfer.make_g2p``'s ``mirror``): USL and MUSL,
         #: where only G2P reads the mirrored velocities, not XPIC's passes or Liu's exchange
         self.mirror_in_g2p = (mirror_walls and MIRROR_IN_G2P and c.update in ("USL", "MUSL") and not s.xpic
-                              and not (self.coupled and c.coupling == "liu"))
+                              and not (self.coupled and c.coupling == "liu") and n < IMAGES_IN_KERNELS_POINTS)
 
         fold_flags = {}  # id(fold kernel) -> its flags (for the fusion below)
         remapping = set()  # ids of the re-mapping grid updates (MUSL's second)
@@ -359,7 +365,7 @@ class MPMSolver(ClockedStage):
         kinds = {b.kind for b in self.scene.boundaries.values()}
         images = (self.mirror_in_g2p and kinds <= {"fixed", "slip", "free"} and c.damping == 0.0
                   and not self._obstacle_ghosts())
-        if FOLD_IN_GRID_UPDATE:
+        if FOLD_IN_GRID_UPDATE and n < IMAGES_IN_KERNELS_POINTS:
             # a fold launch right before a grid update that clears and re-maps nothing (or, with
             # images, the clearing one): the update folds its own node first
             for k in range(len(seq) - 1):

@@ -126,3 +126,15 @@ def test_damped_grid_keeps_its_ghost_updates(monkeypatch):
     assert plain_diag["work_damping"] < 0.0
     np.testing.assert_array_equal(fused["x"], plain["x"])
     assert fused_diag == plain_diag
+
+
+def test_large_scenes_keep_the_wall_image_launches(monkeypatch):
+    """Verify a scene of IMAGES_IN_KERNELS_POINTS points or more keeps the fold and mirror launches
+    (in a large scene the work they add to G2P and the grid update costs more than the launches)."""
+    sim = pile_in_a_box(False, "bspline2", "APIC", "MUSL")
+    assert sim.mpm.mirror_in_g2p
+    monkeypatch.setattr(mpm, "IMAGES_IN_KERNELS_POINTS", sim.particle_count)
+    sim = pile_in_a_box(False, "bspline2", "APIC", "MUSL")
+    names = [k.key for k in (getattr(item, "kernel", None) for item in sim.mpm._sequence) if k is not None]
+    assert not sim.mpm.mirror_in_g2p
+    assert sum("fold_ghosts" in name for name in names) == 2 and sum("mirror_ghosts" in name for name in names) == 2
