@@ -80,7 +80,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
     Particles, Grid, Domain = make_state_structs(precision)
     dem = make_dem_kernels(precision, deterministic)
     Bodies = dem.Bodies
-    needs_rebuild, sort_ids, cell_in = dem.needs_rebuild, dem.sort_ids, dem.cell_in
+    needs_rebuild, sort_ids, cell_in, bin_item = dem.needs_rebuild, dem.sort_ids, dem.cell_in, dem.bin_item
     geometry = make_contact_geometry(precision)
     cross, polygon_distance, box_distance = geometry.cross, geometry.polygon_distance, geometry.box_distance
     point_velocity, edge_count, vertex_feature = geometry.point_velocity, geometry.edge_count, geometry.vertex_feature
@@ -190,12 +190,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         x = P.x[p]
         L.x_ref[p] = x
         cx, cy = cell_of(x, prm)
-        c = cx * prm.cells_y + cy
-        s = wp.atomic_add(cell_count, c, 1)
-        if s < prm.cell_cap:
-            cell_items[c * prm.cell_cap + s] = p
-        else:
-            wp.atomic_add(status, STATUS_CELL_OVERFLOW, 1)
+        bin_item(cell_count, cell_items, cx * prm.cells_y + cy, prm.cell_cap, p, status, STATUS_CELL_OVERFLOW)
 
     @kernel
     def build_lists(P: Particles, B: Bodies, L: Links, prm: Params, world: wp.array(dtype=vec2),

@@ -155,6 +155,17 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         cy = wp.clamp(int(wp.floor((x[1] - origin[1]) * inv_cell)), 0, ny - 1)
         return cx, cy
 
+    @wp.func
+    def bin_item(cell_count: wp.array(dtype=wp.int32), cell_items: wp.array(dtype=wp.int32), cell: int,
+                 cap: int, item: int, status: wp.array(dtype=wp.int32), overflow: int):
+        """Item into bin ``cell`` of a uniform binning (``cap`` items a bin); a full bin counts in
+        ``status[overflow]``: the body–body and the point–body list builds."""
+        s = wp.atomic_add(cell_count, cell, 1)
+        if s < cap:
+            cell_items[cell * cap + s] = item
+        else:
+            wp.atomic_add(status, overflow, 1)
+
     # -- per-step kernels -----------------------------------------------------------------------
     @kernel
     def world_vertices(B: Bodies, local: wp.array(dtype=vec2), owner: wp.array(dtype=wp.int32),
@@ -470,7 +481,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         vertex_feature=vertex_feature, edge_count=edge_count,
         integrate=integrate, end_step=end_step, diagnostics=diagnostics,
         # list maintenance shared with the body-pair lists (kernels/dem_lists.py) and the MPM-DEM coupling
-        needs_rebuild=needs_rebuild, cell_in=cell_in, sort_ids=sort_ids,
+        needs_rebuild=needs_rebuild, cell_in=cell_in, bin_item=bin_item, sort_ids=sort_ids,
     )
 
 

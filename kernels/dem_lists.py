@@ -32,7 +32,7 @@ def make_dem_lists(precision: str, deterministic: bool = False):
     vec4 = t.vec4
     dem = make_dem_kernels(precision, deterministic)
     Bodies, Contacts, Params = dem.Bodies, dem.Contacts, dem.Params
-    sort_ids, cell_in = dem.sort_ids, dem.cell_in
+    sort_ids, cell_in, bin_item = dem.sort_ids, dem.cell_in, dem.bin_item
     geometry = make_contact_geometry(precision)
     polygon_distance, box_distance = geometry.polygon_distance, geometry.box_distance
 
@@ -48,12 +48,7 @@ def make_dem_lists(precision: str, deterministic: bool = False):
             return
         i = small[wp.tid()]
         cx, cy = cell_of(B.x[i], prm)
-        c = cx * prm.cells_y + cy
-        s = wp.atomic_add(cell_count, c, 1)
-        if s < prm.cell_cap:
-            cell_items[c * prm.cell_cap + s] = i
-        else:
-            wp.atomic_add(status, STATUS_CELL_OVERFLOW, 1)
+        bin_item(cell_count, cell_items, cx * prm.cells_y + cy, prm.cell_cap, i, status, STATUS_CELL_OVERFLOW)
 
     @wp.func
     def add_pair(C: Contacts, i: int, j: int, n: int, status: wp.array(dtype=wp.int32)):
