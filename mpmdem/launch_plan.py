@@ -5,7 +5,9 @@ A plan is a list of items, run in order by ``run_plan``:
 - ``Launch``: one ``wp.launch``;
 - ``Zero``: clear an array;
 - ``IfFlag``: a block that runs only when a device flag is non-zero (a conditional node inside a
-  CUDA graph; elsewhere the block's kernels are launched and each reads its flag and returns);
+  CUDA graph; elsewhere, or when laid ``inline``, the block's kernels are launched and each reads
+  its flag and returns: cheaper than a conditional node taken in most steps, see
+  ``mpmdem.block_layout``);
 - ``IfAny``: a block that runs when any of several flags is set, around blocks that are mostly
   skipped together (a step's list rebuilds and relabels): one conditional node where they would
   be several (a skipped conditional node costs ~4.8 µs on an H100, a one-thread kernel that ORs
@@ -23,7 +25,7 @@ from dataclasses import dataclass
 
 import warp as wp
 
-__all__ = ["ExtensionPoint", "IfAny", "IfFlag", "Launch", "Zero", "plan_kernels", "run_plan"]
+__all__ = ["ExtensionPoint", "IfAny", "IfFlag", "Launch", "Zero", "plan_blocks", "plan_kernels", "run_plan"]
 
 
 @dataclass
@@ -45,10 +47,13 @@ class Zero:
 
 @dataclass
 class IfFlag:
-    """``body`` runs when ``flag[0]`` (an int32 device array) is non-zero."""
+    """``body`` runs when ``flag[0]`` (an int32 device array) is non-zero. ``inline``: recorded
+    without a conditional node, every kernel of ``body`` launched (each reads its flag and returns
+    where the block would be skipped), as it always runs outside a CUDA graph."""
 
     flag: wp.array
     body: list
+    inline: bool = False
 
 
 @dataclass
@@ -86,7 +91,7 @@ def run_plan(plan: list, device, extensions: dict[str, list[Callable[[], None]]]
             wp.launch(item.kernel, item.dim, inputs=item.inputs, device=device, **extra)
         elif isinstance(item, IfFlag):
             dev = wp.get_device(device)
-            if dev.is_cuda and dev.is_capturing and wp.is_conditional_graph_supported():
+            if dev.is_cuda and dev.is_capturing and wp.is_conditional_graph_supported() and not item.inline:
                 wp.capture_if(item.flag, on_true=lambda body=item.body: run_plan(body, device, extensions))
             else:
                 run_plan(item.body, device, extensions)
@@ -114,3 +119,13 @@ def plan_kernels(plan: list) -> Iterator:
             yield item.kernel
         elif isinstance(item, (IfFlag, IfAny)):
             yield from plan_kernels(item.body)
+
+
+def plan_blocks(plan: list) -> Iterator[IfFlag]:
+    """Every ``IfFlag`` block of the plan, nested ones included, outer before inner."""
+    for item in plan:
+        if isinstance(item, IfFlag):
+            yield item
+            yield from plan_blocks(item.body)
+        elif isinstance(item, IfAny):
+            yield from plan_blocks(item.body)

@@ -17,6 +17,7 @@ import warp as wp
 
 from . import diagnostics as diagnostics_
 from . import granular_state
+from .block_layout import BlockLayout
 from .cell_sort import PointSorter, device_order
 from .checks import check_time_step
 from .config import SolverConfig
@@ -31,7 +32,7 @@ from .kernels import transfer as transfer_kernels
 from .kernels import wall_images as wall_image_kernels
 from .kernels.shape_functions import SUPPORT_NODES
 from .kernels.types import scalar_types
-from .launch_plan import ExtensionPoint, Launch, Zero, plan_kernels, run_plan
+from .launch_plan import ExtensionPoint, Launch, Zero, plan_blocks, plan_kernels, run_plan
 from .mpm_state import GHOST_NODES, STATE_FIELDS, make_domain, make_grid, make_points, wall_band
 from .scene import Scene
 from .stage import Clock, ClockedStage
@@ -467,6 +468,15 @@ class MPMSolver(ClockedStage):
         if start:
             run_plan(self.start_plan, self.device, self.extensions)
         run_plan(self._sequence, self.device, self.extensions)
+
+    def block_layout(self) -> BlockLayout | None:
+        """Granular mode with a rebuild decision: the layout of the relabel block (its conditional
+        nodes or in line, chosen from how often it runs: ``mpmdem.block_layout``); else None."""
+        blocks = list(plan_blocks(self.start_plan))
+        if not blocks or self._judge is None:
+            return None
+        counts = (granular_kernels.FLAG_COUNT, granular_kernels.FLAG_RELABELS)  # rebuilds, relabels without one
+        return BlockLayout(blocks, self.interaction.flags, counts)
 
     def step_kernels(self) -> list:
         """Every kernel the MPM stage of a step may launch (those of conditional parts included)."""
