@@ -161,8 +161,11 @@ def time_mode(scene: Scene, config: SolverConfig, steps: int, device, kernel_ste
     sim = Simulation(scene, config, device=str(device))
     mpm = sim.mpm
     sim.advance_to(1.0e-12)  # loads the modules, records the CUDA graph, takes one step
+    t, dt, *_ = mpm.read_clock()
+    # the warm-up steps as a run takes them (checks after each batch; Granular MPM lays its blocks
+    # in line or in conditional nodes by how often they ran, mpmdem.block_layout)
+    sim.advance_to(t + (warmup - 0.5) * dt)
     mpm.set_stop_time(1.0e9)
-    sim.advance(warmup)
     wp.synchronize_device(device)
     components_start = mpm.granular_statistics()[0] if config.granular else None
     rebuilds_before = _rebuilds(mpm)
@@ -177,7 +180,8 @@ def time_mode(scene: Scene, config: SolverConfig, steps: int, device, kernel_ste
         raise RuntimeError(f"mpmdem took {taken} of {steps} timed steps (stop time reached?)")
     mpm.check_status(t, dt, bound, status)  # NaN, escaped points, layer overflow: BlowUpError
     out = dict(seconds=seconds, seconds_per_step=seconds / steps, finite=bool(np.isfinite(mpm.P.x.numpy()).all()),
-               cuda_graph=sim._graph is not None, sim_time=t, grid_layers=mpm.granular_layers)
+               cuda_graph=sim._graph is not None, sim_time=t, grid_layers=mpm.granular_layers,
+               block_layouts=["inline" if b.inline else "conditional" for b in getattr(sim, "block_layouts", [])])
     if config.granular:
         out["components"], out["layers"] = mpm.granular_statistics()
         out["components_start"] = components_start
@@ -192,13 +196,13 @@ def time_mode(scene: Scene, config: SolverConfig, steps: int, device, kernel_ste
 
 
 def measure(case: str, particles: int, config: SolverConfig, steps: int, device,
-            cloud_speed: float = CLOUD_SPEED, kernel_steps: int = 0) -> list[dict]:
+            cloud_speed: float = CLOUD_SPEED, kernel_steps: int = 0, warmup_steps: int = WARMUP_STEPS) -> list[dict]:
     """Plain, then granular, on one scene; their two rows (the granular one with ``overhead``)."""
     scene = dispersed_cloud(particles, speed=cloud_speed) if case == "dispersed-cloud" else dense_column(particles)
     count = len(scene.particles()["mass"])
     dt = DT_FACTOR * initial_dt_bound(scene)
     nx, ny = scene.cell_counts
-    warmup = WARMUP_STEPS + (math.ceil(FLOW_TIME / dt) if case == "flowing-column" else 0)
+    warmup = warmup_steps + (math.ceil(FLOW_TIME / dt) if case == "flowing-column" else 0)
     rows = []
     for granular in (False, True):
         cfg = config.replace(granular=granular, dt=dt)
@@ -216,6 +220,7 @@ def measure(case: str, particles: int, config: SolverConfig, steps: int, device,
         row.update(shape=cfg.shape, transfer=cfg.transfer, update=cfg.update, precision=cfg.precision,
                    density_control=cfg.density_control, dt=dt, cell_size=scene.cell_size, grid=[nx, ny],
                    cuda_graph=r["cuda_graph"], finite=r["finite"], warmup_steps=warmup, seed=SEED,
+                   block_layouts=r["block_layouts"],
                    warp=wp.__version__)
         if case == "dispersed-cloud":
             row["cloud_speed"] = cloud_speed
@@ -240,6 +245,9 @@ def main(argv=None) -> int:
     parser.add_argument("--check", action="store_true",
                         help=f"smoke test: {CHECK_SIZE} points, {CHECK_STEPS} steps (overrides --sizes, --steps)")
     parser.add_argument("--out", type=Path, default=None, help="also append the JSON lines to this .jsonl file")
+    parser.add_argument("--warmup", type=int, default=WARMUP_STEPS,
+                        help="steps before timing, through advance_to as a run takes them (the Granular MPM "
+                             "blocks' layout is chosen after 100 of them, mpmdem.block_layout)")
     parser.add_argument("--kernel-steps", type=int, default=0,
                         help="on cuda, also time each kernel over this many steps launched without the graph")
     args = parser.parse_args(argv)
@@ -263,7 +271,8 @@ def main(argv=None) -> int:
     with wp.ScopedDevice(device):
         for case in scenes:
             for particles in sizes:
-                for row in measure(case, particles, config, steps, device, args.cloud_speed, args.kernel_steps):
+                for row in measure(case, particles, config, steps, device, args.cloud_speed, args.kernel_steps,
+                                   args.warmup):
                     line = json.dumps(row)
                     print(line, flush=True)
                     if args.out is not None:

@@ -63,9 +63,11 @@ def build_case(name: str, device: str, flags: list[str]):
 
 
 def layout(sim) -> dict:
-    """Granular MPM in CUDA graphs: how the relabel block was laid out for the timed steps."""
-    block = getattr(sim, "block_layout", None)
-    return {} if block is None else {"granular_block": "inline" if block.inline else "conditional"}
+    """Granular MPM in CUDA graphs: how the relabel and rebuild blocks were laid out for the timed
+    steps (``mpmdem.block_layout``)."""
+    layouts = getattr(sim, "block_layouts", [])
+    names = ("granular_relabel_block", "granular_rebuild_block")
+    return {name: "inline" if b.inline else "conditional" for name, b in zip(names, layouts, strict=False)}
 
 
 def time_case(name: str, device: str, warmup: int, steps: int, flags: list[str]) -> dict:

@@ -12,13 +12,17 @@ step that needs nothing. Measured on one H100 (bench/README.md, "Conditional blo
 - silo-filling (0.04 %): 56.3 → 64.0, the other way.
 
 Which layout is cheaper is known only from the run: a flowing scene rebuilds in nearly every
-step, one at rest almost never, and one scene can do both in turn. So ``BlockLayout`` reads, after
-each batch of ``Simulation.advance_to`` (where the host reads the clock anyway), how many of the
-steps of the last window ran the block. From INLINE_ABOVE of them it lays the block in line; at
-CONDITIONAL_BELOW or fewer it puts it back in its conditional nodes (the gap between the two keeps
-a rate near the break-even, ~0.4 by the figures above, from switching at every window). The
-Simulation then records its step graphs again (a few ms). Both layouts launch the same kernels on
-the same data: the results are the same bits, whichever layout ran when.
+step, one at rest almost never, and one scene can do both in turn. So a ``BlockLayout`` per block
+reads, after each batch of ``Simulation.advance_to`` (where the host reads the clock anyway), how
+many of the steps of the last window ran it. From INLINE_ABOVE of them it lays the block in line;
+at CONDITIONAL_BELOW or fewer it puts it back in its conditional node (the gap between the two
+keeps a rate near the break-even, ~0.4 by the figures above, from switching at every window). The
+Simulation then records its step graphs again (a few ms). The relabel block and the rebuild nested
+in it are laid out each by its own rate: a 1M-point cloud relabels in every step but rebuilds in
+15 % of them, where the rebuild's kernels launched over every point in the other 85 % cost more
+than its conditional node (bench/README.md, "the rebuild as a conditional node inside the
+relabel's"). Both layouts launch the same kernels on the same data: the results are the same
+bits, whichever layout ran when.
 """
 
 from __future__ import annotations
@@ -39,17 +43,15 @@ WINDOW_STEPS = 100
 
 
 class BlockLayout:
-    """The layout of some ``IfFlag`` blocks, chosen from how often they ran.
+    """The layout of an ``IfFlag`` block, chosen from how often it ran.
 
-    blocks: the blocks laid out together (the outer one first); counters: an int32 device array
-    whose ``slots`` count, summed, the steps that ran the block so far (Granular MPM: the rebuilds
-    and the relabels without one).
+    counters: an int32 device array whose ``slots`` count, summed, the steps that ran the block so
+    far (Granular MPM: the relabel block, the rebuilds and the relabels without one; the rebuild
+    block, the rebuilds).
     """
 
-    def __init__(self, blocks: list[IfFlag], counters: wp.array, slots: tuple[int, ...]):
-        if not blocks:
-            raise ValueError("BlockLayout needs at least one IfFlag block")
-        self.blocks = list(blocks)
+    def __init__(self, block: IfFlag, counters: wp.array, slots: tuple[int, ...]):
+        self.block = block
         self.counters = counters
         self.slots = tuple(slots)
         #: how many times the layout changed
@@ -60,8 +62,8 @@ class BlockLayout:
 
     @property
     def inline(self) -> bool:
-        """Whether the blocks are laid in line (else conditional nodes)."""
-        return self.blocks[0].inline
+        """Whether the block is laid in line (else a conditional node)."""
+        return self.block.inline
 
     def runs(self) -> int:
         """Steps that ran the block so far (one small device-to-host copy)."""
@@ -87,8 +89,7 @@ class BlockLayout:
         return True
 
     def set_inline(self, inline: bool) -> None:
-        """Lay the blocks in line (True) or in conditional nodes (False); takes effect at the next
+        """Lay the block in line (True) or in a conditional node (False); takes effect at the next
         recording of the step's graphs."""
-        for block in self.blocks:
-            block.inline = bool(inline)
+        self.block.inline = bool(inline)
         self.switches += 1

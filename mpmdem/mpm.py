@@ -469,14 +469,18 @@ class MPMSolver(ClockedStage):
             run_plan(self.start_plan, self.device, self.extensions)
         run_plan(self._sequence, self.device, self.extensions)
 
-    def block_layout(self) -> BlockLayout | None:
-        """Granular mode with a rebuild decision: the layout of the relabel block (its conditional
-        nodes or in line, chosen from how often it runs: ``mpmdem.block_layout``); else None."""
+    def block_layouts(self) -> list[BlockLayout]:
+        """Granular mode with a rebuild decision: the layouts of the relabel block (run by the
+        rebuilds and the relabels without one) and of the rebuild block nested in it, each in its
+        conditional node or in line by how often it runs (``mpmdem.block_layout``); else none."""
         blocks = list(plan_blocks(self.start_plan))
         if not blocks or self._judge is None:
-            return None
-        counts = (granular_kernels.FLAG_COUNT, granular_kernels.FLAG_RELABELS)  # rebuilds, relabels without one
-        return BlockLayout(blocks, self.interaction.flags, counts)
+            return []
+        flags = self.interaction.flags
+        rebuilds, relabels = granular_kernels.FLAG_COUNT, granular_kernels.FLAG_RELABELS
+        layouts = [BlockLayout(blocks[0], flags, (rebuilds, relabels))]
+        layouts += [BlockLayout(block, flags, (rebuilds,)) for block in blocks[1:]]
+        return layouts
 
     def step_kernels(self) -> list:
         """Every kernel the MPM stage of a step may launch (those of conditional parts included)."""

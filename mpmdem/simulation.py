@@ -118,10 +118,11 @@ class Simulation:
         self._auto_sort = AutoSort(self.mpm) if self.mpm is not None and auto_sort_applies(
             self.config, cuda=wp.get_device(self.device).is_cuda, points=self.mpm.particle_count,
             coupled=self.coupling is not None) else None
-        #: Granular MPM in CUDA graphs: the relabel block's layout, conditional nodes or in line,
-        #: chosen after the batches of advance_to from how often it runs (mpmdem.block_layout)
-        self.block_layout = (self.mpm.block_layout() if self.mpm is not None and self.config.cuda_graph
-                             and wp.get_device(self.device).is_cuda else None)
+        #: Granular MPM in CUDA graphs: the layouts of the relabel and rebuild blocks, conditional
+        #: nodes or in line, chosen after the batches of advance_to from how often each runs
+        #: (mpmdem.block_layout); none elsewhere (every block runs in line)
+        self.block_layouts = (self.mpm.block_layouts() if self.mpm is not None and self.config.cuda_graph
+                              and wp.get_device(self.device).is_cuda else [])
 
     @property
     def particle_count(self) -> int:
@@ -149,7 +150,7 @@ class Simulation:
 
     def _record_graphs(self) -> None:
         """Record the one-step and the STEPS_PER_GRAPH-step graphs (modules loaded); again when the
-        step's layout changed (``block_layout``): recording launches nothing."""
+        step's layout changed (``block_layouts``): recording launches nothing."""
         with wp.ScopedCapture(device=self.device) as cap:
             self.stage.step()
         self._graph = cap.graph
@@ -202,7 +203,8 @@ class Simulation:
             stage.check_status(t, dt, bound, status)
             if self._auto_sort is not None:
                 self._auto_sort.after_batch(steps)
-            if self._graph is not None and self.block_layout is not None and self.block_layout.after_batch(steps):
+            # (every layout reads its rate: no short-circuit)
+            if self._graph is not None and sum([layout.after_batch(steps) for layout in self.block_layouts]):
                 self._record_graphs()
             if on_batch is not None:
                 on_batch(t, dt)

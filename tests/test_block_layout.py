@@ -43,8 +43,8 @@ def test_layout_follows_the_rate(monkeypatch):
     a new window when the step count goes back (a checkpoint loaded)."""
     monkeypatch.setattr(block_layout, "WINDOW_STEPS", 100)
     counts = wp.zeros(kgran.FLAG_SLOTS, dtype=wp.int32, device="cpu")
-    blocks = [IfFlag(wp.zeros(1, dtype=wp.int32, device="cpu"), []) for _ in range(2)]
-    layout = BlockLayout(blocks, counts, (kgran.FLAG_COUNT, kgran.FLAG_RELABELS))
+    block = IfFlag(wp.zeros(1, dtype=wp.int32, device="cpu"), [])
+    layout = BlockLayout(block, counts, (kgran.FLAG_COUNT, kgran.FLAG_RELABELS))
 
     def batch(steps, rebuilds, relabels):
         c = counts.numpy()
@@ -55,23 +55,24 @@ def test_layout_follows_the_rate(monkeypatch):
     assert not batch(0, 0, 0) and not layout.inline  # the first window starts
     assert not batch(99, 99, 0) and not layout.inline  # 99 steps: too short to decide
     assert batch(100, 40, 20) and layout.inline and layout.rate == pytest.approx(0.6)
-    assert all(b.inline for b in blocks)
+    assert block.inline
     assert not batch(200, 60, 31) and layout.inline  # 0.31 > CONDITIONAL_BELOW: stays
-    assert batch(300, 75, 46) and not layout.inline and not any(b.inline for b in blocks)  # 0.30
+    assert batch(300, 75, 46) and not layout.inline and not block.inline  # 0.30
     assert not batch(400, 110, 56) and not layout.inline  # 0.45: below INLINE_ABOVE
     assert not batch(50, 0, 0) and not batch(149, 99, 0) and not layout.inline  # restarted at step 50
     assert batch(150, 100, 0) and layout.inline and layout.switches == 3
 
 
-def test_a_granular_step_lays_out_its_relabel_block():
-    """Verify the layout holds the relabel block and the rebuild nested in it (outer first), counts
-    rebuilds and relabels, and that only a CUDA-graph run has one (elsewhere every block already
-    runs in line)."""
+def test_a_granular_step_lays_out_its_relabel_and_rebuild_blocks():
+    """Verify the layouts are the relabel block's (run by the rebuilds and the relabels without one)
+    and the rebuild's nested in it (run by the rebuilds), both conditional at first, and that only a
+    CUDA-graph run has them (elsewhere every block already runs in line)."""
     sim = meeting_grains("cpu")
-    assert sim.block_layout is None
-    layout = sim.mpm.block_layout()
-    assert len(layout.blocks) == 2 and layout.blocks[1] in layout.blocks[0].body
-    assert layout.slots == (kgran.FLAG_COUNT, kgran.FLAG_RELABELS) and not layout.inline
+    assert sim.block_layouts == []
+    relabel, rebuild = sim.mpm.block_layouts()
+    assert rebuild.block in relabel.block.body
+    assert relabel.slots == (kgran.FLAG_COUNT, kgran.FLAG_RELABELS) and rebuild.slots == (kgran.FLAG_COUNT,)
+    assert not relabel.inline and not rebuild.inline
 
 
 @pytest.mark.cuda
@@ -82,7 +83,8 @@ def test_in_line_block_replays_the_brute_force_labels():
         pytest.skip("no CUDA device here: the CUDA items run on the GPU machine (pytest -m cuda)")
     sim = meeting_grains("cuda")
     sim.advance_to(1.0e-12)  # (loads the modules, captures the graph, takes one step)
-    sim.block_layout.set_inline(True)
+    for layout in sim.block_layouts:
+        layout.set_inline(True)
     sim._record_graphs()
     m = sim.mpm
     m.set_stop_time(1.0)
@@ -105,15 +107,15 @@ def test_switching_layouts_changes_no_bit(monkeypatch):
         pytest.skip("no CUDA device here: the CUDA items run on the GPU machine (pytest -m cuda)")
     monkeypatch.setattr(block_layout, "WINDOW_STEPS", 10)
     kept = meeting_grains("cuda", deterministic=True)
-    kept.block_layout = None
+    kept.block_layouts = []
     switched = meeting_grains("cuda", deterministic=True)
     layouts = []
     for t in np.linspace(0.0, 4.0e-3, 21)[1:]:  # 200 steps, batches of 10
         kept.advance_to(t, max_batch=10)
         switched.advance_to(t, max_batch=10)
-        layouts.append(switched.block_layout.inline)
+        layouts.append(switched.block_layouts[0].inline)
     assert True in layouts  # the grains rebuild or relabel in most of the first steps
-    assert switched.block_layout.switches >= 1
+    assert switched.block_layouts[0].switches >= 1
     a, b = kept.fields(), switched.fields()
     for name in ("x", "v"):
         np.testing.assert_array_equal(a[name], b[name], err_msg=name)
