@@ -15,26 +15,13 @@ What must hold whatever it picks: the same kernels run on the same data, so
 import numpy as np
 import pytest
 import warp as wp
-from test_granular import H, _brute_force_components, _by_smallest_member
+from conftest import DEVICES
+from test_granular import assert_steps_label_as_brute_force, meeting_grains
 
-from mpmdem import LinearElastic, Scene, Simulation, SolverConfig, block_layout
+from mpmdem import block_layout
 from mpmdem.block_layout import BlockLayout
 from mpmdem.kernels import granular as kgran
 from mpmdem.launch_plan import IfFlag
-
-
-def meeting_grains(device, **config) -> Simulation:
-    """100 grains flying apart and through each other (tests/test_granular.py): every step rebuilds
-    or relabels at first, then fewer as they part."""
-    rng = np.random.default_rng(3)
-    x = 0.085 + rng.uniform(0.0, 0.03, (100, 2))
-    angle = rng.uniform(0.0, 2.0 * np.pi, 100)
-    v = rng.uniform(2.0, 4.0, 100)[:, None] * np.column_stack([np.cos(angle), np.sin(angle)])
-    scene = Scene(domain=((0.0, 0.0), (0.2, 0.2)), cell_size=H, gravity=(0.0, 0.0),
-                  boundaries={s: "free" for s in ("left", "right", "bottom", "top")})
-    scene.add_points(x, LinearElastic(1.0e5, 0.3, 1500.0, critical_density=1400.0), size=0.5 * H, velocity=v)
-    return Simulation(scene, SolverConfig(granular=True, shape="linear", precision="f64", dt=2.0e-5, **config),
-                      device=device)
 
 
 def test_layout_follows_the_rate(monkeypatch):
@@ -75,40 +62,27 @@ def test_a_granular_step_lays_out_its_relabel_and_rebuild_blocks():
     assert not relabel.inline and not rebuild.inline
 
 
-@pytest.mark.cuda
-def test_in_line_block_replays_the_brute_force_labels():
-    """Verify the steps replayed from a graph with the block in line label exactly the components of
-    the O(N²) graph, over steps that rebuild and steps that relabel without a rebuild."""
-    if not wp.get_cuda_device_count():
-        pytest.skip("no CUDA device here: the CUDA items run on the GPU machine (pytest -m cuda)")
-    sim = meeting_grains("cuda")
+@pytest.mark.parametrize("device", DEVICES[1:])  # (CUDA graphs only: elsewhere every block runs in line)
+def test_in_line_block_replays_the_brute_force_labels(device):
+    """Verify the steps replayed from a graph with the blocks in line label exactly the components
+    of the O(N²) graph, over steps that rebuild and steps that relabel without a rebuild."""
+    sim = meeting_grains(device)
     sim.advance_to(1.0e-12)  # (loads the modules, captures the graph, takes one step)
+    assert len(sim.block_layouts) == 2
     for layout in sim.block_layouts:
         layout.set_inline(True)
     sim._record_graphs()
-    m = sim.mpm
-    m.set_stop_time(1.0)
-    seen = set()
-    for _ in range(40):
-        f = m.interaction.flags.numpy()
-        seen.add((int(f[kgran.FLAG_REBUILD]), int(f[kgran.FLAG_RELABEL])))
-        x0, reach0 = m.P.x.numpy().copy(), m.node_ranges()
-        sim.advance(1)
-        np.testing.assert_array_equal(_by_smallest_member(m.P.comp.numpy()),
-                                      _brute_force_components(x0, *m.interaction_domains(), reach0))
-    assert {(1, 1), (0, 1)} <= seen  # steps that rebuilt and steps that relabelled without a rebuild
+    assert_steps_label_as_brute_force(sim)
 
 
-@pytest.mark.cuda
-def test_switching_layouts_changes_no_bit(monkeypatch):
-    """Verify a deterministic run whose block went in line and back is the same bits as one kept in
+@pytest.mark.parametrize("device", DEVICES[1:])
+def test_switching_layouts_changes_no_bit(monkeypatch, device):
+    """Verify a deterministic run whose block went in line is the same bits as one kept in
     conditional nodes throughout."""
-    if not wp.get_cuda_device_count():
-        pytest.skip("no CUDA device here: the CUDA items run on the GPU machine (pytest -m cuda)")
     monkeypatch.setattr(block_layout, "WINDOW_STEPS", 10)
-    kept = meeting_grains("cuda", deterministic=True)
+    kept = meeting_grains(device, deterministic=True)
     kept.block_layouts = []
-    switched = meeting_grains("cuda", deterministic=True)
+    switched = meeting_grains(device, deterministic=True)
     layouts = []
     for t in np.linspace(0.0, 4.0e-3, 21)[1:]:  # 200 steps, batches of 10
         kept.advance_to(t, max_batch=10)

@@ -505,10 +505,9 @@ def test_a_dense_body_that_drifts_and_stretches_lists_by_its_relative_moves():
     assert rebuilds < 40 // 2 and relabels > 0
 
 
-def test_relabels_replayed_from_a_captured_graph_match_brute_force_graph(device):
-    """The 100 meeting and parting grains above, stepped as a Simulation does (on CUDA each step
-    replays a captured graph, whose relabel and rebuild are nested conditional nodes): the labels
-    of every step are those of the O(N²) graph, over steps that rebuild, relabel and keep."""
+def meeting_grains(device, **config) -> Simulation:
+    """100 grains flying apart and through each other (linear shape, f64): steps that rebuild,
+    relabel without a rebuild and keep the labels, in turn."""
     rng = np.random.default_rng(3)
     x = 0.085 + rng.uniform(0.0, 0.03, (100, 2))
     angle = rng.uniform(0.0, 2.0 * np.pi, 100)
@@ -516,12 +515,18 @@ def test_relabels_replayed_from_a_captured_graph_match_brute_force_graph(device)
     scene = Scene(domain=((0.0, 0.0), (0.2, 0.2)), cell_size=H, gravity=(0.0, 0.0),
                   boundaries={s: "free" for s in ("left", "right", "bottom", "top")})
     scene.add_points(x, LinearElastic(1.0e5, 0.3, 1500.0, critical_density=1400.0), size=0.5 * H, velocity=v)
-    sim = Simulation(scene, SolverConfig(granular=True, shape="linear", precision="f64", dt=2.0e-5), device=device)
-    sim.advance_to(1.0e-12)  # (loads the modules, captures the graph on CUDA, takes one step)
+    return Simulation(scene, SolverConfig(granular=True, shape="linear", precision="f64", dt=2.0e-5, **config),
+                      device=device)
+
+
+def assert_steps_label_as_brute_force(sim: Simulation, steps: int = 40) -> None:
+    """Step ``sim`` one step at a time (a replayed graph on CUDA): the labels after each step must
+    be those of the O(N²) graph of the positions it started from, over steps that rebuilt and
+    steps that relabelled without a rebuild."""
     m = sim.mpm
     m.set_stop_time(1.0)
     seen = set()
-    for _ in range(40):
+    for _ in range(steps):
         f = m.interaction.flags.numpy()
         seen.add((int(f[kgran.FLAG_REBUILD]), int(f[kgran.FLAG_RELABEL])))
         x0, reach0 = m.P.x.numpy().copy(), m.node_ranges()
@@ -529,6 +534,15 @@ def test_relabels_replayed_from_a_captured_graph_match_brute_force_graph(device)
         np.testing.assert_array_equal(_by_smallest_member(m.P.comp.numpy()),
                                       _brute_force_components(x0, *m.interaction_domains(), reach0))
     assert {(1, 1), (0, 1)} <= seen  # steps that rebuilt and steps that relabelled without a rebuild
+
+
+def test_relabels_replayed_from_a_captured_graph_match_brute_force_graph(device):
+    """The 100 meeting and parting grains above, stepped as a Simulation does (on CUDA each step
+    replays a captured graph, whose relabel and rebuild are nested conditional nodes): the labels
+    of every step are those of the O(N²) graph, over steps that rebuild, relabel and keep."""
+    sim = meeting_grains(device)
+    sim.advance_to(1.0e-12)  # (loads the modules, captures the graph on CUDA, takes one step)
+    assert_steps_label_as_brute_force(sim)
 
 
 def test_rebuild_decision_backs_off_and_returns():
