@@ -368,22 +368,20 @@ class DEMSolver(ClockedStage):
         self.contact_forces()
 
     def contact_checks(self, clear_loads: bool = True) -> None:
-        """The start of the contact stage: world vertices of the moving bodies, this step's loads
-        cleared and, with free bodies, whether the lists must be rebuilt (a device flag). Without
-        free bodies, ``clear_loads`` False leaves the clearing to the caller's launch (the
-        coupling's ``check_lists``)."""
-        k, B, params, dev = self.k, self.B, self.params, self.device
-        if self.moving_vertices:
-            wp.launch(k.world_vertices, self.moving_vertices, inputs=[B, self.local, self.owner, self.world],
-                      device=dev)
-        if not self.free:
-            # no free body, so no body–body contact (a silo's walls, a fixed floor under points): the
-            # lists would stay empty; only the coupling's reactions accumulate on the bodies
-            if clear_loads:
-                wp.launch(k.clear_loads, self.body_count, inputs=[B], device=dev)
-            return
-        # (this step's loads cleared in the same launch)
-        wp.launch(k.check_displacement, self.body_count, inputs=[B, params, self.flags, self.moving], device=dev)
+        """The start of the contact stage, one launch (``kernels.dem.start_contacts``): world vertices
+        of the moving bodies, this step's loads cleared and, with free bodies, whether the lists
+        must be rebuilt (a device flag). Without free bodies (a silo's walls, a fixed floor under
+        points: no body–body contact, the lists would stay empty), ``clear_loads`` False leaves the
+        clearing to the caller's launch (the coupling's ``check_lists``)."""
+        clear = self.body_count if self.free or clear_loads else 0
+        moving = self.moving if self.free else 0
+        threads = max(self.moving_vertices, clear)
+        if clear and not self.moving_vertices:  # nothing moves: the loads only
+            wp.launch(self.k.clear_loads, clear, inputs=[self.B], device=self.device)
+        elif threads:
+            wp.launch(self.k.start_contacts, threads,
+                      inputs=[self.B, self.local, self.owner, self.world, self.params, self.flags, self.moving_vertices,
+                              clear, moving], device=self.device)
 
     @property
     def contact_rebuild(self) -> list:
