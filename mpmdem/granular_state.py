@@ -18,8 +18,9 @@ from .kernels import scan as scan_kernels
 from .kernels.shape_functions import SUPPORT_NODES
 from .launch_plan import IfFlag, Launch
 
-__all__ = ["CRITICAL_BAND", "NESTED_REBUILD", "WIDE_BAND_CAP", "components", "granular_plan",
-           "granular_statistics", "interaction_domains", "make_interaction", "node_ranges", "static_extent"]
+__all__ = ["CRITICAL_BAND", "LINK_LANES", "LINK_LANES_DEVICES", "LINK_LANES_POINTS", "NESTED_REBUILD", "WIDE_BAND_CAP",
+           "components", "granular_plan", "granular_statistics", "interaction_domains", "make_interaction",
+           "node_ranges", "static_extent"]
 
 #: Granular mode: overlap tests closer than this many cells to flipping are listed and re-tested
 #: at every step instead of setting the margin of the label reuse (below the 1.7e-3 cells by which
@@ -30,6 +31,13 @@ WIDE_BAND_CAP = 0.25
 #: Whether the rebuild sits in a conditional graph node of its own inside the relabel's (else its
 #: kernels are launched on every relabel and return at once when there is no rebuild).
 NESTED_REBUILD = True
+#: Threads a point of the rebuild's ``link`` (``kernels.granular.search``) in scenes of fewer than
+#: LINK_LANES_POINTS points on the devices of LINK_LANES_DEVICES: in a flowing scene most rebuilds
+#: come in a streak that only merges, and the GPU, idle at a few thousand points, then runs each
+#: point's pair tests and merges over the lanes (the CPU, one core's work, keeps one thread).
+LINK_LANES = 4
+LINK_LANES_POINTS = 65536
+LINK_LANES_DEVICES = ("cuda",)
 
 
 def static_extent(scene, config, host: dict, mats: list) -> np.ndarray:
@@ -151,8 +159,10 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
     deforming = c.shape in granular_kernels.DEFORMING_DOMAINS
     S = stage.interaction
     gin = [stage.points, stage.G, stage.D, stage.materials, S, stage.status, stage.clock]
+    device = "cuda" if wp.get_device(stage.device).is_cuda else "cpu"
+    lanes = LINK_LANES if device in LINK_LANES_DEVICES and n < LINK_LANES_POINTS else 1
     check, prepare, place, link, settle, relink, label, assign = granular_kernels.make_granular_kernels(
-        c.shape, prec, staged=stage.staged)
+        c.shape, prec, staged=stage.staged, link_lanes=lanes)
     incremental = c.shape == "linear" and not stage.staged  # (the tent's ``assign``)
     reset = Launch(granular_kernels.make_reset_copies(prec, deforming, incremental), grid_dim,
                    [stage.G, stage.D, S.ext_max, S.slack, S.cell_ref, S.flags, S.motion])
@@ -174,7 +184,7 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
                     if k == 0 or levels[k - 1][0].shape[0] > scan_kernels.SCAN_TILE]
     else:
         rebuild += [Launch(scan_kernels.make_serial_scan(), 1, [S.count, S.prefix1, gate])]
-    rebuild += [Launch(k, n, gin) for k in (place, link)]
+    rebuild += [Launch(place, n, gin), Launch(link, n * lanes, gin)]
     relabel = [Launch(relink, n, gin), Launch(label, n, gin)]
     if assign is not None:
         # the tent: each node gives out its copies (instead of the claims in P2G)

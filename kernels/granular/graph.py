@@ -28,7 +28,8 @@ class GranularKernels(NamedTuple):
 
 
 @functools.cache
-def make_granular_kernels(shape: str, precision: str, staged: bool = False) -> GranularKernels:
+def make_granular_kernels(shape: str, precision: str, staged: bool = False,
+                          link_lanes: int = 1) -> GranularKernels:
     """(check, prepare, place, link, settle, relink, label, assign) kernels of the interaction graph
     (``GranularKernels``).
 
@@ -45,10 +46,12 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False) -> G
     ``prepare`` fills it. ``count`` starts zeroed and ``label`` zeroes the counts it used. ``assign``
     (the tent outside staged scenes; None else) runs over the nodes of one layer and gives out the
     grid copies there, instead of the claims in P2G. staged: points not yet released
-    (``P.release`` ahead of ``clock[CLOCK_T]``) stay single components, in no cell.
+    (``P.release`` ahead of ``clock[CLOCK_T]``) stay single components, in no cell. link_lanes:
+    ``link`` takes that many threads a point (launch it over points × link_lanes;
+    ``make_search_kernels``).
     """
     cells = make_cells(shape, precision, staged)
-    prepare, place, link = make_search_kernels(shape, precision, staged)
+    prepare, place, link = make_search_kernels(shape, precision, staged, link_lanes)
     settle, relink, label = make_label_kernels(shape, precision, staged)
     check = None
     assign = None

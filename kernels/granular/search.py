@@ -49,9 +49,16 @@ PRUNE_GUARD = 1.0e-3
 
 
 @functools.cache
-def make_search_kernels(shape: str, precision: str, staged: bool = False):
+def make_search_kernels(shape: str, precision: str, staged: bool = False, link_lanes: int = 1):
     """(prepare, place, link) of a rebuild (module docstring; launched as in
-    ``make_granular_kernels``)."""
+    ``make_granular_kernels``).
+
+    link_lanes > 1: ``link`` is launched over link_lanes threads a point. In a pass that only
+    merges (a streak of rebuilds, FLAG_FORCED, or deforming domains: no margin, no listed pair),
+    lane l takes every link_lanes-th point of each run it visits, so a point's chain of pair tests
+    and merges is that much shorter; the union–find's roots do not depend on the order of the
+    merges (``unionfind``), so the components are the same. A checked pass (margins, listed pairs:
+    per point sums) runs in lane 0 alone."""
     t = scalar_types(precision)
     T = t.scalar
     Particles, Grid, Domain = make_state_structs(precision)
@@ -158,6 +165,10 @@ def make_search_kernels(shape: str, precision: str, staged: bool = False):
     def link(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                 status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
         p = wp.tid()
+        lane = int(0)
+        if wp.static(link_lanes > 1):
+            lane = p - (p // wp.static(link_lanes)) * wp.static(link_lanes)
+            p = p // wp.static(link_lanes)
         if idle(P, S, clock, p):
             return
         rows = G.mass.shape[1]
@@ -192,6 +203,17 @@ def make_search_kernels(shape: str, precision: str, staged: bool = False):
             checked = S.flags[FLAG_FORCED] == 0
             band = T(S.flags[FLAG_BAND]) * S.quantum
             wide = S.flags[FLAG_WIDE] != 0
+        offset = int(0)  # (link_lanes: this lane's first candidate of a run, and the stride)
+        stride = int(1)
+        if wp.static(link_lanes > 1):
+            merges_only = not checked
+            if wp.static(deforming):
+                merges_only = True
+            if merges_only:
+                offset = lane
+                stride = wp.static(link_lanes)
+            elif lane != 0:
+                return
         listed_p = int(0)  # pairs listed in p's slots
         # (one point in BAND_SAMPLE of a narrow rebuild counts the pairs just outside the band: those
         # whose ``priority`` has its top bits zero, scattered over any lattice, which p % BAND_SAMPLE
@@ -237,7 +259,7 @@ def make_search_kernels(shape: str, precision: str, staged: bool = False):
             if ix != cx:
                 first = start(S, ix * rows + lo)
             last = start(S, ix * rows + hi + 1)
-            for k in range(first, last):
+            for k in range(first + offset, last, stride):
                 q = S.order[k]
                 if wp.static(deforming):
                     rq = S.reach[q]  # (an unreleased q is in no cell)
@@ -306,7 +328,8 @@ def make_search_kernels(shape: str, precision: str, staged: bool = False):
                             if rq[0] <= rp[1] and rp[0] <= rq[1] and rq[2] <= rp[3] and rp[2] <= rq[3]:
                                 root = unite(S.parent, root, q)
         if wp.static(not deforming):
-            S.npairs[p] = listed_p
+            if lane == 0:
+                S.npairs[p] = listed_p
             if checked:
                 slot = p % EXT_SLOTS
                 q = quanta(margin_p, S, False)

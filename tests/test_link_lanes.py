@@ -1,0 +1,73 @@
+"""The rebuild's ``link`` over several threads a point (``granular_state.LINK_LANES``).
+
+In a flowing granular scene nearly every rebuild comes in a streak that only merges pairs (no
+margin, no listed pair: FLAG_FORCED), and deforming domains only merge at every step. There a
+point's candidates are split over LINK_LANES threads (the GPU, idle at a few thousand points,
+runs the chains side by side). What must hold: the components are those of the one-thread search,
+whose labels are tested against the O(N²) interaction graph in tests/test_granular.py, and since a
+component's root is its point of highest priority whatever the order of the merges, every later
+result is the same bits. On the CPU (threads in sequence) both are checked to the bit:
+
+- a sand flow (``sand-blocks``) over 500 steps, two hundred of them in such streaks;
+- the meeting grains with a deforming domain (cpGIMP), against the O(N²) graph at every step.
+"""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_granular import assert_steps_label_as_brute_force, meeting_grains
+
+from mpmdem import granular_state
+from mpmdem.kernels import granular as kgran
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
+from small_scenes import build_case  # noqa: E402
+
+BOTH = ("cpu", "cuda")
+
+
+def sand_flow(monkeypatch, devices):
+    """sand-blocks on the CPU for 500 steps with ``link`` on the given devices' lanes: (fields,
+    diagnostics, the labels every 50 steps, the rebuilds that only merged)."""
+    monkeypatch.setattr(granular_state, "LINK_LANES_DEVICES", devices)
+    sim, _ = build_case("sand-blocks", "cpu", [])
+    merging, labels = 0, []
+    for k in range(500):
+        f = sim.mpm.interaction.flags.numpy()
+        merging += int(f[kgran.FLAG_REBUILD] != 0 and f[kgran.FLAG_FORCED] > 0)
+        sim.advance(1)
+        if k % 50 == 49:
+            labels.append(sim.mpm.P.comp.numpy().copy())
+    return sim.fields(), sim.diagnostics(), labels, merging
+
+
+def test_link_over_lanes_changes_no_bit_of_a_flow(monkeypatch):
+    """Verify a sand flow whose merging rebuilds split each point's pairs over four lanes has the
+    one-thread run's labels, positions, velocities and diagnostics, to the bit."""
+    fields, diag, labels, merging = sand_flow(monkeypatch, ())
+    l_fields, l_diag, l_labels, l_merging = sand_flow(monkeypatch, BOTH)
+    assert merging == l_merging >= 150  # the lanes' path ran
+    for a, b in zip(labels, l_labels, strict=True):
+        np.testing.assert_array_equal(a, b)
+    for name in ("x", "v"):
+        np.testing.assert_array_equal(l_fields[name], fields[name], err_msg=name)
+    assert l_diag == diag
+
+
+@pytest.mark.parametrize("shape", ["cpgimp"])
+def test_link_over_lanes_labels_the_brute_force_graph(monkeypatch, shape):
+    """Verify deforming domains (every rebuild only merges) label each step's O(N²) graph with
+    ``link`` over four lanes, and end at the one-thread run's bits."""
+    monkeypatch.setattr(granular_state, "LINK_LANES_DEVICES", BOTH)
+    sim = meeting_grains("cpu", shape=shape)
+    sim.advance_to(1.0e-12)
+    assert_steps_label_as_brute_force(sim, steps=30, relabels=False)
+    monkeypatch.setattr(granular_state, "LINK_LANES_DEVICES", ())
+    ref = meeting_grains("cpu", shape=shape)
+    ref.advance_to(1.0e-12)
+    ref.mpm.set_stop_time(1.0)
+    ref.advance(30)
+    for name in ("x", "v"):
+        np.testing.assert_array_equal(sim.fields()[name], ref.fields()[name], err_msg=name)
