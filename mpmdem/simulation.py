@@ -122,7 +122,7 @@ class Simulation:
         #: nodes or in line, chosen after the batches of advance_to from how often each runs
         #: (mpmdem.block_layout); none elsewhere (every block runs in line)
         self.block_layouts = (self.mpm.block_layouts() if self.mpm is not None and self.config.cuda_graph
-                              and wp.get_device(self.device).is_cuda else [])
+                              and wp.get_device(self.device).is_cuda and wp.is_conditional_graph_supported() else [])
 
     @property
     def particle_count(self) -> int:
