@@ -65,15 +65,17 @@ class BlockLayout:
         """Whether the block is laid in line (else a conditional node)."""
         return self.block.inline
 
-    def runs(self) -> int:
-        """Steps that ran the block so far (one small device-to-host copy)."""
-        counts = self.counters.numpy()
+    def runs(self, counts: np.ndarray | None = None) -> int:
+        """Steps that ran the block so far, from ``counts`` (the counters already copied to the
+        host, which layouts sharing one counter array read once) or one small device-to-host copy."""
+        if counts is None:
+            counts = self.counters.numpy()
         return int(np.sum(counts[list(self.slots)], dtype=np.int64))
 
-    def after_batch(self, steps: int) -> bool:
-        """Account the steps up to ``steps`` (the clock's step count); True when the layout changed
-        (the caller records its graphs again)."""
-        runs = self.runs()
+    def after_batch(self, steps: int, counts: np.ndarray | None = None) -> bool:
+        """Account the steps up to ``steps`` (the clock's step count; ``counts`` as in ``runs``);
+        True when the layout changed (the caller records its graphs again)."""
+        runs = self.runs(counts)
         if self._window is None or steps < self._window[0]:
             self._window = (steps, runs)
             return False

@@ -203,9 +203,11 @@ class Simulation:
             stage.check_status(t, dt, bound, status)
             if self._auto_sort is not None:
                 self._auto_sort.after_batch(steps)
-            # (every layout reads its rate: no short-circuit)
-            if self._graph is not None and sum([layout.after_batch(steps) for layout in self.block_layouts]):
-                self._record_graphs()
+            if self._graph is not None and self.block_layouts:
+                # (one copy of the counters they share; every layout reads its rate: no short-circuit)
+                counts = self.block_layouts[0].counters.numpy()
+                if sum([layout.after_batch(steps, counts) for layout in self.block_layouts]):
+                    self._record_graphs()
             if on_batch is not None:
                 on_batch(t, dt)
             # the steps left, as the device counts them (kernels.clock.land): an idle
