@@ -18,7 +18,8 @@ from .kernels import scan as scan_kernels
 from .kernels.shape_functions import SUPPORT_NODES
 from .launch_plan import IfFlag, Launch
 
-__all__ = ["CRITICAL_BAND", "LINK_LANES", "LINK_LANES_DEVICES", "LINK_LANES_POINTS", "NESTED_REBUILD", "WIDE_BAND_CAP",
+__all__ = ["CRITICAL_BAND", "LINK_LANES", "LINK_LANES_DEVICES", "LINK_LANES_POINTS", "NESTED_REBUILD",
+           "NODE_RANGE_MOVES", "WIDE_BAND_CAP",
            "components", "granular_plan", "granular_statistics", "interaction_domains", "make_interaction",
            "node_ranges", "static_extent"]
 
@@ -38,6 +39,11 @@ NESTED_REBUILD = True
 LINK_LANES = 4
 LINK_LANES_POINTS = 65536
 LINK_LANES_DEVICES = ("cuda",)
+#: Whether a point may change node ranges without a rebuild where no pair's pre-task can then
+#: change (``make_interaction``: every domain granular and under half a cell, not deforming, not
+#: staged): a relabel claims its copies at its new nodes instead. Off, every new node range rebuilds
+#: (the tent still changes cells by relabels): the same labels and results, at a rebuild's cost.
+NODE_RANGE_MOVES = True
 
 
 def static_extent(scene, config, host: dict, mats: list) -> np.ndarray:
@@ -120,14 +126,18 @@ def make_interaction(scene, config, host: dict, mats: list, points, grid_shape, 
     S.quantum = t.scalar(scene.cell_size * 2.0**-20)
     S.band_min = int(CRITICAL_BAND * 2.0**20)  # (in quanta of h 2^-20)
     S.band_cap = int(WIDE_BAND_CAP * 2.0**20)
-    # a point may change cells without a rebuild when every point is granular and every
-    # domain of interaction under half a cell (the tent outside staged scenes): then the
-    # pairs the search did not visit need (1 − 2 largest half-extent) h to meet
+    # a point may change cells and node ranges without a rebuild when every point is granular
+    # and every domain of interaction under half a cell (domains that do not deform, outside
+    # staged scenes): two overlapping domains are then less than a cell apart on each axis, and
+    # any stencil of such points shares a node, so the pre-task holds for every pair that passes
+    # task 1 whatever the ranges; the pairs the search did not visit (more than W cells apart)
+    # need (W − 2 largest half-extent) h to meet
     ext = float(extent[:2].max())
     rho_cr = np.array([m.critical_density or 0.0 for m in mats])[host["material_index"]]
     granular_only = bool((rho_cr > 0.0).all())
-    S.moves = int(tent and granular_only and ext < 0.5)
-    S.moves_margin = (int(math.floor((1.0 - 2.0 * ext * (1.0 + 1.0e-6)) * 2.0**20)) if S.moves
+    window = granular_kernels.make_cells(config.shape, config.precision, staged).W
+    S.moves = int(not deforming and not staged and granular_only and ext < 0.5 and (tent or NODE_RANGE_MOVES))
+    S.moves_margin = (int(math.floor((window - 2.0 * ext * (1.0 + 1.0e-6)) * 2.0**20)) if S.moves
                       else granular_kernels.NO_MARGIN)
     flags = np.zeros(granular_kernels.FLAG_SLOTS, np.int32)
     flags[granular_kernels.FLAG_REBUILD] = 1  # the first step builds the graph

@@ -93,10 +93,10 @@ def test_components_match_brute_force_graph(shape, seed):
     assert m.granular_statistics()[0] == n_comp
 
 
-def _translating_islands(seed: int):
+def _translating_islands(seed: int, shape: str = "linear", device: str = "cpu"):
     """Eight islands moving together at 30 m/s (0.021 cells a step): points cross cell lines at
     every step, and nothing moves relative to anything else."""
-    sim = _granular_sim(_random_islands(seed, islands=8), "linear")
+    sim = _granular_sim(_random_islands(seed, islands=8), shape, device=device)
     m = sim.mpm
     v = m.P.v.numpy()
     v[:] = (21.0, 21.0)
@@ -116,13 +116,15 @@ def _step_against_brute_force(m) -> bool:
     return 1 < len(np.unique(comp)) < len(comp)
 
 
+@pytest.mark.parametrize("shape", ["linear", "ugimp", "bspline2", "bspline3"])
 @pytest.mark.parametrize("seed", [0, 1])
-def test_components_match_brute_force_graph_when_points_change_cells(seed):
-    """Points that change cells between rebuilds (every domain granular and under half a cell) are
-    relabelled, not rebuilt: their copies are claimed in P2G and the node threads skip them. The
-    islands cross cell lines at every step, and the bounds keep the graph (no relative motion), so
-    the steps relabel without a rebuild; their labels must be those of the O(N²) graph."""
-    m = _translating_islands(seed)
+def test_components_match_brute_force_graph_when_points_change_cells(seed, shape):
+    """Points that change cells or node ranges between rebuilds (every domain granular and under half
+    a cell) are relabelled, not rebuilt: their copies are claimed in P2G (the tent's node threads
+    skip them). The islands cross cell lines at every step, and the bounds keep the graph (no
+    relative motion), so the steps relabel without a rebuild; their labels must be those of the
+    O(N²) graph, whose pre-task the brute force takes from today's node ranges."""
+    m = _translating_islands(seed, shape)
     assert m.interaction.moves == 1
     for _ in range(3):
         m.step()
@@ -186,6 +188,32 @@ def test_layers_separate_components_on_every_node(shape, seed):
     reach = m.node_ranges()  # (of the positions the step's P2G starts from)
     m.set_stop_time(1.0)
     m.step()
+    _assert_layers_separate_components(m, reach)
+
+
+@pytest.mark.parametrize("shape", ["bspline2", "bspline3"])
+def test_layers_follow_points_that_change_node_ranges_without_a_rebuild(shape, device):
+    """Islands moving together change node ranges at every step, which relabels without a rebuild
+    (``Interaction.moves``): after such steps every node still holds one copy per component that
+    reaches it now, every point the layer of its component's copy at each of its new nodes, and the
+    labels are those of the O(N²) graph (on CUDA the copies are claimed by racing threads)."""
+    m = _translating_islands(3, shape, device)
+    for _ in range(4):
+        m.step()
+    before = m.interaction.flags.numpy()[kgran.FLAG_COUNT]
+    for _ in range(3):
+        f = m.interaction.flags.numpy()
+        assert f[kgran.FLAG_RELABEL] == 1 and f[kgran.FLAG_REBUILD] == 0  # (a relabel alone)
+        x0, reach = m.P.x.numpy().copy(), m.node_ranges()
+        m.step()
+        _assert_layers_separate_components(m, reach)
+        np.testing.assert_array_equal(_by_smallest_member(m.P.comp.numpy()),
+                                      _brute_force_components(x0, *m.interaction_domains(), reach))
+    assert m.interaction.flags.numpy()[kgran.FLAG_COUNT] == before  # (relabels only)
+
+
+def _assert_layers_separate_components(m, reach):
+    """The copies and layers a step ended with, for the node ranges ``reach`` its P2G started from."""
     comp = m.P.comp.numpy()
     owner = m.G.owner.numpy()
     rows, layers = m.D.layer_rows, m.D.layers

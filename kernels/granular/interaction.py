@@ -43,12 +43,13 @@ def make_interaction_struct(precision: str):
     in ``slack`` instead); base (N,) int32 (likewise): each point's root in the forest of the pairs
     that were not listed (the part of the graph that holds until the next rebuild); home (N,) int32
     (the tent outside staged scenes): each point's cell at the last labelling; band_min, band_cap:
-    the narrow band and the widest [quanta]; moves: 1 when a point may change cells without a
-    rebuild (the tent outside staged scenes, every point granular, every domain of interaction under
-    half a cell: overlapping domains then share a node whatever their cells, and domains that do not
-    overlap never interact), 0 else; moves_margin [quanta]: then the least change of offset that
-    makes a pair the search did not visit (two or more cells apart) overlap, (1 − 2 largest
-    half-extent) h, NO_MARGIN else; quantum: the unit of ``slack`` and ``motion`` [m]; roundoff: the
+    the narrow band and the widest [quanta]; moves: 1 when a point may change cells and node
+    ranges without a rebuild (domains that do not deform, outside staged scenes, every point
+    granular, every domain of interaction under half a cell: overlapping domains then share a node
+    whatever their cells, and domains that do not overlap never interact; ``check`` then stores a
+    new range in ``reach`` and relabels), 0 else; moves_margin [quanta]: then the least change of
+    offset that makes a pair the search did not visit (more than W cells apart, ``cells``) overlap,
+    (W − 2 largest half-extent) h, NO_MARGIN else; quantum: the unit of ``slack`` and ``motion`` [m]; roundoff: the
     round-off allowance [m] of one displacement or margin."""
     t = scalar_types(precision)
 

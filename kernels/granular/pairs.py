@@ -54,7 +54,8 @@ def make_pairs(shape: str, precision: str, staged: bool = False) -> Pairs:
     @wp.func
     def share(S: Interaction, p: int, q: int):
         # whether two points whose domains overlap share a node (the pre-task): always for the tent
-        # (in one cell's reach at a rebuild; or, with S.moves, overlapping domains under half a cell)
+        # (in one cell's reach at a rebuild; or, with S.moves, overlapping domains under half a cell,
+        # which is also why the others' stored ranges, updated by ``check`` with S.moves, answer right)
         if wp.static(tent_cells):
             return True
         rp = S.reach[p]
