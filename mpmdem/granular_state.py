@@ -32,10 +32,12 @@ WIDE_BAND_CAP = 0.25
 #: Whether the rebuild sits in a conditional graph node of its own inside the relabel's (else its
 #: kernels are launched on every relabel and return at once when there is no rebuild).
 NESTED_REBUILD = True
-#: Threads a point of the rebuild's ``link`` (``kernels.granular.search``) in scenes of fewer than
+#: Threads a point of the rebuild's ``link`` (``kernels.granular.search``) and of the relabel's
+#: ``relink`` (``kernels.granular.labels``, domains that do not deform) in scenes of fewer than
 #: LINK_LANES_POINTS points on the devices of LINK_LANES_DEVICES: in a flowing scene most rebuilds
-#: come in a streak that only merges, and the GPU, idle at a few thousand points, then runs each
-#: point's pair tests and merges over the lanes (the CPU, one core's work, keeps one thread).
+#: come in a streak that only merges, and most relabels merge the wide lists of nearly every
+#: neighbour pair; the GPU, idle at a few thousand points, then runs each point's pair tests and
+#: merges over the lanes (the CPU, one core's work, keeps one thread).
 LINK_LANES = 4
 LINK_LANES_POINTS = 65536
 LINK_LANES_DEVICES = ("cuda",)
@@ -195,7 +197,7 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
     else:
         rebuild += [Launch(scan_kernels.make_serial_scan(), 1, [S.count, S.prefix1, gate])]
     rebuild += [Launch(place, n, gin), Launch(link, n * lanes, gin)]
-    relabel = [Launch(relink, n, gin), Launch(label, n, gin)]
+    relabel = [Launch(relink, n * (1 if deforming else lanes), gin), Launch(label, n, gin)]
     if assign is not None:
         # the tent: each node gives out its copies (instead of the claims in P2G)
         relabel += [Launch(assign, grid_dim, gin)]

@@ -1,14 +1,17 @@
-"""The rebuild's ``link`` over several threads a point (``granular_state.LINK_LANES``).
+"""The rebuild's ``link`` and the relabel's ``relink`` over several threads a point
+(``granular_state.LINK_LANES``).
 
-In a flowing granular scene nearly every rebuild comes in a streak that only merges pairs (no
-margin, no listed pair: FLAG_FORCED), and deforming domains only merge at every step. There a
-point's candidates are split over LINK_LANES threads (the GPU, idle at a few thousand points,
-runs the chains side by side). What must hold: the components are those of the one-thread search,
-whose labels are tested against the O(N²) interaction graph in tests/test_granular.py, and since a
-component's root is its point of highest priority whatever the order of the merges, every later
-result is the same bits. On the CPU (threads in sequence) both are checked to the bit:
+In a flowing granular scene whose points cannot change node ranges without a rebuild, nearly every
+rebuild comes in a streak that only merges pairs (no margin, no listed pair: FLAG_FORCED), and
+deforming domains only merge at every step; where they can (``granular_state.NODE_RANGE_MOVES``),
+nearly every step relabels over wide lists of nearly every neighbour pair. There a point's
+candidates, or its listed pairs, are split over LINK_LANES threads (the GPU, idle at a few thousand
+points, runs the chains side by side). What must hold: the components are those of the one-thread
+search, whose labels are tested against the O(N²) interaction graph in tests/test_granular.py, and
+since a component's root is its point of highest priority whatever the order of the merges, every
+later result is the same bits. On the CPU (threads in sequence) both are checked to the bit:
 
-- a sand flow (``sand-blocks``) over 500 steps, two hundred of them in such streaks;
+- a sand flow (``sand-blocks``) over 500 steps, two hundred of them in such streaks, or relabels;
 - the meeting grains with a deforming domain (cpGIMP), against the O(N²) graph at every step.
 """
 
@@ -28,30 +31,39 @@ from small_scenes import build_case  # noqa: E402
 BOTH = ("cpu", "cuda")
 
 
-def sand_flow(monkeypatch, devices):
-    """sand-blocks on the CPU for 500 steps with ``link`` on the given devices' lanes: (fields,
-    diagnostics, the labels every 50 steps, the rebuilds that only merged)."""
+def sand_flow(monkeypatch, devices, moves: bool):
+    """sand-blocks on the CPU for 500 steps with ``link`` and ``relink`` on the given devices' lanes:
+    (fields, diagnostics, the labels every 50 steps, the steps whose lanes had pairs to share: the
+    rebuilds that only merged without moves, the relabels over the wide lists with them; the pairs
+    listed at the end)."""
     monkeypatch.setattr(granular_state, "LINK_LANES_DEVICES", devices)
-    # (every new node range rebuilds: the streaks of merging rebuilds of a flow before points
-    # could change node ranges by relabels, granular_state.NODE_RANGE_MOVES)
-    monkeypatch.setattr(granular_state, "NODE_RANGE_MOVES", False)
+    # (without moves every new node range rebuilds: the streaks of merging rebuilds of a flow;
+    # with them a flow relabels over its wide lists at nearly every step, granular_state.NODE_RANGE_MOVES)
+    monkeypatch.setattr(granular_state, "NODE_RANGE_MOVES", moves)
     sim, _ = build_case("sand-blocks", "cpu", [])
-    merging, labels = 0, []
+    shared, labels = 0, []
     for k in range(500):
         f = sim.mpm.interaction.flags.numpy()
-        merging += int(f[kgran.FLAG_REBUILD] != 0 and f[kgran.FLAG_FORCED] > 0)
+        if moves:
+            shared += int(f[kgran.FLAG_RELABEL] != 0 and f[kgran.FLAG_REBUILD] == 0 and f[kgran.FLAG_WIDE] != 0)
+        else:
+            shared += int(f[kgran.FLAG_REBUILD] != 0 and f[kgran.FLAG_FORCED] > 0)
         sim.advance(1)
         if k % 50 == 49:
             labels.append(sim.mpm.P.comp.numpy().copy())
-    return sim.fields(), sim.diagnostics(), labels, merging
+    return sim.fields(), sim.diagnostics(), labels, shared, int(sim.mpm.interaction.npairs.numpy().sum())
 
 
-def test_link_over_lanes_changes_no_bit_of_a_flow(monkeypatch):
-    """Verify a sand flow whose merging rebuilds split each point's pairs over four lanes has the
-    one-thread run's labels, positions, velocities and diagnostics, to the bit."""
-    fields, diag, labels, merging = sand_flow(monkeypatch, ())
-    l_fields, l_diag, l_labels, l_merging = sand_flow(monkeypatch, BOTH)
-    assert merging == l_merging >= 150  # the lanes' path ran
+@pytest.mark.parametrize("moves", [False, True])
+def test_link_over_lanes_changes_no_bit_of_a_flow(monkeypatch, moves):
+    """Verify a sand flow whose merging rebuilds (without moves) or relabels over the wide lists (with
+    them) split each point's pairs over four lanes has the one-thread run's labels, positions,
+    velocities and diagnostics, to the bit."""
+    fields, diag, labels, shared, listed = sand_flow(monkeypatch, (), moves)
+    l_fields, l_diag, l_labels, l_shared, l_listed = sand_flow(monkeypatch, BOTH, moves)
+    assert shared == l_shared >= 150  # the lanes' path ran
+    if moves:
+        assert listed == l_listed > 8000  # (more than a pair a point to share over the lanes)
     for a, b in zip(labels, l_labels, strict=True):
         np.testing.assert_array_equal(a, b)
     for name in ("x", "v"):

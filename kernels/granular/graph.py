@@ -48,11 +48,12 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False,
     grid copies there, instead of the claims in P2G. staged: points not yet released
     (``P.release`` ahead of ``clock[CLOCK_T]``) stay single components, in no cell. link_lanes:
     ``link`` takes that many threads a point (launch it over points × link_lanes;
-    ``make_search_kernels``).
+    ``make_search_kernels``), and so does ``relink`` for domains that do not deform
+    (``make_label_kernels``; deforming ones list no pairs: one thread a point).
     """
     cells = make_cells(shape, precision, staged)
     prepare, place, link = make_search_kernels(shape, precision, staged, link_lanes)
-    settle, relink, label = make_label_kernels(shape, precision, staged)
+    settle, relink, label = make_label_kernels(shape, precision, staged, 1 if cells.deforming else link_lanes)
     check = None
     assign = None
     if cells.deforming:

@@ -33,8 +33,15 @@ __all__ = ["make_label_kernels"]
 
 
 @functools.cache
-def make_label_kernels(shape: str, precision: str, staged: bool = False):
-    """(settle, relink, label) (module docstring; launched as in ``make_granular_kernels``)."""
+def make_label_kernels(shape: str, precision: str, staged: bool = False, relink_lanes: int = 1):
+    """(settle, relink, label) (module docstring; launched as in ``make_granular_kernels``).
+
+    relink_lanes > 1 (domains that do not deform): ``relink`` is launched over relink_lanes threads a
+    point, lane l taking the listed pairs l, l + relink_lanes, ... of its point and lane 0 the rest
+    (the spill entry, the copies' depths, the void layers). With the wide lists a dense flow lists
+    nearly every neighbour pair, and a relabel at every step merges them: the lanes run a point's
+    chain of pair tests and merges side by side. The union–find's roots do not depend on the order
+    of the merges (``unionfind``), so the labels are the same."""
     t = scalar_types(precision)
     Particles, Grid, Domain = make_state_structs(precision)
     Interaction = make_interaction_struct(precision)
@@ -68,14 +75,18 @@ def make_label_kernels(shape: str, precision: str, staged: bool = False):
             if S.flags[FLAG_RELABEL] == 0:
                 return
         p = wp.tid()
+        lane = int(0)
+        if wp.static(relink_lanes > 1):
+            lane = p - (p // wp.static(relink_lanes)) * wp.static(relink_lanes)
+            p = p // wp.static(relink_lanes)
         # reset_copies has freed the copies by the depths of their runs (Grid.depth); no copy is
         # claimed now, so the depths start again from zero, here because reset_copies reads them
         # (the nodes of one run may sit in different thread blocks). The tent's relabels without a
         # rebuild keep the copies of the nodes whose points kept their labels (``assign``), and
         # their depths, and ``label`` voids the layers of the points that left their cells
-        fresh = True
+        fresh = lane == 0
         if wp.static(tent_cells):
-            fresh = S.flags[FLAG_REBUILD] != 0
+            fresh = fresh and S.flags[FLAG_REBUILD] != 0
         if fresh:
             runs = G.depth.shape[1]
             for k in range(p, G.depth.shape[0] * runs, P.x.shape[0]):
@@ -86,13 +97,13 @@ def make_label_kernels(shape: str, precision: str, staged: bool = False):
             root = p
             xp = P.x[p]  # (loaded once for all of p's pairs)
             ep = S.ext[p]
-            for k in range(S.npairs[p]):
+            for k in range(lane, S.npairs[p], wp.static(relink_lanes)):
                 code = S.pairs[k, p]
                 now, root = relist(P, S, p, xp, ep, code, root)
                 if now != code:
                     S.pairs[k, p] = now
                     flipped = True
-            if p < wp.min(S.flags[FLAG_SPILLED], S.spill.shape[0]):
+            if lane == 0 and p < wp.min(S.flags[FLAG_SPILLED], S.spill.shape[0]):
                 pair = S.spill[p]
                 first, code = spilled(pair)
                 now, _ = relist(P, S, first, P.x[first], S.ext[first], code, first)
