@@ -174,7 +174,7 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
     device = "cuda" if wp.get_device(stage.device).is_cuda else "cpu"
     lanes = LINK_LANES if device in LINK_LANES_DEVICES and n < LINK_LANES_POINTS else 1
     check, prepare, place, link, settle, relink, label, assign = granular_kernels.make_granular_kernels(
-        c.shape, prec, staged=stage.staged, link_lanes=lanes)
+        c.shape, prec, staged=stage.staged, link_lanes=lanes, check_capped=n >= LINK_LANES_POINTS)
     incremental = c.shape == "linear" and not stage.staged  # (the tent's ``assign``)
     reset = Launch(granular_kernels.make_reset_copies(prec, deforming, incremental), grid_dim,
                    [stage.G, stage.D, S.ext_max, S.slack, S.cell_ref, S.flags, S.motion])

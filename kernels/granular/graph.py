@@ -29,7 +29,7 @@ class GranularKernels(NamedTuple):
 
 @functools.cache
 def make_granular_kernels(shape: str, precision: str, staged: bool = False,
-                          link_lanes: int = 1) -> GranularKernels:
+                          link_lanes: int = 1, check_capped: bool = True) -> GranularKernels:
     """(check, prepare, place, link, settle, relink, label, assign) kernels of the interaction graph
     (``GranularKernels``).
 
@@ -49,7 +49,8 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False,
     (``P.release`` ahead of ``clock[CLOCK_T]``) stay single components, in no cell. link_lanes:
     ``link`` takes that many threads a point (launch it over points × link_lanes;
     ``make_search_kernels``), and so does ``relink`` for domains that do not deform
-    (``make_label_kernels``; deforming ones list no pairs: one thread a point).
+    (``make_label_kernels``; deforming ones list no pairs: one thread a point). check_capped:
+    ``check`` at ``reuse.CHECK_REGISTERS`` registers a thread on CUDA (``make_check``).
     """
     cells = make_cells(shape, precision, staged)
     prepare, place, link = make_search_kernels(shape, precision, staged, link_lanes)
@@ -59,7 +60,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False,
     if cells.deforming:
         settle = None
     else:
-        check = make_check(shape, precision, staged)
+        check = make_check(shape, precision, staged, check_capped)
     if cells.tent_cells:
         assign = make_assign(shape, precision, staged)
     return GranularKernels(check, prepare, place, link, settle, relink, label, assign)

@@ -65,17 +65,20 @@ from .pairs import make_pairs
 
 __all__ = ["CHECK_REGISTERS", "make_check", "make_rebuild_decision"]
 
-#: Registers per thread of ``check`` on CUDA: 32 lets a whole block of every warp slot of an SM run
-#: at once (the compiler's 40 leave a quarter of them idle, and a 262k-point step a second wave).
+#: Registers per thread of ``check`` on CUDA in large scenes (``make_check``): 32 lets a whole block
+#: of every warp slot of an SM run at once (the compiler's 40 leave a quarter of them idle, and a
+#: 262k-point step a second wave).
 CHECK_REGISTERS = 32
 
 
 @functools.cache
-def make_check(shape: str, precision: str, staged: bool = False):
+def make_check(shape: str, precision: str, staged: bool = False, capped: bool = True):
     """Kernel ``check`` over the points, after the step's last G2P (non-deforming domains; launched as
     in ``make_granular_kernels``): a changed node range asks for a rebuild, a listed pair flipped or a
     point in another cell for a relabel, and the moves since the last rebuild go to
-    ``Interaction.motion`` for ``judge``."""
+    ``Interaction.motion`` for ``judge``. capped: at CHECK_REGISTERS registers a thread (large scenes,
+    where occupancy counts; a small scene's few warps gain from the reference window's loads in
+    flight at once)."""
     t = scalar_types(precision)
     T = t.scalar
     Particles, Grid, Domain = make_state_structs(precision)
@@ -101,7 +104,7 @@ def make_check(shape: str, precision: str, staged: bool = False):
     def moved(P: Particles, S: Interaction, p: int):
         return P.x[p] - reference(S, p)
 
-    @kernel(max_unroll=WINDOW, max_registers=CHECK_REGISTERS)
+    @kernel(max_unroll=WINDOW, max_registers=CHECK_REGISTERS if capped else None)
     def check(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
               status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
         # after the step's last G2P: whether the next step needs a rebuild (see the module
