@@ -19,7 +19,7 @@ from .kernels.shape_functions import SUPPORT_NODES
 from .launch_plan import IfFlag, Launch
 
 __all__ = ["CRITICAL_BAND", "LINK_LANES", "LINK_LANES_DEVICES", "LINK_LANES_POINTS", "NESTED_REBUILD",
-           "NODE_RANGE_MOVES", "WIDE_BAND_CAP",
+           "NODE_RANGE_MOVES", "RELINK_LANES", "WIDE_BAND_CAP",
            "components", "granular_plan", "granular_statistics", "interaction_domains", "make_interaction",
            "node_ranges", "static_extent"]
 
@@ -41,6 +41,9 @@ NESTED_REBUILD = True
 LINK_LANES = 4
 LINK_LANES_POINTS = 65536
 LINK_LANES_DEVICES = ("cuda",)
+#: Threads a point of ``relink`` where ``link`` takes LINK_LANES (a point lists at most
+#: ``kernels.granular.PAIR_SLOTS`` pairs).
+RELINK_LANES = 4
 #: Whether a point may change node ranges without a rebuild where no pair's pre-task can then
 #: change (``make_interaction``: every domain granular and under half a cell, not deforming, not
 #: staged): a relabel claims its copies at its new nodes instead. Off, every new node range rebuilds
@@ -172,9 +175,12 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
     S = stage.interaction
     gin = [stage.points, stage.G, stage.D, stage.materials, S, stage.status, stage.clock]
     device = "cuda" if wp.get_device(stage.device).is_cuda else "cpu"
-    lanes = LINK_LANES if device in LINK_LANES_DEVICES and n < LINK_LANES_POINTS else 1
+    small = device in LINK_LANES_DEVICES and n < LINK_LANES_POINTS
+    lanes = LINK_LANES if small else 1
+    relink_lanes = RELINK_LANES if small and not deforming else 1
     check, prepare, place, link, settle, relink, label, assign = granular_kernels.make_granular_kernels(
-        c.shape, prec, staged=stage.staged, link_lanes=lanes, check_capped=n >= LINK_LANES_POINTS)
+        c.shape, prec, staged=stage.staged, link_lanes=lanes, relink_lanes=relink_lanes,
+        check_capped=n >= LINK_LANES_POINTS)
     incremental = c.shape == "linear" and not stage.staged  # (the tent's ``assign``)
     reset = Launch(granular_kernels.make_reset_copies(prec, deforming, incremental), grid_dim,
                    [stage.G, stage.D, S.ext_max, S.slack, S.cell_ref, S.flags, S.motion])
@@ -197,7 +203,7 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
     else:
         rebuild += [Launch(scan_kernels.make_serial_scan(), 1, [S.count, S.prefix1, gate])]
     rebuild += [Launch(place, n, gin), Launch(link, n * lanes, gin)]
-    relabel = [Launch(relink, n * (1 if deforming else lanes), gin), Launch(label, n, gin)]
+    relabel = [Launch(relink, n * relink_lanes, gin), Launch(label, n, gin)]
     if assign is not None:
         # the tent: each node gives out its copies (instead of the claims in P2G)
         relabel += [Launch(assign, grid_dim, gin)]

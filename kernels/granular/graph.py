@@ -29,7 +29,7 @@ class GranularKernels(NamedTuple):
 
 @functools.cache
 def make_granular_kernels(shape: str, precision: str, staged: bool = False,
-                          link_lanes: int = 1, check_capped: bool = True) -> GranularKernels:
+                          link_lanes: int = 1, relink_lanes: int = 1, check_capped: bool = True) -> GranularKernels:
     """(check, prepare, place, link, settle, relink, label, assign) kernels of the interaction graph
     (``GranularKernels``).
 
@@ -48,13 +48,13 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False,
     grid copies there, instead of the claims in P2G. staged: points not yet released
     (``P.release`` ahead of ``clock[CLOCK_T]``) stay single components, in no cell. link_lanes:
     ``link`` takes that many threads a point (launch it over points × link_lanes;
-    ``make_search_kernels``), and so does ``relink`` for domains that do not deform
-    (``make_label_kernels``; deforming ones list no pairs: one thread a point). check_capped:
+    ``make_search_kernels``); relink_lanes: ``relink`` takes that many (domains that do not deform;
+    ``make_label_kernels``; deforming ones list no pairs: give 1). check_capped:
     ``check`` at ``reuse.CHECK_REGISTERS`` registers a thread on CUDA (``make_check``).
     """
     cells = make_cells(shape, precision, staged)
     prepare, place, link = make_search_kernels(shape, precision, staged, link_lanes)
-    settle, relink, label = make_label_kernels(shape, precision, staged, 1 if cells.deforming else link_lanes)
+    settle, relink, label = make_label_kernels(shape, precision, staged, 1 if cells.deforming else relink_lanes)
     check = None
     assign = None
     if cells.deforming:

@@ -102,7 +102,7 @@ def make_pairs(shape: str, precision: str, staged: bool = False) -> Pairs:
         now = -q - 1
         if joined:
             now = q
-            if share(S, p, q):
+            if S.moves != 0 or share(S, p, q):  # (with S.moves overlapping domains share a node)
                 ancestor = unite(S.parent, root, q)
         return now, ancestor
 
