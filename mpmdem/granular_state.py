@@ -41,9 +41,10 @@ NESTED_REBUILD = True
 LINK_LANES = 4
 LINK_LANES_POINTS = 65536
 LINK_LANES_DEVICES = ("cuda",)
-#: Threads a point of ``relink`` where ``link`` takes LINK_LANES (a point lists at most
-#: ``kernels.granular.PAIR_SLOTS`` pairs).
-RELINK_LANES = 4
+#: Threads a point of ``relink`` where ``link`` takes LINK_LANES: one a listed pair (a point lists
+#: at most ``kernels.granular.PAIR_SLOTS`` = 8). H100, call s39-D, µs a step, sand-blocks 2 / 4 / 8
+#: lanes 118.1 / 115.2 / 112.8, silo-discharge 154.1 / 153.9 / 150.5.
+RELINK_LANES = 8
 #: Whether a point may change node ranges without a rebuild where no pair's pre-task can then
 #: change (``make_interaction``: every domain granular and under half a cell, not deforming, not
 #: staged): a relabel claims its copies at its new nodes instead. Off, every new node range rebuilds
@@ -181,10 +182,9 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
     check, prepare, place, link, settle, relink, label, assign = granular_kernels.make_granular_kernels(
         c.shape, prec, staged=stage.staged, link_lanes=lanes, relink_lanes=relink_lanes,
         check_capped=n >= LINK_LANES_POINTS)
-    incremental = c.shape == "linear" and not stage.staged  # (the tent's ``assign``)
-    reset = Launch(granular_kernels.make_reset_copies(prec, deforming, incremental), grid_dim,
+    reset = Launch(granular_kernels.make_reset_search(prec, deforming), grid_dim,
                    [stage.G, stage.D, S.ext_max, S.slack, S.cell_ref, S.flags, S.motion])
-    rebuild = [Launch(prepare, n, gin)]
+    rebuild = [reset, Launch(prepare, n, gin)]
     # the start of each cell's run in the cell-sorted list: prefix sums of the counts (gated
     # by the rebuild flag: outside a CUDA graph the kernels of a skipped rebuild are launched
     # and return; deforming domains rebuild every step: an open gate)
@@ -208,7 +208,7 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
         # the tent: each node gives out its copies (instead of the claims in P2G)
         relabel += [Launch(assign, grid_dim, gin)]
     if check is None:
-        return [reset] + rebuild + relabel, None, None
+        return rebuild + relabel, None, None
     # the rebuild runs only when the previous step's judge (end_step) asked for it, the
     # relabel when it asked for either: inside a CUDA graph conditional nodes skip their
     # launches; elsewhere each kernel reads its flag and returns at once. ``check`` goes
@@ -216,13 +216,8 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
     rebuild += [Launch(settle, n, gin)]
     rebuild_flag = S.flags[granular_kernels.FLAG_REBUILD:]
     relabel_flag = S.flags[granular_kernels.FLAG_RELABEL:]
-    if NESTED_REBUILD and incremental:
-        # (the tent's relabels without a rebuild free no copies: ``reset_copies`` only
-        # runs with the rebuild, not as an empty launch over the grid at every relabel)
-        plan = [IfFlag(relabel_flag, [IfFlag(rebuild_flag, [reset] + rebuild)] + relabel)]
-    else:
-        inner = [IfFlag(rebuild_flag, rebuild)] if NESTED_REBUILD else rebuild
-        plan = [IfFlag(relabel_flag, [reset] + inner + relabel)]
+    inner = [IfFlag(rebuild_flag, rebuild)] if NESTED_REBUILD else rebuild
+    plan = [IfFlag(relabel_flag, inner + relabel)]
     return plan, granular_kernels.make_rebuild_decision(prec), Launch(check, n, gin)
 
 

@@ -10,7 +10,7 @@ concept per module:
 - ``domains``: the domain of interaction of a point and the node range of its stencil;
 - ``cells``, ``pairs``, ``unionfind``: the cell binning, single pair tests and the lock-free
   union–find the kernels share;
-- ``search``: a rebuild's ``prepare``, ``place`` and ``link``;
+- ``search``: a rebuild's ``reset_search``, ``prepare``, ``place`` and ``link``;
 - ``labels``: ``settle``, ``relink`` and ``label``, the components;
 - ``layers``: the grid copies (task 2–3) and ``assign``, which gives them out for the tent;
 - ``reuse``: ``check`` and ``judge``, whether the next step rebuilds, relabels or keeps its labels;
@@ -32,10 +32,10 @@ from .layers import (
     NO_LAYER,
     make_granular_statistics,
     make_layer_row,
-    make_reset_copies,
     slot_words,
 )
 from .reuse import make_rebuild_decision
+from .search import make_reset_search
 
 __all__ = [
     *flags.__all__,
@@ -54,6 +54,6 @@ __all__ = [
     "make_node_ranges",
     "make_node_reach",
     "make_rebuild_decision",
-    "make_reset_copies",
+    "make_reset_search",
     "slot_words",
 ]

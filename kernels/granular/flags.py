@@ -58,7 +58,7 @@ STATUS_LAYER_OVERFLOW = 2
 EXT_SLOTS = 8
 
 # Slots of ``Interaction.motion`` (each reduced over EXT_SLOTS slots), in quanta (rounded up), the
-# largest over the steps since the last rebuild (zeroed only by ``reset_copies``): never less than
+# largest over the steps since the last rebuild (zeroed only by ``reset_search``): never less than
 # the current ones, so the bounds stay safe, and a point that does not beat its slot's running
 # maximum (most of them, once a body moves) costs ``check`` no atomic.
 #: max |Δx_p| since the last rebuild.

@@ -35,14 +35,15 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False,
 
     Launch each with dim = number of points and inputs ``[P, G, D, materials, S, status, clock]``.
     A step that relabels (``FLAG_RELABEL``, set by the previous step's ``judge``,
-    ``make_rebuild_decision``; every step for deforming domains) runs ``reset_copies``, then, if it
-    also rebuilds (``FLAG_REBUILD``), ``prepare``, the three scans of ``S.count`` (``kernels.scan``),
-    ``place``, ``link`` and ``settle``, then ``relink``, ``label`` and ``assign``. ``check`` runs after
+    ``make_rebuild_decision``; every step for deforming domains) runs, if it also rebuilds
+    (``FLAG_REBUILD``), ``search.make_reset_search`` (over the nodes of one layer), ``prepare``, the
+    three scans of ``S.count`` (``kernels.scan``), ``place``, ``link`` and ``settle``, then
+    ``relink`` (which frees the copies of the last claims), ``label`` and ``assign``. ``check`` runs after
     the step's last G2P, then ``judge`` as the step's last kernel (``check`` and ``settle`` are None
     for deforming domains, which rebuild every step, list no pairs and have no ``judge``). S is an
     ``Interaction`` (``make_interaction_struct``): cells of ``S.count`` are indexed like ``Grid.mass``
     (column-major over the node lattice of one layer); ``S.ext_max`` holds for shapes outside
-    DEFORMING_DOMAINS a constant set by the host in slot 0, else ``reset_copies`` zeroes it and
+    DEFORMING_DOMAINS a constant set by the host in slot 0, else ``reset_search`` zeroes it and
     ``prepare`` fills it. ``count`` starts zeroed and ``label`` zeroes the counts it used. ``assign``
     (the tent outside staged scenes; None else) runs over the nodes of one layer and gives out the
     grid copies there, instead of the claims in P2G. staged: points not yet released

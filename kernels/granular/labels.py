@@ -26,6 +26,7 @@ from .flags import (
     FLAG_STRAYED,
 )
 from .interaction import make_interaction_struct
+from .layers import COPY_RUN
 from .pairs import make_pairs
 from .unionfind import find
 
@@ -67,31 +68,42 @@ def make_label_kernels(shape: str, precision: str, staged: bool = False, relink_
     @kernel
     def relink(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
-        # a relabel (every rebuild too), after ``reset_copies``: the listed pairs whose domains
+        # a relabel (every rebuild too): the listed pairs whose domains
         # overlap now are merged into the forest of the others (S.parent, which ``settle`` or the
         # last ``check`` set to S.base), and keep their new state; the layers the last claims kept
         # are void (all NO_LAYER in the first word tells the claiming P2G to claim; kernels/transfer.py)
         if wp.static(not deforming):
             if S.flags[FLAG_RELABEL] == 0:
                 return
-        p = wp.tid()
+        tid = wp.tid()
+        p = tid
         lane = int(0)
         if wp.static(relink_lanes > 1):
             lane = p - (p // wp.static(relink_lanes)) * wp.static(relink_lanes)
             p = p // wp.static(relink_lanes)
-        # reset_copies has freed the copies by the depths of their runs (Grid.depth); no copy is
-        # claimed now, so the depths start again from zero, here because reset_copies reads them
-        # (the nodes of one run may sit in different thread blocks). The tent's relabels without a
-        # rebuild keep the copies of the nodes whose points kept their labels (``assign``), and
-        # their depths, and ``label`` voids the layers of the points that left their cells
-        fresh = lane == 0
+        # the copies the last claims kept are freed (no kernel reads Grid.owner between the step's
+        # last grid update and the claiming P2G): every thread takes runs of COPY_RUN nodes along j,
+        # each as deep as its Grid.depth says (stores that cover whole sectors; a run without claims
+        # costs one read), then zeroes the run's depth. The tent's relabels without a rebuild keep
+        # the copies of the nodes whose points kept their labels (``assign``, which frees the others),
+        # and their depths, and ``label`` voids the layers of the points that left their cells
+        fresh = True
         if wp.static(tent_cells):
-            fresh = fresh and S.flags[FLAG_REBUILD] != 0
+            fresh = S.flags[FLAG_REBUILD] != 0
         if fresh:
             runs = G.depth.shape[1]
-            for k in range(p, G.depth.shape[0] * runs, P.x.shape[0]):
-                G.depth[k // runs, k - (k // runs) * runs] = 0
-            P.slots[p, 0] = -1
+            rows = G.owner.shape[1]
+            for k in range(tid, G.depth.shape[0] * runs, P.x.shape[0] * wp.static(relink_lanes)):
+                i = k // runs
+                r = k - i * runs
+                depth = G.depth[i, r]
+                if depth > 0:
+                    for s in range(depth):
+                        for j in range(r * COPY_RUN, wp.min(r * COPY_RUN + COPY_RUN, rows)):
+                            G.owner[s * D.layer_rows + i, j] = -1
+                    G.depth[i, r] = 0
+            if lane == 0:
+                P.slots[p, 0] = -1
         if wp.static(not deforming):
             flipped = bool(False)
             root = p

@@ -7,8 +7,8 @@ every node it reaches, the first copy that is free or already its component's (c
 the usual case costs one extra read per node: a greedy colouring per node, no iterations, and no
 more copies than the most components meeting at one node. The tent outside staged scenes gives its
 copies out before P2G instead (``make_assign``: one thread per node, no compare-and-swap races, and
-layers that do not depend on thread timing). Also: freeing the copies (``make_reset_copies``) and
-the per-frame statistics of components and layers."""
+layers that do not depend on thread timing). Also: the per-frame
+statistics of components and layers."""
 
 import functools
 
@@ -19,15 +19,9 @@ from ..state import make_state_structs
 from ..types import kernel, scalar_types
 from .cells import make_cells
 from .flags import (
-    BAND_BINS,
-    EXT_SLOTS,
-    FLAG_BINS,
     FLAG_REBUILD,
     FLAG_RELABEL,
-    FLAG_SPILLED,
     FLAG_STAMP,
-    FLAG_STRAYED,
-    NO_MARGIN,
     STAT_COMPONENTS,
     STAT_LAYERS,
     STATUS_LAYER_OVERFLOW,
@@ -35,7 +29,7 @@ from .flags import (
 from .interaction import make_interaction_struct
 
 __all__ = ["ASSIGN_CACHE", "COPY_RUN", "NO_LAYER", "make_assign", "make_granular_statistics", "make_layer_row",
-           "make_reset_copies", "slot_words"]
+           "slot_words"]
 
 #: The layer of a stencil node that has no copy of the point's component (a layer overflow) in
 #: ``Particles.slots``, which keeps the layer of each of a point's stencil nodes in 8 bits, four to a
@@ -197,59 +191,13 @@ def make_assign(shape: str, precision: str, staged: bool = False):
                                 S.slot_bytes[q, corner] = wp.uint8(s)
         if not rebuilt:
             # the copies this node gave out before, past the ones it gives out now, are free
-            # (reset_copies freed them on a rebuild)
+            # (``relink`` freed them on a rebuild)
             for s in range(n, G.depth[i, j // COPY_RUN]):
                 G.owner[s * lr + i, j] = -1
         if n > 0:
             wp.atomic_max(G.depth, i, j // COPY_RUN, n)
 
     return assign
-
-
-@functools.cache
-def make_reset_copies(precision: str, deforming: bool, incremental: bool = False):
-    """Kernel ``reset_copies(G, D, ext_max, slack, cell_ref, flags, motion)`` over the nodes of one
-    layer, on the steps that relabel (every step for deforming domains): frees the copies the
-    previous steps claimed (as deep as ``Grid.depth`` says, so a node without claims costs one read
-    instead of a memset of every layer; ``relink`` then zeroes the depths) and, on a rebuild, resets
-    ``ext_max`` (deforming domains) or ``slack``, ``cell_ref`` and ``motion`` (the others).
-    incremental (the tent outside staged scenes): a relabel without a rebuild frees nothing here;
-    ``assign`` gives out anew the copies of the nodes whose points changed labels, and frees theirs."""
-    Particles, Grid, Domain = make_state_structs(precision)
-
-    @kernel
-    def reset_copies(G: Grid, D: Domain, ext_max: wp.array(dtype=wp.float32), slack: wp.array(dtype=wp.int32),
-                     cell_ref: wp.array(dtype=wp.int32), flags: wp.array(dtype=wp.int32),
-                     motion: wp.array(dtype=wp.int32)):
-        # on a step that keeps the labels every point keeps its node range, so the copies claimed
-        # at the last labelling are the ones this step claims again: they stay
-        if wp.static(not deforming):
-            if flags[FLAG_RELABEL] == 0:
-                return
-        if wp.static(incremental):
-            if flags[FLAG_REBUILD] == 0:
-                return
-        i, j = wp.tid()
-        k = i * G.owner.shape[1] + j
-        if wp.static(deforming):
-            if k < 2 * EXT_SLOTS:
-                ext_max[k] = wp.float32(0.0)
-        else:
-            if flags[FLAG_REBUILD] != 0:
-                if k == 0:
-                    flags[FLAG_SPILLED] = 0
-                    flags[FLAG_STRAYED] = 0
-                if k < BAND_BINS:
-                    flags[FLAG_BINS + k] = 0
-                if k < EXT_SLOTS:
-                    slack[k] = NO_MARGIN
-                if k < 3 * EXT_SLOTS:
-                    motion[k] = 0
-                cell_ref[k] = -1
-        for s in range(G.depth[i, j // COPY_RUN]):  # (whole runs: stores that cover whole sectors)
-            G.owner[s * D.layer_rows + i, j] = -1
-
-    return reset_copies
 
 
 @functools.cache

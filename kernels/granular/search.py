@@ -31,7 +31,9 @@ from .flags import (
     FLAG_FORCED,
     FLAG_REBUILD,
     FLAG_SPILLED,
+    FLAG_STRAYED,
     FLAG_WIDE,
+    NO_MARGIN,
     PAIR_SLOTS,
     SAMPLE_SHIFT,
     bin_vec,
@@ -40,7 +42,7 @@ from .interaction import make_interaction_struct
 from .pairs import make_pairs
 from .unionfind import priority, unite
 
-__all__ = ["PRUNE_GUARD", "make_search_kernels"]
+__all__ = ["PRUNE_GUARD", "make_reset_search", "make_search_kernels"]
 
 #: Guard [cells] on the distances by which ``link`` leaves cells out of a tent point's window in
 #: a streak of rebuilds (plus 1e-6 of the coordinate in cells): far above the rounding of a
@@ -341,3 +343,38 @@ def make_search_kernels(shape: str, precision: str, staged: bool = False, link_l
                         wp.atomic_add(S.flags, FLAG_BINS + k, bins[k])
 
     return prepare, place, link
+
+
+@functools.cache
+def make_reset_search(precision: str, deforming: bool):
+    """Kernel ``reset_search(G, D, ext_max, slack, cell_ref, flags, motion)`` over the nodes of one
+    layer, first of a rebuild (every step for deforming domains): resets ``ext_max`` (deforming
+    domains, which ``prepare`` fills) or the margins ``slack``, the cells' reference points
+    ``cell_ref``, the ``motion`` since the rebuild and the counts of the last one's lists (the
+    others). The copies of the last claims are freed by ``relink`` (``labels``)."""
+    Particles, Grid, Domain = make_state_structs(precision)
+
+    @kernel
+    def reset_search(G: Grid, D: Domain, ext_max: wp.array(dtype=wp.float32), slack: wp.array(dtype=wp.int32),
+                     cell_ref: wp.array(dtype=wp.int32), flags: wp.array(dtype=wp.int32),
+                     motion: wp.array(dtype=wp.int32)):
+        i, j = wp.tid()
+        k = i * G.owner.shape[1] + j
+        if wp.static(deforming):
+            if k < 2 * EXT_SLOTS:
+                ext_max[k] = wp.float32(0.0)
+        else:
+            if flags[FLAG_REBUILD] == 0:
+                return
+            if k == 0:
+                flags[FLAG_SPILLED] = 0
+                flags[FLAG_STRAYED] = 0
+            if k < BAND_BINS:
+                flags[FLAG_BINS + k] = 0
+            if k < EXT_SLOTS:
+                slack[k] = NO_MARGIN
+            if k < 3 * EXT_SLOTS:
+                motion[k] = 0
+            cell_ref[k] = -1
+
+    return reset_search
