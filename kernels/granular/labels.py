@@ -3,7 +3,8 @@
 (``Interaction.base``), ``relink`` merges on top of it the listed pairs whose domains overlap now,
 and ``label`` gives every point its root as label: the point of its component first in the fixed
 ``priority`` order, independent of thread order (``MPMSolver.components`` reports the smallest
-scene index of each component instead). ``label`` also zeroes the cell counts for the next rebuild,
+scene index of each component instead). ``relink`` also frees the grid copies of the last claims
+and ``label`` zeroes their depths (``layers``). ``label`` also zeroes the cell counts for the next rebuild,
 records the cells' reference points for ``check``, and for the tent the labels in cell-sorted order
 that ``assign`` reads ("Granular MPM" §3.4 task 2)."""
 
@@ -65,6 +66,15 @@ def make_label_kernels(shape: str, precision: str, staged: bool = False, relink_
         S.base[p] = r
         S.parent[p] = r
 
+    @wp.func
+    def fresh_copies(S: Interaction):
+        # whether this relabel gives out every copy anew (``relink`` frees them, ``label`` zeroes
+        # the depths): all but the tent's relabels without a rebuild
+        fresh = True
+        if wp.static(tent_cells):
+            fresh = S.flags[FLAG_REBUILD] != 0
+        return fresh
+
     @kernel
     def relink(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
@@ -82,26 +92,19 @@ def make_label_kernels(shape: str, precision: str, staged: bool = False, relink_
             lane = p - (p // wp.static(relink_lanes)) * wp.static(relink_lanes)
             p = p // wp.static(relink_lanes)
         # the copies the last claims kept are freed (no kernel reads Grid.owner between the step's
-        # last grid update and the claiming P2G): every thread takes runs of COPY_RUN nodes along j,
-        # each as deep as its Grid.depth says (stores that cover whole sectors; a run without claims
-        # costs one read), then zeroes the run's depth. The tent's relabels without a rebuild keep
-        # the copies of the nodes whose points kept their labels (``assign``, which frees the others),
-        # and their depths, and ``label`` voids the layers of the points that left their cells
-        fresh = True
-        if wp.static(tent_cells):
-            fresh = S.flags[FLAG_REBUILD] != 0
-        if fresh:
-            runs = G.depth.shape[1]
+        # last grid update and the claiming P2G): the threads take the nodes of one layer in turn,
+        # each as deep as the depth of its run (Grid.depth, COPY_RUN: a node without claims costs
+        # one read), which ``label`` zeroes after them (the nodes of one run may sit in different
+        # thread blocks). The tent's relabels without a rebuild keep the copies of the nodes whose
+        # points kept their labels (``assign``, which frees the others), and their depths, and
+        # ``label`` voids the layers of the points that left their cells
+        if fresh_copies(S):
             rows = G.owner.shape[1]
-            for k in range(tid, G.depth.shape[0] * runs, P.x.shape[0] * wp.static(relink_lanes)):
-                i = k // runs
-                r = k - i * runs
-                depth = G.depth[i, r]
-                if depth > 0:
-                    for s in range(depth):
-                        for j in range(r * COPY_RUN, wp.min(r * COPY_RUN + COPY_RUN, rows)):
-                            G.owner[s * D.layer_rows + i, j] = -1
-                    G.depth[i, r] = 0
+            for k in range(tid, D.layer_rows * rows, P.x.shape[0] * wp.static(relink_lanes)):
+                i = k // rows
+                j = k - i * rows
+                for s in range(G.depth[i, j // COPY_RUN]):
+                    G.owner[s * D.layer_rows + i, j] = -1
             if lane == 0:
                 P.slots[p, 0] = -1
         if wp.static(not deforming):
@@ -137,6 +140,11 @@ def make_label_kernels(shape: str, precision: str, staged: bool = False, relink_
                 return
             rebuilt = S.flags[FLAG_REBUILD] != 0
         p = wp.tid()
+        if fresh_copies(S):
+            # no copy is claimed now (``relink`` freed them): the depths start again from zero
+            runs = G.depth.shape[1]
+            for k in range(p, G.depth.shape[0] * runs, P.x.shape[0]):
+                G.depth[k // runs, k - (k // runs) * runs] = 0
         if p == 0:
             if rebuilt:
                 S.flags[FLAG_COUNT] = S.flags[FLAG_COUNT] + 1
