@@ -137,6 +137,27 @@ def test_components_match_brute_force_graph_when_points_change_cells(seed, shape
     assert m.interaction.flags.numpy()[kgran.FLAG_COUNT] == 1  # the first step's rebuild only
 
 
+@pytest.mark.parametrize("shape", ["linear", "bspline2"])
+def test_clumps_that_approach_across_a_wide_gap_merge(shape):
+    """Two rigid clumps 3.15 cells apart, one moving towards the other at 0.021 cells a step: nothing
+    moves relative to its own cell's reference, and no reference window of the last rebuild spans
+    the gap, so only the absolute moves bound the pairs across it (``judge``'s ``far``). Every
+    step's labels must be those of the O(N²) graph, and the clumps merge once their domains meet
+    (step ~126; before the bound the tent kept its labels and they passed into each other)."""
+    lattice = np.stack(np.meshgrid(np.arange(4), np.arange(4)), -1).reshape(-1, 2) * 0.5 * H
+    left = lattice + np.array([0.05, 0.1])
+    right = lattice + np.array([0.05 + 0.0015 + 4.5 * H, 0.1])
+    m = _granular_sim(np.concatenate([left, right]), shape).mpm
+    v = m.P.v.numpy()
+    v[m.P.x.numpy()[:, 0] > 0.07] = (-21.0, 0.0)
+    m.P.v.assign(v)
+    m.set_stop_time(1.0)
+    assert m.interaction.moves == 1
+    for _ in range(140):
+        _step_against_brute_force(m)
+    assert len(np.unique(m.P.comp.numpy())) == 1  # (they met)
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_components_in_a_streak_of_rebuilds_match_brute_force_graph(seed):
     """In a streak of rebuilds (FLAG_FORCED: no margins kept, set here by hand) the tent's search
@@ -365,14 +386,17 @@ def test_reused_labels_equal_a_rebuild_every_step(shape):
 def test_reused_labels_follow_a_body_that_moves_as_a_whole():
     """A falling block and a separate grain drifting with it: the points move ~3.3 mm, 70 times the
     margin of the block's barely overlapping domains (0.18 mm), but not relative to each other, so
-    the relative bound keeps the labels and there is no rebuild after the first step. Points
-    crossing a cell line (a point 1/4 cell from a line crosses it after 2.5 mm, step 124) are
-    relabelled: their copies claimed anew. Still exact."""
+    the relative bound keeps the labels of the pairs within the search's reach. The pairs beyond
+    it (more than a cell apart at the rebuild) are bounded by the absolute moves alone, against
+    their own margin, (1 − 2 × 0.259) h = 4.8 mm: one more rebuild once the block has moved 2.4 mm
+    (test_clumps_that_approach_across_a_wide_gap_merge). Points crossing a cell line (a point 1/4
+    cell from a line crosses it after 2.5 mm, step 124) are relabelled: their copies claimed anew.
+    Still exact."""
     grain = np.array([[0.105, 0.1175]])  # 1.5 mm from the block's domains: apart
     parts = [(BLOCK + [0.08, 0.1], (0.0, -1.0)), (grain, (0.0, -1.0))]
     flags: list[np.ndarray] = []
     rebuilds, relabels, labellings = _reuse_against_rebuild(parts, "linear", -9.81, 160, flags=flags)
-    assert rebuilds == 1  # the absolute bound alone would rebuild about every 5 steps
+    assert rebuilds == 2  # the absolute bound against the narrow margin would rebuild about every 5 steps
     assert not any(f[kgran.FLAG_ABSOLUTE] for f in flags)  # so the check kept measuring the relative moves
     assert relabels >= 1  # points crossed cell lines
     assert labellings == 1

@@ -10,7 +10,9 @@ Tests within a band of flipping (``FLAG_BAND``) are listed instead (``Interactio
 ``spill``) and tested again at every check. The next step rebuilds when a node range changed, or
 when neither bound on the change of any pair's offset is below M (less a round-off allowance):
 2 max|Δx_p| (absolute moves), or 2 max|Δx_p − Δx_ref(p)| + max|Δx_ref(c) − Δx_ref(c')| (moves
-relative to the references: a body that moves as a whole keeps its labels). A listed pair that
+relative to the references: a body that moves as a whole keeps its labels; with
+``Interaction.moves`` the pairs the search did not visit are bounded by the absolute moves alone,
+against ``moves_margin``). A listed pair that
 flipped, or a point in another cell or node range where that cannot change the graph
 (``Interaction.moves``), relabels instead. Steps that keep or relabel get exactly the labels a
 rebuild would give. The band
@@ -55,6 +57,7 @@ from .flags import (
     MOVE_CELLS,
     MOVE_RELATIVE,
     NARROW_GROWTH,
+    NO_MARGIN,
     STREAK_MAX,
     STREAK_START,
     WIDE_STEPS,
@@ -242,7 +245,7 @@ def make_rebuild_decision(precision: str):
         absolute = int(0)
         relative = int(0)
         cells = int(0)
-        least = S.moves_margin
+        least = int(NO_MARGIN)  # (the margin of the pairs the search visited or pruned)
         for k in range(EXT_SLOTS):
             absolute = wp.max(absolute, S.motion[MOVE_ABSOLUTE * EXT_SLOTS + k])
             relative = wp.max(relative, S.motion[MOVE_RELATIVE * EXT_SLOTS + k])
@@ -262,8 +265,13 @@ def make_rebuild_decision(precision: str):
             return
         q = S.quantum
         margin = T(least) * q
-        keep_absolute = T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < margin
-        keep_relative = (T(2.0) * T(relative) + T(cells)) * q + T(7.0) * S.roundoff < margin
+        # the pairs the search did not visit at all (S.moves: more than W cells apart at the
+        # rebuild) need S.moves_margin to meet; the moves relative to the references do not bound
+        # them, since ``check`` compares the references of cells within W only: two clumps that
+        # approach each other across a wider gap move rigidly, and only the absolute moves see it
+        far = T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < T(S.moves_margin) * q
+        keep_absolute = T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < margin and far
+        keep_relative = (T(2.0) * T(relative) + T(cells)) * q + T(7.0) * S.roundoff < margin and far
         if absolute_only:
             keep_relative = False  # (not measured: ``check`` skipped it)
         rebuild = range_changed or not (keep_absolute or keep_relative)
