@@ -136,14 +136,14 @@ def make_interaction(scene, config, host: dict, mats: list, points, grid_shape, 
     # and every domain of interaction under half a cell (domains that do not deform, outside
     # staged scenes): two overlapping domains are then less than a cell apart on each axis, and
     # any stencil of such points shares a node, so the pre-task holds for every pair that passes
-    # task 1 whatever the ranges; the pairs the search did not visit (more than W cells apart)
-    # need (W − 2 largest half-extent) h to meet
+    # task 1 whatever the ranges. The search then visits one cell around each point (its domain
+    # and the largest reach less than a cell), and so does ``check``'s window of references: the
+    # pairs farther apart need (1 − 2 largest half-extent) h to meet, which the absolute moves bound
     ext = float(extent[:2].max())
     rho_cr = np.array([m.critical_density or 0.0 for m in mats])[host["material_index"]]
     granular_only = bool((rho_cr > 0.0).all())
-    window = granular_kernels.make_cells(config.shape, config.precision, staged).W
     S.moves = int(not deforming and not staged and granular_only and ext < 0.5 and (tent or NODE_RANGE_MOVES))
-    S.moves_margin = (int(math.floor((window - 2.0 * ext * (1.0 + 1.0e-6)) * 2.0**20)) if S.moves
+    S.moves_margin = (int(math.floor((1.0 - 2.0 * ext * (1.0 + 1.0e-6)) * 2.0**20)) if S.moves
                       else granular_kernels.NO_MARGIN)
     flags = np.zeros(granular_kernels.FLAG_SLOTS, np.int32)
     flags[granular_kernels.FLAG_REBUILD] = 1  # the first step builds the graph
@@ -181,7 +181,7 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
     relink_lanes = RELINK_LANES if small and not deforming else 1
     check, prepare, place, link, settle, relink, label, assign = granular_kernels.make_granular_kernels(
         c.shape, prec, staged=stage.staged, link_lanes=lanes, relink_lanes=relink_lanes,
-        check_capped=n >= LINK_LANES_POINTS)
+        check_capped=n >= LINK_LANES_POINTS, moves=bool(S.moves))
     reset = Launch(granular_kernels.make_reset_search(prec, deforming), grid_dim,
                    [stage.G, stage.D, S.ext_max, S.slack, S.cell_ref, S.flags, S.motion])
     rebuild = [reset, Launch(prepare, n, gin)]

@@ -21,7 +21,6 @@ they share a node with, so they are never split.
 """
 
 from . import flags
-from .cells import make_cells
 from .domains import DEFORMING_DOMAINS, domains_overlap, make_domain_of_interaction, make_node_ranges, make_node_reach
 from .flags import *  # noqa: F403 (every named slot, size and threshold: ``flags.__all__``)
 from .graph import GranularKernels, make_granular_kernels
@@ -47,7 +46,6 @@ __all__ = [
     "domains_overlap",
     "make_domain_of_interaction",
     "make_granular_kernels",
-    "make_cells",
     "make_granular_statistics",
     "make_interaction_struct",
     "make_layer_row",

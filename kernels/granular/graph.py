@@ -29,7 +29,8 @@ class GranularKernels(NamedTuple):
 
 @functools.cache
 def make_granular_kernels(shape: str, precision: str, staged: bool = False,
-                          link_lanes: int = 1, relink_lanes: int = 1, check_capped: bool = True) -> GranularKernels:
+                          link_lanes: int = 1, relink_lanes: int = 1, check_capped: bool = True,
+                          moves: bool = False) -> GranularKernels:
     """(check, prepare, place, link, settle, relink, label, assign) kernels of the interaction graph
     (``GranularKernels``).
 
@@ -51,7 +52,8 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False,
     ``link`` takes that many threads a point (launch it over points × link_lanes;
     ``make_search_kernels``); relink_lanes: ``relink`` takes that many (domains that do not deform;
     ``make_label_kernels``; deforming ones list no pairs: give 1). check_capped:
-    ``check`` at ``reuse.CHECK_REGISTERS`` registers a thread on CUDA (``make_check``).
+    ``check`` at ``reuse.CHECK_REGISTERS`` registers a thread on CUDA; moves: the scene's
+    ``Interaction.moves`` (``make_check``).
     """
     cells = make_cells(shape, precision, staged)
     prepare, place, link = make_search_kernels(shape, precision, staged, link_lanes)
@@ -61,7 +63,7 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False,
     if cells.deforming:
         settle = None
     else:
-        check = make_check(shape, precision, staged, check_capped)
+        check = make_check(shape, precision, staged, check_capped, moves)
     if cells.tent_cells:
         assign = make_assign(shape, precision, staged)
     return GranularKernels(check, prepare, place, link, settle, relink, label, assign)

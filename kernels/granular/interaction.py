@@ -48,8 +48,8 @@ def make_interaction_struct(precision: str):
     granular, every domain of interaction under half a cell: overlapping domains then share a node
     whatever their cells, and domains that do not overlap never interact; ``check`` then stores a
     new range in ``reach`` and relabels), 0 else; moves_margin [quanta]: then the least change of
-    offset that makes a pair the search did not visit (more than W cells apart, ``cells``) overlap,
-    (W − 2 largest half-extent) h, NO_MARGIN else; quantum: the unit of ``slack`` and ``motion`` [m]; roundoff: the
+    offset that makes a pair the search did not visit (more than a cell apart) overlap, (1 − 2
+    largest half-extent) h, NO_MARGIN else; quantum: the unit of ``slack`` and ``motion`` [m]; roundoff: the
     round-off allowance [m] of one displacement or margin."""
     t = scalar_types(precision)
 

@@ -75,19 +75,24 @@ CHECK_REGISTERS = 32
 
 
 @functools.cache
-def make_check(shape: str, precision: str, staged: bool = False, capped: bool = True):
+def make_check(shape: str, precision: str, staged: bool = False, capped: bool = True, moves: bool = False):
     """Kernel ``check`` over the points, after the step's last G2P (non-deforming domains; launched as
     in ``make_granular_kernels``): a changed node range asks for a rebuild, a listed pair flipped or a
     point in another cell for a relabel, and the moves since the last rebuild go to
     ``Interaction.motion`` for ``judge``. capped: at CHECK_REGISTERS registers a thread (large scenes,
     where occupancy counts; a small scene's few warps gain from the reference window's loads in
-    flight at once)."""
+    flight at once). moves: for scenes with ``Interaction.moves``, whose references are compared
+    within one cell (the window of the search there) instead of W."""
     t = scalar_types(precision)
     T = t.scalar
     Particles, Grid, Domain = make_state_structs(precision)
     Interaction = make_interaction_struct(precision)
     cells = make_cells(shape, precision, staged)
     W, WINDOW, tent_cells = cells.W, cells.WINDOW, cells.tent_cells
+    if moves:
+        # (``Interaction.moves``: the search visits one cell around each point, and the pairs
+        # farther apart are bounded by the absolute moves against ``moves_margin``)
+        W, WINDOW = 1, 2 * 3
     cell_of = cells.cell_of
     pairs = make_pairs(shape, precision, staged)
     quanta, spilled, flips = pairs.quanta, pairs.spilled, pairs.flips
@@ -184,7 +189,7 @@ def make_check(shape: str, precision: str, staged: bool = False, capped: bool = 
                 cx = cell // rows
                 cy = cell - cx * rows
                 # a cell's reference point: how much the references of the cells within the search
-                # reach (W cells: every pair that shares a node) moved relative to it; half the
+                # reach (W cells: every pair that shares a node; one with S.moves) moved relative to it; half the
                 # window, (dx, dy) after (0, 0) column-major. The loop is unrolled and its reads take
                 # clamped indices instead of branches, so they all leave at once rather than one
                 # cell after another
