@@ -11,7 +11,7 @@ import warp as wp
 
 from .clock import CLOCK_DT, CLOCK_T
 from .constitutive import make_derived_state, make_point_update
-from .granular import NO_LAYER, STATUS_LAYER_OVERFLOW, make_layer_row, slot_words
+from .granular import NO_LAYER, STATUS_DEEP_CLAIM, STATUS_LAYER_OVERFLOW, make_layer_row, slot_words
 from .grid import WORK_INFLOW, WORK_PLASTIC, make_keep_inside_walls, work_slot
 from .reductions import make_speed_check
 from .shape_functions import CORNERS, SUPPORT_NODES, make_stencil
@@ -110,6 +110,9 @@ def make_p2g(
     with_contact = contact and (force or fused_impulse)
     has_affine = affine != "none" and momentum
     claim = layered and mass  # the step's first P2G claims the copies (kernels/granular.py)
+    # (outside the tent's cells, whose node threads give the copies out, relabels keep the copies
+    # between rebuilds: a claim past half the layers asks for one, ``STATUS_DEEP_CLAIM``)
+    kept_copies = claim and not (shape == "linear" and not staged)
     layer_row = make_layer_row(insert=True)
     WORDS = slot_words(NC * K * K)
     from_F = bool(derived) and force
@@ -224,6 +227,9 @@ def make_p2g(
                             row, s = layer_row(G.owner, G.depth, gi, gj, comp, D.layer_rows, D.layers)
                             if row < 0:
                                 wp.atomic_add(status, STATUS_LAYER_OVERFLOW, 1)
+                            elif wp.static(kept_copies):
+                                if 2 * s >= D.layers:
+                                    status[STATUS_DEEP_CLAIM] = 1  # (the next step rebuilds: ``check``)
                             packed[n // 4] = packed[n // 4] | (s << (8 * (n % 4)))
                         else:
                             row = copy_row(packed, n, gi, D.layer_rows)

@@ -47,8 +47,9 @@ LINK_LANES_DEVICES = ("cuda",)
 RELINK_LANES = 8
 #: Whether a point may change node ranges without a rebuild where no pair's pre-task can then
 #: change (``make_interaction``: every domain granular and under half a cell, not deforming, not
-#: staged): a relabel claims its copies at its new nodes instead. Off, every new node range rebuilds
-#: (the tent still changes cells by relabels): the same labels and results, at a rebuild's cost.
+#: staged): it claims its copies at its new nodes in the next P2G instead (the tent relabels). Off,
+#: every new node range rebuilds (the tent still changes cells by relabels): the same labels and
+#: results, at a rebuild's cost.
 NODE_RANGE_MOVES = True
 
 
@@ -227,7 +228,8 @@ def _require_granular(stage) -> None:
 
 
 def granular_statistics(stage) -> tuple[int, int]:
-    """(components, grid layers in use at the busiest node) of the last step (granular mode)."""
+    """(components, grid layers in use at the busiest node) of the last step (granular mode; the
+    copies a relabel kept for a component that has left a node count until the next rebuild)."""
     _require_granular(stage)
     stage.granular_stats.zero_()
     dim = max(stage.particle_count, stage.D.layer_rows * stage.grid_shape[1])

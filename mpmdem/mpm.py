@@ -189,7 +189,7 @@ class MPMSolver(ClockedStage):
             self.granular_stats = wp.zeros(2, dtype=wp.int32, device=dev)
         self.materials = wp.array(np.array([m.packed() for m in mats], T), dtype=t.params, device=dev)
         self.max_speed = wp.zeros(reduction_kernels.SPEED_SLOTS, dtype=wp.float32, device=dev)
-        self.status = wp.zeros(3, dtype=wp.int32, device=dev)
+        self.status = wp.zeros(granular_kernels.STATUS_SLOTS, dtype=wp.int32, device=dev)
         self.diag = wp.zeros(len(reduction_kernels.DIAG_NAMES), dtype=wp.float64, device=dev)
         probes = scene.mass_probes
         self.probe_boxes = wp.array(np.array([[*p.lo, *p.hi] for p in probes], dtype=np.float64).reshape(-1, 4),
@@ -561,7 +561,8 @@ class MPMSolver(ClockedStage):
         return diagnostics_.point_diagnostics(self)
 
     def granular_statistics(self) -> tuple[int, int]:
-        """(components, grid layers in use at the busiest node) of the last step (granular mode)."""
+        """(components, grid layers in use at the busiest node) of the last step (granular mode; the
+        copies a relabel kept for a component that has left a node count until the next rebuild)."""
         return granular_state.granular_statistics(self)
 
     def components(self) -> np.ndarray:

@@ -40,7 +40,9 @@ __all__ = [
     "SAMPLE_SHIFT",
     "STAT_COMPONENTS",
     "STAT_LAYERS",
+    "STATUS_DEEP_CLAIM",
     "STATUS_LAYER_OVERFLOW",
+    "STATUS_SLOTS",
     "STREAK_MAX",
     "STREAK_START",
     "WIDE_STEPS",
@@ -49,6 +51,13 @@ __all__ = [
 
 #: Status counters (after the two of ``reductions``).
 STATUS_LAYER_OVERFLOW = 2
+#: 1 when a claim of this step took a copy past half a node's layers. Relabels keep the copies
+#: between rebuilds (a point claims anew where its label or node range changed, and its old
+#: component's copies stay claimed, empty): ``check`` then asks for a rebuild, which frees them
+#: before they can fill a node (a discharging silo's falling grains change labels at every step).
+STATUS_DEEP_CLAIM = 3
+#: Length of the MPM stage's status array.
+STATUS_SLOTS = 4
 
 #: The largest extent of deforming domains, the margins and the moves are reduced into this many
 #: slots (point p uses slot p % EXT_SLOTS, and only when it beats the slot): no million atomics on

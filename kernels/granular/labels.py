@@ -68,10 +68,15 @@ def make_label_kernels(shape: str, precision: str, staged: bool = False, relink_
 
     @wp.func
     def fresh_copies(S: Interaction):
-        # whether this relabel gives out every copy anew (``relink`` frees them, ``label`` zeroes
-        # the depths): all but the tent's relabels without a rebuild
+        # whether this labelling gives out every copy anew (``relink`` frees them and voids every
+        # point's layers, ``label`` zeroes the depths): a rebuild. A relabel without one keeps the
+        # copies: the tent's ``assign`` gives out anew those of the nodes whose points changed labels,
+        # and elsewhere a point whose label changed claims its copies in P2G (``label`` voids its
+        # layers), as does a point whose node range changed (``check``). The copies its old label
+        # kept stay claimed until the next rebuild, empty: a label names one component at a time,
+        # so no two components ever share a copy
         fresh = True
-        if wp.static(tent_cells):
+        if wp.static(not deforming):
             fresh = S.flags[FLAG_REBUILD] != 0
         return fresh
 
@@ -151,11 +156,12 @@ def make_label_kernels(shape: str, precision: str, staged: bool = False, relink_
             else:
                 S.flags[FLAG_RELABELS] = S.flags[FLAG_RELABELS] + 1
         comp = find(S.parent, p)
-        before = int(-1)
-        if wp.static(tent_cells):
-            before = P.comp[p]  # (the label of the last labelling)
+        before = P.comp[p]  # (the label of the last labelling)
         if before != comp:
             P.comp[p] = comp
+            if wp.static(not tent_cells):
+                if not rebuilt:
+                    P.slots[p, 0] = -1  # (it claims its new component's copies in P2G)
         if wp.static(staged):
             if clock[CLOCK_T] < P.release[p]:
                 return

@@ -204,7 +204,9 @@ def make_assign(shape: str, precision: str, staged: bool = False):
 def make_granular_statistics(precision: str, staged: bool = False):
     """Kernel ``statistics(P, G, D, clock, stats)`` over max(N, nodes of one layer) threads: the
     number of components (released points that are their own label) into stats[0] and the most
-    grid layers in use at one node into stats[1], for the diagnostics of an output frame."""
+    grid layers in use at one node into stats[1] (claimed: the copies that relabels keep for a
+    component that has left the node count until the next rebuild), for the diagnostics of an
+    output frame."""
     Particles, Grid, Domain = make_state_structs(precision)
 
     @kernel

@@ -58,6 +58,7 @@ from .flags import (
     MOVE_RELATIVE,
     NARROW_GROWTH,
     NO_MARGIN,
+    STATUS_DEEP_CLAIM,
     STREAK_MAX,
     STREAK_START,
     WIDE_STEPS,
@@ -119,6 +120,12 @@ def make_check(shape: str, precision: str, staged: bool = False, capped: bool = 
         # docstring): a new node range rebuilds (relabels with S.moves); the moves since the last rebuild, absolute and
         # relative to the cell's reference point, go to S.motion for ``judge``
         p = wp.tid()
+        if p == 0:
+            if status[STATUS_DEEP_CLAIM] != 0:
+                # a claim of this step went past half a node's layers: a rebuild frees the copies
+                # the relabels kept (``flags.STATUS_DEEP_CLAIM``)
+                status[STATUS_DEEP_CLAIM] = 0
+                S.flags[FLAG_RANGE] = 1
         if S.flags[FLAG_RELABEL] != 0:
             S.parent[p] = S.base[p]  # (back to the forest of the unlisted pairs, for the next relabel)
         if S.flags[FLAG_RANGE] != 0 or S.flags[FLAG_FORCED] > 0:
@@ -167,11 +174,10 @@ def make_check(shape: str, precision: str, staged: bool = False, capped: bool = 
                 if S.moves != 0:
                     # every domain granular and under half a cell: two domains that overlap share a
                     # node whatever their ranges, so the graph does not depend on them and the
-                    # labels hold; a relabel claims the point's copies at its new nodes (its stored
-                    # range is only compared here, and ``share`` of two current ranges is exact)
+                    # labels hold; the point claims its copies at its new nodes in the next P2G (its
+                    # layers voided; its stored range is only compared here)
                     S.reach[p] = reach
-                    if S.flags[FLAG_CHANGED] == 0:
-                        S.flags[FLAG_CHANGED] = 1
+                    P.slots[p, 0] = -1
                 else:
                     S.flags[FLAG_RANGE] = 1
                     return
