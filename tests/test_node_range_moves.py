@@ -6,7 +6,8 @@ of any shape then share a node: the pre-task of the interaction graph ("Granular
 Table A1) holds for every pair that passes task 1 (Table A2) whatever the node ranges. A point whose
 node range changed then needs no rebuild nor relabel: it claims its copies at its new nodes in the
 next P2G. Relabels keep the copies too (a point whose label changed claims anew), so the copies of
-labels that moved on stay claimed until a rebuild, which a claim past half a node's layers asks for.
+labels that moved on stay claimed until a rebuild, or a relabel that frees every copy, which a claim
+past half a node's layers asks for.
 What must hold:
 
 - the labels of such steps are those of the O(N²) graph (tests/test_granular.py, every
@@ -61,9 +62,9 @@ def test_node_range_moves_change_no_bit_of_a_flow(monkeypatch):
 def test_kept_copies_never_fill_a_node_of_a_discharging_silo(tmp_path):
     """Verify the silo of ``silo-discharge`` at Table 3's grid (19k points) runs to 0.1 s. Relabels
     keep the grid copies between rebuilds, and the grains falling through the orifice change labels
-    at nearly every step: without a rebuild when a claim goes past half a node's layers
-    (``kgran.STATUS_DEEP_CLAIM``), the copies their old labels kept filled 36 layers at 0.084 s
-    and the run stopped with a layer overflow."""
+    at nearly every step: without a relabel that frees every copy when a claim goes past half a
+    node's layers (``kgran.STATUS_DEEP_CLAIM``, ``FLAG_FRESH``), the copies their old labels kept
+    filled 36 layers at 0.084 s and the run stopped with a layer overflow."""
     from mpmdem.cli import main
 
     rc = main(["run", "silo-discharge", "--device", "cpu", "--quiet", "--frames", "1", "--out", str(tmp_path),

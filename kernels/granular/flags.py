@@ -19,7 +19,9 @@ __all__ = [
     "FLAG_CHANGED",
     "FLAG_COUNT",
     "FLAG_FLIPPED",
+    "FLAG_DEEP",
     "FLAG_FORCED",
+    "FLAG_FRESH",
     "FLAG_MEASURED",
     "FLAG_RANGE",
     "FLAG_REBUILD",
@@ -53,8 +55,9 @@ __all__ = [
 STATUS_LAYER_OVERFLOW = 2
 #: 1 when a claim of this step took a copy past half a node's layers. Relabels keep the copies
 #: between rebuilds (a point claims anew where its label or node range changed, and its old
-#: component's copies stay claimed, empty): ``check`` then asks for a rebuild, which frees them
-#: before they can fill a node (a discharging silo's falling grains change labels at every step).
+#: component's copies stay claimed, empty): ``check`` then asks for a relabel that frees them
+#: (FLAG_FRESH) before they can fill a node (a discharging silo's falling grains change labels at
+#: nearly every step).
 STATUS_DEEP_CLAIM = 3
 #: Length of the MPM stage's status array.
 STATUS_SLOTS = 4
@@ -117,8 +120,13 @@ FLAG_MEASURED = 23
 FLAG_ABSOLUTE = 24
 #: Labellings so far (``judge``): ``label`` marks the cells whose labels changed with it (S.dirty).
 FLAG_STAMP = 25
+#: 1 when ``check`` found a claim of this step past half a node's layers (``STATUS_DEEP_CLAIM``).
+FLAG_DEEP = 26
+#: 1 when the next step's relabel frees every copy and every point claims anew, as a rebuild does
+#: (``judge``, after FLAG_DEEP): the copies the relabels kept for labels that moved on are gone.
+FLAG_FRESH = 27
 #: Length of ``Interaction.flags``.
-FLAG_SLOTS = 26
+FLAG_SLOTS = 28
 
 #: Pairs a point lists (``Interaction.pairs``): the overlap tests of a rebuild that were within the
 #: band of flipping; those past it go to one list for all (``Interaction.spill``), and past its

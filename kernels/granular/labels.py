@@ -19,6 +19,7 @@ from .cells import make_cells
 from .flags import (
     FLAG_COUNT,
     FLAG_FLIPPED,
+    FLAG_FRESH,
     FLAG_REBUILD,
     FLAG_RELABEL,
     FLAG_RELABELS,
@@ -69,15 +70,16 @@ def make_label_kernels(shape: str, precision: str, staged: bool = False, relink_
     @wp.func
     def fresh_copies(S: Interaction):
         # whether this labelling gives out every copy anew (``relink`` frees them and voids every
-        # point's layers, ``label`` zeroes the depths): a rebuild. A relabel without one keeps the
-        # copies: the tent's ``assign`` gives out anew those of the nodes whose points changed labels,
+        # point's layers, ``label`` zeroes the depths): a rebuild, or a relabel that ``judge`` made
+        # fresh (FLAG_FRESH: the kept copies had filled half a node's layers). Another relabel keeps
+        # the copies: the tent's ``assign`` gives out anew those of the nodes whose points changed labels,
         # and elsewhere a point whose label changed claims its copies in P2G (``label`` voids its
         # layers), as does a point whose node range changed (``check``). The copies its old label
-        # kept stay claimed until the next rebuild, empty: a label names one component at a time,
+        # kept stay claimed until the next fresh labelling, empty: a label names one component at a time,
         # so no two components ever share a copy
         fresh = True
         if wp.static(not deforming):
-            fresh = S.flags[FLAG_REBUILD] != 0
+            fresh = S.flags[FLAG_REBUILD] != 0 or S.flags[FLAG_FRESH] != 0
         return fresh
 
     @kernel

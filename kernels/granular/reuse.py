@@ -42,8 +42,10 @@ from .flags import (
     FLAG_BINS,
     FLAG_CALM,
     FLAG_CHANGED,
+    FLAG_DEEP,
     FLAG_FLIPPED,
     FLAG_FORCED,
+    FLAG_FRESH,
     FLAG_MEASURED,
     FLAG_RANGE,
     FLAG_REBUILD,
@@ -122,10 +124,10 @@ def make_check(shape: str, precision: str, staged: bool = False, capped: bool = 
         p = wp.tid()
         if p == 0:
             if status[STATUS_DEEP_CLAIM] != 0:
-                # a claim of this step went past half a node's layers: a rebuild frees the copies
-                # the relabels kept (``flags.STATUS_DEEP_CLAIM``)
+                # a claim of this step went past half a node's layers: the next step's relabel
+                # frees the copies the relabels kept (``flags.STATUS_DEEP_CLAIM``, ``judge``)
                 status[STATUS_DEEP_CLAIM] = 0
-                S.flags[FLAG_RANGE] = 1
+                S.flags[FLAG_DEEP] = 1
         if S.flags[FLAG_RELABEL] != 0:
             S.parent[p] = S.base[p]  # (back to the forest of the unlisted pairs, for the next relabel)
         if S.flags[FLAG_RANGE] != 0 or S.flags[FLAG_FORCED] > 0:
@@ -251,6 +253,7 @@ def make_rebuild_decision(precision: str):
         narrow_band = S.flags[FLAG_BAND]
         absolute_only = S.flags[FLAG_ABSOLUTE] != 0
         stamp = S.flags[FLAG_STAMP]
+        deep = S.flags[FLAG_DEEP] != 0
         # keep the labels if either bound on the change of every pair's offset is below the margin,
         # with the round-off of the displacements (2 or 4) and of the margin
         absolute = int(0)
@@ -265,6 +268,8 @@ def make_rebuild_decision(precision: str):
         S.flags[FLAG_RANGE] = 0
         S.flags[FLAG_CHANGED] = 0
         S.flags[FLAG_FLIPPED] = 0
+        S.flags[FLAG_DEEP] = 0
+        S.flags[FLAG_FRESH] = 0  # (a rebuild gives out every copy anew anyway)
         if forced > 0:
             # a streak of rebuilds: this step's check was skipped, the next step rebuilds anyway
             S.flags[FLAG_FORCED] = forced - 1
@@ -351,6 +356,10 @@ def make_rebuild_decision(precision: str):
         S.flags[FLAG_RELABEL] = 0
         if rebuild:
             S.flags[FLAG_REBUILD] = 1
+        if deep and not rebuild:
+            # the copies the relabels kept fill a node: the next relabel frees every copy
+            relabel = True
+            S.flags[FLAG_FRESH] = 1
         if relabel:
             S.flags[FLAG_RELABEL] = 1
             S.flags[FLAG_STAMP] = stamp + 1
