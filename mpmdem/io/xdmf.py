@@ -93,6 +93,9 @@ class XdmfSidecars:
         self._n = int(particle_count)
         self._m = int(body_count)
         self._times: list[float] = []
+        # per group: (the layout its frame blocks were made for, the blocks of frames 0, 1, ...): a
+        # frame's text is made once, so a write costs the file, not every frame's text again
+        self._blocks: dict[str, tuple[tuple, list[str]]] = {}
         bodies = file.get("bodies")
         self._has_bodies = self._m > 0 and bodies is not None and "x" in bodies
         root = file.require_group(GROUP)
@@ -180,12 +183,15 @@ class XdmfSidecars:
             for name in _STATIC_BODY_ATTRS:
                 if name in geo and name not in {a[0] for a in attrs}:
                     attrs.append((name, "Scalar", (count,), geo[name].dtype, geo[name].name))
-        lines = ['<?xml version="1.0" encoding="utf-8"?>', '<Xdmf Version="3.0">', " <Domain>",
-                 f'  <Grid Name="{group}" GridType="Collection" CollectionType="Temporal">']
-        for k, t in enumerate(times):
+        layout = (topology, geometry, tuple(attrs), center)
+        made, blocks = self._blocks.get(group, (None, []))
+        if made != layout:
+            blocks = []  # (a field appeared: every frame's block anew)
+        blocks = [b for b, _ in zip(blocks, times, strict=False)]
+        for k in range(len(blocks), len(times)):
             frame = f"{base}/frame_{k:06d}"
-            lines += [f'   <Grid Name="frame_{k:06d}" GridType="Uniform">', f'    <Time Value="{float(t)!r}"/>',
-                      f"    {topology}"]
+            lines = [f'   <Grid Name="frame_{k:06d}" GridType="Uniform">', f'    <Time Value="{float(times[k])!r}"/>',
+                     f"    {topology}"]
             if geometry is not None:
                 gname, dims, dtype = geometry
                 item = self._item(f"{frame}/{gname}", dims, dtype)
@@ -195,8 +201,11 @@ class XdmfSidecars:
                 lines.append(f'    <Attribute Name={quoteattr(view)} AttributeType="{kind}" Center="{center}">'
                              f"{item}</Attribute>")
             lines.append("   </Grid>")
-        lines += ["  </Grid>", " </Domain>", "</Xdmf>", ""]
-        return "\n".join(lines)
+            blocks.append("\n".join(lines))
+        self._blocks[group] = (layout, blocks)
+        head = ['<?xml version="1.0" encoding="utf-8"?>', '<Xdmf Version="3.0">', " <Domain>",
+                f'  <Grid Name="{group}" GridType="Collection" CollectionType="Temporal">']
+        return "\n".join(head + blocks + ["  </Grid>", " </Domain>", "</Xdmf>", ""])
 
 
 def _replace(path: Path, text: str) -> None:
