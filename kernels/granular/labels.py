@@ -40,8 +40,8 @@ def make_label_kernels(shape: str, precision: str, staged: bool = False, relink_
     """(settle, relink, label) (module docstring; launched as in ``make_granular_kernels``).
 
     relink_lanes > 1 (domains that do not deform): ``relink`` is launched over relink_lanes threads a
-    point, lane l taking the listed pairs l, l + relink_lanes, ... of its point and lane 0 the rest
-    (the spill entry, the copies' depths, the void layers). With the wide lists a dense flow lists
+    point, lane l taking the listed pairs l, l + relink_lanes, ... of its point and lane 0 the spill
+    entry and the point's layers (every thread frees its share of the copies). With the wide lists a dense flow lists
     nearly every neighbour pair, and a relabel at every step merges them: the lanes run a point's
     chain of pair tests and merges side by side. The union–find's roots do not depend on the order
     of the merges (``unionfind``), so the labels are the same."""
@@ -85,10 +85,11 @@ def make_label_kernels(shape: str, precision: str, staged: bool = False, relink_
     @kernel
     def relink(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
                status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
-        # a relabel (every rebuild too): the listed pairs whose domains
-        # overlap now are merged into the forest of the others (S.parent, which ``settle`` or the
-        # last ``check`` set to S.base), and keep their new state; the layers the last claims kept
-        # are void (all NO_LAYER in the first word tells the claiming P2G to claim; kernels/transfer.py)
+        # a relabel (every rebuild too): the listed pairs whose domains overlap now are merged into
+        # the forest of the others (S.parent, which ``settle`` or the last ``check`` set to S.base),
+        # and keep their new state; in a fresh labelling (``fresh_copies``) the copies are freed and
+        # every point's layers void (−1 in the first word tells the claiming P2G to claim;
+        # kernels/transfer.py)
         if wp.static(not deforming):
             if S.flags[FLAG_RELABEL] == 0:
                 return
