@@ -232,10 +232,11 @@ class Simulation:
     ) -> RunResult:
         """Run to ``end_time`` [s], writing ``frames`` frames (plus the initial one).
 
-        With ``out``, writes OUT/<name>.h5 (+ the XDMF sidecars) and OUT/energy.csv frame by frame, flushed
-        each frame. A blow-up stops the run with BlowUpError after marking the file; a
-        KeyboardInterrupt (Ctrl-C, or raised by ``progress``) marks the file "interrupted", closes
-        it and is re-raised. Either way the frames already written stay readable.
+        With ``out``, writes OUT/<name>.h5 (+ the XDMF sidecars) and OUT/energy.csv frame by frame,
+        flushed each frame (in a worker thread while the next frame's steps run: ``io.background``).
+        A blow-up stops the run with BlowUpError after marking the file; a KeyboardInterrupt (Ctrl-C,
+        or raised by ``progress``) marks the file "interrupted", closes it and is re-raised; any other
+        error closes it and goes on. Either way the frames already written stay readable.
 
         The run prints nothing: ``progress(t, dt)`` [s], if given, is called after every batch of
         steps (several per frame), e.g. ``mpmdem.progress.Progress(end_time).update``. ``quiet`` is
@@ -249,6 +250,7 @@ class Simulation:
         path = None
         if out is not None:
             from .io import FrameWriter
+            from .io.background import BackgroundFrameWriter
 
             out = Path(out)
             out.mkdir(parents=True, exist_ok=True)
@@ -263,9 +265,11 @@ class Simulation:
                 from .io import default_field_specs
 
                 specs = {**default_field_specs(), "contact_force": ((2,), "float")}
-            writer = FrameWriter(path, particle_count=self.particle_count, attrs=meta, csv_path=out / "energy.csv",
-                                 body_count=self.body_count, field_specs=specs,
-                                 body_geometry=self.dem.scene_geometry() if self.dem else None)
+            # (each frame is written in a worker thread while the next frame's steps run)
+            writer = BackgroundFrameWriter(FrameWriter(
+                path, particle_count=self.particle_count, attrs=meta, csv_path=out / "energy.csv",
+                body_count=self.body_count, field_specs=specs,
+                body_geometry=self.dem.scene_geometry() if self.dem else None))
 
         history: dict[str, list] = {}
         times: list[float] = []
@@ -305,6 +309,10 @@ class Simulation:
             if writer is not None:
                 writer.set_status(status, message)
                 writer.close()
+            raise
+        except BaseException:
+            if writer is not None:
+                writer.close()  # (the frames written so far stay readable; the error goes on)
             raise
         if writer is not None:
             writer.set_status(status, message)

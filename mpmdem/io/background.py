@@ -1,0 +1,65 @@
+"""Frames written while the device steps on: a ``FrameWriter`` whose ``write_frame`` runs in one
+worker thread.
+
+A run copies a frame's fields to the host (the copies wait for the steps before it) and then writes
+them: HDF5 stores, the XDMF views and sidecars, the CSV row. On a GPU that write used to leave the
+device idle; here it goes to a worker thread, and the caller launches the next frame's steps at
+once (they wait in the device, while the host mostly waits on them with Python's lock released).
+One frame is written at a time and in order: a new frame, ``set_status`` and ``close`` first wait
+for the one in progress, so a Ctrl-C or a blow-up still finds every frame before it whole in the
+file. An error of the write is raised by the next of those calls.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from concurrent.futures import Future, ThreadPoolExecutor
+
+import numpy as np
+
+from .closing import ClosesOnExit
+from .writer import FrameWriter
+
+__all__ = ["BackgroundFrameWriter"]
+
+
+class BackgroundFrameWriter(ClosesOnExit):
+    """``writer`` with ``write_frame`` in a worker thread (module docstring); the rest as ``writer``.
+
+    Args:
+        writer: An open FrameWriter; this object owns it from now on (``close`` closes it).
+    """
+
+    def __init__(self, writer: FrameWriter) -> None:
+        self.writer = writer
+        self.path = writer.path
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mpmdem-frames")
+        self._pending: Future | None = None
+
+    def write_frame(self, time: float, fields: Mapping[str, np.ndarray] | None, diagnostics: Mapping[str, float],
+                    body_fields: Mapping[str, np.ndarray] | None = None) -> None:
+        """Start writing one frame (``FrameWriter.write_frame``) once the previous one is written; the
+        arrays must not change afterwards (a run's are fresh host copies)."""
+        self.wait()
+        self._pending = self._pool.submit(self.writer.write_frame, time, fields, diagnostics, body_fields)
+
+    def wait(self) -> None:
+        """Return once the frame in progress is written; raise its error if it failed."""
+        pending, self._pending = self._pending, None
+        if pending is not None:
+            pending.result()
+
+    def set_status(self, status: str, message: str = "") -> None:
+        """``FrameWriter.set_status`` after the frame in progress (marked even if that write failed)."""
+        try:
+            self.wait()
+        finally:
+            self.writer.set_status(status, message)
+
+    def close(self) -> None:
+        """Wait for the frame in progress, stop the worker and close the file; closing twice is harmless."""
+        try:
+            self.wait()
+        finally:
+            self._pool.shutdown(wait=True)
+            self.writer.close()

@@ -1,0 +1,54 @@
+"""Frames written in a worker thread while the run steps on (``mpmdem.io.background``): the same
+file as the writer in the caller's thread, frames in order, every frame before an error or a Ctrl-C
+whole in the file, and a failed write raised by the next call."""
+
+import numpy as np
+import pytest
+from test_io import N, make_fields
+
+from mpmdem.io import FrameWriter, RunFile
+from mpmdem.io.background import BackgroundFrameWriter
+
+
+def write(path, background: bool, frames: int = 6):
+    writer = FrameWriter(path, particle_count=N, attrs={"case": "test"}, csv_path=path.with_suffix(".csv"))
+    if background:
+        writer = BackgroundFrameWriter(writer)
+    with writer as w:
+        for k in range(frames):
+            w.write_frame(0.1 * k, make_fields(k), {"energy_kinetic": float(k)})
+        w.set_status("completed")
+
+
+def test_background_frames_are_the_callers_frames(tmp_path):
+    """Verify six frames written in the worker read back as those written in the caller's thread:
+    times, every field of every frame, the status and the CSV log."""
+    write(tmp_path / "a.h5", False)
+    write(tmp_path / "b.h5", True)
+    with RunFile(tmp_path / "a.h5") as a, RunFile(tmp_path / "b.h5") as b:
+        np.testing.assert_array_equal(a.times, b.times)
+        assert a.frame_count == b.frame_count == 6 and a.status == b.status == "completed"
+        for name in a.fields:
+            for k in range(6):
+                np.testing.assert_array_equal(a.field(name, k), b.field(name, k))
+    assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()
+
+
+def test_a_failed_background_write_is_raised_and_keeps_the_frames_before(tmp_path):
+    """Verify a frame the writer rejects (a wrong shape) raises ValueError at the next call, the
+    status can still be set, and the two frames before it stay whole in the file."""
+    path = tmp_path / "run.h5"
+    w = BackgroundFrameWriter(FrameWriter(path, particle_count=N, attrs={}))
+    w.write_frame(0.0, make_fields(0), {"e": 0.0})
+    w.write_frame(0.1, make_fields(1), {"e": 1.0})
+    bad = make_fields(2)
+    bad["x"] = bad["x"][:-1]
+    w.write_frame(0.2, bad, {"e": 2.0})  # (rejected in the worker)
+    with pytest.raises(ValueError):
+        w.write_frame(0.3, make_fields(3), {"e": 3.0})
+    w.set_status("failed", "a bad frame")
+    w.close()
+    w.close()  # (harmless)
+    with RunFile(path) as rf:
+        assert rf.frame_count == 2 and rf.status == "failed"
+        np.testing.assert_array_equal(rf.times, [0.0, 0.1])
