@@ -12,10 +12,10 @@ when neither bound on the change of any pair's offset is below M (less a round-o
 2 max|Δx_p| (absolute moves), or 2 max|Δx_p − Δx_ref(p)| + max|Δx_ref(c) − Δx_ref(c')| (moves
 relative to the references: a body that moves as a whole keeps its labels; with
 ``Interaction.moves`` the pairs the search did not visit are bounded by the absolute moves alone,
-against ``moves_margin``). A listed pair that
-flipped, or a point in another cell or node range where that cannot change the graph
-(``Interaction.moves``), relabels instead. Steps that keep or relabel get exactly the labels a
-rebuild would give. The band
+against ``moves_margin``). A listed pair that flipped relabels instead; so does a tent point in
+another cell where that cannot change the graph (``Interaction.moves``), and a point of another
+shape with a new node range there only claims its copies anew. Steps that keep or relabel get
+exactly the labels a rebuild would give. The band
 follows the scene (``BAND_SAMPLE``), widens in a streak of rebuilds (``FLAG_WIDE``, WIDE_STEPS) and
 a scene that still rebuilds at every step skips the check for a while (``FLAG_FORCED``). Deforming
 domains (cpGIMP, CPDI) rebuild every step and have neither kernel."""
@@ -80,8 +80,9 @@ CHECK_REGISTERS = 32
 @functools.cache
 def make_check(shape: str, precision: str, staged: bool = False, capped: bool = True, moves: bool = False):
     """Kernel ``check`` over the points, after the step's last G2P (non-deforming domains; launched as
-    in ``make_granular_kernels``): a changed node range asks for a rebuild, a listed pair flipped or a
-    point in another cell for a relabel, and the moves since the last rebuild go to
+    in ``make_granular_kernels``): a changed node range asks for a rebuild (with ``Interaction.moves``
+    the point claims its copies anew instead), a listed pair flipped or a tent point in another cell
+    for a relabel, and the moves since the last rebuild go to
     ``Interaction.motion`` for ``judge``. capped: at CHECK_REGISTERS registers a thread (large scenes,
     where occupancy counts; a small scene's few warps gain from the reference window's loads in
     flight at once). moves: for scenes with ``Interaction.moves``, whose references are compared
@@ -119,8 +120,9 @@ def make_check(shape: str, precision: str, staged: bool = False, capped: bool = 
     def check(P: Particles, G: Grid, D: Domain, materials: wp.array(dtype=t.params), S: Interaction,
               status: wp.array(dtype=wp.int32), clock: wp.array(dtype=wp.float64)):
         # after the step's last G2P: whether the next step needs a rebuild (see the module
-        # docstring): a new node range rebuilds (relabels with S.moves); the moves since the last rebuild, absolute and
-        # relative to the cell's reference point, go to S.motion for ``judge``
+        # docstring): a new node range rebuilds (with S.moves the point claims anew); the moves since
+        # the last rebuild, absolute and relative to the cell's reference point, go to S.motion for
+        # ``judge``
         p = wp.tid()
         if p == 0:
             if status[STATUS_DEEP_CLAIM] != 0:
@@ -197,8 +199,8 @@ def make_check(shape: str, precision: str, staged: bool = False, capped: bool = 
                 cx = cell // rows
                 cy = cell - cx * rows
                 # a cell's reference point: how much the references of the cells within the search
-                # reach (W cells: every pair that shares a node; one with S.moves) moved relative to it; half the
-                # window, (dx, dy) after (0, 0) column-major. The loop is unrolled and its reads take
+                # reach (W cells: every pair that shares a node; one with S.moves) moved relative to it;
+                # half the window, (dx, dy) after (0, 0) column-major. The loop is unrolled and its reads take
                 # clamped indices instead of branches, so they all leave at once rather than one
                 # cell after another
                 most = T(0.0)
@@ -281,9 +283,9 @@ def make_rebuild_decision(precision: str):
             return
         q = S.quantum
         margin = T(least) * q
-        # the pairs the search did not visit at all (S.moves: more than W cells apart at the
-        # rebuild) need S.moves_margin to meet; the moves relative to the references do not bound
-        # them, since ``check`` compares the references of cells within W only: two clumps that
+        # the pairs the search did not visit at all (S.moves: more than a cell apart at the rebuild)
+        # need S.moves_margin to meet; the moves relative to the references do not bound them,
+        # since ``check`` compares the references of cells within that window only: two clumps that
         # approach each other across a wider gap move rigidly, and only the absolute moves see it
         far = T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < T(S.moves_margin) * q
         keep_absolute = T(2.0) * T(absolute) * q + T(3.0) * S.roundoff < margin and far
