@@ -12,6 +12,7 @@ import warp as wp
 from .clock import CLOCK_DT, CLOCK_T
 from .constitutive import make_derived_state, make_point_update
 from .granular import NO_LAYER, STATUS_DEEP_CLAIM, STATUS_LAYER_OVERFLOW, make_layer_row, slot_words
+from .granular.cells import make_cells
 from .grid import WORK_INFLOW, WORK_PLASTIC, make_keep_inside_walls, work_slot
 from .reductions import make_speed_check
 from .shape_functions import CORNERS, SUPPORT_NODES, make_stencil
@@ -112,7 +113,7 @@ def make_p2g(
     claim = layered and mass  # the step's first P2G claims the copies (kernels/granular.py)
     # (outside the tent's cells, whose node threads give the copies out, relabels keep the copies
     # between rebuilds: a claim past half the layers asks for one, ``STATUS_DEEP_CLAIM``)
-    kept_copies = claim and not (shape == "linear" and not staged)
+    kept_copies = claim and not make_cells(shape, precision, staged).tent_cells
     layer_row = make_layer_row(insert=True)
     WORDS = slot_words(NC * K * K)
     from_F = bool(derived) and force
@@ -229,7 +230,7 @@ def make_p2g(
                                 wp.atomic_add(status, STATUS_LAYER_OVERFLOW, 1)
                             elif wp.static(kept_copies):
                                 if 2 * s >= D.layers:
-                                    status[STATUS_DEEP_CLAIM] = 1  # (the next step rebuilds: ``check``)
+                                    status[STATUS_DEEP_CLAIM] = 1  # (the next relabel frees every copy: ``check``)
                             packed[n // 4] = packed[n // 4] | (s << (8 * (n % 4)))
                         else:
                             row = copy_row(packed, n, gi, D.layer_rows)
