@@ -28,11 +28,13 @@ from .config import SolverConfig
 from .dem import DEMSolver, spring_time_step_bound
 from .diagnostics import coupled_likely_cause
 from .errors import BlowUpError, InputError
+from .kernels import contact_spread as contact_spread_kernels
 from .kernels import coupling as coupling_kernels
 from .launch_plan import IfAny, IfFlag, Launch, run_plan
-from .mpm import AFTER_FORCE_UPDATE, MPMSolver
+from .mpm import AFTER_CONTACT_P2G, AFTER_FORCE_UPDATE, MPMSolver
 from .scene import Scene
 from .stage import ClockedStage
+from .step_streams import StepStreams
 
 __all__ = ["CoupledStage", "contact_time_step_bound"]
 
@@ -104,6 +106,13 @@ class CoupledStage(ClockedStage):
         if config.coupling == "liu":
             self._allocate_liu()
             mpm.extend(AFTER_FORCE_UPDATE, self._liu_exchange)
+        #: side streams of the step: the DEM's contact forces and body update; the IMP forces where
+        #: a launch of their own spreads them (``mpmdem.step_streams``; not in deterministic mode)
+        self.streams = StepStreams(self.device, ("dem", "imp"), enabled=not config.deterministic)
+        if mpm.contact_spread:
+            self.spread_kernel = contact_spread_kernels.make_contact_spread(
+                config.shape, config.precision, fused_impulse=mpm.fused, staged=mpm.staged)
+            mpm.extend(AFTER_CONTACT_P2G, lambda: self.streams.join("imp"))
 
     # -- set-up -------------------------------------------------------------------------------
     def _allocate(self) -> None:
@@ -250,20 +259,45 @@ class CoupledStage(ClockedStage):
 
     # -- stepping -------------------------------------------------------------------------------
     def step(self) -> None:
-        """One coupled explicit step (MPM-SDEM §4.2)."""
-        mpm, dem = self.mpm, self.dem
+        """One coupled explicit step (MPM-SDEM §4.2). On CUDA, while the step is recorded as a graph
+        and outside deterministic mode (``streams``), the body–body contact forces and then the body
+        update run on a branch of their own beside the relabel, the IMP forces and the MPM passes;
+        where the contact forces are spread by a launch of their own (``MPMSolver.contact_spread``),
+        the IMP forces and that launch run on a third branch beside P2G, joined before the grid
+        update. Each branch reads what its launches read in the one-stream order."""
+        mpm, dem, branches = self.mpm, self.dem, self.streams
         dem.contact_checks(clear_loads=not self.clears_loads)
         if self.listed:
             self.check_lists()
-        run_plan(self.start_plan, self.device, mpm.extensions)  # list rebuilds, relabel (when flagged)
-        dem.contact_forces()
-        if self.liu is None:
-            self.imp_forces()
-        else:
+        run_plan(self.lists_plan, self.device)  # list rebuilds (when flagged)
+        if self.liu is not None:
+            run_plan(mpm.start_plan, self.device, mpm.extensions)
+            dem.contact_forces()
             self._liu_carriers()
-        mpm.run_sequence(start=False)
-        dem.body_update()
+            mpm.run_sequence(start=False)
+            dem.body_update()
+            mpm.end_step()
+            return
+        with branches.branch("dem"):
+            dem.contact_forces()
+        run_plan(mpm.start_plan, self.device, mpm.extensions)  # granular mode: relabel (when flagged)
+        if mpm.contact_spread:
+            with branches.branch("imp"):
+                self.imp_forces()
+                self.spread_contact()
+        else:
+            self.imp_forces()
+        # the loads of both contact stages are in: the rigid bodies move (the MPM passes read no body)
+        with branches.branch("dem", after=("imp",)):
+            dem.body_update()
+        mpm.run_sequence(start=False)  # (joins the "imp" branch after its contact P2G)
+        branches.join()
         mpm.end_step()
+
+    def spread_contact(self) -> None:
+        """The IMP contact forces onto the grid, a launch of their own (``kernels.contact_spread``)."""
+        wp.launch(self.spread_kernel, self.mpm.particle_count,
+                  inputs=[self.mpm.P, self.mpm.G, self.mpm.D, self.clock], device=self.device)
 
     @functools.cached_property
     def rebuild_plan(self) -> list:
@@ -332,10 +366,16 @@ class CoupledStage(ClockedStage):
         and silo-discharge on an H100), and grouped with the lists it would make them pay the
         group's node as well (sand-blocks 159 → 168 µs a step with all three grouped). The blocks touch disjoint
         arrays, so their order among themselves and before the forces changes nothing."""
+        return self.lists_plan + self.mpm.start_plan
+
+    @functools.cached_property
+    def lists_plan(self) -> list:
+        """The body–body and point–body list rebuilds of ``start_plan`` (under one ``IfAny`` when
+        both exist)."""
         lists = self.dem.contact_rebuild + (self.rebuild_plan if self.listed else [])
         if len(lists) == 2:
             lists = [IfAny([block.flag for block in lists], self.any_rebuild, lists)]
-        return lists + self.mpm.start_plan
+        return lists
 
     def status_counts(self) -> np.ndarray:
         """Status counts of both stages and the coupling, one after the other."""
