@@ -28,10 +28,9 @@ from .config import SolverConfig
 from .dem import DEMSolver, spring_time_step_bound
 from .diagnostics import coupled_likely_cause
 from .errors import BlowUpError, InputError
-from .kernels import contact_spread as contact_spread_kernels
 from .kernels import coupling as coupling_kernels
-from .launch_plan import IfAny, IfFlag, Launch, run_plan
-from .mpm import AFTER_CONTACT_P2G, AFTER_FORCE_UPDATE, MPMSolver
+from .launch_plan import IfAny, IfFlag, Launch, plan_blocks, run_plan
+from .mpm import AFTER_FORCE_UPDATE, MPMSolver
 from .scene import Scene
 from .stage import ClockedStage
 from .step_streams import StepStreams
@@ -106,13 +105,9 @@ class CoupledStage(ClockedStage):
         if config.coupling == "liu":
             self._allocate_liu()
             mpm.extend(AFTER_FORCE_UPDATE, self._liu_exchange)
-        #: side streams of the step: the DEM's contact forces and body update; the IMP forces where
-        #: a launch of their own spreads them (``mpmdem.step_streams``; not in deterministic mode)
+        #: side streams of the step: the DEM's contact forces and body update; the IMP forces beside
+        #: a relabel laid in line (``mpmdem.step_streams``; not in deterministic mode)
         self.streams = StepStreams(self.device, ("dem", "imp"), enabled=not config.deterministic)
-        if mpm.contact_spread:
-            self.spread_kernel = contact_spread_kernels.make_contact_spread(
-                config.shape, config.precision, fused_impulse=mpm.fused, staged=mpm.staged)
-            mpm.extend(AFTER_CONTACT_P2G, lambda: self.streams.join("imp"))
 
     # -- set-up -------------------------------------------------------------------------------
     def _allocate(self) -> None:
@@ -261,10 +256,10 @@ class CoupledStage(ClockedStage):
     def step(self) -> None:
         """One coupled explicit step (MPM-SDEM §4.2). On CUDA, while the step is recorded as a graph
         and outside deterministic mode (``streams``), the body–body contact forces and then the body
-        update run on a branch of their own beside the relabel, the IMP forces and the MPM passes;
-        where the contact forces are spread by a launch of their own (``MPMSolver.contact_spread``),
-        the IMP forces and that launch run on a third branch beside P2G, joined before the grid
-        update. Each branch reads what its launches read in the one-stream order."""
+        update run on a branch of their own beside the IMP forces and the MPM passes, and in
+        granular mode, with the relabel laid in line (``mpmdem.block_layout``), the IMP forces run
+        on a second branch beside the relabel, joined before P2G. Each branch reads only what its
+        launches read in the one-stream order (the IMP forces read no label, the MPM passes no body)."""
         mpm, dem, branches = self.mpm, self.dem, self.streams
         dem.contact_checks(clear_loads=not self.clears_loads)
         if self.listed:
@@ -278,26 +273,26 @@ class CoupledStage(ClockedStage):
             dem.body_update()
             mpm.end_step()
             return
+        # (a conditional node is recorded only while no branch is open: a relabel in its
+        # conditional node comes before the branches, one laid in line beside them)
+        beside = bool(mpm.start_plan) and all(block.inline for block in plan_blocks(mpm.start_plan))
+        if not beside:
+            run_plan(mpm.start_plan, self.device, mpm.extensions)  # granular mode: relabel (when flagged)
         with branches.branch("dem"):
             dem.contact_forces()
-        run_plan(mpm.start_plan, self.device, mpm.extensions)  # granular mode: relabel (when flagged)
-        if mpm.contact_spread:
+        if beside:
             with branches.branch("imp"):
                 self.imp_forces()
-                self.spread_contact()
+            run_plan(mpm.start_plan, self.device, mpm.extensions)
+            branches.join("imp")
         else:
             self.imp_forces()
-        # the loads of both contact stages are in: the rigid bodies move (the MPM passes read no body)
-        with branches.branch("dem", after=("imp",)):
+        # the loads of both contact stages are in: the rigid bodies move
+        with branches.branch("dem"):
             dem.body_update()
-        mpm.run_sequence(start=False)  # (joins the "imp" branch after its contact P2G)
+        mpm.run_sequence(start=False)
         branches.join()
         mpm.end_step()
-
-    def spread_contact(self) -> None:
-        """The IMP contact forces onto the grid, a launch of their own (``kernels.contact_spread``)."""
-        wp.launch(self.spread_kernel, self.mpm.particle_count,
-                  inputs=[self.mpm.P, self.mpm.G, self.mpm.D, self.clock], device=self.device)
 
     @functools.cached_property
     def rebuild_plan(self) -> list:

@@ -37,7 +37,7 @@ from .mpm_state import GHOST_NODES, STATE_FIELDS, make_domain, make_grid, make_p
 from .scene import Scene
 from .stage import Clock, ClockedStage
 
-__all__ = ["AFTER_CONTACT_P2G", "AFTER_FORCE_UPDATE", "GHOST_NODES", "MPMSolver", "device_order", "initial_dt_bound"]
+__all__ = ["AFTER_FORCE_UPDATE", "GHOST_NODES", "MPMSolver", "device_order", "initial_dt_bound"]
 
 #: From this many points on CUDA, P2G sums each block's points in a shared-memory tile first
 #: (``MPMSolver.p2g_tile``); below it a step is latency-bound and the tile's barriers only add.
@@ -70,15 +70,6 @@ IMAGES_IN_KERNELS_POINTS = 65536
 #: Extension point of the step: after the grid's force update and before G2P (USL only). The
 #: coupling's momentum exchange of Liu et al. runs there (``MPMSolver.extend``).
 AFTER_FORCE_UPDATE = "after_force_update"
-#: Extension point of the step: after the P2G pass that carries the IMP contact forces, where a
-#: launch of their own spreads them (``contact_spread``): the coupling joins its branch there.
-AFTER_CONTACT_P2G = "after_contact_p2g"
-#: In coupled IMP scenes on these devices (USL and MUSL steps, outside granular and deterministic
-#: mode, without XPIC) the contact forces go to the grid by a launch of their own (``kernels.contact_spread``),
-#: not in P2G, so that the IMP forces and P2G can run as parallel branches of the step's graph
-#: (``mpmdem.step_streams``). The CPU keeps them in P2G (its steps are paid in work; the same
-#: sums in another order would change its bits).
-SPREAD_CONTACT_DEVICES = ("cuda",)
 
 
 def initial_dt_bound(scene: Scene, particles: dict | None = None) -> float:
@@ -158,12 +149,11 @@ class MPMSolver(ClockedStage):
     def extend(self, place: str, launch) -> None:
         """Run ``launch()`` (host code that only launches kernels) at ``place`` of every step.
 
-        The places: AFTER_FORCE_UPDATE (USL steps of coupled scenes), AFTER_CONTACT_P2G (coupled
-        IMP scenes with ``contact_spread``). Call before the first step: a CUDA graph records what
-        is registered then.
+        The places: AFTER_FORCE_UPDATE (USL steps of coupled scenes). Call before the first step:
+        a CUDA graph records what is registered then.
         """
-        if place not in (AFTER_FORCE_UPDATE, AFTER_CONTACT_P2G):
-            raise InputError("place", place, f"one of {AFTER_FORCE_UPDATE}, {AFTER_CONTACT_P2G}")
+        if place != AFTER_FORCE_UPDATE:
+            raise InputError("place", place, f"one of {AFTER_FORCE_UPDATE}")
         self.extensions.setdefault(place, []).append(launch)
 
     @property
@@ -254,18 +244,11 @@ class MPMSolver(ClockedStage):
 
         tile = self.p2g_tile()
         rows = self.p2g_rows(tile)
-        #: the IMP contact forces spread by a launch of their own (SPREAD_CONTACT_DEVICES), not by P2G
-        #: (USL and MUSL, whose first P2G carries the forces: in USF and USAVG a stress update before
-        #: the force pass moves a deforming domain's stencil, cpGIMP's and CPDI's, after the spread)
-        self.contact_spread = (self.coupled and c.coupling == "imp" and c.update in ("USL", "MUSL")
-                               and not layered and not c.deterministic and not s.xpic
-                               and ("cuda" if self.device.is_cuda else "cpu") in SPREAD_CONTACT_DEVICES)
 
         def p2g(**flags):
             kernel = transfer_kernels.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic,
                                                layered=layered, staged=self.staged,
-                                               contact=self.coupled and c.coupling == "imp"
-                                               and not self.contact_spread,
+                                               contact=self.coupled and c.coupling == "imp",
                                                derived=self.material_kinds if self.derived_stress else (),
                                                tile=tile, rows=rows, **flags)
             fused = flags.get("fused_impulse", False)
@@ -274,8 +257,6 @@ class MPMSolver(ClockedStage):
                 scatter = contact_scatter_kernels.make_contact_scatter(prec, fused_impulse=fused,
                                                                        deterministic=c.deterministic)
                 extra = [Launch(scatter, n, [points, G, D, clock, self.contact_at])]
-            if self.contact_spread and (flags["force"] or fused):
-                extra = [ExtensionPoint(AFTER_CONTACT_P2G)]  # (before the fold: the spread's ghosts fold too)
             launch = Launch(kernel, n * SUPPORT_NODES[c.shape] if rows else n, [points, G, D, clock, self.status, mats])
             if tile:  # whole blocks: every thread of a block reaches the shared-tile calls
                 launch = Launch(kernel, -(-n // tile[0]) * tile[0], launch.inputs, block_dim=tile[0])

@@ -13,8 +13,9 @@ Branches are taken only where they cannot change a result's meaning:
 - outside deterministic mode: two branches that add into one array (the bodies' loads) add in
   an order that varies from run to run, as the float atomics of one kernel already do there.
 
-Conditional nodes (``launch_plan.IfFlag``) stay on the main stream: Warp records them only on
-the stream its capture began on.
+Conditional nodes (``launch_plan.IfFlag``) are recorded only while no branch is open: Warp
+records them on the stream its capture began on, and pausing that capture with a branch open
+fails ("capturing stream has unjoined work").
 """
 
 from __future__ import annotations
@@ -47,10 +48,10 @@ class StepStreams:
         return self.enabled and bool(self.device.is_capturing)
 
     @contextlib.contextmanager
-    def branch(self, name: str, *, after: tuple[str, ...] = ()):
+    def branch(self, name: str):
         """Launches issued inside go to side stream ``name``, after everything issued so far on the
-        main stream and on the side streams ``after``; with no branch taken (see ``active``), to the
-        current stream, in order."""
+        main stream (and on ``name`` before); with no branch taken (see ``active``), to the current
+        stream, in order."""
         if not self.active():
             yield
             return
@@ -58,8 +59,6 @@ class StepStreams:
             self._main = self.device.stream
         side = self._streams[name]
         side.wait_stream(self._main)
-        for other in after:
-            side.wait_stream(self._streams[other])
         self._forked.add(name)
         with wp.ScopedStream(side, sync_enter=False):
             yield
