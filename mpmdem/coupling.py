@@ -29,7 +29,7 @@ from .dem import DEMSolver, spring_time_step_bound
 from .diagnostics import coupled_likely_cause
 from .errors import BlowUpError, InputError
 from .kernels import coupling as coupling_kernels
-from .launch_plan import IfAny, IfFlag, Launch, plan_blocks, run_plan
+from .launch_plan import IfAny, IfFlag, Launch, run_plan
 from .mpm import AFTER_FORCE_UPDATE, MPMSolver
 from .scene import Scene
 from .stage import ClockedStage
@@ -105,9 +105,9 @@ class CoupledStage(ClockedStage):
         if config.coupling == "liu":
             self._allocate_liu()
             mpm.extend(AFTER_FORCE_UPDATE, self._liu_exchange)
-        #: side streams of the step: the DEM's contact forces and body update; the IMP forces beside
-        #: a relabel laid in line (``mpmdem.step_streams``; not in deterministic mode)
-        self.streams = StepStreams(self.device, ("dem", "imp"), enabled=not config.deterministic)
+        #: the side stream of the step: the DEM's contact forces and body update
+        #: (``mpmdem.step_streams``; not in deterministic mode, nor with Liu et al.'s exchange)
+        self.streams = StepStreams(self.device, ("dem",), enabled=not config.deterministic and self.liu is None)
 
     # -- set-up -------------------------------------------------------------------------------
     def _allocate(self) -> None:
@@ -256,41 +256,27 @@ class CoupledStage(ClockedStage):
     def step(self) -> None:
         """One coupled explicit step (MPM-SDEM §4.2). On CUDA, while the step is recorded as a graph
         and outside deterministic mode (``streams``), the body–body contact forces and then the body
-        update run on a branch of their own beside the IMP forces and the MPM passes, and in
-        granular mode, with the relabel laid in line (``mpmdem.block_layout``), the IMP forces run
-        on a second branch beside the relabel, joined before P2G. Each branch reads only what its
-        launches read in the one-stream order (the IMP forces read no label, the MPM passes no body)."""
+        update run on a branch of their own beside the IMP forces and the MPM passes: the IMP forces
+        read no body–body contact, and the MPM passes read no body (outside Liu et al.'s exchange,
+        which keeps the one-stream order)."""
         mpm, dem, branches = self.mpm, self.dem, self.streams
         dem.contact_checks(clear_loads=not self.clears_loads)
         if self.listed:
             self.check_lists()
-        run_plan(self.lists_plan, self.device)  # list rebuilds (when flagged)
-        if self.liu is not None:
-            run_plan(mpm.start_plan, self.device, mpm.extensions)
+        # list rebuilds, relabel (when flagged): conditional nodes, recorded only while no branch
+        # is open (``mpmdem.step_streams``)
+        run_plan(self.start_plan, self.device, mpm.extensions)
+        with branches.branch("dem"):
             dem.contact_forces()
+        if self.liu is None:
+            self.imp_forces()
+            with branches.branch("dem"):  # (after the IMP forces: their reactions are in the loads)
+                dem.body_update()
+            mpm.run_sequence(start=False)
+        else:  # (the exchange reads and loads the bodies: no branch is taken, ``streams``)
             self._liu_carriers()
             mpm.run_sequence(start=False)
             dem.body_update()
-            mpm.end_step()
-            return
-        # (a conditional node is recorded only while no branch is open: a relabel in its
-        # conditional node comes before the branches, one laid in line beside them)
-        beside = bool(mpm.start_plan) and all(block.inline for block in plan_blocks(mpm.start_plan))
-        if not beside:
-            run_plan(mpm.start_plan, self.device, mpm.extensions)  # granular mode: relabel (when flagged)
-        with branches.branch("dem"):
-            dem.contact_forces()
-        if beside:
-            with branches.branch("imp"):
-                self.imp_forces()
-            run_plan(mpm.start_plan, self.device, mpm.extensions)
-            branches.join("imp")
-        else:
-            self.imp_forces()
-        # the loads of both contact stages are in: the rigid bodies move
-        with branches.branch("dem"):
-            dem.body_update()
-        mpm.run_sequence(start=False)
         branches.join()
         mpm.end_step()
 
@@ -361,16 +347,10 @@ class CoupledStage(ClockedStage):
         and silo-discharge on an H100), and grouped with the lists it would make them pay the
         group's node as well (sand-blocks 159 → 168 µs a step with all three grouped). The blocks touch disjoint
         arrays, so their order among themselves and before the forces changes nothing."""
-        return self.lists_plan + self.mpm.start_plan
-
-    @functools.cached_property
-    def lists_plan(self) -> list:
-        """The body–body and point–body list rebuilds of ``start_plan`` (under one ``IfAny`` when
-        both exist)."""
         lists = self.dem.contact_rebuild + (self.rebuild_plan if self.listed else [])
         if len(lists) == 2:
             lists = [IfAny([block.flag for block in lists], self.any_rebuild, lists)]
-        return lists
+        return lists + self.mpm.start_plan
 
     def status_counts(self) -> np.ndarray:
         """Status counts of both stages and the coupling, one after the other."""

@@ -1,11 +1,11 @@
 """The coupled step's parallel branches in a CUDA graph (``mpmdem.step_streams``).
 
 On CUDA, outside deterministic mode, the coupled step is recorded on two streams: the body–body
-contact forces and the body update on a side branch, and, in granular mode with the relabel laid
-in line, the IMP forces on a second branch beside it. A missing edge between branches would let a
-launch read its inputs before they were written: a body moved before the points' reactions were
-in, or a P2G that read last step's contact forces. Either misses the one-stream trajectory by a
-contact impulse over a step (dt² f / m ~ 1e-6 m in these runs).
+contact forces and the body update on a side branch beside the IMP forces and the MPM passes. A
+missing edge between the branches would let a launch read its inputs before they were written: a
+body moved before the points' reactions (or the body–body forces) were in its loads, or loads
+cleared after a contact had added to them. Either misses the one-stream trajectory by a contact
+impulse over a step (dt² f / m ~ 1e-6 m in these runs).
 
 Reference: the same scene in deterministic mode, which takes no branch (one stream, ordered
 atomics). The two differ otherwise only by the order of float atomics in the branched run, f64
@@ -18,7 +18,6 @@ import pytest
 from conftest import HAS_CUDA
 
 import mpmdem as m
-from mpmdem.launch_plan import plan_blocks
 from mpmdem.spheropolygons import rounded_rectangle
 
 #: largest allowed position difference [m] (see the module docstring)
@@ -45,8 +44,6 @@ def disk_onto_a_square_on_a_floor(granular: bool, **config):
 
 def run(granular: bool, end: float, **config):
     sim = disk_onto_a_square_on_a_floor(granular, **config)
-    for block in plan_blocks(sim.mpm.start_plan):  # the relabel in line: the IMP forces' branch beside it
-        block.inline = True
     sim.advance_to(end)
     return sim, sim.fields(), sim.body_fields(), sim.diagnostics()
 
