@@ -266,11 +266,11 @@ class CoupledStage(ClockedStage):
         # list rebuilds, relabel (when flagged): conditional nodes, recorded only while no branch
         # is open (``mpmdem.step_streams``)
         run_plan(self.start_plan, self.device, mpm.extensions)
-        with branches.branch("dem"):
+        with branches.branch("dem", work=bool(dem.free)):
             dem.contact_forces()
         if self.liu is None:
             self.imp_forces()
-            with branches.branch("dem"):  # (after the IMP forces: their reactions are in the loads)
+            with branches.branch("dem", work=bool(dem.moving)):  # (after the IMP forces: their reactions are in)
                 dem.body_update()
             mpm.run_sequence(start=False)
         else:  # (the exchange reads and loads the bodies: no branch is taken, ``streams``)
