@@ -29,7 +29,7 @@ from .dem import DEMSolver, spring_time_step_bound
 from .diagnostics import coupled_likely_cause
 from .errors import BlowUpError, InputError
 from .kernels import coupling as coupling_kernels
-from .launch_plan import IfAny, IfFlag, Launch, run_plan
+from .launch_plan import IfAny, IfFlag, Launch, run_plan, split_after_conditionals
 from .mpm import AFTER_FORCE_UPDATE, MPMSolver
 from .scene import Scene
 from .stage import ClockedStage
@@ -105,9 +105,10 @@ class CoupledStage(ClockedStage):
         if config.coupling == "liu":
             self._allocate_liu()
             mpm.extend(AFTER_FORCE_UPDATE, self._liu_exchange)
-        #: the side stream of the step: the DEM's contact forces and body update
-        #: (``mpmdem.step_streams``; not in deterministic mode, nor with Liu et al.'s exchange)
-        self.streams = StepStreams(self.device, ("dem",), enabled=not config.deterministic and self.liu is None)
+        #: the side streams of the step: the DEM's contact forces and body update; the IMP forces beside
+        #: the kernels of a relabel laid in line (``mpmdem.step_streams``; not in deterministic mode,
+        #: nor with Liu et al.'s exchange)
+        self.streams = StepStreams(self.device, ("dem", "imp"), enabled=not config.deterministic and self.liu is None)
 
     # -- set-up -------------------------------------------------------------------------------
     def _allocate(self) -> None:
@@ -256,24 +257,31 @@ class CoupledStage(ClockedStage):
     def step(self) -> None:
         """One coupled explicit step (MPM-SDEM §4.2). On CUDA, while the step is recorded as a graph
         and outside deterministic mode (``streams``), the body–body contact forces and then the body
-        update run on a branch of their own beside the IMP forces and the MPM passes: the IMP forces
-        read no body–body contact, and the MPM passes read no body (outside Liu et al.'s exchange,
-        which keeps the one-stream order)."""
+        update run on a branch of their own beside the IMP forces and the MPM passes (the IMP forces
+        read no body–body force, the MPM passes read no body), and the IMP forces on a second one
+        beside the kernels of a relabel laid in line (they read no label), joined before P2G. Liu et
+        al.'s exchange, which reads and loads the bodies from the grid, keeps the one-stream order."""
         mpm, dem, branches = self.mpm, self.dem, self.streams
         dem.contact_checks(clear_loads=not self.clears_loads)
         if self.listed:
             self.check_lists()
-        # list rebuilds, relabel (when flagged): conditional nodes, recorded only while no branch
-        # is open (``mpmdem.step_streams``)
-        run_plan(self.start_plan, self.device, mpm.extensions)
+        # list rebuilds, relabel (when flagged): their conditional nodes are recorded only while no
+        # branch is open (``mpmdem.step_streams``); what follows the last of them (the kernels of a
+        # relabel laid in line) runs beside the contact forces
+        head, tail = split_after_conditionals(self.start_plan)
+        run_plan(head, self.device, mpm.extensions)
         with branches.branch("dem", work=bool(dem.free)):
             dem.contact_forces()
         if self.liu is None:
-            self.imp_forces()
+            with branches.branch("imp", work=bool(tail)):  # (the IMP forces read no label)
+                self.imp_forces()
+            run_plan(tail, self.device, mpm.extensions)
+            branches.join("imp")
             with branches.branch("dem", work=bool(dem.moving)):  # (after the IMP forces: their reactions are in)
                 dem.body_update()
             mpm.run_sequence(start=False)
         else:  # (the exchange reads and loads the bodies: no branch is taken, ``streams``)
+            run_plan(tail, self.device, mpm.extensions)
             self._liu_carriers()
             mpm.run_sequence(start=False)
             dem.body_update()

@@ -25,7 +25,8 @@ from dataclasses import dataclass
 
 import warp as wp
 
-__all__ = ["ExtensionPoint", "IfAny", "IfFlag", "Launch", "Zero", "plan_blocks", "plan_kernels", "run_plan"]
+__all__ = ["ExtensionPoint", "IfAny", "IfFlag", "Launch", "Zero", "plan_blocks", "plan_kernels", "run_plan",
+           "split_after_conditionals"]
 
 
 @dataclass
@@ -129,3 +130,23 @@ def plan_blocks(plan: list) -> Iterator[IfFlag]:
             yield from plan_blocks(item.body)
         elif isinstance(item, IfAny):
             yield from plan_blocks(item.body)
+
+
+def split_after_conditionals(plan: list) -> tuple[list, list]:
+    """(head, tail): the plan with its in-line blocks opened (``IfFlag.inline``: their kernels,
+    which read their flags, in order), cut after its last conditional node (an ``IfFlag`` not in
+    line, an ``IfAny``). Run one after the other, they launch what ``plan`` launches, in its order;
+    the tail holds no conditional node, so a CUDA graph can record it beside a parallel branch
+    (``mpmdem.step_streams``: a conditional node is recorded only while no branch is open)."""
+    flat: list = []
+
+    def open_inline(items):
+        for item in items:
+            if isinstance(item, IfFlag) and item.inline:
+                open_inline(item.body)
+            else:
+                flat.append(item)
+
+    open_inline(plan)
+    last = max((k for k, item in enumerate(flat) if isinstance(item, (IfFlag, IfAny))), default=-1)
+    return flat[:last + 1], flat[last + 1:]

@@ -1,11 +1,14 @@
 """The coupled step's parallel branches in a CUDA graph (``mpmdem.step_streams``).
 
-On CUDA, outside deterministic mode, the coupled step is recorded on two streams: the body–body
-contact forces and the body update on a side branch beside the IMP forces and the MPM passes. A
-missing edge between the branches would let a launch read its inputs before they were written: a
-body moved before the points' reactions (or the body–body forces) were in its loads, or loads
-cleared after a contact had added to them. Either misses the one-stream trajectory by a contact
-impulse over a step (dt² f / m ~ 1e-6 m in these runs).
+On CUDA, outside deterministic mode, the coupled step is recorded on three streams: the body–body
+contact forces and the body update on a side branch beside the IMP forces and the MPM passes, and,
+in granular mode with the relabel laid in line, the IMP forces on a second branch beside the
+relabel's kernels, joined before P2G. A missing edge between the branches would let a launch read
+its inputs before they were written: a body moved before the points' reactions (or the body–body
+forces) were in its loads, loads cleared after a contact had added to them, or a P2G that read the
+last step's contact forces. Each misses the one-stream trajectory by a contact impulse over a step
+(dt² f / m ~ 1e-6 m in these runs). The granular run lays every Granular MPM block in line
+(``block_layout`` thresholds below any rate), so that its IMP forces take their branch.
 
 Reference: the same scene in deterministic mode, which takes no branch (one stream, ordered
 atomics). The two differ otherwise only by the order of float atomics in the branched run, f64
@@ -18,6 +21,7 @@ import pytest
 from conftest import HAS_CUDA
 
 import mpmdem as m
+from mpmdem import block_layout
 from mpmdem.spheropolygons import rounded_rectangle
 
 #: largest allowed position difference [m] (see the module docstring)
@@ -49,13 +53,17 @@ def run(granular: bool, end: float, **config):
 
 
 @pytest.mark.parametrize("granular", [False, True], ids=["elastic", "granular"])
-def test_parallel_branches_of_a_coupled_graph_give_the_one_stream_trajectory(granular):
+def test_parallel_branches_of_a_coupled_graph_give_the_one_stream_trajectory(monkeypatch, granular):
     """Verify a CUDA run whose step graph has parallel branches gives the one-stream run's
     trajectory within rounding, through an impact on a free body resting on a fixed one."""
+    monkeypatch.setattr(block_layout, "INLINE_ABOVE", -1.0)
+    monkeypatch.setattr(block_layout, "CONDITIONAL_BELOW", -1.0)
     end = 0.025  # (within the impact: the disk touches the square from ~0.015 s to ~0.035 s)
     one, fields, bodies, diag = run(granular, end, deterministic=True)
     branched, b_fields, b_bodies, b_diag = run(granular, end)
     assert not one.coupling.streams.enabled and branched.coupling.streams.enabled
+    if granular:  # (the relabel's kernels were recorded after the last conditional node: the IMP branch)
+        assert all(layout.inline for layout in branched.block_layouts)
     # the run is an impact: points touch the square, which is pushed into the floor
     assert np.abs(fields["contact_force"]).max() > 1.0 and diag["imp_contacts"] >= 3
     assert np.abs(bodies["v"]).max() > 0.05
