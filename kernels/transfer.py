@@ -323,6 +323,7 @@ def make_g2p(
     staged: bool = False,
     derived: bool = False,
     mirror: bool = False,
+    remap: bool = False,
 ):
     """G2P: particle velocity, affine matrix, position, and (optionally fused) stress update.
 
@@ -343,6 +344,10 @@ def make_g2p(
     velocities of its interior mirror, reflected (``wall_images.make_mirrored_source``), the values
     ``wall_images.make_mirror_ghosts`` would have written there, so that launch is left out of the step.
     Only where nothing else reads the ghost nodes' velocities between the grid update and G2P.
+    remap (with velocity, without position): MUSL's re-mapping P2G in the same thread, once the
+    point's new V_p and C_p are stored: m_p (V_p + C_p (x_i − x_p)) N_i into ``Grid.vm`` at the
+    point's nodes (copies), the terms ``make_p2g(mass=False, momentum=True, remap=True)`` adds, in
+    the same order per node (one launch fewer: a small scene's step is paid per launch).
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -371,6 +376,9 @@ def make_g2p(
     has_stress = stress != "none"
     speed_check = make_speed_check(precision)
     keep_inside_walls = make_keep_inside_walls(precision)
+    if remap and (position or not velocity):
+        raise ValueError("a G2P re-maps the momentum only after a velocity update that moves no point (MUSL)")
+    remap_affine = remap and affine != "none"
 
     @wp.func
     def read(field: wp.array2d(dtype=t.vec2), row: int, gj: int, sx: float, sy: float):
@@ -520,6 +528,27 @@ def make_g2p(
                         P.C[p] = grad_vt
             if wp.static(taylor):
                 P.C[p] = grad_vt
+        if wp.static(remap):
+            # MUSL's re-mapping P2G of the new velocities (``make_p2g``'s remap pass, term by term)
+            mp = P.mass[p]
+            mv = mp * P.v[p]
+            mC = t.mat22()
+            if wp.static(remap_affine):
+                mC = mp * P.C[p]
+            for k in range(wp.static(NC)):
+                bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
+                for i in range(wp.static(K)):
+                    for j in range(wp.static(K)):
+                        w, grad, gi, gj, n = node(bx, by, wx, wy, dwx, dwy, g, k, i, j, D.inv_h)
+                        row = gi
+                        if wp.static(layered):
+                            row = copy_row(packed, n, gi, D.layer_rows)
+                        mom = w * mv
+                        if wp.static(remap_affine):
+                            dpos = (t.vec2(T(gi), T(gj)) - c) * D.h
+                            mom = mom + w * (mC * dpos)
+                        if row >= 0:
+                            wp.atomic_add(G.vm, row, gj, mom)
         if wp.static(position and not xpic):
             if wp.static(position_mode == "grid"):
                 P.x[p] = x_old + dt * v_pic  # eq. 32

@@ -67,6 +67,12 @@ FOLD_IN_GRID_UPDATE = True
 #: checks or wall-image launches").
 IMAGES_IN_KERNELS_POINTS = 65536
 
+#: MUSL (and USAVG) steps re-map the updated point velocities to the grid in the G2P that updates
+#: them (``transfer.make_g2p``'s ``remap``), not in a P2G launch of their own: the same terms in the
+#: same order per node, one launch fewer. Where P2G runs a thread a point (not tiled, not by stencil
+#: rows) and outside deterministic mode (whose ordered atomics the G2P is not built with).
+REMAP_IN_G2P = True
+
 #: Extension point of the step: after the grid's force update and before G2P (USL only). The
 #: coupling's momentum exchange of Liu et al. runs there (``MPMSolver.extend``).
 AFTER_FORCE_UPDATE = "after_force_update"
@@ -336,7 +342,9 @@ class MPMSolver(ClockedStage):
                 seq += p2g(mass=False, momentum=False, force=True) + grid(velocity=False, force=True)
             else:
                 seq += p2g(mass=True, momentum=True, force=True) + grid(velocity=True, force=True)
-            seq += xpic_smoothing() + g2p(velocity=True, position=False, stress="none")
+            # MUSL's re-mapping P2G in the velocity G2P (REMAP_IN_G2P), where P2G runs a thread a point
+            remap_in_g2p = REMAP_IN_G2P and not tile and not rows and not c.deterministic
+            seq += xpic_smoothing() + g2p(velocity=True, position=False, stress="none", remap=remap_in_g2p)
             # the re-mapped momentum starts from zero: the grid update before clears it at the nodes
             # (copies) it visits, which are those the re-mapping P2G adds to (no memset of the grid)
             last = max(k for k, item in enumerate(seq)
@@ -345,7 +353,10 @@ class MPMSolver(ClockedStage):
             seq[last] = Launch(grid_kernel_makers[id(item.kernel)](zero_remap=True), item.dim, item.inputs)
             grid_kernel_makers[id(seq[last].kernel)] = functools.partial(grid_kernel_makers[id(item.kernel)],
                                                                          zero_remap=True)
-            seq += p2g(mass=False, momentum=True, force=False, remap=True)
+            if remap_in_g2p:
+                seq += fold(mass=False, momentum=True, force=False, remap=True)
+            else:
+                seq += p2g(mass=False, momentum=True, force=False, remap=True)
             seq += grid(velocity=False, force=False, remap=True)
             seq += g2p(velocity=False, position=True, stress="vm", stress_fraction=half)
         # the step's last grid update clears the nodes (copies) it used (kernels/grid.py), so no
