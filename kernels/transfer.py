@@ -43,6 +43,27 @@ def make_point_on_grid(shape: str, precision: str):
     return point_on_grid
 
 
+@functools.cache
+def make_momentum_term(precision: str, affine: bool):
+    """``momentum_term(w, mv, mC, gi, gj, c, h)``: what a point of momentum m_p V_p (``mv``) and
+    affine momentum m_p C_p (``mC``) gives node (gi, gj) of weight w: w m_p (V_p + C_p (x_i − x_p))
+    with ``affine`` (APIC / TPIC, "Motion integration" eq. 19, 23), else w m_p V_p [kg m/s per m];
+    c: the point's position in cells, h [m]. One function for P2G's momentum and MUSL's
+    re-mapping in G2P, so that the two sum the same terms."""
+    t = scalar_types(precision)
+    T = t.scalar
+
+    @wp.func
+    def momentum_term(w: T, mv: t.vec2, mC: t.mat22, gi: int, gj: int, c: t.vec2, h: T):
+        mom = w * mv
+        if wp.static(affine):
+            dpos = (t.vec2(T(gi), T(gj)) - c) * h
+            mom = mom + w * (mC * dpos)
+        return mom
+
+    return momentum_term
+
+
 @wp.func
 def copy_row(packed: wp.vec4i, n: int, i: int, layer_rows: int):
     """Row of the grid copy of stencil node n (node row i) whose layer the step's claiming P2G kept in
@@ -110,6 +131,7 @@ def make_p2g(
     node, point_layers = make_stencil_loop(precision, K, NC, contribution)
     with_contact = contact and (force or fused_impulse)
     has_affine = affine != "none" and momentum
+    momentum_term = make_momentum_term(precision, has_affine)
     claim = layered and mass  # the step's first P2G claims the copies (kernels/granular.py)
     # (outside the tent's cells, whose node threads give the copies out, relabels keep the copies
     # between rebuilds: a claim past half the layers asks for one, ``STATUS_DEEP_CLAIM``)
@@ -236,10 +258,7 @@ def make_p2g(
                             row = copy_row(packed, n, gi, D.layer_rows)
                     mom = t.vec2()
                     if wp.static(momentum):
-                        mom = w * mv
-                        if wp.static(has_affine):
-                            dpos = (t.vec2(T(gi), T(gj)) - c) * D.h
-                            mom = mom + w * (mC * dpos)
+                        mom = momentum_term(w, mv, mC, gi, gj, c, D.h)
                     f = t.vec2()
                     if wp.static(force):
                         f = vs * grad
@@ -379,6 +398,7 @@ def make_g2p(
     if remap and (position or not velocity):
         raise ValueError("a G2P re-maps the momentum only after a velocity update that moves no point (MUSL)")
     remap_affine = remap and affine != "none"
+    momentum_term = make_momentum_term(precision, remap_affine)
 
     @wp.func
     def read(field: wp.array2d(dtype=t.vec2), row: int, gj: int, sx: float, sy: float):
@@ -543,10 +563,7 @@ def make_g2p(
                         row = gi
                         if wp.static(layered):
                             row = copy_row(packed, n, gi, D.layer_rows)
-                        mom = w * mv
-                        if wp.static(remap_affine):
-                            dpos = (t.vec2(T(gi), T(gj)) - c) * D.h
-                            mom = mom + w * (mC * dpos)
+                        mom = momentum_term(w, mv, mC, gi, gj, c, D.h)
                         if row >= 0:
                             wp.atomic_add(G.vm, row, gj, mom)
         if wp.static(position and not xpic):
