@@ -21,7 +21,7 @@ from .stencil_loop import make_stencil_loop
 from .types import kernel, scalar_types
 from .wall_images import make_mirrored_source
 
-__all__ = ["CORNERS", "make_g2p", "make_p2g", "make_stencil", "make_xpic_gather", "make_xpic_scatter"]
+__all__ = ["CORNERS", "make_g2p", "make_p2g", "make_point_on_grid", "make_stencil"]
 
 
 @functools.cache
@@ -592,55 +592,3 @@ def make_g2p(
             speed_check(P, D, materials, p, vol, max_speed, status)
 
     return g2p
-
-
-@functools.cache
-def make_xpic_gather(shape: str, precision: str):
-    """XPIC smoothing, first half: Particles.tmp = G v*_{k−1} (interpolate ``Grid.vk``)."""
-    t = scalar_types(precision)
-    K = SUPPORT_NODES[shape]
-    NC = CORNERS.get(shape, 1)
-    Particles, Grid, Domain = make_state_structs(precision)
-    stencil, contribution, on_grid = make_stencil(shape, precision)
-    point_on_grid = make_point_on_grid(shape, precision)
-
-    @kernel
-    def xpic_gather(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
-        p = wp.tid()
-        if clock[CLOCK_DT] <= wp.float64(0.0) or not point_on_grid(P, D, G, p):
-            return
-        v = t.vec2()
-        for k in range(wp.static(NC)):
-            bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
-            for i in range(wp.static(K)):
-                for j in range(wp.static(K)):
-                    w, grad = contribution(wx, wy, dwx, dwy, g, i, j, D.inv_h)
-                    v = v + w * G.vk[bx + i, by + j]
-        P.tmp[p] = v
-
-    return xpic_gather
-
-
-@functools.cache
-def make_xpic_scatter(shape: str, precision: str, *, deterministic: bool = False):
-    """XPIC smoothing, second half: Grid.pk += Σ_p N m_p Particles.tmp (mass-weighted P2G)."""
-    K = SUPPORT_NODES[shape]
-    NC = CORNERS.get(shape, 1)
-    Particles, Grid, Domain = make_state_structs(precision)
-    stencil, contribution, on_grid = make_stencil(shape, precision)
-    point_on_grid = make_point_on_grid(shape, precision)
-
-    @kernel(deterministic=deterministic)
-    def xpic_scatter(P: Particles, G: Grid, D: Domain, clock: wp.array(dtype=wp.float64)):
-        p = wp.tid()
-        if clock[CLOCK_DT] <= wp.float64(0.0) or not point_on_grid(P, D, G, p):
-            return
-        mv = P.mass[p] * P.tmp[p]
-        for k in range(wp.static(NC)):
-            bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
-            for i in range(wp.static(K)):
-                for j in range(wp.static(K)):
-                    w, grad = contribution(wx, wy, dwx, dwy, g, i, j, D.inv_h)
-                    wp.atomic_add(G.pk, bx + i, by + j, w * mv)
-
-    return xpic_scatter

@@ -30,10 +30,11 @@ from .kernels import grid as grid_kernels
 from .kernels import reductions as reduction_kernels
 from .kernels import transfer as transfer_kernels
 from .kernels import wall_images as wall_image_kernels
+from .kernels import xpic as xpic_kernels
 from .kernels.shape_functions import SUPPORT_NODES
 from .kernels.types import scalar_types
 from .launch_plan import ExtensionPoint, Launch, Zero, plan_blocks, plan_kernels, run_plan
-from .mpm_state import GHOST_NODES, STATE_FIELDS, make_domain, make_grid, make_points, wall_band
+from .mpm_state import GHOST_NODES, STATE_FIELDS, initial_dt_bound, make_domain, make_grid, make_points, wall_band
 from .scene import Scene
 from .stage import Clock, ClockedStage
 
@@ -67,26 +68,14 @@ FOLD_IN_GRID_UPDATE = True
 #: checks or wall-image launches").
 IMAGES_IN_KERNELS_POINTS = 65536
 
-#: MUSL (and USAVG) steps re-map the updated point velocities to the grid in the G2P that updates
-#: them (``transfer.make_g2p``'s ``remap``), not in a P2G launch of their own: the same terms in the
-#: same order per node, one launch fewer. Where P2G runs a thread a point (not tiled, not by stencil
-#: rows) and outside deterministic mode (whose ordered atomics the G2P is not built with).
+#: MUSL (and USAVG) re-map the new point velocities in the G2P that updates them (``make_g2p``'s
+#: ``remap``), the same terms in the same order per node, where P2G runs a thread a point (not
+#: tiled, not by rows), outside deterministic mode (whose ordered atomics that G2P lacks).
 REMAP_IN_G2P = True
 
 #: Extension point of the step: after the grid's force update and before G2P (USL only). The
 #: coupling's momentum exchange of Liu et al. runs there (``MPMSolver.extend``).
 AFTER_FORCE_UPDATE = "after_force_update"
-
-
-def initial_dt_bound(scene: Scene, particles: dict | None = None) -> float:
-    """Courant bound h / max_p(c_p + |v_p|) [s] of the initial state (κ = 1)."""
-    particles = particles or scene.particles()
-    speeds = []
-    for k, b in enumerate(scene.bodies):
-        sel = particles["body"] == k
-        vmax = float(np.linalg.norm(particles["v"][sel], axis=1).max())
-        speeds.append(b.material.wave_speed + vmax)
-    return scene.cell_size / max(speeds)
 
 
 class MPMSolver(ClockedStage):
@@ -301,8 +290,8 @@ class MPMSolver(ClockedStage):
                 return []
             m = c.xpic_order
             init, update = grid_kernels.make_xpic_grid(prec)
-            gather = transfer_kernels.make_xpic_gather(c.shape, prec)
-            scatter = transfer_kernels.make_xpic_scatter(c.shape, prec, deterministic=c.deterministic)
+            gather = xpic_kernels.make_xpic_gather(c.shape, prec)
+            scatter = xpic_kernels.make_xpic_scatter(c.shape, prec, deterministic=c.deterministic)
             out = [Launch(init, grid_dim, [G, D, clock, float(m)])]
             for k in range(2, m + 1):
                 coef = float((-1) ** (k + 1) * math.comb(m, k))

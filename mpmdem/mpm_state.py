@@ -19,7 +19,8 @@ from .kernels.types import scalar_types
 from .obstacles import solid_nodes
 from .scene import Scene
 
-__all__ = ["GHOST_NODES", "POINT_FIELDS", "STATE_FIELDS", "make_domain", "make_grid", "make_points", "wall_band"]
+__all__ = ["GHOST_NODES", "POINT_FIELDS", "STATE_FIELDS", "initial_dt_bound", "make_domain", "make_grid", "make_points",
+           "wall_band"]
 
 #: Ghost node layers around the domain, enough for the widest stencil (4 nodes) of a point that
 #: sits on, or slightly beyond, the domain boundary.
@@ -145,3 +146,13 @@ def wall_band(rows: int, cols: int, ghosts: int = GHOST_NODES) -> np.ndarray:
     near = (i <= w) | (i >= rows - 1 - w) | (j <= w) | (j >= cols - 1 - w)
     return np.stack([i[near], j[near]], axis=1).astype(np.int32)
 
+
+def initial_dt_bound(scene: Scene, particles: dict | None = None) -> float:
+    """Courant bound h / max_p(c_p + |v_p|) [s] of the initial state (κ = 1)."""
+    particles = particles or scene.particles()
+    speeds = []
+    for k, b in enumerate(scene.bodies):
+        sel = particles["body"] == k
+        vmax = float(np.linalg.norm(particles["v"][sel], axis=1).max())
+        speeds.append(b.material.wave_speed + vmax)
+    return scene.cell_size / max(speeds)
