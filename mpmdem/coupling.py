@@ -29,7 +29,7 @@ from .dem import DEMSolver, spring_time_step_bound
 from .diagnostics import coupled_likely_cause
 from .errors import BlowUpError, InputError
 from .kernels import coupling as coupling_kernels
-from .launch_plan import IfAny, IfFlag, Launch, run_plan, split_after_conditionals
+from .launch_plan import IfAny, IfFlag, Launch, group_conditionals, run_plan, split_after_conditionals
 from .mpm import AFTER_FORCE_UPDATE, MPMSolver
 from .scene import Scene
 from .stage import ClockedStage
@@ -197,6 +197,8 @@ class CoupledStage(ClockedStage):
         self.rebuilds = wp.zeros(1, dtype=wp.int64, device=dev)
         #: whether a list rebuild runs in this step (``start_plan``)
         self.any_rebuild = wp.zeros(1, dtype=wp.int32, device=dev)
+        #: whether a conditional block at the step's start runs (``launch_plan.group_conditionals``)
+        self.any_start = wp.zeros(1, dtype=wp.int32, device=dev)
         self.status = wp.zeros(coupling_kernels.STATUS_SIZE, dtype=wp.int32, device=dev)
         self.diag = wp.zeros(len(coupling_kernels.IMP_DIAG_NAMES), dtype=wp.float64, device=dev)
 
@@ -269,7 +271,7 @@ class CoupledStage(ClockedStage):
         # branch is open (``mpmdem.step_streams``); what follows the last of them (the kernels of a
         # relabel laid in line) runs beside the contact forces
         head, tail = split_after_conditionals(self.start_plan)
-        run_plan(head, self.device, mpm.extensions)
+        run_plan(group_conditionals(head, self.any_start), self.device, mpm.extensions)
         with branches.branch("dem", work=bool(dem.free)):
             dem.contact_forces()
         if self.liu is None:

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 
 import warp as wp
 
-__all__ = ["ExtensionPoint", "IfAny", "IfFlag", "Launch", "Zero", "plan_blocks", "plan_kernels", "run_plan",
-           "split_after_conditionals"]
+__all__ = ["ExtensionPoint", "IfAny", "IfFlag", "Launch", "Zero", "group_conditionals", "plan_blocks", "plan_kernels",
+           "run_plan", "split_after_conditionals"]
 
 
 @dataclass
@@ -150,3 +150,27 @@ def split_after_conditionals(plan: list) -> tuple[list, list]:
     open_inline(plan)
     last = max((k for k, item in enumerate(flat) if isinstance(item, (IfFlag, IfAny))), default=-1)
     return flat[:last + 1], flat[last + 1:]
+
+
+def group_conditionals(plan: list, any_flag: wp.array) -> list:
+    """The plan with its first run of two or three consecutive conditional blocks (``IfFlag`` not in
+    line) under one ``IfAny`` of their flags (``any_flag``: its int32[1] device array): where each
+    is mostly skipped, one skipped conditional node and the OR kernel cost less than a skipped node
+    each (~4.8 µs against ~1.2 on an H100, bench/launch_floor.py). The same launches in the same
+    order: in a CUDA graph the blocks become conditional nodes inside the group's."""
+    out: list = []
+    k = 0
+    grouped = False
+    while k < len(plan):
+        run = 0
+        while k + run < len(plan) and run < 3 and isinstance(plan[k + run], IfFlag) and not plan[k + run].inline:
+            run += 1
+        if run >= 2 and not grouped:
+            blocks = plan[k:k + run]
+            out.append(IfAny([block.flag for block in blocks], any_flag, blocks))
+            grouped = True
+            k += run
+        else:
+            out.append(plan[k])
+            k += 1
+    return out

@@ -51,3 +51,21 @@ def test_a_relabel_in_line_leaves_its_own_kernels_after_the_cut():
     head, tail = split_after_conditionals(relabel_plan(False, False))
     assert tail == [] and len(head) == 2
     assert split_after_conditionals([]) == ([], [])
+
+
+def test_grouped_conditional_blocks_keep_the_launch_order():
+    """Verify the first run of conditional blocks goes under one IfAny of their flags, in-line
+    blocks and launches stay outside it, and the launches keep their order."""
+    from mpmdem.launch_plan import group_conditionals
+
+    lists = IfFlag("lists", [Launch("build_lists", 1, [])])
+    plan = relabel_plan(True, False)[1:]  # the relabel in line, its rebuild a conditional node
+    head, tail = split_after_conditionals([lists, *plan])
+    grouped = group_conditionals(head, "any")
+    assert len(grouped) == 1 and isinstance(grouped[0], IfAny)
+    assert grouped[0].flags == ["lists", None] and grouped[0].any_flag == "any"
+    assert launches(grouped) + launches(tail) == launches([lists, *plan])
+    # a lone conditional block, or blocks apart, stay as they are
+    assert group_conditionals([lists], "any") == [lists]
+    apart = [lists, Launch("k", 1, []), IfFlag("x", [])]
+    assert group_conditionals(apart, "any") == apart
