@@ -264,6 +264,7 @@ class CoupledStage(ClockedStage):
         beside the kernels of a relabel laid in line (they read no label), joined before P2G. Liu et
         al.'s exchange, which reads and loads the bodies from the grid, keeps the one-stream order."""
         mpm, dem, branches = self.mpm, self.dem, self.streams
+        branches.begin()
         dem.contact_checks(clear_loads=not self.clears_loads)
         if self.listed:
             self.check_lists()

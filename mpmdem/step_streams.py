@@ -43,6 +43,12 @@ class StepStreams:
         self._main: wp.Stream | None = None
         self._forked: set[str] = set()
 
+    def begin(self) -> None:
+        """Start a step on the main stream alone (forgets the branches a step whose recording
+        raised left open; a step that ran to its end joined them all)."""
+        self._main = None
+        self._forked.clear()
+
     def active(self) -> bool:
         """Whether launches go to side streams now: enabled, and a graph is being recorded."""
         return self.enabled and bool(self.device.is_capturing)
