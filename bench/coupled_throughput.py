@@ -37,7 +37,9 @@ steps), then:
 The coupled line carries ``ratio_to_plain`` = plain seconds per step / coupled seconds per step (the
 coupled step's point-updates per second over the pure-MPM step's, on the same points in the same
 run), the issue's ``target`` (≥ 0.5 at 1M points with 10k bodies, on the GPU), the point–body pairs
-listed and in contact after the timed steps (``imp_pairs``, ``imp_contacts``) and the list rebuilds
+listed and in contact after the timed steps (``imp_pairs``, ``imp_contacts``), the points the IMP
+force search visited in the last step (``imp_searched``: those the sift kept in large scenes, else
+the listed ones), the list rebuilds
 during the timed steps (point–body ``imp_rebuilds``, body–body ``dem_rebuilds``) and during the
 split (``split_imp_rebuilds``, ``split_dem_rebuilds``). ``--granular`` runs both with
 ``SolverConfig(granular=True)`` (``mpm_variant`` "granular", else "standard"). One JSON line per
@@ -235,8 +237,10 @@ def time_run(scene: Scene, config: SolverConfig, steps: int, split_steps: int, d
     if sim.coupling:
         d = sim.diagnostics()
         imp1, dem1 = _rebuilds(sim)
-        out.update(imp_pairs=d["imp_pairs"], imp_contacts=d["imp_contacts"], imp_rebuilds=imp1 - imp0,
-                   dem_rebuilds=dem1 - dem0)
+        L = sim.coupling.L
+        searched = (L.near_count if sim.coupling.sifted else L.listed_count).numpy()[0]
+        out.update(imp_pairs=d["imp_pairs"], imp_contacts=d["imp_contacts"], imp_searched=int(searched),
+                   imp_rebuilds=imp1 - imp0, dem_rebuilds=dem1 - dem0)
     # the stage split: no graph, a synchronisation after every stage
     stages = STAGES if sim.coupling else ("mpm",)
     acc = dict.fromkeys(stages, 0.0)

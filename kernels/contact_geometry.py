@@ -86,6 +86,25 @@ def make_contact_geometry(precision: str):
         return wp.sqrt(dx * dx + dy * dy)
 
     @wp.func
+    def within_reach(p: vec2, world: wp.array(dtype=vec2), start: int, count: int, reach: T, margin: T):
+        """Whether a vertex at p may touch the core at (start, count) with a gap of ``reach`` [m]:
+        False only where p is at least reach + margin [m] from the core's outline and beyond one
+        of its edge lines by more than the margin. The search (``vertex_feature``) touches an edge
+        or a corner only within reach of the outline, and pushes out only a vertex behind every
+        edge line of a core of three or more vertices, so it finds no touch where this is False,
+        for convex and non-convex cores; the margin covers the round-off between the formulas."""
+        gap = wp.length(p - world[start])
+        inside = count >= 3
+        for e in range(count):
+            A = world[start + e]
+            C = world[start + (e + 1) % count]
+            E = C - A
+            gap = wp.min(gap, segment_distance(p, A, C))
+            if wp.dot(p - A, vec2(E[1], -E[0])) > margin * wp.length(E):  # (edge_contact's d > margin)
+                inside = False
+        return inside or gap < reach + margin
+
+    @wp.func
     def in_corner(p: vec2, world: wp.array(dtype=vec2), start: int, count: int, k: int):
         """Is p in the corner region of vertex k: beyond both edges that meet there (always, for
         a core of one vertex: a disk, or a material point)."""
@@ -197,7 +216,8 @@ def make_contact_geometry(precision: str):
 
     return Namespace(
         rotate=rotate, cross=cross, spin=spin, point_velocity=point_velocity, segment_distance=segment_distance,
-        polygon_distance=polygon_distance, box_distance=box_distance, in_corner=in_corner, edge_contact=edge_contact,
+        polygon_distance=polygon_distance, box_distance=box_distance, within_reach=within_reach,
+        in_corner=in_corner, edge_contact=edge_contact,
         edge_count=edge_count,
         vertex_feature=vertex_feature, contact_point=contact_point, spring_dashpot=spring_dashpot,
     )

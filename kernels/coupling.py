@@ -83,6 +83,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
     needs_rebuild, sort_ids, cell_in, bin_item = dem.needs_rebuild, dem.sort_ids, dem.cell_in, dem.bin_item
     geometry = make_contact_geometry(precision)
     cross, polygon_distance, box_distance = geometry.cross, geometry.polygon_distance, geometry.box_distance
+    within_reach = geometry.within_reach
     point_velocity, edge_count, vertex_feature = geometry.point_velocity, geometry.edge_count, geometry.vertex_feature
     contact_point, spring_dashpot = geometry.contact_point, geometry.spring_dashpot
     find_slip = make_history_lookup(precision, IMP_HISTORY)
@@ -268,20 +269,25 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
 
     # -- forces (MPM-SDEM eq. 43-46, 49-50) -----------------------------------------------------
     @wp.func
-    def near_a_body(P: Particles, B: Bodies, L: Links, p: int, n: int):
-        """Whether point p is within the bounding circle (core radius + a + r_p) of one of its n
-        listed bodies: only then can it touch one (the feature search of ``forces``)."""
+    def near_a_body(P: Particles, B: Bodies, L: Links, world: wp.array(dtype=vec2), p: int, n: int):
+        """Whether point p may touch one of its n listed bodies (the feature search of ``forces``):
+        within its bounding circle (core radius R + a + r_p), then within reach of its core
+        (``within_reach``). The margin, 1e-5 (reach + |x_p| + R), is hundreds of times the
+        round-off between that test and the search in f32: both subtract the same vertices from
+        x_p, and their projections on an edge err by a few ulps of its length (≤ 2R)."""
         X = P.x[p]
         rp = L.radius[p]
         near = bool(False)
         for s in range(n):
             b = L.body[p * L.slots + s]
-            if wp.length(X - B.x[b]) < B.core_radius[b] + B.radius[b] + rp:
-                near = True
+            reach = B.radius[b] + rp
+            R = B.core_radius[b]
+            if not near and wp.length(X - B.x[b]) < R + reach:
+                near = within_reach(X, world, B.vstart[b], B.vcount[b], reach, T(1.0e-5) * (reach + wp.length(X) + R))
         return near
 
     @kernel
-    def sift(P: Particles, B: Bodies, L: Links, clock: wp.array(dtype=wp.float64)):
+    def sift(P: Particles, B: Bodies, L: Links, world: wp.array(dtype=vec2), clock: wp.array(dtype=wp.float64)):
         """Large scenes, before ``forces``: of the listed points (``finish_lists``), pack those near
         a body this step into ``L.near`` for the force kernel, and end the contacts of the others
         here, as ``forces`` would (no force, no history; their dissipated work stays). Most listed
@@ -295,7 +301,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         if not released(P, clock, p):
             n = 0
         if n > 0:
-            if near_a_body(P, B, L, p, n):
+            if near_a_body(P, B, L, world, p, n):
                 L.near[wp.atomic_add(L.near_count, 0, 1)] = p
                 return
         for s in range(n):

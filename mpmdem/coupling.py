@@ -341,8 +341,8 @@ class CoupledStage(ClockedStage):
         """The IMP forces of this step on the points (and their reactions on the bodies); large
         scenes first sift the listed points, and search only those near a body (``sifted``)."""
         if self.sifted:
-            wp.launch(self.k.sift, self.mpm.particle_count, inputs=[self.mpm.P, self.dem.B, self.L, self.clock],
-                      device=self.device)
+            wp.launch(self.k.sift, self.mpm.particle_count,
+                      inputs=[self.mpm.P, self.dem.B, self.L, self.dem.world, self.clock], device=self.device)
         wp.launch(self.forces_kernel, self.mpm.particle_count,
                   inputs=[self.mpm.P, self.dem.B, self.L, self.params, self.dem.world, self.clock, self.status],
                   device=self.device)
