@@ -304,12 +304,14 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
             if near_a_body(P, B, L, world, p, n):
                 L.near[wp.atomic_add(L.near_count, 0, 1)] = p
                 return
-        for s in range(n):
-            key = L.key[p * L.slots + s]
-            if key[0] != -1 or key[1] != -1:
-                L.key[p * L.slots + s] = veci(-1, -1)
-                L.slip[p * L.slots + s] = vec2h()
         if L.active[p] != 0:
+            # (a pair keeps a history key only where the point touched at the last force pass, which
+            # left it active: the keys of the others, most listed points, are not read)
+            for s in range(n):
+                key = L.key[p * L.slots + s]
+                if key[0] != -1 or key[1] != -1:
+                    L.key[p * L.slots + s] = veci(-1, -1)
+                    L.slip[p * L.slots + s] = vec2h()
             P.fcont[p] = vec2()
             L.energy[p] = T(0.0)
             L.active[p] = 0

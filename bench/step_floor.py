@@ -1,0 +1,106 @@
+"""The floor under a small scene's step (issue 27): its CUDA graph with every kernel emptied.
+
+A small scene's step is a chain of dependent, latency-bound launches; what each costs is the
+node's own launch and drain plus its longest thread's chain of dependent instructions. This bench
+separates the two for each case of bench/small_scenes.py at its default size: it steps the case
+``--warmup`` steps as a run does (the Granular MPM blocks laid out by how often they ran), times
+``--steps`` steps of its graphs, then records the same step again with every ``wp.launch``
+replaced by a launch of an empty kernel over the same threads (block size kept; the conditional
+nodes, memsets and branches as they were) and times that. The emptied step moves nothing (its
+clock does not advance), so every replay repeats the same nodes.
+
+``floor_us_per_step`` is then the least this step can cost on this GPU with the same nodes in the
+same order, whatever its kernels do; ``us_per_step`` minus it is what the kernels' own chains add.
+Also written: ``launches_per_step`` (kernel launches in one step as recorded; those inside a
+conditional node count whether or not it runs) and the kernels by name. One JSON line per case on
+stdout and to ``--out`` (appended). Nothing is asserted.
+
+    python bench/step_floor.py --device cuda --cases normal-force,silo-filling
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+import warp as wp
+
+from mpmdem import simulation
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from small_scenes import CASES, RESULTS, build_case, commit  # noqa: E402
+
+
+@wp.kernel
+def nothing():
+    """An empty kernel: a node's launch and drain with no work."""
+    pass
+
+
+def timed(sim, device: str, steps: int) -> float:
+    """µs per step of ``sim.advance(steps)`` between two synchronisations."""
+    wp.synchronize_device(device)
+    start = time.perf_counter()
+    sim.advance(steps)
+    wp.synchronize_device(device)
+    return 1e6 * (time.perf_counter() - start) / steps
+
+
+def floor_case(name: str, device: str, warmup: int, steps: int, flags: list[str]) -> dict:
+    """µs per step of case ``name`` and of its step's graph with every kernel emptied."""
+    sim, _ = build_case(name, device, flags)
+    sim.advance(1)  # (the first step sets dt)
+    t, dt, *_ = sim.stage.read_clock()
+    sim.advance_to(t + (warmup - 1) * dt)  # as a run steps: the block layout chosen
+    sim.stage.set_stop_time(1.0e9)
+    real = timed(sim, device, steps)
+    launched = Counter()
+    launch = wp.launch
+
+    def empty_launch(kernel, dim, *args, device=None, block_dim=256, **kwargs):
+        launched[kernel.key.split("__")[-1]] += 1
+        return launch(nothing, dim, inputs=[], device=device, block_dim=block_dim)
+
+    wp.launch = empty_launch
+    try:
+        sim._record_graphs()
+    finally:
+        wp.launch = launch
+    # _record_graphs records one step, then STEPS_PER_GRAPH steps: 1 + STEPS_PER_GRAPH steps in all
+    recorded = 1 + simulation.STEPS_PER_GRAPH
+    floor = timed(sim, device, steps)
+    return {"case": name, "device": str(wp.get_device(device).name), "points": sim.particle_count,
+            "bodies": sim.body_count, "granular": sim.config.granular, "steps": steps, "us_per_step": real,
+            "floor_us_per_step": floor, "launches_per_step": sum(launched.values()) / recorded,
+            "kernels": sorted(((k, v / recorded) for k, v in launched.items()), key=lambda kv: -kv[1]),
+            "commit": commit()}
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--device", default="cuda")
+    p.add_argument("--cases", default=",".join(CASES), help="comma-separated cases")
+    p.add_argument("--warmup", type=int, default=1000, help="steps before timing (through advance_to, as a run)")
+    p.add_argument("--steps", type=int, default=5000, help="timed steps per case")
+    p.add_argument("--out", type=Path, default=RESULTS / "step_floor.jsonl")
+    args, flags = p.parse_known_args(argv)
+    if not wp.get_device(args.device).is_cuda:
+        p.error("--device: the floor is that of a CUDA graph; give a CUDA device")
+    rows = []
+    for name in [c.strip() for c in args.cases.split(",") if c.strip()]:
+        row = floor_case(name, args.device, args.warmup, args.steps, flags)
+        print(json.dumps(row), flush=True)
+        rows.append(row)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    with args.out.open("a") as f:
+        for row in rows:
+            f.write(json.dumps(row) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
