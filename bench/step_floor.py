@@ -11,8 +11,11 @@ clock does not advance), so every replay repeats the same nodes.
 
 ``floor_us_per_step`` is then the least this step can cost on this GPU with the same nodes in the
 same order, whatever its kernels do; ``us_per_step`` minus it is what the kernels' own chains add.
-Also written: ``launches_per_step`` (kernel launches in one step as recorded; those inside a
-conditional node count whether or not it runs) and the kernels by name. One JSON line per case on
+With ``--empty REGEX`` only the kernels whose Warp key the expression finds are emptied (the
+others run, on a state that no longer changes): the drop is what those kernels add to the step,
+overlaps included. Also written: ``emptied``, ``launches_per_step`` (kernel launches emptied in one
+step as recorded; those inside a conditional node count whether or not it runs) and those kernels
+by name. One JSON line per case on
 stdout and to ``--out`` (appended). Nothing is asserted.
 
     python bench/step_floor.py --device cuda --cases normal-force,silo-filling
@@ -22,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 import time
 from collections import Counter
@@ -50,8 +54,10 @@ def timed(sim, device: str, steps: int) -> float:
     return 1e6 * (time.perf_counter() - start) / steps
 
 
-def floor_case(name: str, device: str, warmup: int, steps: int, flags: list[str]) -> dict:
-    """µs per step of case ``name`` and of its step's graph with every kernel emptied."""
+def floor_case(name: str, device: str, warmup: int, steps: int, flags: list[str], empty: str = "") -> dict:
+    """µs per step of case ``name`` and of its step's graph with every kernel emptied (``empty``: only
+    those whose Warp key this regular expression finds)."""
+    pattern = re.compile(empty)
     sim, _ = build_case(name, device, flags)
     sim.advance(1)  # (the first step sets dt)
     t, dt, *_ = sim.stage.read_clock()
@@ -62,6 +68,8 @@ def floor_case(name: str, device: str, warmup: int, steps: int, flags: list[str]
     launch = wp.launch
 
     def empty_launch(kernel, dim, *args, device=None, block_dim=256, **kwargs):
+        if not pattern.search(kernel.key):
+            return launch(kernel, dim, *args, device=device, block_dim=block_dim, **kwargs)
         launched[kernel.key.split("__")[-1]] += 1
         return launch(nothing, dim, inputs=[], device=device, block_dim=block_dim)
 
@@ -75,7 +83,8 @@ def floor_case(name: str, device: str, warmup: int, steps: int, flags: list[str]
     floor = timed(sim, device, steps)
     return {"case": name, "device": str(wp.get_device(device).name), "points": sim.particle_count,
             "bodies": sim.body_count, "granular": sim.config.granular, "steps": steps, "us_per_step": real,
-            "floor_us_per_step": floor, "launches_per_step": sum(launched.values()) / recorded,
+            "emptied": empty or "(every kernel)", "floor_us_per_step": floor,
+            "launches_per_step": sum(launched.values()) / recorded,
             "kernels": sorted(((k, v / recorded) for k, v in launched.items()), key=lambda kv: -kv[1]),
             "commit": commit()}
 
@@ -86,13 +95,15 @@ def main(argv=None) -> int:
     p.add_argument("--cases", default=",".join(CASES), help="comma-separated cases")
     p.add_argument("--warmup", type=int, default=1000, help="steps before timing (through advance_to, as a run)")
     p.add_argument("--steps", type=int, default=5000, help="timed steps per case")
+    p.add_argument("--empty", default="", help="empty only the kernels whose Warp key this regular expression "
+                   "finds (default: every kernel); the time then falls by what those kernels add")
     p.add_argument("--out", type=Path, default=RESULTS / "step_floor.jsonl")
     args, flags = p.parse_known_args(argv)
     if not wp.get_device(args.device).is_cuda:
         p.error("--device: the floor is that of a CUDA graph; give a CUDA device")
     rows = []
     for name in [c.strip() for c in args.cases.split(",") if c.strip()]:
-        row = floor_case(name, args.device, args.warmup, args.steps, flags)
+        row = floor_case(name, args.device, args.warmup, args.steps, flags, args.empty)
         print(json.dumps(row), flush=True)
         rows.append(row)
     args.out.parent.mkdir(parents=True, exist_ok=True)
