@@ -108,16 +108,23 @@ def main(argv=None) -> int:
     args, flags = p.parse_known_args(argv)
     if args.steps_per_graph is not None:
         simulation.STEPS_PER_GRAPH = args.steps_per_graph
+    run_cases(args.cases, args.out, lambda name: time_case(name, args.device, args.warmup, args.steps, flags))
+    return 0
+
+
+def run_cases(cases: str, out: Path, measure) -> list[dict]:
+    """``measure(name)`` for each of the comma-separated ``cases``: its row printed as a JSON line as
+    it comes, and every row appended to ``out`` at the end."""
     rows = []
-    for name in [c.strip() for c in args.cases.split(",") if c.strip()]:
-        row = time_case(name, args.device, args.warmup, args.steps, flags)
+    for name in [c.strip() for c in cases.split(",") if c.strip()]:
+        row = measure(name)
         print(json.dumps(row), flush=True)
         rows.append(row)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    with args.out.open("a") as f:
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with out.open("a") as f:
         for row in rows:
             f.write(json.dumps(row) + "\n")
-    return 0
+    return rows
 
 
 if __name__ == "__main__":

@@ -24,7 +24,6 @@ stdout and to ``--out`` (appended). Nothing is asserted.
 from __future__ import annotations
 
 import argparse
-import json
 import re
 import sys
 import time
@@ -36,7 +35,7 @@ import warp as wp
 from mpmdem import simulation
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from small_scenes import CASES, RESULTS, build_case, commit  # noqa: E402
+from small_scenes import CASES, RESULTS, build_case, commit, run_cases  # noqa: E402
 
 
 @wp.kernel
@@ -101,15 +100,8 @@ def main(argv=None) -> int:
     args, flags = p.parse_known_args(argv)
     if not wp.get_device(args.device).is_cuda:
         p.error("--device: the floor is that of a CUDA graph; give a CUDA device")
-    rows = []
-    for name in [c.strip() for c in args.cases.split(",") if c.strip()]:
-        row = floor_case(name, args.device, args.warmup, args.steps, flags, args.empty)
-        print(json.dumps(row), flush=True)
-        rows.append(row)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    with args.out.open("a") as f:
-        for row in rows:
-            f.write(json.dumps(row) + "\n")
+    run_cases(args.cases, args.out,
+              lambda name: floor_case(name, args.device, args.warmup, args.steps, flags, args.empty))
     return 0
 
 
