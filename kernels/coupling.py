@@ -319,25 +319,23 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                 L.contact_at[p] = P.x[p]
 
     @wp.func
-    def point_contact(P: Particles, B: Bodies, L: Links, prm: Params, p: int, b: int, slot: int, X: vec2, N: vec2,
-                      d: T, reach: T, rp: T, key: int, dt: T):
-        """The force on point p [N/m] (eq. 46) of its touch at distance d along N from the core of body
-        b (list slot ``slot``): overlap eq. 44, contact point in the middle of the overlap (eq. 41),
-        spring–dashpot and Coulomb cap eq. 43, the dashpot seeing the point and the body (with its
-        rotation) at the contact, as two DEM bodies do. Returns (F, contact point [m], the lever arm
-        of the body's torque [m], δ_t, stored energy, dissipated work). The velocities, masses and
-        history are read here, at a touch, not held through the feature search (registers)."""
+    def point_contact(prm: Params, X: vec2, N: vec2, d: T, reach: T, rp: T, key: int, dt: T, vp: vec2, mp: T,
+                      xb: vec2, vb: vec2, wb: T, inv_mb: T, inv_ib: T, mu: T, keys: veci, slips: vec2h):
+        """The force on a point at X [N/m] (eq. 46) of its touch at distance d along N from the core of
+        a body: overlap eq. 44, contact point in the middle of the overlap (eq. 41), spring–dashpot and
+        Coulomb cap eq. 43, the dashpot seeing the point (velocity vp, mass mp) and the body (centroid
+        xb, velocity vb, spin wb, inverse mass and inertia) at the contact, as two DEM bodies do; μ
+        and the pair's history (keys, slips) as read by the caller. Returns (F, contact point [m],
+        the lever arm of the body's torque [m], δ_t, stored energy, dissipated work)."""
         delta, pc = contact_point(X, N, d, reach, rp)
-        xb = B.x[b]
         arm = X - xb
         if wp.static(lever_at_contact):
             arm = pc - xb
-        vel = P.v[p] - point_velocity(B.v[b], B.omega[b], pc - xb)
+        vel = vp - point_velocity(vb, wb, pc - xb)
         lever = cross(arm, N)
-        inv_eff = T(1.0) / P.mass[p] + B.inv_mass[b] + B.inv_inertia[b] * lever * lever
-        mu = prm.friction[P.material[p] * prm.bodies + b]
+        inv_eff = T(1.0) / mp + inv_mb + inv_ib * lever * lever
         F, slip, e_contact, lost_contact = spring_dashpot(prm.kn, prm.kt, prm.zeta, mu, delta, vel, N, inv_eff,
-                                                          find_slip(L.key[slot], L.slip[slot], key), dt)
+                                                          find_slip(keys, slips, key), dt)
         return F, pc, arm, slip, e_contact, lost_contact
 
     @functools.cache
@@ -423,6 +421,17 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                     if wp.static(boxed):
                         near = box_distance(X, world, start, count) < reach + T(1.0e-3) * (reach + wp.length(X))
                 if near:
+                    # what a touch reads, loaded before the search so that its latency overlaps it
+                    vp = P.v[p]
+                    mp = P.mass[p]
+                    mu = prm.friction[P.material[p] * prm.bodies + b]
+                    xb = B.x[b]
+                    vb = B.v[b]
+                    wb = B.omega[b]
+                    inv_mb = B.inv_mass[b]
+                    inv_ib = B.inv_inertia[b]
+                    old_keys = L.key[base + s]
+                    old_slips = L.slip[base + s]
                     n_edges = edge_count(count)
                     # a point past every edge line of a polygon core (inside a convex core) is pushed
                     # out through the nearest edge, the overlap growing as d turns negative
@@ -436,7 +445,8 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                             X, world, start, count, f, n_edges, count, reach, 0, 1, 0, inside, best_d, best_f, best_n)
                         if hit:
                             F, pc, arm, slip, e_contact, lost_contact = point_contact(
-                                P, B, L, prm, p, b, base + s, X, N, d, reach, rp, key, dt)
+                                prm, X, N, d, reach, rp, key, dt, vp, mp, xb, vb, wb, inv_mb, inv_ib, mu, old_keys,
+                                old_slips)
                             lost = lost + lost_contact
                             energy += e_contact
                             if n_hist < wp.static(IMP_HISTORY):
