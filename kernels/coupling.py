@@ -383,6 +383,9 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                     L.energy[p] = T(0.0)
                     L.active[p] = 0
                 return
+            # a point that touched nothing at the last pass holds no history key and no contact
+            # (``sift``), so unless it touches now it writes nothing (most listed points)
+            was_active = L.active[p]
             fc = vec2()
             dt = T(clock[CLOCK_DT])
             S = L.slots
@@ -461,8 +464,11 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
                             # reaction on the body (eq. 49-50); fixed bodies keep it as their load
                             wp.atomic_add(B.force, b, -F)
                             wp.atomic_add(B.torque, b, -cross(arm, F))
-                L.key[base + s] = keys
-                L.slip[base + s] = slips
+                if n_hist > 0 or was_active != 0:
+                    L.key[base + s] = keys
+                    L.slip[base + s] = slips
+            if touching == 0 and was_active == 0:
+                return
             P.fcont[p] = fc
             if app_w > T(0.0):
                 L.contact_at[p] = app / app_w
