@@ -134,6 +134,7 @@ def make_point_update(kinds: tuple[int, ...], precision: str, density_control: s
     from .plasticity import (  # noqa: PLC0415 (plasticity imports this module's types only)
         DRUCKER_PRAGER,
         MOHR_COULOMB,
+        MU_I,
         P_RHO_CRIT,
         make_below_critical,
         make_drucker_prager,
@@ -150,10 +151,16 @@ def make_point_update(kinds: tuple[int, ...], precision: str, density_control: s
     elastic = make_stress_update(kinds, precision)
     has_mc = MOHR_COULOMB in kinds
     has_dp = DRUCKER_PRAGER in kinds
-    plastic = has_mc or has_dp
+    has_mu_i = MU_I in kinds
+    plastic = has_mc or has_dp or has_mu_i
     rate_form = LINEAR_ELASTIC in kinds or plastic
     mohr_coulomb = make_mohr_coulomb(precision) if has_mc else None
     drucker_prager = make_drucker_prager(precision) if has_dp else None
+    mu_i = None
+    if has_mu_i:
+        from .mu_i import make_mu_i  # noqa: PLC0415
+
+        mu_i = make_mu_i(precision)
     below_critical = make_below_critical(precision)
     revert = density_control == "revert"
     volumetric = density_control == "volumetric"
@@ -184,6 +191,9 @@ def make_point_update(kinds: tuple[int, ...], precision: str, density_control: s
                 if wp.static(has_dp):
                     if kind == DRUCKER_PRAGER:
                         sigma_new, szz_new, w_plastic = drucker_prager(sigma_old, szz_old, deps, spin, dt, m)
+                if wp.static(has_mu_i):
+                    if kind == MU_I:
+                        sigma_new, szz_new, w_plastic = mu_i(sigma_old, szz_old, deps, spin, dt, m)
         vol_new = P.vol0[p] * wp.determinant(F_new)
         dissipated = wp.float64(0.0)
         energy_old = energy

@@ -21,6 +21,7 @@ Parameter layout (``PARAM_LEN`` = 10 entries, SI units; slots 0–3 mirror the v
     0 μ [Pa]   1 λ [Pa]   2 ρ0 [kg/m³]   3 kind_id   9 ρ_cr [kg/m³] (0: no stress-free state)
     Mohr–Coulomb (kind 2):   4 sin φ   5 cos φ   6 sin ψ   7 c [Pa]   8 η [Pa s²]
     Drucker–Prager (kind 3): 4 α_φ     5 k_c [Pa] 6 α_ψ   7 σ_t [Pa] 8 unused (0)
+    μ(I) (kind 4, ``mu_i.py``): 4 μs   5 μ2   6 I0   7 d sqrt(ρs) [m sqrt(kg/m³)]   8 q_ψ
 
 Sources: "Granular MPM" (Seyedan & Sołowski 2021) eq. 13–17, "MPM-SDEM" §2.3 eq. 25, 31–36.
 """
@@ -36,6 +37,7 @@ __all__ = [
     "DRUCKER_PRAGER",
     "MODELS",
     "MOHR_COULOMB",
+    "MU_I",
     "PARAM_LEN",
     "make_below_critical",
     "make_drucker_prager",
@@ -46,8 +48,9 @@ __all__ = [
 
 MOHR_COULOMB = 2
 DRUCKER_PRAGER = 3
+MU_I = 4  # the law lives in ``mu_i.py``
 #: model name of ``make_point_driver`` → kind id
-MODELS = {"mohr_coulomb": MOHR_COULOMB, "drucker_prager": DRUCKER_PRAGER}
+MODELS = {"mohr_coulomb": MOHR_COULOMB, "drucker_prager": DRUCKER_PRAGER, "mu_i": MU_I}
 
 PARAM_LEN = MATERIAL_PARAMS
 P_MU, P_LAMBDA, P_RHO0, P_KIND, P_RHO_CRIT = 0, 1, 2, 3, 9
@@ -373,7 +376,12 @@ def make_point_driver(precision: str, model: str):
     t = scalar_types(precision)
     T = t.scalar
     vecp = param_vector(precision)
-    law = make_mohr_coulomb(precision) if model == "mohr_coulomb" else make_drucker_prager(precision)
+    if model == "mu_i":
+        from .mu_i import make_mu_i  # noqa: PLC0415 (mu_i builds on this module's helpers)
+
+        law = make_mu_i(precision)
+    else:
+        law = make_mohr_coulomb(precision) if model == "mohr_coulomb" else make_drucker_prager(precision)
     below_critical = make_below_critical(precision)
     rtol = 1.0e-14 if precision == "f64" else 1.0e-6
     atol = 1.0e-300 if precision == "f64" else 1.0e-30

@@ -28,7 +28,7 @@ else:  # older Warp
 from .bodies import ContactLaw, RigidBody
 from .config import SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverConfig, TransferScheme
 from .errors import BlowUpError, InputError
-from .granular_materials import DruckerPrager, MohrCoulomb
+from .granular_materials import DruckerPrager, MohrCoulomb, MuI
 from .materials import LinearElastic, Material, NeoHookean
 from .scene import Boundary, MassProbe, MPMBody, Scene
 from .shapes import Shape, disk, polygon, rectangle, seed_points
@@ -58,6 +58,7 @@ __all__ = [
     "MassProbe",
     "Material",
     "MohrCoulomb",
+    "MuI",
     "NeoHookean",
     "RigidBody",
     "RunResult",

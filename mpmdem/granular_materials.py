@@ -14,10 +14,10 @@ from typing import ClassVar
 
 from .checks import finite
 from .errors import InputError
-from .kernels.plasticity import DRUCKER_PRAGER, MOHR_COULOMB
+from .kernels.plasticity import DRUCKER_PRAGER, MOHR_COULOMB, MU_I
 from .materials import Material
 
-__all__ = ["GRANULAR_MATERIAL_KINDS", "DruckerPrager", "MohrCoulomb"]
+__all__ = ["GRANULAR_MATERIAL_KINDS", "DruckerPrager", "MohrCoulomb", "MuI"]
 
 #: DP matchings: "plane_strain" is MPM-SDEM eq. 35 (with ψ for α_ψ); "plane_strain_nonassociated"
 #: makes the plane-strain failure equal Mohr–Coulomb's for the given ψ too (see DruckerPrager).
@@ -212,4 +212,226 @@ class DruckerPrager(_Granular):
         return (*common, self.alpha_phi, self.k_c, self.alpha_psi, self.tension_strength, 0.0, rho_cr)
 
 
-GRANULAR_MATERIAL_KINDS = {MOHR_COULOMB: "MohrCoulomb", DRUCKER_PRAGER: "DruckerPrager"}
+@dataclass(frozen=True)
+class MuI(Material):
+    """The μ(I) rheology of dense granular flow as an elasto-viscoplastic material (``kernels.mu_i``).
+
+    μ(I) = μs + (μ2 − μs) / (I0 / I + 1) with I = γ̇ᵖ d / sqrt(p / ρs) (Jop, Forterre & Pouliquen
+    2006, eq. 1–2; return mapping of Dunatunga & Kamrin 2015 §3). Below μs p the point is
+    elastic; at p ≤ 0 it is stress-free. Unlike Drucker–Prager it carries a length, the grain
+    diameter d, through I: a slow flow runs at μ ≈ μs and a fast one towards μ2.
+
+    Attributes (after the elastic ones of ``Material``; ``density`` is the bulk density ρ0):
+        mu_s: μs [-] > 0, the friction coefficient of the static limit (I → 0).
+        mu_2: μ2 [-] > μs, the limit at large I.
+        i0: I0 [-] > 0, the inertial number at which μ is halfway between μs and μ2.
+        grain_diameter: d [m] > 0.
+        grain_density: ρs [kg/m³] ≥ density (the grains are at least as dense as their packing).
+        dilatancy_angle: ψ [deg], 0 ≤ ψ < 90: plastic shear dilates by q_ψ = 3 tan ψ / sqrt(9 + 12
+            tan² ψ) per unit plastic shear (the Drucker–Prager α_ψ of MPM-SDEM eq. 35); 0 (the
+            default, as in Dunatunga & Kamrin 2015) keeps plastic flow isochoric.
+
+    Well-posedness: the incompressible μ(I) equations are ill-posed at low and at high I (Barker
+    et al. 2015). This model adds no regulariser: it is compressible and elastic (finite G and K),
+    and the grid spacing bounds the shortest wave. ``tests/test_mu_i_grid.py`` runs a slow,
+    low-I flow and checks that no grid-scale noise grows (docs/concepts/mu-i.md).
+    """
+
+    mu_s: float
+    mu_2: float
+    i0: float
+    grain_diameter: float
+    grain_density: float
+    dilatancy_angle: float = 0.0
+    kind_id: ClassVar[int] = MU_I
+
+    def __post_init__(self):
+        super().__post_init__()
+        mus = finite("mu_s", self.mu_s)
+        if not mus > 0.0:
+            raise InputError("mu_s", self.mu_s, "mu_s > 0")
+        if not finite("mu_2", self.mu_2) > mus:
+            raise InputError("mu_2", self.mu_2, f"mu_2 > mu_s = {mus}")
+        if not finite("i0", self.i0) > 0.0:
+            raise InputError("i0", self.i0, "I0 > 0")
+        if not finite("grain_diameter", self.grain_diameter) > 0.0:
+            raise InputError("grain_diameter", self.grain_diameter, "d > 0 [m]")
+        if not finite("grain_density", self.grain_density) >= self.density:
+            raise InputError("grain_density", self.grain_density,
+                             f"rho_s >= the bulk density = {self.density} [kg/m^3]")
+        if not 0.0 <= finite("dilatancy_angle", self.dilatancy_angle) < 90.0:
+            raise InputError("dilatancy_angle", self.dilatancy_angle, "0 <= psi < 90 [deg]")
+
+    @classmethod
+    def glass_beads(cls, youngs_modulus: float = 1.0e7, poisson_ratio: float = 0.3, solid_fraction: float = 0.6,
+                    **kwargs) -> MuI:
+        """Jop, Forterre & Pouliquen's glass beads (2006, and their 2005 incline fit): μs = tan 20.9°,
+        μ2 = tan 32.76°, I0 = 0.279, d = 0.5 mm, ρs = 2450 kg/m³ (as quoted from the paper; not re-read
+        from the primary source here); bulk density ρs × solid_fraction.
+
+        E and ν are not part of the rheology: they only set the elastic predictor (keep E large
+        enough that the elastic strain ρ g H / E stays small in the scene).
+        """
+        rho_s = 2450.0
+        return cls(youngs_modulus, poisson_ratio, rho_s * solid_fraction, mu_s=math.tan(math.radians(20.9)),
+                   mu_2=math.tan(math.radians(32.76)), i0=0.279, grain_diameter=0.5e-3, grain_density=rho_s,
+                   **kwargs)
+
+    def friction(self, inertial_number):
+        """μ(I) [-] for an inertial number I ≥ 0 (scalar or array; Jop et al. 2006 eq. 2)."""
+        import numpy as np  # noqa: PLC0415
+
+        i = np.asarray(inertial_number, dtype=float)
+        return self.mu_s + (self.mu_2 - self.mu_s) * i / (self.i0 + i)
+
+    def inertial_number(self, shear_rate, pressure):
+        """I = γ̇ d / sqrt(p / ρs) [-] for a shear rate γ̇ [1/s] and pressure p [Pa] > 0."""
+        import numpy as np  # noqa: PLC0415
+
+        return np.asarray(shear_rate, dtype=float) * self.grain_diameter / np.sqrt(
+            np.asarray(pressure, dtype=float) / self.grain_density)
+
+    @property
+    def q_psi(self) -> float:
+        """q_ψ = 3 α_ψ [-], its dilatancy counterpart."""
+        return 3.0 * self.alpha_psi
+
+    @property
+    def apex_mean_stress(self) -> float:
+        """Mean stress of the cone apex, k_c / q_φ [Pa]."""
+        return self.k_c / self.q_phi
+
+    @property
+    def tension_strength(self) -> float:
+        """The cut-off σ_t in use [Pa]: ``tension_cutoff``, or the apex when None."""
+        return self.apex_mean_stress if self.tension_cutoff is None else min(self.tension_cutoff, self.apex_mean_stress)
+
+    @property
+    def plane_strain_friction_angle(self) -> float:
+        """The Mohr–Coulomb φ [deg] of this model's plane-strain failure, given its α_φ and α_ψ.
+
+        At the plane-strain limit state Δε^p_zz = 0 fixes σ_zz, and the in-plane Mohr circle obeys
+        (σ1 − σ3)/2 = −(σ1 + σ3)/2 sin φ_ps + c_ps cos φ_ps with
+        sin φ_ps = 3 α_φ sqrt(1 − 3 α_ψ²) / (1 − 3 α_φ α_ψ).
+        """
+        a, b = self.alpha_phi, self.alpha_psi
+        return math.degrees(math.asin(3.0 * a * math.sqrt(1.0 - 3.0 * b * b) / (1.0 - 3.0 * a * b)))
+
+    def packed(self) -> tuple[float, ...]:
+        """Parameters for ``kernels.plasticity`` (``PARAM_LEN`` floats, SI):
+
+        (μ, λ, ρ0, kind=3, α_φ, k_c, α_ψ, σ_t, 0, ρ_cr or 0).
+        """
+        common, rho_cr = self._common()
+        return (*common, self.alpha_phi, self.k_c, self.alpha_psi, self.tension_strength, 0.0, rho_cr)
+
+
+@dataclass(frozen=True)
+class MuI(Material):
+    """The μ(I) rheology of dense granular flow as an elasto-viscoplastic material (``kernels.mu_i``).
+
+    μ(I) = μs + (μ2 − μs) / (I0 / I + 1) with I = γ̇ᵖ d / sqrt(p / ρs) (Jop, Forterre & Pouliquen
+    2006, eq. 1–2; return mapping of Dunatunga & Kamrin 2015 §3). Below μs p the point is
+    elastic; at p ≤ 0 it is stress-free. Unlike Drucker–Prager it carries a length, the grain
+    diameter d, through I: a slow flow runs at μ ≈ μs and a fast one towards μ2.
+
+    Attributes (after the elastic ones of ``Material``; ``density`` is the bulk density ρ0):
+        mu_s: μs [-] > 0, the friction coefficient of the static limit (I → 0).
+        mu_2: μ2 [-] > μs, the limit at large I.
+        i0: I0 [-] > 0, the inertial number at which μ is halfway between μs and μ2.
+        grain_diameter: d [m] > 0.
+        grain_density: ρs [kg/m³] ≥ density (the grains are at least as dense as their packing).
+        dilatancy_angle: ψ [deg], 0 ≤ ψ < 90: plastic shear dilates by q_ψ = 3 tan ψ / sqrt(9 + 12
+            tan² ψ) per unit plastic shear (the Drucker–Prager α_ψ of MPM-SDEM eq. 35); 0 (the
+            default, as in Dunatunga & Kamrin 2015) keeps plastic flow isochoric.
+
+    Well-posedness: the incompressible μ(I) equations are ill-posed at low and at high I (Barker
+    et al. 2015). This model adds no regulariser: it is compressible and elastic (finite G and K),
+    and the grid spacing bounds the shortest wave. ``tests/test_mu_i_grid.py`` runs a slow,
+    low-I flow and checks that no grid-scale noise grows (docs/concepts/mu-i.md).
+    """
+
+    mu_s: float
+    mu_2: float
+    i0: float
+    grain_diameter: float
+    grain_density: float
+    dilatancy_angle: float = 0.0
+    kind_id: ClassVar[int] = MU_I
+
+    def __post_init__(self):
+        super().__post_init__()
+        mus = finite("mu_s", self.mu_s)
+        if not mus > 0.0:
+            raise InputError("mu_s", self.mu_s, "mu_s > 0")
+        if not finite("mu_2", self.mu_2) > mus:
+            raise InputError("mu_2", self.mu_2, f"mu_2 > mu_s = {mus}")
+        if not finite("i0", self.i0) > 0.0:
+            raise InputError("i0", self.i0, "I0 > 0")
+        if not finite("grain_diameter", self.grain_diameter) > 0.0:
+            raise InputError("grain_diameter", self.grain_diameter, "d > 0 [m]")
+        if not finite("grain_density", self.grain_density) >= self.density:
+            raise InputError("grain_density", self.grain_density,
+                             f"rho_s >= the bulk density = {self.density} [kg/m^3]")
+        if not 0.0 <= finite("dilatancy_angle", self.dilatancy_angle) < 90.0:
+            raise InputError("dilatancy_angle", self.dilatancy_angle, "0 <= psi < 90 [deg]")
+
+    @classmethod
+    def glass_beads(cls, youngs_modulus: float = 1.0e7, poisson_ratio: float = 0.3, solid_fraction: float = 0.6,
+                    **kwargs) -> MuI:
+        """Jop, Forterre & Pouliquen's glass beads (2006, and their 2005 incline fit): μs = tan 20.9°,
+        μ2 = tan 32.76°, I0 = 0.279, d = 0.5 mm, ρs = 2450 kg/m³ (as quoted from the paper; not re-read
+        from the primary source here); bulk density ρs × solid_fraction.
+
+        E and ν are not part of the rheology: they only set the elastic predictor (keep E large
+        enough that the elastic strain ρ g H / E stays small in the scene).
+        """
+        rho_s = 2450.0
+        return cls(youngs_modulus, poisson_ratio, rho_s * solid_fraction, mu_s=math.tan(math.radians(20.9)),
+                   mu_2=math.tan(math.radians(32.76)), i0=0.279, grain_diameter=0.5e-3, grain_density=rho_s,
+                   **kwargs)
+
+    def friction(self, inertial_number):
+        """μ(I) [-] for an inertial number I ≥ 0 (scalar or array; Jop et al. 2006 eq. 2)."""
+        import numpy as np  # noqa: PLC0415
+
+        i = np.asarray(inertial_number, dtype=float)
+        return self.mu_s + (self.mu_2 - self.mu_s) * i / (self.i0 + i)
+
+    def inertial_number(self, shear_rate, pressure):
+        """I = γ̇ d / sqrt(p / ρs) [-] for a shear rate γ̇ [1/s] and pressure p [Pa] > 0."""
+        import numpy as np  # noqa: PLC0415
+
+        return np.asarray(shear_rate, dtype=float) * self.grain_diameter / np.sqrt(
+            np.asarray(pressure, dtype=float) / self.grain_density)
+
+    def well_posed_range(self) -> tuple[float, float] | None:
+        """(I_lo, I_hi): where the incompressible 2D μ(I) equations are well-posed (Barker et al.
+        2015: 4ν² − 4ν + μ²(1 − ν/2)² < 0 with ν = I μ'(I) / μ(I)), found on a log grid of I;
+        None when no I is well-posed for these parameters."""
+        import numpy as np  # noqa: PLC0415
+
+        i = np.logspace(-8, 3, 20001)
+        mu = self.friction(i)
+        nu = i * (self.mu_2 - self.mu_s) * self.i0 / (self.i0 + i) ** 2 / mu
+        ok = 4.0 * nu * nu - 4.0 * nu + mu * mu * (1.0 - 0.5 * nu) ** 2 < 0.0
+        if not ok.any():
+            return None
+        return float(i[ok][0]), float(i[ok][-1])
+
+    @property
+    def q_psi(self) -> float:
+        """q_ψ = 3 α_ψ [-], the plastic dilation per unit plastic shear."""
+        return 3.0 * _dp_alpha(self.dilatancy_angle)
+
+    def packed(self) -> tuple[float, ...]:
+        """Parameters for ``kernels.mu_i`` (``PARAM_LEN`` floats, SI):
+
+        (μ_G, λ, ρ0, kind=4, μs, μ2, I0, d sqrt(ρs), q_ψ, ρ_cr or 0).
+        """
+        base = Material.packed(self)
+        return (*base[:4], float(self.mu_s), float(self.mu_2), float(self.i0),
+                self.grain_diameter * math.sqrt(self.grain_density), self.q_psi, base[9])
+
+
+GRANULAR_MATERIAL_KINDS = {MOHR_COULOMB: "MohrCoulomb", DRUCKER_PRAGER: "DruckerPrager", MU_I: "MuI"}
