@@ -55,7 +55,7 @@ import sys
 
 import numpy as np
 
-from mpmdem import ContactLaw, InputError, Scene, rectangle, rounded_rectangle
+from mpmdem import ContactLaw, InputError, MuI, Scene, rectangle, rounded_rectangle
 from mpmdem.cases._table3 import (
     CRITICAL_DENSITY_RATIO,
     DENSITY,
@@ -64,9 +64,11 @@ from mpmdem.cases._table3 import (
     KN_TABLE,
     KT_TABLE,
     MU_TABLE,
+    POISSON,
     R_P_TABLE,
     SPHERO_RADIUS,
     VERLET,
+    YOUNGS,
     sand,
 )
 from mpmdem.runner import CaseSetup
@@ -110,6 +112,9 @@ END = 1.6  # s, default run length
 #: --quick, and the default on a machine without a GPU: 4.7k points, ~40 s on 2 CPU cores
 QUICK = {"cell_size": 0.005, "fill_height": 0.15, "end": 0.8}
 WALL_MODES = ("sdem", "obstacle-slip", "obstacle-fixed")
+MATERIALS = ("drucker-prager", "mu-i")
+GRAIN_DIAMETER = 2.0 * R_P_TABLE  # m, d of --material mu-i: Table 3's grain radius r_p = 0.1 cm
+SOLID_FRACTION = 0.6  # ρ / ρs of --material mu-i (grain density 2500 kg/m³, quartz-like)
 #: the model choices the method comparison sets (--method), each (MPM variant, coupling, walls):
 #: Granular MPM ("Granular MPM" §3: critical density, density control, a grid per component),
 #: stress-free MPM (stress-free below the critical density, one grid, no density control), original
@@ -151,6 +156,12 @@ def add_arguments(parser):
     parser.add_argument("--critical-density-ratio", type=float, default=CRITICAL_DENSITY_RATIO,
                         help="ρ_cr / ρ0 of Granular and stress-free MPM: looser points are stress-free (default "
                              f"{CRITICAL_DENSITY_RATIO})")
+    parser.add_argument("--material", default="drucker-prager", choices=MATERIALS,
+                        help="the sand's law: drucker-prager (Table 3, the paper's; the default) or mu-i (the "
+                             "mu(I) rheology with Jop et al. 2006's friction law and --grain-diameter: the "
+                             "continuum then carries the grain length)")
+    parser.add_argument("--grain-diameter", type=float, default=GRAIN_DIAMETER,
+                        help=f"d of --material mu-i [m] (default {GRAIN_DIAMETER}: 2 r_p of Table 3)")
     parser.add_argument("--walls", default=None, choices=WALL_MODES,
                         help="silo and container as fixed spheropolygons (sdem, the paper's) or as grid obstacles "
                              "(obstacle-slip: rollers, obstacle-fixed: no slip; no DEM stage at all)")
@@ -240,6 +251,19 @@ def fill_points(g: dict) -> np.ndarray:
     return np.stack([gx.ravel(), gy.ravel()], axis=1)
 
 
+def material(args, critical_ratio):
+    """The sand: Table 3's Drucker–Prager, or μ(I) with Jop et al. 2006's μs, μ2, I0 (glass beads),
+    Table 3's elasticity and density, d = --grain-diameter and ρs = ρ / SOLID_FRACTION."""
+    if args.material == "drucker-prager":
+        return sand(critical_ratio=critical_ratio)
+    if not (math.isfinite(args.grain_diameter) and args.grain_diameter > 0.0):
+        raise InputError("--grain-diameter", args.grain_diameter, "d > 0 [m]")
+    beads = MuI.glass_beads()
+    return MuI(YOUNGS, POISSON, DENSITY, mu_s=beads.mu_s, mu_2=beads.mu_2, i0=beads.i0,
+               grain_diameter=args.grain_diameter, grain_density=DENSITY / SOLID_FRACTION,
+               critical_density=critical_ratio * DENSITY if critical_ratio else None)
+
+
 def walls(args) -> str:
     """The wall model: --walls, else the one --method implies."""
     return args.walls or METHODS[args.method][2]
@@ -257,7 +281,7 @@ def build(args) -> CaseSetup:
                   contact=contact if sdem else None)
     x = fill_points(g)
     ratio = None if variant == "original" else args.critical_density_ratio
-    scene.add_points(x, sand(critical_ratio=ratio), size=h / POINTS_PER_CELL,
+    scene.add_points(x, material(args, ratio), size=h / POINTS_PER_CELL,
                      contact_radius=g["rp"] if sdem else None, name="sand")
     for name, w, hh, (cx, cy) in _solids(g):
         if sdem:
@@ -316,6 +340,8 @@ def summarize(sim, result, args) -> dict:
         "orifice_m": g["orifice"], "width_m": g["width"], "fill_height_m": g["fill"], "cell_size": g["h"],
         "contact_radius": g["rp"], "walls": walls(args), "method": args.method, "points": int(sim.particle_count),
         "fill_mass": fill_mass, "critical_density_ratio": args.critical_density_ratio,
+        "material": args.material,
+        "grain_diameter_m": args.grain_diameter if args.material == "mu-i" else None,
         "walls_may_set_rate": bool(g["width"] < 2.5 * g["orifice"]),
         "times": times.tolist(),
         "discharged_mass": discharged.tolist(),

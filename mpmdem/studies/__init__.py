@@ -13,6 +13,9 @@ import importlib
 STUDIES = {
     "beverloo": "beverloo:BEVERLOO",
     "beverloo-methods": "beverloo:METHODS",
+    "beverloo-refined": "beverloo:REFINED",
+    "beverloo-mu-i": "beverloo:MU_I",
+    "beverloo-mu-i-grain": "beverloo:MU_I_GRAIN",
     "block-impact": "block_impact:GRIDS",
     "block-impact-coupling": "block_impact:COUPLING",
     "block-impact-rounding": "block_impact:ROUNDING",

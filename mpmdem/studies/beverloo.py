@@ -46,3 +46,56 @@ METHODS = Study(
     fixed={"--orifice": 0.04, "--cell-size": 0.0035},
     analyze=analyze_methods,
 )
+
+
+#: grids of the refinement studies [m]: 5 mm (about the paper's point count) down to 1 mm; 2 → 1 mm
+#: is the last halving
+REFINED_GRIDS = [0.005, 0.0035, 0.0025, 0.002, 0.0014, 0.001]
+
+
+def _refinement(name: str):
+    def analyze_runs(rows: list[dict], out: Path) -> dict:
+        from ..cases._table3 import DENSITY, GRAVITY
+        from .beverloo_refinement import analyze_study
+
+        return analyze_study(out, name, DENSITY, GRAVITY)
+
+    return analyze_runs
+
+
+def analyze_grain_runs(rows: list[dict], out: Path) -> dict:
+    from ..cases._table3 import DENSITY, GRAVITY
+    from .beverloo_refinement import analyze_grain, chart_intercepts, write
+
+    result = analyze_grain(load_runs(out), DENSITY, GRAVITY)
+    write(result, out, "beverloo-mu-i-grain")
+    chart_intercepts({}, result, out / "beverloo-mu-i-grain_intercept.png")
+    return result
+
+
+REFINED = Study(
+    name="beverloo-refined",
+    case="silo-discharge",
+    description="Drucker-Prager (Table 3) silo rate vs orifice on six grids, 5 to 1 mm: Richardson W_inf per D0 "
+                "and the Beverloo intercept against h",
+    grid={"--orifice": [0.02, 0.03, 0.04, 0.05, 0.06], "--cell-size": REFINED_GRIDS},
+    analyze=_refinement("beverloo-refined"),
+)
+
+MU_I = Study(
+    name="beverloo-mu-i",
+    case="silo-discharge",
+    description="mu(I) silo rate vs orifice on six grids, 5 to 1 mm (d = 2 mm): does W converge?",
+    grid={"--orifice": [0.02, 0.03, 0.04, 0.05, 0.06], "--cell-size": REFINED_GRIDS},
+    fixed={"--material": "mu-i"},
+    analyze=_refinement("beverloo-mu-i"),
+)
+
+MU_I_GRAIN = Study(
+    name="beverloo-mu-i-grain",
+    case="silo-discharge",
+    description="mu(I) silo rate vs orifice at h = 2.5 mm for d = 0.5, 1, 2 and 4 mm: does the intercept follow d?",
+    grid={"--orifice": [0.03, 0.04, 0.05, 0.06], "--grain-diameter": [0.0005, 0.001, 0.002, 0.004]},
+    fixed={"--material": "mu-i", "--cell-size": 0.0025},
+    analyze=analyze_grain_runs,
+)
