@@ -101,9 +101,10 @@ def _free_bytes(folder: Path) -> int:
 
 
 def check_frame_interval(end_time: float, frames: int, dt: float) -> None:
-    """InputError naming --frames unless end_time / frames [s] is at least the step dt [s]."""
-    if end_time / frames < dt:
-        most = max(1, int(end_time / dt))
+    """InputError naming --frames when end_time / frames [s] is below the step dt [s] (one frame is
+    always allowed: a run shorter than a step takes one short step)."""
+    most = max(1, int(end_time / dt))
+    if frames > most:
         raise InputError("--frames", frames, f"at most {most} for --end-time {end_time:g} s: a frame interval "
                          f"{end_time / frames:.3g} s below the stable step {dt:.3g} s would force that step down")
 
@@ -112,12 +113,13 @@ def check_output_size(estimate: int, out: Path, frames: int, limit: int | None =
     """InputError naming --frames when ``estimate`` [bytes] exceeds ``limit`` (--max-output), or,
     without a limit, DISK_FRACTION of the free space of the disk of ``out``."""
     if limit is None:
-        limit, what = int(DISK_FRACTION * _free_bytes(out)), f"{DISK_FRACTION:.0%} of the free disk"
+        limit = int(DISK_FRACTION * _free_bytes(out))
+        what = f"{DISK_FRACTION:.0%} of the free disk; --max-output SIZE sets another"
     else:
         what = "--max-output"
     if estimate > limit:
         raise InputError("--frames", frames, f"fewer frames: the output would be about {human_bytes(estimate)}, "
-                         f"above the limit {human_bytes(limit)} ({what}; --max-output SIZE sets it)")
+                         f"above the limit {human_bytes(limit)} ({what})")
 
 
 def long_run_warning(end_time: float, dt: float, points: int, device: str) -> str | None:

@@ -47,27 +47,22 @@ class CaseSetup:
     config: dict = field(default_factory=dict)
 
 
-def _join_number_values(parser: argparse.ArgumentParser, argv: list[str]) -> list[str]:
-    """``--flag -1e-5`` as ``--flag=-1e-5``: argparse takes a token that starts with "-" and is not
-    a plain negative number (-1, -0.5) for a flag, and then says "expected one argument"; joined,
-    the value reaches the flag's type, which refuses it with the real rule."""
+def _join_dash_values(parser: argparse.ArgumentParser, argv: list[str]) -> list[str]:
+    """``--flag -1e-5`` as ``--flag=-1e-5``: argparse takes a token that starts with one "-" and is
+    not a plain negative number (-1, -0.5) for a flag (-1e-5, -inf, -1,5), and then says "expected
+    one argument"; joined, the value reaches the flag's type, which refuses it with the real rule
+    or takes it. A token that is one of the parser's options (-h) is left as it is."""
     out: list[str] = []
+    options = parser._option_string_actions
     for tok in argv:
         prev = out[-1] if out else ""
-        action = parser._option_string_actions.get(prev) if prev.startswith("--") else None
-        if action is not None and action.nargs is None and tok.startswith("-") and _is_number(tok):
+        action = options.get(prev) if prev.startswith("--") else None
+        if (action is not None and action.nargs is None and tok.startswith("-") and not tok.startswith("--")
+                and tok not in options):
             out[-1] = f"{prev}={tok}"
         else:
             out.append(tok)
     return out
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -79,7 +74,7 @@ class OneLineParser(argparse.ArgumentParser):
 
     def parse_known_args(self, args=None, namespace=None):
         args = sys.argv[1:] if args is None else list(args)
-        return super().parse_known_args(_join_number_values(self, args), namespace)
+        return super().parse_known_args(_join_dash_values(self, args), namespace)
 
 
 def config_flags() -> list[tuple[str, dataclasses.Field, object]]:
@@ -123,7 +118,7 @@ def make_case_parser(module: ModuleType, prog: str | None = None) -> argparse.Ar
     p.add_argument("--frames", type=count_at_least(1), default=None, help="output frames (an integer >= 1)")
     p.add_argument("--max-output", type=parse_size, default=None, metavar="SIZE",
                    help="refuse a run whose output would exceed SIZE (bytes, or 500M, 2G; default: "
-                        f"{DISK_FRACTION:.0%} of the free disk)")
+                        f"{100 * DISK_FRACTION:g} %% of the free disk)")
     add_config_flags(p, skip=("coupling",) if getattr(module, "OWN_COUPLING_FLAG", False) else ())
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     if hasattr(module, "add_arguments"):
