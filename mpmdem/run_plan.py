@@ -25,9 +25,12 @@ __all__ = ["DISK_FRACTION", "check_frame_interval", "check_output_size", "estima
 
 #: the share of the output disk's free space a run may fill without --max-output
 DISK_FRACTION = 0.2
-#: bytes per frame besides the fields: ~100 float64 diagnostics (HDF5 and CSV), the per-frame
-#: virtual views and XDMF entries of the sidecars (an estimate, small beside the fields)
-FRAME_OVERHEAD_BYTES = 4096
+#: bytes per frame besides the fields (~100 float64 diagnostics in HDF5 and CSV, the per-frame
+#: virtual views and XDMF entries of the sidecars), and once per file (HDF5 metadata, the first
+#: chunks): measured on axial-bar --quick (64 points, 40 and 160 frames: 14.3 kB a frame, of which
+#: the points' fields are 3.8 kB; 0.2 MB besides)
+FRAME_OVERHEAD_BYTES = 10_500
+FILE_OVERHEAD_BYTES = 200_000
 #: the world outline of a body in the XDMF view of each frame: ~64 points × 3 float64
 OUTLINE_BYTES_PER_BODY = 64 * 3 * 8
 #: the fastest step measured on a GPU: ~28 µs, normal-force (2,601 points, one body) on an H100
@@ -50,8 +53,8 @@ def _field_bytes(specs: dict, float_bytes: int) -> int:
 def estimate_output_bytes(points: int, bodies: int, frames: int, precision: str = "f32",
                           coupled: bool = False) -> int:
     """Bytes a run writes: (frames + 1) × (points × bytes per point + bodies × bytes per body +
-    a frame's overhead); the fields are those of ``mpmdem.io.format`` in the run's precision
-    (plus the contact force of a coupled run). The HDF5 datasets are not compressed."""
+    a frame's overhead) + a file's overhead; the fields are those of ``mpmdem.io.format`` in the
+    run's precision (plus the contact force of a coupled run). The HDF5 datasets are not compressed."""
     float_bytes = PRECISIONS[precision]().itemsize
     point_specs = default_field_specs()
     if coupled:
@@ -59,7 +62,7 @@ def estimate_output_bytes(points: int, bodies: int, frames: int, precision: str 
     per_frame = (points * _field_bytes(point_specs, float_bytes)
                  + bodies * (_field_bytes(default_body_field_specs(), float_bytes) + OUTLINE_BYTES_PER_BODY)
                  + FRAME_OVERHEAD_BYTES)
-    return (frames + 1) * per_frame
+    return FILE_OVERHEAD_BYTES + (frames + 1) * per_frame
 
 
 def human_bytes(n: float) -> str:

@@ -20,14 +20,15 @@ CLI = [sys.executable, "-m", "mpmdem.cli"]
 
 
 def test_estimate_counts_points_frames_fields_and_bytes():
-    """Verify the estimate is (frames + 1) × (points × 60 B in f32: 14 floats and an int32 body
-    index; 116 B in f64) plus the bodies' share and a frame's overhead, linear in the frames."""
+    """Verify the estimate grows by points × 60 B a frame in f32 (14 floats and an int32 body index;
+    116 B in f64; 8 B more coupled), counts the bodies, and is linear in the frames."""
     empty = estimate_output_bytes(0, 0, 9)
     assert estimate_output_bytes(1000, 0, 9) - empty == 10 * 1000 * 60
     assert estimate_output_bytes(1000, 0, 9, "f64") - empty == 10 * 1000 * 116
     assert estimate_output_bytes(1000, 0, 9, coupled=True) - estimate_output_bytes(1000, 0, 9) == 10 * 1000 * 8
     assert estimate_output_bytes(0, 3, 9) > empty
-    assert estimate_output_bytes(1000, 2, 99) == 10 * estimate_output_bytes(1000, 2, 9)
+    one = estimate_output_bytes(1000, 2, 9) - estimate_output_bytes(1000, 2, 8)
+    assert estimate_output_bytes(1000, 2, 99) - estimate_output_bytes(1000, 2, 9) == 90 * one
 
 
 def test_frame_interval_below_the_step_is_refused_naming_the_most_frames():
