@@ -126,7 +126,8 @@ def add_arguments(parser):
                         help="grid cells across L0 (default 10; 8 with --quick)")
     parser.add_argument("--floor", choices=("friction", "fixed"), default="friction",
                         help="friction: Coulomb floor with mu = tan(phi) (default); fixed: no-slip floor")
-    parser.add_argument("--youngs-modulus", type=positive("Pa"), default=YOUNGS_MODULUS, help="E of the grains' continuum [Pa]")
+    parser.add_argument("--youngs-modulus", type=positive("Pa"), default=YOUNGS_MODULUS,
+                        help="E of the grains' continuum [Pa]")
     parser.add_argument("--critical-density-ratio", type=interval(0.0, 1.0), default=CRITICAL_DENSITY_RATIO,
                         help="rho_cr / rho in (0, 1] (stress-free below it); 0: no critical density")
 

@@ -33,7 +33,8 @@ OFFSET = 0.05  # m, impact parameter of the oblique pair (= one radius)
 
 
 def add_arguments(parser):
-    parser.add_argument("--restitution", type=interval(0.0, 1.0), default=0.7, help="coefficient of restitution e in [0, 1]")
+    parser.add_argument("--restitution", type=interval(0.0, 1.0), default=0.7,
+                        help="coefficient of restitution e in [0, 1]")
     parser.add_argument("--friction", type=non_negative(), default=0.3, help="Coulomb μ of the oblique pair")
 
 

@@ -28,7 +28,8 @@ PUSH = 3.0  # rad/s, initial toppling rate of the first block about its front bo
 
 
 def add_arguments(parser):
-    parser.add_argument("--blocks", type=count_at_least(2), default=None, help="number of dominoes (default 12; quick 5)")
+    parser.add_argument("--blocks", type=count_at_least(2), default=None,
+                        help="number of dominoes (default 12; quick 5)")
     parser.add_argument("--spacing", type=positive(), default=0.5, help="centre spacing / height, in (0.15, 0.95)")
 
 

@@ -42,7 +42,8 @@ MU = 0.3  # μ of the (block material, floor) pair in §5.2.2
 
 
 def add_arguments(parser):
-    parser.add_argument("--grid-index", type=count_at_least(0), default=3, help="i of the grid dg = 0.35 + 0.05 i cm, 0..3 "
+    parser.add_argument("--grid-index", type=count_at_least(0), default=3,
+                        help="i of the grid dg = 0.35 + 0.05 i cm, 0..3 "
                         "(default 3: the paper's 0.50 cm)")
     parser.add_argument("--friction", type=positive(), default=MU, help=f"μ of the block-floor pair (default {MU})")
     parser.add_argument("--speed", type=positive("m/s"), default=SPEED, help=f"initial x velocity of the block [m/s] "

@@ -101,7 +101,8 @@ END_QUICK = 0.04  # s
 
 
 def add_arguments(parser):
-    parser.add_argument("--grid-index", type=count_at_least(0), default=0, help="i of the grid dg = 0.35 + 0.05 i cm, 0..3")
+    parser.add_argument("--grid-index", type=count_at_least(0), default=0,
+                        help="i of the grid dg = 0.35 + 0.05 i cm, 0..3")
     parser.add_argument("--all-grids", action="store_true",
                         help="also run the other three grid sizes and report each (the paper's Fig. 12)")
     parser.add_argument("--contact-radius", type=positive("m"), default=R_P,

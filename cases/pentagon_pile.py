@@ -25,8 +25,10 @@ GRAVITY = 9.81
 
 
 def add_arguments(parser):
-    parser.add_argument("--bodies", type=count_at_least(1), default=None, help="number of pentagons (default 400; quick 60)")
-    parser.add_argument("--columns", type=count_at_least(1), default=None, help="pentagons per row of the release lattice")
+    parser.add_argument("--bodies", type=count_at_least(1), default=None,
+                        help="number of pentagons (default 400; quick 60)")
+    parser.add_argument("--columns", type=count_at_least(1), default=None,
+                        help="pentagons per row of the release lattice")
     parser.add_argument("--seed", type=count_at_least(0), default=1, help="random seed of shapes and positions")
 
 

@@ -76,7 +76,8 @@ def add_arguments(parser):
                              "contact point), liu (rigid body carried by material points)")
     parser.add_argument("--grid-size", type=positive("cm"), default=None,
                         help="grid size dg [cm], 0.1 ... 1.0 in the paper (default 0.5; 1.0 with --quick: L/dg = 1)")
-    parser.add_argument("--points", type=count_at_least(2), default=POINTS, help=f"material points of the MPM rod (default {POINTS})")
+    parser.add_argument("--points", type=count_at_least(2), default=POINTS,
+                        help=f"material points of the MPM rod (default {POINTS})")
     parser.add_argument("--kn", type=positive("N/cm"), default=KN_DEFAULT_N_CM,
                         help=f"normal stiffness k_n [N/cm] (default {KN_DEFAULT_N_CM:g}; Table 1: {KN_PAPER_N_CM:g})")
     parser.add_argument("--offset", type=interval(0.0, 1.0, open_high=True), default=0.5,

@@ -130,8 +130,10 @@ MPM_VARIANTS = {"granular": {"granular": True, "density_control": "revert"},
 
 
 def add_arguments(parser):
-    parser.add_argument("--orifice", type=positive("m"), default=ORIFICE, help=f"orifice width D0 [m] (default {ORIFICE})")
-    parser.add_argument("--width", type=positive("m"), default=WIDTH, help=f"inner width of the silo [m] (default {WIDTH})")
+    parser.add_argument("--orifice", type=positive("m"), default=ORIFICE,
+                        help=f"orifice width D0 [m] (default {ORIFICE})")
+    parser.add_argument("--width", type=positive("m"), default=WIDTH,
+                        help=f"inner width of the silo [m] (default {WIDTH})")
     parser.add_argument("--fill-height", type=positive("m"), default=None,
                         help=f"initial fill height [m] (default {FILL}; {QUICK['fill_height']} with --quick or "
                              "without a GPU, whatever other flags are given)")

@@ -23,7 +23,8 @@ RADIUS = 0.2  # m
 
 
 def add_arguments(parser):
-    parser.add_argument("--cells", type=count_at_least(2), default=None, help="cells across the unit square (default 20)")
+    parser.add_argument("--cells", type=count_at_least(2), default=None,
+                        help="cells across the unit square (default 20)")
 
 
 def build(args) -> CaseSetup:

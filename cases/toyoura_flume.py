@@ -84,7 +84,8 @@ def add_arguments(parser):
     parser.add_argument("--floor", choices=("friction", "fixed"), default="friction",
                         help="flume bed: friction (Coulomb, mu = tan(phi), default) or fixed (no slip)")
     parser.add_argument("--youngs-modulus", type=positive("Pa"), default=YOUNGS_MODULUS, help="E of the sand [Pa]")
-    parser.add_argument("--cell-size", type=positive("m"), default=None, help="grid spacing [m] (default 0.01; 0.02 quick)")
+    parser.add_argument("--cell-size", type=positive("m"), default=None,
+                        help="grid spacing [m] (default 0.01; 0.02 quick)")
     parser.add_argument("--run-length", type=positive("m"), default=None,
                         help="gate-to-wall distance [m] (default 2.0; 1.0 with --quick)")
 

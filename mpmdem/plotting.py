@@ -169,11 +169,12 @@ def plot_run(
 
     Writes ``energy.png`` (two panels against time, J/m: every diagnostic named ``energy_*``, the
     total in black; every ``work_*``, grouped by what does the work, ``ENERGY_GROUPS``, the balance's
-    residual ``work_numerical`` in black), ``momentum.png`` (every ``momentum_*`` diagnostic; angular ones on a second axis
-    when linear ones exist too) and ``snapshot_<frame:04d>.png`` for each chosen frame: the
-    particles at their positions coloured by ``field``, and the rigid bodies (if any) as filled
-    rounded polygons: fixed ones grey, the others coloured by ``field`` when it is a body quantity
-    (``BODY_SNAPSHOT_FIELDS``) and in a single colour otherwise.
+    residual ``work_numerical`` in black; the legends outside), ``momentum.png`` (every
+    ``momentum_*`` diagnostic; angular ones on a second axis when linear ones exist too) and
+    ``snapshot_<frame:04d>.png`` for each chosen frame: the particles at their positions coloured
+    by ``field``, and the rigid bodies (if any) as filled rounded polygons: fixed ones grey, the
+    others coloured by ``field`` when it is a body quantity (``BODY_SNAPSHOT_FIELDS``) and in a
+    single colour otherwise.
 
     Args:
         path: The HDF5 run file (also one left by a crashed run).
