@@ -122,7 +122,6 @@ def _plot(argv: list[str]) -> int:
 
 
 def _animate(argv: list[str]) -> int:
-    from .flag_types import positive
     from .runner import OneLineParser
 
     p = OneLineParser(prog="mpmdem animate")
@@ -130,7 +129,7 @@ def _animate(argv: list[str]) -> int:
     p.add_argument("--out", default=None, help="FILE.mp4 (needs ffmpeg) or FILE.gif (default: RUN_FIELD.mp4 beside "
                    "the run with ffmpeg, else .gif)")
     p.add_argument("--field", default="speed", help="colour (speed, pressure, stress_yy, J, body, omega, ...)")
-    p.add_argument("--fps", type=positive("frames/s"), default=10.0, help="frames per second (default 10)")
+    p.add_argument("--fps", type=float, default=10.0, help="frames per second (default 10)")
     p.add_argument("--frames", default=None, help="START:STOP:STEP (::5 every fifth) or comma-separated frames "
                    "(default all)")
     args = p.parse_args(argv)
