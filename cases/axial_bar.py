@@ -12,6 +12,7 @@ import sys
 import numpy as np
 
 from mpmdem import LinearElastic, Scene, rectangle
+from mpmdem.flag_types import count_at_least, given, positive
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
@@ -46,20 +47,20 @@ def mode_velocity(x: np.ndarray) -> np.ndarray:
 
 
 def add_arguments(parser):
-    parser.add_argument("--cells", type=int, default=None, help="cells along the bar (default 32)")
-    parser.add_argument("--periods", type=float, default=None, help="simulated periods (default 1)")
+    parser.add_argument("--cells", type=count_at_least(2), default=None, help="cells along the bar (default 32)")
+    parser.add_argument("--periods", type=positive(), default=None, help="simulated periods (default 1)")
 
 
 def build(args) -> CaseSetup:
-    cells = args.cells or (16 if args.quick else 32)
+    cells = given(args.cells, 16 if args.quick else 32)
     h = LENGTH / cells
     # bar fills the domain height (one cell): slip walls above and below make the strain uniaxial
     scene = Scene(domain=((0.0, 0.0), (LENGTH + 4 * h, h)), cell_size=h,
                   boundaries={"left": "fixed", "right": "free", "bottom": "slip", "top": "slip"})
     scene.add_mpm_body(rectangle(0.0, 0.0, LENGTH, h), LinearElastic(YOUNGS, 0.0, DENSITY),
                    velocity=mode_velocity, name="bar")
-    periods = args.periods or 1.0
-    return CaseSetup(scene, end_time=periods * PERIOD, frames=int(40 * periods))
+    periods = given(args.periods, 1.0)
+    return CaseSetup(scene, end_time=periods * PERIOD, frames=max(1, round(40 * periods)))
 
 
 def summarize(sim, result, args) -> dict:

@@ -9,6 +9,7 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, Scene, rounded_rectangle
+from mpmdem.flag_types import non_negative, positive
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
@@ -30,8 +31,8 @@ STIFFNESS = 1.0e7  # N/m per m
 
 
 def add_arguments(parser):
-    parser.add_argument("--angle", type=float, default=30.0, help="incline angle θ [deg], in (0, 80)")
-    parser.add_argument("--friction", type=float, default=0.3, help="Coulomb μ of block and incline")
+    parser.add_argument("--angle", type=positive("deg"), default=30.0, help="incline angle θ [deg], in (0, 80)")
+    parser.add_argument("--friction", type=non_negative(), default=0.3, help="Coulomb μ of block and incline")
 
 
 def _check(args):

@@ -13,6 +13,7 @@ import sys
 import numpy as np
 
 from mpmdem import InputError, NeoHookean, Scene, disk
+from mpmdem.flag_types import count_at_least, given, positive
 from mpmdem.io import RunFile
 from mpmdem.runner import CaseSetup
 
@@ -40,17 +41,17 @@ HEADROOM = 0.2  # m between the top of the disk and the top of the domain at t =
 
 
 def add_arguments(parser):
-    parser.add_argument("--cells", type=int, default=None,
+    parser.add_argument("--cells", type=count_at_least(4), default=None,
                         help="cells across the 0.6 m width (default 48; 24 with --quick)")
-    parser.add_argument("--drop-height", type=float, default=None,
+    parser.add_argument("--drop-height", type=positive("m"), default=None,
                         help=f"height of the disk centre above the floor at t = 0 [m] (default {DROP_HEIGHT})")
 
 
 def build(args) -> CaseSetup:
-    cells = args.cells or (24 if args.quick else 48)
+    cells = given(args.cells, 24 if args.quick else 48)
     if cells < 4:
         raise InputError("cells", cells, "an integer >= 4 (cells across the 0.6 m width)")
-    drop = DROP_HEIGHT if args.drop_height is None else args.drop_height
+    drop = given(args.drop_height, DROP_HEIGHT)
     h = WIDTH / cells
     if not (math.isfinite(drop) and drop >= RADIUS + 2 * h):
         raise InputError("drop_height", drop, f"a centre height >= R + 2 cells = {RADIUS + 2 * h:g} m")

@@ -64,6 +64,7 @@ import sys
 import numpy as np
 
 from mpmdem import Boundary, MohrCoulomb, Scene, rectangle
+from mpmdem.flag_types import count_at_least, given, interval, positive
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
@@ -119,14 +120,15 @@ def lube_height(a: float) -> float:
 
 
 def add_arguments(parser):
-    parser.add_argument("--aspect-ratio", type=float, default=1.0, help="a = initial height / width, in [0.1, 20]")
-    parser.add_argument("--width", type=float, default=0.2, help="initial width L0 of the column [m]")
-    parser.add_argument("--cells-per-width", type=int, default=None,
+    parser.add_argument("--aspect-ratio", type=positive(), default=1.0, help="a = initial height / width, in [0.1, 20]")
+    parser.add_argument("--width", type=positive("m"), default=0.2, help="initial width L0 of the column [m]")
+    parser.add_argument("--cells-per-width", type=count_at_least(2), default=None,
                         help="grid cells across L0 (default 10; 8 with --quick)")
     parser.add_argument("--floor", choices=("friction", "fixed"), default="friction",
                         help="friction: Coulomb floor with mu = tan(phi) (default); fixed: no-slip floor")
-    parser.add_argument("--youngs-modulus", type=float, default=YOUNGS_MODULUS, help="E of the grains' continuum [Pa]")
-    parser.add_argument("--critical-density-ratio", type=float, default=CRITICAL_DENSITY_RATIO,
+    parser.add_argument("--youngs-modulus", type=positive("Pa"), default=YOUNGS_MODULUS,
+                        help="E of the grains' continuum [Pa]")
+    parser.add_argument("--critical-density-ratio", type=interval(0.0, 1.0), default=CRITICAL_DENSITY_RATIO,
                         help="rho_cr / rho in (0, 1] (stress-free below it); 0: no critical density")
 
 
@@ -146,7 +148,7 @@ def _check(args):
 
 
 def _cells(args) -> int:
-    return args.cells_per_width or (8 if args.quick else 10)
+    return given(args.cells_per_width, 8 if args.quick else 10)
 
 
 def collapse_time(args) -> float:

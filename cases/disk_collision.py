@@ -9,6 +9,7 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, Scene, sphero_disk
+from mpmdem.flag_types import interval, non_negative
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
@@ -32,8 +33,9 @@ OFFSET = 0.05  # m, impact parameter of the oblique pair (= one radius)
 
 
 def add_arguments(parser):
-    parser.add_argument("--restitution", type=float, default=0.7, help="coefficient of restitution e in [0, 1]")
-    parser.add_argument("--friction", type=float, default=0.3, help="Coulomb μ of the oblique pair")
+    parser.add_argument("--restitution", type=interval(0.0, 1.0), default=0.7,
+                        help="coefficient of restitution e in [0, 1]")
+    parser.add_argument("--friction", type=non_negative(), default=0.3, help="Coulomb μ of the oblique pair")
 
 
 def _law(args) -> ContactLaw:

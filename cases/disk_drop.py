@@ -32,6 +32,7 @@ from mpmdem.cases.momentum_exchange import (
     resolution,
     table1_material,
 )
+from mpmdem.flag_types import positive
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
@@ -60,7 +61,7 @@ PAPER_REBOUND = {"soft": 1.0 - 0.06947, "hard": 0.9895}  # §5.1.2
 
 def add_arguments(parser):
     add_material_argument(parser)
-    parser.add_argument("--drop", type=float, default=DROP,
+    parser.add_argument("--drop", type=positive("m"), default=DROP,
                         help=f"fall before the disk touches the boundary [m] (default {DROP})")
 
 

@@ -10,6 +10,7 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, Scene, rounded_rectangle
+from mpmdem.flag_types import count_at_least, given, positive
 from mpmdem.runner import CaseSetup
 
 NAME = "domino"
@@ -27,14 +28,15 @@ PUSH = 3.0  # rad/s, initial toppling rate of the first block about its front bo
 
 
 def add_arguments(parser):
-    parser.add_argument("--blocks", type=int, default=None, help="number of dominoes (default 12; quick 5)")
-    parser.add_argument("--spacing", type=float, default=0.5, help="centre spacing / height, in (0.15, 0.95)")
+    parser.add_argument("--blocks", type=count_at_least(2), default=None,
+                        help="number of dominoes (default 12; quick 5)")
+    parser.add_argument("--spacing", type=positive(), default=0.5, help="centre spacing / height, in (0.15, 0.95)")
 
 
 def build(args) -> CaseSetup:
     from mpmdem import InputError
 
-    n = args.blocks or (5 if args.quick else 12)
+    n = given(args.blocks, 5 if args.quick else 12)
     if n < 2:
         raise InputError("--blocks", n, "at least 2 dominoes")
     if not 0.15 < args.spacing < 0.95:

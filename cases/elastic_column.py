@@ -10,6 +10,7 @@ import sys
 import numpy as np
 
 from mpmdem import LinearElastic, Scene, rectangle
+from mpmdem.flag_types import count_at_least, given
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
@@ -43,11 +44,11 @@ def first_period() -> float:
 
 
 def add_arguments(parser):
-    parser.add_argument("--cells", type=int, default=None, help="cells over the height (default 16)")
+    parser.add_argument("--cells", type=count_at_least(2), default=None, help="cells over the height (default 16)")
 
 
 def build(args) -> CaseSetup:
-    cells = args.cells or (8 if args.quick else 16)
+    cells = given(args.cells, 8 if args.quick else 16)
     h = HEIGHT / cells
     t1 = first_period()
     scene = Scene(domain=((0.0, 0.0), (WIDTH, HEIGHT + 4 * h)), cell_size=h, gravity=(0.0, -GRAVITY),

@@ -23,6 +23,7 @@ import sys
 import numpy as np
 
 from mpmdem.cases import normal_force as nf
+from mpmdem.flag_types import count_at_least, positive
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
@@ -41,12 +42,13 @@ MU = 0.3  # μ of the (block material, floor) pair in §5.2.2
 
 
 def add_arguments(parser):
-    parser.add_argument("--grid-index", type=int, default=3, help="i of the grid dg = 0.35 + 0.05 i cm, 0..3 "
+    parser.add_argument("--grid-index", type=count_at_least(0), default=3,
+                        help="i of the grid dg = 0.35 + 0.05 i cm, 0..3 "
                         "(default 3: the paper's 0.50 cm)")
-    parser.add_argument("--friction", type=float, default=MU, help=f"μ of the block-floor pair (default {MU})")
-    parser.add_argument("--speed", type=float, default=SPEED, help=f"initial x velocity of the block [m/s] "
+    parser.add_argument("--friction", type=positive(), default=MU, help=f"μ of the block-floor pair (default {MU})")
+    parser.add_argument("--speed", type=positive("m/s"), default=SPEED, help=f"initial x velocity of the block [m/s] "
                         f"(default {SPEED})")
-    parser.add_argument("--contact-radius", type=float, default=nf.R_P,
+    parser.add_argument("--contact-radius", type=positive("m"), default=nf.R_P,
                         help=f"r_p of the points [m] (default {nf.R_P}); must lie in eq. 45's interval")
 
 

@@ -96,6 +96,7 @@ from mpmdem.cases._granular_matrix_sample import (
     void_lattice,
 )
 from mpmdem.cases._table3 import CM, GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, SPHERO_RADIUS, VERLET, sand
+from mpmdem.flag_types import count_at_least, interval, non_negative, positive
 from mpmdem.runner import CaseSetup
 
 NAME = "granular-matrix"
@@ -130,25 +131,25 @@ FRAME_TRAVEL = 0.5e-3  # m of bar travel between frames
 
 
 def add_arguments(parser):
-    parser.add_argument("--fines", type=float, default=FINES,
+    parser.add_argument("--fines", type=interval(0.0, 1.0, open_high=True), default=FINES,
                         help=f"fines content: fraction of the skeleton's void area covered by fines, in [0, 1) "
                              f"(default {FINES}; the study: {', '.join(map(str, FINES_STUDY))})")
-    parser.add_argument("--bar-speed", type=float, default=BAR_SPEED,
+    parser.add_argument("--bar-speed", type=positive("m/s"), default=BAR_SPEED,
                         help=f"speed of the bar [m/s] (default {BAR_SPEED}; the paper's {BAR_SPEED_PAPER})")
-    parser.add_argument("--settlement", type=float, default=None,
+    parser.add_argument("--settlement", type=positive("m"), default=None,
                         help=f"travel of the bar [m] (default {FULL['settlement']}, the paper's {SETTLEMENT_PAPER:g} "
                              f"is beyond these contacts; {QUICK['settlement']} with --quick)")
-    parser.add_argument("--cell-size", type=float, default=None,
+    parser.add_argument("--cell-size", type=positive("m"), default=None,
                         help=f"grid spacing [m], rounded so that the container is whole cells (default "
                              f"{FULL['cell_size']}; {QUICK['cell_size']:.4g} with --quick)")
-    parser.add_argument("--pentagon-size", type=float, default=None,
+    parser.add_argument("--pentagon-size", type=positive("m"), default=None,
                         help=f"mean circumradius of the pentagons' cores [m] (default {FULL['size']}; "
                              f"{QUICK['size']} with --quick)")
-    parser.add_argument("--settle-time", type=float, default=None,
+    parser.add_argument("--settle-time", type=non_negative("s"), default=None,
                         help=f"time the bar waits while the sample settles [s] (default {FULL['settle']}; "
                              f"{QUICK['settle']} with --quick)")
-    parser.add_argument("--seed", type=int, default=1, help="random seed of the pentagons and the fines")
-    parser.add_argument("--normal-stiffness", type=float, default=KN,
+    parser.add_argument("--seed", type=count_at_least(0), default=1, help="random seed of the pentagons and the fines")
+    parser.add_argument("--normal-stiffness", type=positive("N/m per m"), default=KN,
                         help=f"k_n of every contact [N/m per m] (default {KN:g}; Table 3: {KN_TABLE:g}); k_t = k_n/20")
 
 

@@ -35,6 +35,7 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, LinearElastic, Scene, disk, sphero_disk
+from mpmdem.flag_types import positive
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
@@ -117,7 +118,7 @@ def add_material_argument(parser):
 
 def add_arguments(parser):
     add_material_argument(parser)
-    parser.add_argument("--speed", type=float, default=SPEED, help=f"MPM disk speed [m/s] (default {SPEED})")
+    parser.add_argument("--speed", type=positive("m/s"), default=SPEED, help=f"MPM disk speed [m/s] (default {SPEED})")
 
 
 def contact_radius(args) -> float:

@@ -42,6 +42,7 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, LinearElastic, Scene, rounded_rectangle
+from mpmdem.flag_types import count_at_least, given, positive
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 from mpmdem.variants import Variant
@@ -100,10 +101,11 @@ END_QUICK = 0.04  # s
 
 
 def add_arguments(parser):
-    parser.add_argument("--grid-index", type=int, default=0, help="i of the grid dg = 0.35 + 0.05 i cm, 0..3")
+    parser.add_argument("--grid-index", type=count_at_least(0), default=0,
+                        help="i of the grid dg = 0.35 + 0.05 i cm, 0..3")
     parser.add_argument("--all-grids", action="store_true",
                         help="also run the other three grid sizes and report each (the paper's Fig. 12)")
-    parser.add_argument("--contact-radius", type=float, default=R_P,
+    parser.add_argument("--contact-radius", type=positive("m"), default=R_P,
                         help=f"r_p of the points [m] (default {R_P}); must lie in eq. 45's interval")
 
 
@@ -152,7 +154,7 @@ def block_scene(grid_index: int, quick: bool, *, contact_radius: float = R_P, ve
 
 def run_length(args) -> tuple[float, int]:
     """(end time [s], frames) of a run, the flags' or the case's."""
-    return args.end_time or (END_QUICK if args.quick else T_PAPER), args.frames or (20 if args.quick else 70)
+    return given(args.end_time, END_QUICK if args.quick else T_PAPER), given(args.frames, 20 if args.quick else 70)
 
 
 def build(args) -> CaseSetup:

@@ -8,6 +8,7 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, Scene, random_convex_polygon
+from mpmdem.flag_types import count_at_least, given
 from mpmdem.runner import CaseSetup
 
 NAME = "pentagon-pile"
@@ -24,18 +25,20 @@ GRAVITY = 9.81
 
 
 def add_arguments(parser):
-    parser.add_argument("--bodies", type=int, default=None, help="number of pentagons (default 400; quick 60)")
-    parser.add_argument("--columns", type=int, default=None, help="pentagons per row of the release lattice")
-    parser.add_argument("--seed", type=int, default=1, help="random seed of shapes and positions")
+    parser.add_argument("--bodies", type=count_at_least(1), default=None,
+                        help="number of pentagons (default 400; quick 60)")
+    parser.add_argument("--columns", type=count_at_least(1), default=None,
+                        help="pentagons per row of the release lattice")
+    parser.add_argument("--seed", type=count_at_least(0), default=1, help="random seed of shapes and positions")
 
 
 def build(args) -> CaseSetup:
     from mpmdem import InputError
 
-    n = args.bodies or (60 if args.quick else 400)
+    n = given(args.bodies, 60 if args.quick else 400)
     if n < 1:
         raise InputError("--bodies", n, "a number of pentagons >= 1")
-    cols = args.columns or max(2, int(round(math.sqrt(n) * 0.8)))
+    cols = given(args.columns, max(2, int(round(math.sqrt(n) * 0.8))))
     rows = math.ceil(n / cols)
     rng = np.random.default_rng(args.seed)
     pitch = 2.0 * SIZE * (1.2 + ROUNDING) * 1.1

@@ -11,6 +11,7 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, LinearElastic, Scene, Simulation, SolverConfig, rod
+from mpmdem.flag_types import count_at_least, given, interval, positive
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
@@ -73,12 +74,13 @@ def add_arguments(parser):
     parser.add_argument("--scheme", choices=SCHEMES, default="imp",
                         help="coupling scheme: imp (force at the point), grid (at the grid node nearest the "
                              "contact point), liu (rigid body carried by material points)")
-    parser.add_argument("--grid-size", type=float, default=None,
+    parser.add_argument("--grid-size", type=positive("cm"), default=None,
                         help="grid size dg [cm], 0.1 ... 1.0 in the paper (default 0.5; 1.0 with --quick: L/dg = 1)")
-    parser.add_argument("--points", type=int, default=POINTS, help=f"material points of the MPM rod (default {POINTS})")
-    parser.add_argument("--kn", type=float, default=KN_DEFAULT_N_CM,
+    parser.add_argument("--points", type=count_at_least(2), default=POINTS,
+                        help=f"material points of the MPM rod (default {POINTS})")
+    parser.add_argument("--kn", type=positive("N/cm"), default=KN_DEFAULT_N_CM,
                         help=f"normal stiffness k_n [N/cm] (default {KN_DEFAULT_N_CM:g}; Table 1: {KN_PAPER_N_CM:g})")
-    parser.add_argument("--offset", type=float, default=0.5,
+    parser.add_argument("--offset", type=interval(0.0, 1.0, open_high=True), default=0.5,
                         help="where the first contact point lies in its grid cell, as a fraction of dg (default 0.5)")
 
 
@@ -213,7 +215,7 @@ def offset_mean_error(scheme: str, grid_size_cm: float, offsets=(0.125, 0.375, 0
 
 
 def _grid_size(args) -> float:
-    return args.grid_size or (1.0 if args.quick else 0.5)
+    return given(args.grid_size, 1.0 if args.quick else 0.5)
 
 
 def build(args) -> CaseSetup:

@@ -12,6 +12,7 @@ import sys
 import numpy as np
 
 from mpmdem import InputError, NeoHookean, Scene, disk
+from mpmdem.flag_types import count_at_least, given, nonzero
 from mpmdem.io import RunFile
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
@@ -43,18 +44,18 @@ CENTER = (0.5 * SIDE, 0.5 * SIDE)
 
 
 def add_arguments(parser):
-    parser.add_argument("--cells", type=int, default=None,
+    parser.add_argument("--cells", type=count_at_least(8), default=None,
                         help="cells across the 1 m domain (default 32, h = 0.03125 m; 16 with --quick)")
-    parser.add_argument("--omega", type=float, default=None,
+    parser.add_argument("--omega", type=nonzero("rad/s"), default=None,
                         help=f"initial angular velocity [rad/s] (default 2π = {OMEGA:.4f})")
 
 
 def omega0(args) -> float:
-    return OMEGA if args.omega is None else args.omega
+    return given(args.omega, OMEGA)
 
 
 def build(args) -> CaseSetup:
-    cells = args.cells or (16 if args.quick else 32)
+    cells = given(args.cells, 16 if args.quick else 32)
     if cells < 8:
         raise InputError("cells", cells, "an integer >= 8 (cells across the 1 m domain)")
     omega = omega0(args)

@@ -55,6 +55,7 @@ import numpy as np
 
 from mpmdem import ContactLaw, DruckerPrager, InputError, Scene, rounded_rectangle
 from mpmdem.cases._table3 import GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, VERLET, sand
+from mpmdem.flag_types import given, non_negative, positive
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
@@ -111,20 +112,20 @@ FLAT = 10.0  # deg: a block turned within this of a multiple of 90° lies on a f
 
 
 def add_arguments(parser):
-    parser.add_argument("--cell-size", type=float, default=None,
+    parser.add_argument("--cell-size", type=positive("m"), default=None,
                         help=f"grid spacing [m] (default {GRID}, 8192 points; {GRID_QUICK} with --quick); 0.5 m "
                              "must be a whole number of cells")
     parser.add_argument("--friction", default="paper", choices=tuple(FRICTION_SETS),
                         help="paper: Table 3's 0.2 everywhere; reproduction: block 0.6, sand-block 0.55, sand-floor "
                              "0.16")
-    parser.add_argument("--sphero-radius", type=float, default=SPHERO,
+    parser.add_argument("--sphero-radius", type=non_negative("m"), default=SPHERO,
                         help=f"corner rounding of the blocks [m] (default {SPHERO})")
-    parser.add_argument("--normal-stiffness", type=float, default=KN,
+    parser.add_argument("--normal-stiffness", type=positive("N/m per m"), default=KN,
                         help=f"k_n of every contact [N/m per m] (default {KN:g}; Table 3: {KN_TABLE:g}); k_t = k_n/20")
 
 
 def _cell(args) -> float:
-    return args.cell_size or (GRID_QUICK if args.quick else GRID)
+    return given(args.cell_size, GRID_QUICK if args.quick else GRID)
 
 
 def _check(args):

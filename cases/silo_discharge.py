@@ -71,6 +71,7 @@ from mpmdem.cases._table3 import (
     YOUNGS,
     sand,
 )
+from mpmdem.flag_types import given, positive
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
@@ -134,26 +135,28 @@ MPM_VARIANTS = {"granular": {"granular": True, "density_control": "revert"},
 
 
 def add_arguments(parser):
-    parser.add_argument("--orifice", type=float, default=ORIFICE, help=f"orifice width D0 [m] (default {ORIFICE})")
-    parser.add_argument("--width", type=float, default=WIDTH, help=f"inner width of the silo [m] (default {WIDTH})")
-    parser.add_argument("--fill-height", type=float, default=None,
+    parser.add_argument("--orifice", type=positive("m"), default=ORIFICE,
+                        help=f"orifice width D0 [m] (default {ORIFICE})")
+    parser.add_argument("--width", type=positive("m"), default=WIDTH,
+                        help=f"inner width of the silo [m] (default {WIDTH})")
+    parser.add_argument("--fill-height", type=positive("m"), default=None,
                         help=f"initial fill height [m] (default {FILL}; {QUICK['fill_height']} with --quick or "
-                             "without a GPU)")
-    parser.add_argument("--cell-size", type=float, default=None,
+                             "without a GPU, whatever other flags are given)")
+    parser.add_argument("--cell-size", type=positive("m"), default=None,
                         help=f"grid spacing [m] (default Table 3's {GRID_TABLE:.4g}; {QUICK['cell_size']} with --quick "
-                             "or without a GPU)")
-    parser.add_argument("--drop", type=float, default=DROP,
+                             "or without a GPU, whatever other flags are given)")
+    parser.add_argument("--drop", type=positive("m"), default=DROP,
                         help=f"height of the silo floor above the container floor [m] (default {DROP})")
-    parser.add_argument("--domain-height", type=float, default=None,
+    parser.add_argument("--domain-height", type=positive("m"), default=None,
                         help="height of the grid above the container floor [m] (default: the fill's top + "
                              f"{HEADROOM} m)")
-    parser.add_argument("--normal-stiffness", type=float, default=KN,
+    parser.add_argument("--normal-stiffness", type=positive("N/m per m"), default=KN,
                         help=f"k_n of every contact [N/m per m] (default {KN:g}; Table 3: {KN_TABLE:g}); k_t = k_n/20")
     parser.add_argument("--method", default="granular", choices=tuple(METHODS),
                         help="model of the comparison: granular (Granular MPM, imp coupling, SDEM walls: the "
                              "default), stress-free or original MPM, original-grid (original MPM, MPM-GRID coupling), "
                              "obstacle-slip/-fixed (Granular MPM, walls as grid obstacles, no DEM)")
-    parser.add_argument("--critical-density-ratio", type=float, default=CRITICAL_DENSITY_RATIO,
+    parser.add_argument("--critical-density-ratio", type=positive(), default=CRITICAL_DENSITY_RATIO,
                         help="ρ_cr / ρ0 of Granular and stress-free MPM: looser points are stress-free (default "
                              f"{CRITICAL_DENSITY_RATIO})")
     parser.add_argument("--material", default="drucker-prager", choices=MATERIALS,
@@ -168,12 +171,11 @@ def add_arguments(parser):
 
 
 def coarse(args) -> bool:
-    """Whether the run takes the coarse size: --quick, or no GPU and no size given (the README's
-    first command then finishes in about a minute on a laptop CPU instead of an hour)."""
+    """Whether the sizes not given take the coarse preset (QUICK): with --quick, or on a machine
+    without a GPU (the README's first command then finishes in about a minute on a laptop CPU
+    instead of an hour). A size flag that is given sets that size alone; the others keep the preset."""
     if args.quick:
         return True
-    if args.cell_size is not None or args.fill_height is not None or args.end_time is not None:
-        return False
     from mpmdem.simulation import default_device
 
     return (args.device or default_device()) == "cpu"
@@ -182,8 +184,8 @@ def coarse(args) -> bool:
 def geometry(args) -> dict:
     """Every length of the scene [m], from the flags; raises InputError for an impossible silo."""
     small = coarse(args)
-    h = args.cell_size or (QUICK["cell_size"] if small else GRID_TABLE)
-    fill = args.fill_height or (QUICK["fill_height"] if small else FILL)
+    h = given(args.cell_size, QUICK["cell_size"] if small else GRID_TABLE)
+    fill = given(args.fill_height, QUICK["fill_height"] if small else FILL)
     for name, v, lo, hi in (("--cell-size", h, 1e-3, 0.02), ("--width", args.width, 0.02, 1.0),
                             ("--fill-height", fill, 0.01, 2.0), ("--drop", args.drop, 0.05, 2.0),
                             ("--orifice", args.orifice, 1e-3, 1.0)):
@@ -202,7 +204,7 @@ def geometry(args) -> dict:
     container = max(CONTAINER, args.width + 2.0 * WALL)
     floor = args.drop + WALL  # top of the silo floor = the orifice line
     top_needed = floor + fill + HEADROOM
-    top = args.domain_height or top_needed
+    top = given(args.domain_height, top_needed)
     if not top >= floor + fill:
         raise InputError("--domain-height", args.domain_height,
                          f"a grid at least as high as the fill's top, {floor + fill:.4g} m above the container floor")
@@ -295,11 +297,15 @@ def build(args) -> CaseSetup:
     scene.add_mass_probe("discharged", hi=(inf, g["floor"]))
     scene.add_mass_probe("silo", lo=(g["xc"] - 0.5 * g["width"], g["floor"]), hi=(g["xc"] + 0.5 * g["width"], inf))
     small = coarse(args)
-    if small and not args.quick and not getattr(args, "quiet", False):
-        print(f"silo-discharge: no GPU, so the coarse size (grid {100 * h:g} cm, fill {100 * g['fill']:g} cm, "
-              f"{QUICK['end']} s, {len(x)} points; about a minute on 2 cores); the paper's grid: --cell-size "
-              f"{GRID_TABLE:.4g}", file=sys.stderr)
     end = QUICK["end"] if small else END
+    if small and not args.quick and not getattr(args, "quiet", False):
+        preset = [flag for flag, v in (("--cell-size", args.cell_size), ("--fill-height", args.fill_height),
+                                       ("--end-time", args.end_time)) if v is None]
+        print(f"silo-discharge: no GPU, so the coarse preset for {', '.join(preset) or 'no size (all given)'}: "
+              f"runs grid {100 * h:g} cm, fill {100 * g['fill']:g} cm, {given(args.end_time, end):g} s, {len(x)} points"
+              + ("; about a minute on 2 cores" if len(preset) == 3 else "")
+              + f"; the paper's size: --cell-size {GRID_TABLE:.4g} --fill-height {FILL} --end-time {END}",
+              file=sys.stderr)
     config = dict(MPM_VARIANTS[variant])
     if sdem:
         # the sand landing in the container packs in thin layers against its plates (each point held

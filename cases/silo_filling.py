@@ -56,6 +56,7 @@ import sys
 import numpy as np
 
 from mpmdem import MohrCoulomb, Scene, rectangle
+from mpmdem.flag_types import count_at_least, given, non_negative
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 from mpmdem.variants import Variant
@@ -98,12 +99,12 @@ SLOW = 1.0  # m/s, the top of the paper's 0-1 m/s range of Granular MPM's deposi
 
 
 def add_arguments(parser):
-    parser.add_argument("--points", type=int, default=None,
+    parser.add_argument("--points", type=count_at_least(3), default=None,
                         help=f"points released in all, a multiple of 3 (default {PAPER_POINTS}; 30 with --quick)")
-    parser.add_argument("--settle", type=float, default=None,
+    parser.add_argument("--settle", type=non_negative("s"), default=None,
                         help="time run after the paper's t_total-equivalent (points/3 × 0.17 s) [s] "
                              "(default 0, the paper's length; 2 with --quick, so the last points land and rest)")
-    parser.add_argument("--jitter", type=float, default=JITTER,
+    parser.add_argument("--jitter", type=non_negative("m"), default=JITTER,
                         help=f"release positions are shifted by a uniform random ±jitter in x [m] (default {JITTER})")
     parser.add_argument("--compare", action="store_true",
                         help="also run stress-free MPM (one grid, no density control) for the summary; slow: "
@@ -125,11 +126,11 @@ def _check(args):
 
 
 def _points(args) -> int:
-    return args.points if args.points is not None else (30 if args.quick else PAPER_POINTS)
+    return given(args.points, 30 if args.quick else PAPER_POINTS)
 
 
 def _settle(args) -> float:
-    return args.settle if args.settle is not None else (2.0 if args.quick else 0.0)
+    return given(args.settle, 2.0 if args.quick else 0.0)
 
 
 def material() -> MohrCoulomb:

@@ -8,6 +8,7 @@ import sys
 import numpy as np
 
 from mpmdem import NeoHookean, Scene, disk
+from mpmdem.flag_types import count_at_least, given
 from mpmdem.runner import CaseSetup
 
 NAME = "sulsky-disks"
@@ -22,11 +23,12 @@ RADIUS = 0.2  # m
 
 
 def add_arguments(parser):
-    parser.add_argument("--cells", type=int, default=None, help="cells across the unit square (default 20)")
+    parser.add_argument("--cells", type=count_at_least(2), default=None,
+                        help="cells across the unit square (default 20)")
 
 
 def build(args) -> CaseSetup:
-    cells = args.cells or (16 if args.quick else 20)
+    cells = given(args.cells, 16 if args.quick else 20)
     # The disks come within 1.5 cells of the walls, where a wall would act on them through the
     # grid; the notes' problem has no boundary condition, so all sides are free.
     scene = Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=1.0 / cells,

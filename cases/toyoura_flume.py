@@ -51,6 +51,7 @@ import sys
 import numpy as np
 
 from mpmdem import Boundary, MohrCoulomb, Scene, rectangle
+from mpmdem.flag_types import given, positive
 from mpmdem.runner import CaseSetup
 
 NAME = "toyoura-flume"
@@ -79,12 +80,13 @@ ARRIVAL_FRACTION = 0.05  # arrival: first frame whose force exceeds 5 % of the p
 
 
 def add_arguments(parser):
-    parser.add_argument("--angle", type=float, default=45.0, help="flume slope θ [deg], in (0, 90)")
+    parser.add_argument("--angle", type=positive("deg"), default=45.0, help="flume slope θ [deg], in (0, 90)")
     parser.add_argument("--floor", choices=("friction", "fixed"), default="friction",
                         help="flume bed: friction (Coulomb, mu = tan(phi), default) or fixed (no slip)")
-    parser.add_argument("--youngs-modulus", type=float, default=YOUNGS_MODULUS, help="E of the sand [Pa]")
-    parser.add_argument("--cell-size", type=float, default=None, help="grid spacing [m] (default 0.01; 0.02 quick)")
-    parser.add_argument("--run-length", type=float, default=None,
+    parser.add_argument("--youngs-modulus", type=positive("Pa"), default=YOUNGS_MODULUS, help="E of the sand [Pa]")
+    parser.add_argument("--cell-size", type=positive("m"), default=None,
+                        help="grid spacing [m] (default 0.01; 0.02 quick)")
+    parser.add_argument("--run-length", type=positive("m"), default=None,
                         help="gate-to-wall distance [m] (default 2.0; 1.0 with --quick)")
 
 
@@ -104,11 +106,11 @@ def _check(args):
 
 
 def _cell(args) -> float:
-    return args.cell_size if args.cell_size is not None else (0.02 if args.quick else H)
+    return given(args.cell_size, 0.02 if args.quick else H)
 
 
 def _run(args) -> float:
-    return args.run_length if args.run_length is not None else (1.0 if args.quick else RUN)
+    return given(args.run_length, 1.0 if args.quick else RUN)
 
 
 def wall_x(args) -> float:

@@ -49,6 +49,18 @@ def _run_help() -> int:
     return 0
 
 
+def _run_file_problem(path) -> str | None:
+    """The one-line error for a FILE argument that is not a file (None when it is one): a folder
+    gets the run files in it named, a missing path says so."""
+    if path.is_file():
+        return None
+    if path.is_dir():
+        runs = sorted(p.name for p in path.glob("*.h5"))
+        inside = f"; in it: {', '.join(runs[:3])}" + (" ..." if len(runs) > 3 else "") if runs else ""
+        return f"FILE={str(path)!r} is invalid: a run file (.h5), not a folder{inside}"
+    return f"FILE={str(path)!r} does not exist"
+
+
 def _info(argv: list[str]) -> int:
     from pathlib import Path
 
@@ -56,8 +68,9 @@ def _info(argv: list[str]) -> int:
         print("usage: mpmdem info FILE", file=sys.stderr)
         return 2
     path = Path(argv[0])
-    if not path.is_file():
-        print(f"mpmdem: error: FILE={str(path)!r} does not exist", file=sys.stderr)
+    problem = _run_file_problem(path)
+    if problem:
+        print(f"mpmdem: error: {problem}", file=sys.stderr)
         return 2
     from .io import RunFile
 
@@ -82,15 +95,22 @@ def _plot(argv: list[str]) -> int:
     p.add_argument("--frames", default=None, help="comma-separated frame numbers (default first, middle, last)")
     args = p.parse_args(argv)
     path = Path(args.file)
-    if not path.is_file():
-        print(f"mpmdem: error: FILE={str(path)!r} does not exist", file=sys.stderr)
+    problem = _run_file_problem(path)
+    if problem:
+        print(f"mpmdem: error: {problem}", file=sys.stderr)
         return 2
+    from .errors import InputError
     from .plotting import plot_run
+    from .runner import out_folder
 
-    frames = [int(f) for f in args.frames.split(",")] if args.frames else None
     try:
-        written = plot_run(path, Path(args.out) if args.out else path.parent / "plots", field=args.field, frames=frames)
-    except ValueError as e:
+        try:
+            frames = [int(f) for f in args.frames.split(",")] if args.frames else None
+        except ValueError:
+            raise InputError("--frames", args.frames, "comma-separated frame numbers (0,10,-1)") from None
+        out = out_folder(args.out if args.out else path.parent / "plots")
+        written = plot_run(path, out, field=args.field, frames=frames)
+    except ValueError as e:  # (InputError too: a bad --out, --field or --frames)
         print(f"mpmdem: error: {e}", file=sys.stderr)
         return 2
     except OSError as e:
@@ -133,8 +153,8 @@ def _setting(text: str) -> tuple[str, str]:
 
 
 def _study(argv: list[str]) -> int:
+    from .flag_types import count_at_least as _count
     from .runner import OneLineParser
-    from .runner import count_at_least as _count
     from .studies import STUDIES
 
     p = OneLineParser(prog="mpmdem study", description="Run a case over a grid of flag values; one row per run in "
@@ -208,8 +228,19 @@ def _validate(argv: list[str]) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``mpmdem`` console script."""
-    argv = sys.argv[1:] if argv is None else argv
+    """Entry point of the ``mpmdem`` console script. Output cut short by its reader
+    (``mpmdem list | head``) ends the command quietly with 141 (128 + SIGPIPE), as ``ls | head`` does."""
+    try:
+        return _dispatch(sys.argv[1:] if argv is None else argv)
+    except BrokenPipeError:
+        # the reader is gone: point stdout at /dev/null so that Python's flush at exit stays quiet
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
+
+
+def _dispatch(argv: list[str]) -> int:
     if not argv or argv[0] in ("-h", "--help"):
         print(USAGE)
         return 0 if argv else 2

@@ -91,7 +91,9 @@ assert get_args(TransferName) == tuple(TRANSFER_SCHEMES)
 
 def flag(default, help: str, *, positive: bool = False):
     """A field that is also a flag of ``mpmdem run`` (``mpmdem.runner.add_config_flags``): its
-    ``help`` ({choices}: the values of a Literal field) and, for numbers, whether it must be > 0."""
+    ``help`` ({choices}: the values of a Literal field) and, for numbers, whether it must be > 0
+    (else >= 0: no number of the config is negative; ``mpmdem.flag_types`` checks it as the flags
+    are parsed)."""
     return dataclasses.field(default=default, metadata={"flag": {"help": help, "positive": positive}})
 
 
@@ -169,7 +171,7 @@ class SolverConfig:
     shape: ShapeFunction = flag("bspline2", "shape function: {choices}")
     transfer: TransferName = flag("APIC", "transfer scheme: {choices}")
     flip_fraction: float = flag(0.99, "FLIP fraction X of blended schemes")
-    xpic_order: int = flag(2, "m of XPIC(m) (with --transfer XPIC)")
+    xpic_order: int = flag(2, "m of XPIC(m) (with --transfer XPIC)", positive=True)
     update: StressUpdate = flag("USL", "stress update: {choices}")
     precision: Precision = flag("f32", "f32 or f64")
     # -- time step (all stages) and run control

@@ -167,12 +167,14 @@ def plot_run(
 ) -> list[Path]:
     """Write quick-look PNGs of a run file.
 
-    Writes ``energy.png`` (every diagnostic named ``energy_*`` and, dashed, ``work_*`` against
-    time, J/m), ``momentum.png`` (every ``momentum_*`` diagnostic; angular ones on a second axis
-    when linear ones exist too) and ``snapshot_<frame:04d>.png`` for each chosen frame: the
-    particles at their positions coloured by ``field``, and the rigid bodies (if any) as filled
-    rounded polygons: fixed ones grey, the others coloured by ``field`` when it is a body quantity
-    (``BODY_SNAPSHOT_FIELDS``) and in a single colour otherwise.
+    Writes ``energy.png`` (two panels against time, J/m: every diagnostic named ``energy_*``, the
+    total in black; every ``work_*``, grouped by what does the work, ``ENERGY_GROUPS``, the balance's
+    residual ``work_numerical`` in black; the legends outside), ``momentum.png`` (every
+    ``momentum_*`` diagnostic; angular ones on a second axis when linear ones exist too) and
+    ``snapshot_<frame:04d>.png`` for each chosen frame: the particles at their positions coloured
+    by ``field``, and the rigid bodies (if any) as filled rounded polygons: fixed ones grey, the
+    others coloured by ``field`` when it is a body quantity (``BODY_SNAPSHOT_FIELDS``) and in a
+    single colour otherwise.
 
     Args:
         path: The HDF5 run file (also one left by a crashed run).
@@ -215,8 +217,7 @@ def plot_run(
         times = rf.times
         diags = rf.diagnostics
 
-        written.append(_history(plt, out / "energy.png", times, diags, ("energy_", "work_"), (),
-                                "energy per unit thickness [J/m]", "energy", Path(path).name))
+        written.append(_energy_history(plt, out / "energy.png", times, diags, Path(path).name))
         written.append(_history(plt, out / "momentum.png", times, diags, ("momentum_",), ("angular",),
                                 "momentum per unit thickness [N·s/m]", "momentum", Path(path).name,
                                 twin_label="angular momentum per unit thickness [N·m·s/m]"))
@@ -237,6 +238,74 @@ def plot_run(
             png = out / f"snapshot_{k:04d}.png"
             written.append(_snapshot(plt, png, x, c, vol, field, k, float(times[k]), bodies))
     return written
+
+
+#: The groups of energy.png: (prefix of the diagnostic names, panel 0 energies / 1 works, the
+#: group's name in the legend, its line style), the first matching prefix wins. In a panel every
+#: curve has a colour of its own; the line style tells its group.
+ENERGY_GROUPS = (
+    ("energy_total", 0, "total", "-"),
+    ("energy_contact", 0, "contact", "-."),
+    ("energy_imp", 0, "contact", "-."),
+    ("energy_", 0, "", "--"),
+    ("work_numerical", 1, "balance residual", ":"),
+    ("work_imp_", 1, "points on bodies", "-."),
+    ("work_contact_", 1, "DEM bodies", "--"),
+    ("work_driven", 1, "DEM bodies", "--"),
+    ("work_", 1, "MPM points", "-"),
+)
+#: the curves drawn in black (and thicker): what the others add up to
+ENERGY_BLACK = ("energy_total", "work_numerical")
+
+
+def _energy_group(name: str) -> tuple[int, int, str, str]:
+    """(rank in ENERGY_GROUPS, panel, group, line style) of an ``energy_*`` or ``work_*`` diagnostic."""
+    for rank, (prefix, panel, group, style) in enumerate(ENERGY_GROUPS):
+        if name.startswith(prefix):
+            return rank, panel, group, style
+    raise KeyError(name)
+
+
+def _legend_outside(ax, handles, *, below: bool = False) -> None:
+    """The legend right of the axes (``below``: under the figure, for axes with a right y axis),
+    where it covers no curve."""
+    if below:
+        ax.figure.legend(handles=handles, fontsize="small", loc="outside lower center", ncols=min(len(handles), 3))
+    else:
+        ax.legend(handles=handles, fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+
+
+def _energy_history(plt, path: Path, times: np.ndarray, diags: dict[str, np.ndarray], run_name: str) -> Path:
+    """energy.png: the energies [J/m] (top) and the works since the start [J/m] (bottom) against
+    time [s], grouped by ``ENERGY_GROUPS``, each legend right of its panel."""
+    names = [k for k in diags if k.startswith(("energy_", "work_"))]
+    panels = [[k for k in names if _energy_group(k)[1] == p] for p in (0, 1)]
+    fig, axes = plt.subplots(2, 1, figsize=(9, 7), sharex=True, layout="constrained")
+    marker = "." if len(times) < 50 else None
+    for ax, panel, ylabel in zip(axes, panels, ("energy [J/m]", "work since the start [J/m]"), strict=True):
+        handles = []
+        # (in the order of ENERGY_GROUPS, so that a legend lists a group's curves together)
+        order = sorted(panel, key=lambda k: _energy_group(k)[0])
+        colours = iter(f"C{i % 10}" for i in range(len(order)))
+        for k in order:
+            _, _, group, style = _energy_group(k)
+            black = k in ENERGY_BLACK
+            short = k.split("_", 1)[1].replace("_", " ")
+            label = group if black else (f"{group}: {short}" if group and not short.startswith(group) else short)
+            (h,) = ax.plot(times, diags[k][: len(times)], style, color="black" if black else next(colours),
+                           lw=2.0 if black else 1.4, label=label, marker=marker)
+            handles.append(h)
+        if handles:
+            _legend_outside(ax, handles)
+        else:
+            ax.text(0.5, 0.5, "none in this run", ha="center", va="center", transform=ax.transAxes)
+        ax.set_ylabel(ylabel)
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel("time [s]")
+    axes[0].set_title(f"energy per unit thickness: {run_name}")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
 
 
 def _history(plt, path: Path, times: np.ndarray, diags: dict[str, np.ndarray], prefixes: tuple[str, ...],
@@ -263,7 +332,7 @@ def _history(plt, path: Path, times: np.ndarray, diags: dict[str, np.ndarray], p
         (h,) = target.plot(times, diags[k][: len(times)], style, color=color, label=label, marker=marker)
         handles.append(h)
     if names:
-        ax.legend(handles=handles, fontsize="small")
+        _legend_outside(ax, handles, below=ax2 is not None)
     else:
         ax.text(0.5, 0.5, f"no {'/'.join(p + '*' for p in prefixes)} diagnostics", ha="center", va="center",
                 transform=ax.transAxes)

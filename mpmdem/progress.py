@@ -1,17 +1,15 @@
 """What the command line adds around a run: its progress on stderr (tqdm's bar on a terminal, a
-plain line every few percent in a log, where the bar's carriage returns would pile up), and Ctrl-C
-acted on between batches of steps (``deferred_sigint``)."""
+plain line every few percent in a log, where the bar's carriage returns would pile up), and the
+stop signals acted on between batches of steps (``run_callback``, with ``mpmdem.signals``)."""
 
 from __future__ import annotations
 
-import contextlib
-import signal
 import sys
-import threading
 import time
-from collections.abc import Iterator
 
-__all__ = ["Progress", "deferred_sigint", "run_callback"]
+from .signals import Interrupted
+
+__all__ = ["Progress", "run_callback"]
 
 
 class Progress:
@@ -55,35 +53,13 @@ class Progress:
             self.bar.close()
 
 
-@contextlib.contextmanager
-def deferred_sigint() -> Iterator[list]:
-    """Within the block, Ctrl-C only appends to the list yielded; a second Ctrl-C raises
-    KeyboardInterrupt at once. The run's progress callback (``run_callback``) raises it between
-    batches of steps, so it never lands in the middle of an HDF5 write. Outside the main thread
-    (where signal handlers cannot be set) Ctrl-C is left as it is."""
-    interrupted: list = []
-
-    def on_sigint(signum, frame):
-        if interrupted:
-            raise KeyboardInterrupt
-        interrupted.append(True)
-
-    previous = None
-    if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGINT, on_sigint)
-    try:
-        yield interrupted
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGINT, previous)
-
-
-def run_callback(bar: Progress | None, interrupted: list):
-    """``progress(t, dt)`` for ``Simulation.run``: KeyboardInterrupt once Ctrl-C was pressed
-    (``deferred_sigint``), else the bar (if any) moves to t."""
+def run_callback(bar: Progress | None, received: list):
+    """``progress(t, dt)`` for ``Simulation.run``: ``Interrupted`` once a stop signal was received
+    (``mpmdem.signals.deferred_stop`` appends its number to ``received``), else the bar (if any)
+    moves to t."""
     def progress(t: float, dt: float) -> None:
-        if interrupted:
-            raise KeyboardInterrupt
+        if received:
+            raise Interrupted(received[0])
         if bar is not None:
             bar.update(t, dt)
 

@@ -32,7 +32,7 @@ from .kernels.clock import ROUND_OFF
 from .mpm import MPMSolver
 from .scene import Scene
 from .stage import Clock, Stage
-from .warp_init import init_warp
+from .warp_init import check_device, init_warp
 
 __all__ = ["RunResult", "Simulation", "default_device"]
 
@@ -82,6 +82,7 @@ class Simulation:
         self.config = config or SolverConfig()
         init_warp()
         device = device or default_device()
+        check_device(device)
         try:
             wp.get_device(device)
         except Exception:
@@ -292,7 +293,7 @@ class Simulation:
             t_start, dt, bound, steps, _ = self.stage.read_clock()
             if t_start >= end_time:
                 raise InputError("end_time", end_time, f"a time after the current time {t_start:g} s")
-            record(t_start, steps, *self._initial_step())
+            record(t_start, steps, *self.initial_step())
             for k in range(1, frames + 1):
                 t_frame = end_time if k == frames else t_start + (end_time - t_start) * k / frames
                 t, steps = self.advance_to(t_frame, on_batch=progress)
@@ -304,8 +305,9 @@ class Simulation:
                 writer.set_status(status, message)
                 writer.close()
             raise
-        except KeyboardInterrupt:
-            status, message = "interrupted", "stopped by the user (Ctrl-C)"
+        except KeyboardInterrupt as e:
+            # (mpmdem.signals.Interrupted names its signal: SIGTERM from a batch scheduler, or Ctrl-C)
+            status, message = "interrupted", str(e) or "stopped by the user (Ctrl-C)"
             if writer is not None:
                 writer.set_status(status, message)
                 writer.close()
@@ -320,8 +322,9 @@ class Simulation:
         return RunResult(path, np.array(times), {k: np.array(v) for k, v in history.items()}, status,
                          int(history["steps"][-1]), message)
 
-    def _initial_step(self) -> tuple[float, float]:
-        """(dt, bound) [s] recorded with the first frame, before any step has set them."""
+    def initial_step(self) -> tuple[float, float]:
+        """(dt, bound) [s] of the first step: what the first frame records, and what the command
+        line plans a run with (``mpmdem.run_plan``), before any step has run."""
         if self.coupling:
             bound = min(self.mpm.dt_bound0, self.coupling.dt_bound)
             return self.config.dt or min(self.config.cfl * self.mpm.dt_bound0, self.coupling.dt_cap), bound

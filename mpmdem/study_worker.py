@@ -25,7 +25,7 @@ __all__ = ["FINAL_STATUSES", "execute_run", "failed_row", "scalar_summary", "stu
 FINAL_STATUSES = ("completed", "blown-up", "bad-input")
 #: summary.json keys the row takes from elsewhere (or, for config, keeps only in the run folder)
 SUMMARY_SKIPPED = ("case", "status", "message", "device", "config", "output")
-STATUS_OF_EXIT_CODE = {0: "completed", 2: "bad-input", 3: "blown-up", 130: "interrupted"}
+STATUS_OF_EXIT_CODE = {0: "completed", 2: "bad-input", 3: "blown-up", 130: "interrupted", 143: "interrupted"}
 #: one run at a time per process, also on a worker of several threads (Warp's state and sys.stderr are per process)
 RUN_LOCK = threading.Lock()
 

@@ -27,6 +27,7 @@ import numpy as np
 
 from .config import SolverConfig
 from .errors import BlowUpError
+from .flag_types import given
 
 __all__ = ["Variant", "VariantRun", "compare_variants", "run_variants"]
 
@@ -118,8 +119,8 @@ def run_variants(module: ModuleType, args: argparse.Namespace, sim, main: Varian
         vargs = _variant_args(args, variant)
         setup = module.build(vargs)
         config = dataclasses.replace(configure(setup, module, vargs), **variant.config)
-        v_end = vargs.end_time or setup.end_time
-        v_frames = vargs.frames or setup.frames
+        v_end = given(vargs.end_time, setup.end_time)
+        v_frames = given(vargs.frames, setup.frames)
         key = (_scene_key(setup.scene), config, v_end, v_frames)
         if key == main_key:
             runs[variant.name] = dataclasses.replace(main, name=variant.name, args=vargs)

@@ -9,7 +9,9 @@ import tempfile
 
 import warp as wp
 
-__all__ = ["cpu_only", "init_warp"]
+from .errors import InputError
+
+__all__ = ["check_device", "cpu_only", "init_warp"]
 
 #: Warp's native warning on a machine without an NVIDIA driver (printed by its C++ library).
 DRIVER_WARNING = "Could not find or load the NVIDIA CUDA driver"
@@ -52,3 +54,13 @@ def cpu_only() -> bool:
     """Whether Warp found no NVIDIA CUDA driver (runs go to the CPU); initialises Warp."""
     init_warp()
     return _state["missing"] or wp.get_cuda_device_count() == 0
+
+
+def check_device(device: str | None) -> None:
+    """InputError for a CUDA device name on a machine without a CUDA device, before Warp is asked
+    for it (Warp's native library would print its own error lines first); initialises Warp."""
+    if device is not None and str(device).startswith("cuda"):
+        init_warp()
+        if wp.get_cuda_device_count() == 0:
+            raise InputError("device", device, "cpu: this machine has no CUDA device"
+                             + (" (no NVIDIA driver)" if _state["missing"] else ""))

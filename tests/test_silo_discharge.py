@@ -96,3 +96,32 @@ def test_bad_input_is_one_line_before_any_run(tmp_path, flags, word):
     assert proc.returncode == 2
     assert word in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "silo_discharge.h5").exists()
+
+
+@pytest.mark.parametrize("flags, h, fill", [
+    ([], 0.005, 0.15),
+    (["--end-time", "1.0"], 0.005, 0.15),  # a run length is not a size: the grid stays coarse
+    (["--cell-size", "0.004"], 0.004, 0.15),  # the size given, the fill from the preset
+    (["--fill-height", "0.2"], 0.005, 0.2),
+])
+def test_cpu_keeps_the_coarse_preset_for_every_size_not_given(flags, h, fill):
+    """Verify that on the CPU each size flag sets its size alone (the issue: --end-time, --cell-size
+    or --fill-height switched the whole scene to the paper's grid)."""
+    from mpmdem.cases import silo_discharge as case
+    from mpmdem.runner import make_case_parser
+
+    args = make_case_parser(case).parse_args(["--device", "cpu", *flags])
+    g = case.geometry(args)
+    assert (g["h"], g["fill"]) == (h, fill)
+    assert case.QUICK == {"cell_size": 0.005, "fill_height": 0.15, "end": 0.8}
+
+
+def test_cpu_run_says_which_size_runs(capsys):
+    """Verify the CPU's line names the flags left to the preset and the size that runs."""
+    from mpmdem.cases import silo_discharge as case
+    from mpmdem.runner import make_case_parser
+
+    case.build(make_case_parser(case).parse_args(["--device", "cpu", "--end-time", "1.0"]))
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "preset for --cell-size, --fill-height:" in err[0], err
+    assert "grid 0.5 cm, fill 15 cm, 1 s" in err[0] and "--cell-size 0.0035" in err[0], err

@@ -101,7 +101,7 @@ def test_failing_runs_are_rows(tmp_path, monkeypatch):
     run_study(study, tmp_path, workers=0, device="cpu", progress=False, rerun_failed=True)
     assert executed == ["angle=90.0"]
 
-    raising = Study("raising", "study_raising_case", grid={"--fail": [True, False]}, fixed={"--end-time": 0.005})
+    raising = Study("raising", "study_raising_case", grid={"--fail": [True, False]}, fixed={"--end-time": 0.01})
     rows = run_study(raising, tmp_path / "raising", workers=0, device="cpu", progress=False)
     assert [r["status"] for r in rows] == ["error", "completed"]
     assert rows[0]["message"] == "RuntimeError: this case was told to fail"
@@ -129,7 +129,7 @@ def test_killed_study_resumes_without_losing_a_finished_run(tmp_path, monkeypatc
 
 
 def test_lost_worker_is_a_row(tmp_path):
-    crash = Study("crash", "study_raising_case", grid={"--crash": [True, False]}, fixed={"--end-time": 0.005})
+    crash = Study("crash", "study_raising_case", grid={"--crash": [True, False]}, fixed={"--end-time": 0.01})
     rows = run_study(crash, tmp_path, workers=2, device="cpu", progress=False)
     assert [r["status"] for r in rows] == ["error", "completed"]
     assert rows[0]["message"].startswith("worker lost: KilledWorker")
