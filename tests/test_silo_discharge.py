@@ -10,7 +10,7 @@ import sys
 
 import numpy as np
 import pytest
-from helpers import ENV, ROOT, run_script
+from helpers import ENV, ROOT, quick_run
 
 from mpmdem import InputError, LinearElastic, Scene, Simulation, rectangle
 from mpmdem.cases import silo_discharge as silo
@@ -18,7 +18,7 @@ from mpmdem.cases import silo_discharge as silo
 
 @pytest.fixture(scope="module")
 def summary(tmp_path_factory):
-    return run_script("silo_discharge", tmp_path_factory.mktemp("silo"))
+    return quick_run("silo_discharge")[0]
 
 
 def test_completed_and_mass_kept(summary):
