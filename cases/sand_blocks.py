@@ -96,12 +96,13 @@ VALIDATION = [
           relative=False, known_gap="block 2's corner reaches the floor while it tips, before it lies on its side "
           "(at rest from 0.39-0.40 s, the paper's time)", gap_bounds=(-0.10, -0.06),
           gap_source=_TRACKS + ": first touch at 0.31-0.32 s (0.33 s at 6.25 mm, the quick grid)",
-          coarser=COARSER),
+          quick_gap_bounds=(-0.10, -0.06), coarser=COARSER),
     Check("event_times_s.block1_touch", 0.45, "MPM-SDEM §6: block 1 touches the ground", 0.035, _FRAME,
           relative=False, known_gap="block 1 falls clear of block 2 and tumbles: its first touch is one frame of "
           "the tumbling block passing a face or corner over the floor, and changes with the grid and the start",
-          gap_bounds=(-0.07, 0.05), gap_source=_TRACKS + ": first touch at 0.39-0.46 s (0.49 s at 6.25 mm)",
-          coarser=COARSER),
+          gap_bounds=(-0.07, 0.05), gap_source=_TRACKS + ": first touch at 0.39-0.46 s (0.49 s at 6.25 mm, the "
+                                                           "quick grid)",
+          quick_gap_bounds=(-0.07, 0.05), coarser=COARSER),
 ]
 
 # -- §6 --------------------------------------------------------------------------------------

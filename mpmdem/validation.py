@@ -65,8 +65,8 @@ class Check:
             known gap documents; required with ``known_gap``.
         gap_source: where the range was measured (runs, studies, resolutions).
         quick_flags: the flags of the check's quick size (default: ``flags`` plus ``--quick``).
-        quick_gap_bounds: the gap's range at the quick size, where the quick run misses and its
-            range differs from ``gap_bounds`` (then ``known_gap`` names the cause there too).
+        quick_gap_bounds: the gap's range at the quick size, where the quick run differs from the
+            validation run and misses (``known_gap`` names the cause there too).
         coarser: the flags of coarser resolutions than ``flags`` (coarsest first), run as well to show
             whether the deviation shrinks under refinement.
         kind: "reference" or "self-consistency" (see the module's docstring).
@@ -112,9 +112,13 @@ class Check:
         return tuple(self.flags) if "--quick" in self.flags else (*self.flags, "--quick")
 
     def bounds(self, quick: bool = False) -> tuple[float, float] | None:
-        """The documented range of the gap at the validation or the quick size."""
+        """The documented range of the gap at the validation size, or at the quick size: there
+        ``quick_gap_bounds``, or ``gap_bounds`` where the quick run is the validation run (a range
+        measured at one size says nothing about another)."""
         if quick and self.quick_gap_bounds is not None:
             return tuple(self.quick_gap_bounds)
+        if quick and self.run_flags(True) != self.run_flags(False):
+            return None
         return None if self.gap_bounds is None else tuple(self.gap_bounds)
 
 
