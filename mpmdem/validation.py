@@ -21,6 +21,9 @@ documented range), never typed into the check. A check's ``kind`` says what a ma
 it derives from its own set-up, e.g. an event position tuned in by bisection: agreement there is not
 agreement with a paper).
 
+A chaotic event (a block that tumbles) is compared as an ensemble: a check with ``starts`` runs the
+case from that many perturbed starts and compares their median, the row keeping every start's value.
+
 Where a check names coarser resolutions (``coarser``: the flags of each, coarsest first), the case
 also runs at those, and the row shows the value and deviation at every resolution and whether the
 deviation shrinks towards the validation resolution: a number is claimed only with its trend.
@@ -70,6 +73,11 @@ class Check:
         coarser: the flags of coarser resolutions than ``flags`` (coarsest first), run as well to show
             whether the deviation shrinks under refinement.
         kind: "reference" or "self-consistency" (see the module's docstring).
+        starts: for a chaotic event, the number of perturbed starts at the validation size: the case
+            runs with ``start_flag`` 1 … ``starts`` and the value is the median over the starts (the
+            row keeps every start's value and their spread). The quick size runs one start, the
+            case's own.
+        start_flag: the case's flag that takes a start's seed.
     """
 
     quantity: str
@@ -86,6 +94,8 @@ class Check:
     quick_gap_bounds: tuple[float, float] | None = None
     coarser: tuple[tuple[str, ...], ...] = ()
     kind: str = "reference"
+    starts: int = 1
+    start_flag: str = "--ensemble-seed"
 
     def __post_init__(self):
         if not (isinstance(self.tolerance, int | float) and math.isfinite(self.tolerance) and self.tolerance > 0):
@@ -100,6 +110,11 @@ class Check:
                 raise InputError(name, b, "(low, high) with low < high, finite")
             if not (self.known_gap and self.gap_source):
                 raise InputError(name, b, "bounds of a known gap: known_gap (its cause) and gap_source as well")
+        if not (isinstance(self.starts, int) and self.starts >= 1):
+            raise InputError("starts", self.starts, "a whole number of starts ≥ 1")
+        if self.starts > 1 and self.coarser:
+            raise InputError("coarser", self.coarser, "no coarser ladder on a row of several starts (a median against "
+                                                      "single runs): declare the trend on a single-run row")
         if self.known_gap and self.gap_bounds is None and self.quick_gap_bounds is None:
             raise InputError("known_gap", self.known_gap, "a known gap with its range (gap_bounds), not an excuse")
 
@@ -170,6 +185,42 @@ def evaluate(check: Check, summary: dict, *, quick: bool = False) -> dict:
     return row
 
 
+def ensemble_summary(check: Check, summaries: list[dict]) -> dict:
+    """One summary standing for several starts of a case: the median of ``check.quantity`` over the
+    starts that completed with a value (None if fewer than half did), the reference from the first,
+    and ``starts`` (the number of starts), ``start_values`` (each start's value, None where it gave
+    none) and ``start_spread`` ([min, max] of the values)."""
+    values = []
+    for s in summaries:
+        v = _lookup(s, check.quantity) if s.get("status") == "completed" else None
+        values.append(float(v) if isinstance(v, int | float) and math.isfinite(v) else None)
+    have = sorted(v for v in values if v is not None)
+    median = None
+    if 2 * len(have) > len(values):
+        mid = len(have) // 2
+        median = have[mid] if len(have) % 2 else 0.5 * (have[mid - 1] + have[mid])
+    out: dict = {"status": "completed" if median is not None else "error",
+                 "message": "" if median is not None else f"{len(values) - len(have)} of {len(values)} starts "
+                                                            "gave no value"}
+    if isinstance(check.reference, str):
+        node, ref = out, _lookup(summaries[0], check.reference)
+        *parents, leaf = check.reference.split(".")
+        for part in parents:
+            node = node.setdefault(part, {})
+        node[leaf] = ref
+    node = out
+    *parents, leaf = check.quantity.split(".")
+    for part in parents:
+        node = node.setdefault(part, {})
+    node[leaf] = median
+    for key in ("device", "particles"):
+        out[key] = summaries[0].get(key)
+    out["wall_seconds"] = sum(s.get("wall_seconds") or 0.0 for s in summaries)
+    out["start_values"] = values
+    out["start_spread"] = [have[0], have[-1]] if have else None
+    return out
+
+
 def convergence(ladder: list[dict], flags: list[list[str]]) -> dict:
     """The values and deviations of one check at resolutions coarsest → finest, and whether the
     deviation's size shrinks from the coarsest to the finest (None where a run gave no value)."""
@@ -199,13 +250,15 @@ def check_identity(case: str, check: Check, *, quick: bool = False) -> dict:
             "reference": check.reference if isinstance(check.reference, int | float) else None,
             "source": check.source, "tolerance": check.tolerance, "relative": check.relative,
             "tolerance_source": check.tolerance_source,
-            "gap_bounds": None if check.bounds(quick) is None else list(check.bounds(quick))}
+            "gap_bounds": None if check.bounds(quick) is None else list(check.bounds(quick)),
+            "starts": 1 if quick else check.starts}
 
 
 def row_identity(row: dict, computed_reference: bool = False) -> dict:
     """``check_identity`` read back from a table row (a computed reference reads as None)."""
     ident = {k: row.get(k) for k in ("case", "quantity", "kind", "flags", "reference", "source", "tolerance",
                                      "relative", "tolerance_source", "gap_bounds")}
+    ident["starts"] = row.get("starts", 1)
     if computed_reference:
         ident["reference"] = None
     return ident
@@ -278,10 +331,17 @@ def run_validation(out: Path, *, device: str | None = None, quick: bool = False,
 
     for name, checks in collect_checks(cases).items():
         for check in checks:
-            summary = summary_of(name, check.run_flags(quick))
+            flags = check.run_flags(quick)
+            if check.starts > 1 and not quick:
+                summary = ensemble_summary(check, [summary_of(name, (*flags, check.start_flag, str(k)))
+                                                   for k in range(1, check.starts + 1)])
+            else:
+                summary = summary_of(name, flags)
             row = {"case": name, **evaluate(check, summary, quick=quick), "commit": commit,
                    "device": summary.get("device"), "points": summary.get("particles"),
-                   "wall_seconds": summary.get("wall_seconds")}
+                   "wall_seconds": summary.get("wall_seconds"), "starts": 1 if quick else check.starts}
+            if "start_values" in summary:
+                row.update(start_values=summary["start_values"], start_spread=summary["start_spread"])
             if check.coarser and not quick:  # a quick table is a smoke run: no resolution trend
                 ladder = [evaluate(check, summary_of(name, tuple(f))) for f in check.coarser] + [row]
                 row.update(convergence(ladder, [list(f) for f in check.coarser] + [list(check.flags)]))
@@ -325,6 +385,9 @@ def write_table(rows: list[dict], out: Path, *, quick: bool = False, commit: str
         tol = f"±{100 * r['tolerance']:.3g} %" if r["relative"] else f"±{r['tolerance']:.3g}"
         verdict = r["verdict"] + (f": {r['explanation']}" if r["verdict"] != "match" else "")
         flags = f" ({' '.join(r['flags'])})" if r["flags"] else ""
+        if r.get("starts", 1) > 1:
+            spread = r.get("start_spread")
+            flags += f" [median of {r['starts']} starts" + (f", {spread[0]:.4g}-{spread[1]:.4g}]" if spread else "]")
         lines.append(f"| {r['case']}{flags} | {r['quantity']} | {r['kind']} | {num(r['reference'])} ({r['source']}) | "
                      f"{num(r['value'])} | {deviation(r)} | {trend(r)} | {tol} ({r['tolerance_source']}) | {verdict} |")
     c = counts(rows)

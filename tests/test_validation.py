@@ -149,14 +149,43 @@ def test_table_differences_name_a_changed_a_missing_and_a_stale_row():
     assert "the table names no commit" in table_differences({**table, "commit": None}, checks)
 
 
+#: the cases whose quick run their own test module makes through helpers.quick_run (the slow ones)
+SHARED_QUICK_RUNS = {"sand-blocks": (), "silo-discharge": (), "silo-filling": (), "column-collapse": ()}
+
+
+def test_an_ensemble_row_is_the_median_of_its_starts(tmp_path):
+    """sand-blocks' block-1 row runs the case from 16 perturbed starts (--ensemble-seed 1-16) and
+    compares their median with the paper, keeping every start's value; the single-run rows keep their
+    coarser grid. Made-up summaries stand in for the runs."""
+    asked = []
+
+    def fake(case, flags):
+        asked.append(flags)
+        seed = int(flags[flags.index("--ensemble-seed") + 1]) if "--ensemble-seed" in flags else 0
+        return {"status": "completed", "device": "cpu", "event_times_s": {
+            "reach": 0.25, "block2_touch": 0.33, "block1_touch": 0.40 + 0.01 * (seed % 5)}}
+
+    rows = run_validation(tmp_path, cases=["sand-blocks"], summary_source=fake)
+    block1 = rows[2]
+    assert block1["starts"] == 16 and len(block1["start_values"]) == 16
+    seeds = sorted(int(f[f.index("--ensemble-seed") + 1]) for f in asked if "--ensemble-seed" in f)
+    assert seeds == list(range(1, 17))
+    assert block1["value"] == pytest.approx(0.42) and block1["start_spread"] == pytest.approx([0.40, 0.44])
+    assert "convergence" not in block1 and "convergence" in rows[0]
+    assert "median of 16 starts, 0.4-0.44" in (tmp_path / "validation.md").read_text()
+    # the quick size runs one start, the case's own
+    quick = run_validation(tmp_path / "q", quick=True, cases=["sand-blocks"], summary_source=fake)
+    assert quick[2]["starts"] == 1 and quick[2]["value"] == pytest.approx(0.40)
+    with pytest.raises(InputError, match="coarser"):
+        Check("x", 1.0, "r", 0.1, "t", starts=4, coarser=(("--cells", "8"),))
+
+
 def _shared_quick_summary(case: str, flags: tuple) -> dict | None:
-    """The quick runs the case tests make (helpers.quick_run), where the flags are --quick plus others."""
-    if "--quick" not in flags:
+    """The quick run a case's test module makes (helpers.quick_run), where the check's flags are that
+    run's; None (run it here) for the others."""
+    if case not in SHARED_QUICK_RUNS or flags != ("--quick", *SHARED_QUICK_RUNS[case]):
         return None
-    script = case.replace("-", "_")
-    if not (ROOT / "cases" / f"{script}.py").is_file():
-        return None
-    return quick_run(script, *(f for f in flags if f != "--quick"))[0]
+    return quick_run(case.replace("-", "_"), *SHARED_QUICK_RUNS[case])[0]
 
 
 def test_validate_quick_runs_every_declared_check_without_a_fail(tmp_path):

@@ -15,6 +15,7 @@ speed × accuracy chart, and for several starts per grid the median, spread and 
 from functools import partial
 from pathlib import Path
 
+from mpmdem.cases.sand_blocks import ENSEMBLE_STARTS as ENSEMBLE_STARTS_CASE
 from mpmdem.study import Study
 
 from .block_impact_analysis import analyze
@@ -51,8 +52,8 @@ ROUNDING = Study(
     analyze=partial(analyze_runs, title="block impact: corner rounding"),
 )
 
-#: the starts of the ensemble (``--ensemble-seed``; 0 is a perturbed start too, None the experiment's)
-ENSEMBLE_STARTS = tuple(range(1, 17))
+#: the starts of the ensemble (``--ensemble-seed``), as the validation row of block 1 runs them
+ENSEMBLE_STARTS = tuple(range(1, ENSEMBLE_STARTS_CASE + 1))
 
 ENSEMBLE = Study(
     name="block-impact-ensemble",
