@@ -301,12 +301,15 @@ def head_commit(repo: Path | None = None) -> str | None:
 
 
 def run_validation(out: Path, *, device: str | None = None, quick: bool = False, cases: list[str] | None = None,
-                   summary_source: Callable[[str, tuple[str, ...]], dict | None] | None = None) -> list[dict]:
+                   summary_source: Callable[[str, tuple[str, ...]], dict | None] | None = None,
+                   resume: bool = False) -> list[dict]:
     """Run every declared case (once per distinct flags) and evaluate its checks; writes
     OUT/validation.json and OUT/validation.md and returns the rows.
 
     ``summary_source(case, flags)``, where given, may hand back the summary of a run with exactly
     those flags made elsewhere (the test suite shares its quick runs this way); None runs the case.
+    ``resume``: a run whose completed summary.json is already in OUT/runs (a call cut short by a time
+    limit) is read, not run again; only for the same code, so it is off unless asked for.
     """
     from .runner import case_module, run_case
 
@@ -323,6 +326,10 @@ def run_validation(out: Path, *, device: str | None = None, quick: bool = False,
                 runs[name, flags] = given
                 return given
             folder = out / "runs" / "_".join([name, *(f.strip("-") for f in flags)]).replace("/", "-")
+            done = folder / "summary.json"
+            if resume and done.is_file() and json.loads(done.read_text()).get("status") == "completed":
+                runs[name, flags] = json.loads(done.read_text())
+                return runs[name, flags]
             argv = [*flags, "--out", str(folder), "--quiet"] + (["--device", device] if device else [])
             run_case(case_module(name), argv)
             path = folder / "summary.json"

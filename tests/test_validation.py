@@ -113,6 +113,20 @@ def test_validate_runs_a_case_and_writes_the_table(tmp_path):
     assert table["rows"][0]["commit"] and table["commit"] == table["rows"][0]["commit"]
 
 
+def test_resume_reads_a_completed_run_instead_of_running_it(tmp_path):
+    """--resume: a completed summary.json already in OUT/runs is read (a made-up value shows it was not
+    run again); without --resume the case runs."""
+    folder = tmp_path / "runs" / "block-on-incline_quick"
+    folder.mkdir(parents=True)
+    (folder / "summary.json").write_text(json.dumps({"status": "completed", "acceleration": 1.0,
+                                                     "acceleration_expected": 2.0}))
+    args = ["validate", "--cases", "block-on-incline", "--quick", "--device", "cpu", "--out", str(tmp_path)]
+    assert main([*args, "--resume"]) == 1  # the made-up run fails its check: the command says so
+    assert json.loads((tmp_path / "validation.json").read_text())["rows"][0]["value"] == 1.0
+    assert main(args) == 0
+    assert json.loads((tmp_path / "validation.json").read_text())["rows"][0]["verdict"] == "match"
+
+
 def test_unknown_or_undeclared_cases_are_one_line_errors(tmp_path, capsys):
     assert main(["validate", "--cases", "no-such-case", "--out", str(tmp_path)]) == 2
     assert main(["validate", "--cases", "sulsky-disks", "--out", str(tmp_path)]) == 2
