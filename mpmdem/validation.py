@@ -354,8 +354,19 @@ def run_validation(out: Path, *, device: str | None = None, quick: bool = False,
                 row.update(convergence(ladder, [list(f) for f in check.coarser] + [list(check.flags)]))
             rows.append(row)
     devices = sorted({str(r["device"]) for r in rows if r.get("device")})
-    write_table(rows, out, quick=quick, commit=commit, device=", ".join(devices) or None)
+    write_table(rows, out, quick=quick, commit=commit, device=", ".join(map(_device_name, devices)) or None)
     return rows
+
+
+def _device_name(device: str) -> str:
+    """A Warp device with the card's name where Warp knows it ("cuda:0 (NVIDIA H100 80GB HBM3)")."""
+    try:
+        import warp as wp
+
+        name = wp.get_device(device).name
+    except Exception:  # noqa: BLE001 - a name is a nicety; the device string is the record
+        return device
+    return f"{device} ({name})" if name and name.lower() != device.lower() else device
 
 
 def counts(rows: list[dict]) -> dict:
