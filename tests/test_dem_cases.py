@@ -84,13 +84,14 @@ def test_domino_case(tmp_path):
     # struck domino keeps being pushed, so collisions are fully inelastic and a train of leaning
     # dominoes drives the front) and that it computes the speed against the spacing; its figures and
     # their values could not be read here. Of van Leeuwen 2013 (arXiv:1301.0615), the introduction:
-    # the measured propagation speed of real dominoes (about 4.5 cm tall, sqrt(g h) ≈ 0.66 m/s) is "of
-    # the order of a meter per second", G ≈ 1.5. Larham's measurements (2007-2013) could not be read.
+    # the propagation speed of a train of real dominoes is "of the order of a meter per second" (no
+    # height given there; for a common domino of 4-5 cm, sqrt(g h) ≈ 0.66 m/s, our assumption, G ≈
+    # 1.5). Larham's measurements (2007-2013) could not be read.
     # The band [1.0, 2.0] is therefore that one figure's order of magnitude, a factor 2 around it, set
     # before the run and not read off a curve of G(d/h): it rejects the transient (0.45-0.97 over the
-    # first five blocks) and a gravity or time-unit slip (a factor sqrt(10) or more). Friction (μ = 0.4) and a restitution
-    # below 1 (e = 0.3) slow the wave: the low half of the band is expected. The speed is fitted over
-    # the second half of the row (blocks 6-11). Measured: 1.12.
+    # first five blocks) and a gravity or time-unit slip (a factor sqrt(10) or more). Friction
+    # (μ = 0.4) and a restitution below 1 (e = 0.3) slow the wave: the low half of the band is
+    # expected. The speed is fitted over the second half of the row (blocks 6-11). Measured: 1.12.
     pitch = 0.5 * 0.2  # m, the case's default spacing/height 0.5 × h = 0.2 m
     t = np.array(s["tip_times"][6:])
     x = pitch * np.arange(6, 6 + len(t))

@@ -9,8 +9,16 @@ from helpers import ROOT, quick_run
 
 from mpmdem.cli import main
 from mpmdem.errors import InputError
-from mpmdem.validation import (Check, check_identity, collect_checks, counts, evaluate, run_validation,
-                               table_differences, write_table)
+from mpmdem.validation import (
+    Check,
+    check_identity,
+    collect_checks,
+    counts,
+    evaluate,
+    run_validation,
+    table_differences,
+    write_table,
+)
 
 TABLE = ROOT / "bench" / "results" / "validation.json"
 
