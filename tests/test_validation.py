@@ -220,11 +220,13 @@ def _shared_quick_summary(case: str, flags: tuple) -> dict | None:
     return quick_run(case.replace("-", "_"), *SHARED_QUICK_RUNS[case])[0]
 
 
+@pytest.mark.slow
 def test_validate_quick_runs_every_declared_check_without_a_fail(tmp_path):
     """`mpmdem validate --quick` on the CPU: every declared check at its quick size, inside the suite.
     No row may fail (a miss beyond a known gap's documented range, or no value), and the table's rows
-    are exactly the declared checks. The runs are shared with the cases' own test modules
-    (helpers.quick_run); alone it takes about 3.5 minutes on 2 busy CPU cores."""
+    are exactly the declared checks. The four slow quick runs (sand blocks, silo discharge and
+    filling, column collapse) are shared with their own test modules (helpers.quick_run): in the
+    whole suite this test adds about 70 s on 2 busy CPU cores, alone it takes about 4 minutes."""
     rows = run_validation(tmp_path, device="cpu", quick=True, summary_source=_shared_quick_summary)
     failed = [f"{r['case']} {r['quantity']}: {r['explanation']}" for r in rows if r["verdict"] == "fail"]
     assert not failed, failed
