@@ -287,9 +287,13 @@ def table_differences(table: dict, checks: dict[str, list[Check]]) -> list[str]:
 
 
 def head_commit(repo: Path | None = None) -> str | None:
-    """The short hash of the checkout's HEAD, with "+dirty" where tracked files differ from it; None
-    outside a git checkout."""
+    """The short hash of the checkout's HEAD, with "+dirty" where tracked files differ from it; outside
+    a git checkout (a copy of the tree on another machine) the environment's MPMDEM_COMMIT, else None."""
+    import os
+
     repo = Path(repo) if repo else Path(__file__).resolve().parents[1]
+    if not (repo / ".git").exists():
+        return os.environ.get("MPMDEM_COMMIT") or None
     try:
         sha = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=repo, capture_output=True, text=True,
                              timeout=30, check=True).stdout.strip()

@@ -131,6 +131,16 @@ def test_validate_runs_a_case_and_writes_the_table(tmp_path):
     assert table["rows"][0]["commit"] and table["commit"] == table["rows"][0]["commit"]
 
 
+def test_the_commit_outside_a_checkout_comes_from_the_environment(tmp_path, monkeypatch):
+    from mpmdem.validation import head_commit
+
+    monkeypatch.delenv("MPMDEM_COMMIT", raising=False)
+    assert head_commit(tmp_path) is None
+    monkeypatch.setenv("MPMDEM_COMMIT", "abc1234")
+    assert head_commit(tmp_path) == "abc1234"
+    assert head_commit(ROOT) not in (None, "abc1234")  # a checkout names its own HEAD
+
+
 def test_resume_reads_a_completed_run_instead_of_running_it(tmp_path):
     """--resume: a completed summary.json already in OUT/runs is read (a made-up value shows it was not
     run again); without --resume the case runs."""
