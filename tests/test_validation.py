@@ -138,7 +138,8 @@ def test_the_commit_outside_a_checkout_comes_from_the_environment(tmp_path, monk
     assert head_commit(tmp_path) is None
     monkeypatch.setenv("MPMDEM_COMMIT", "abc1234")
     assert head_commit(tmp_path) == "abc1234"
-    assert head_commit(ROOT) not in (None, "abc1234")  # a checkout names its own HEAD
+    if (ROOT / ".git").exists():
+        assert head_commit(ROOT) not in (None, "abc1234")  # a checkout names its own HEAD
 
 
 def test_resume_reads_a_completed_run_instead_of_running_it(tmp_path):
