@@ -23,7 +23,7 @@ DEFAULTS = {"shape": "bspline2", "transfer": "APIC", "update": "USL", "precision
 VALIDATION = [
     Check("centre_velocity_error_max", 0.0, "analytic first mode: v_cm = (2 v0 / π) cos ωt (MPM notes)", 0.004,
           "the O(h²) spatial error of the discrete mode: 0.7 % of the amplitude at 16 cells gives ≈ 0.18 % at the "
-          "default 32 (bench/convergence.py); 2 × that", relative=False,
+          "default 32 (bench/convergence.py); 2 × that", relative=False, quick_flags=(),
           coarser=(("--cells", "8"), ("--cells", "16"))),
 ]
 

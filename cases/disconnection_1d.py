@@ -19,14 +19,19 @@ DESCRIPTION = "five points on a line: point 3 meets point 4 (stress-free vs Gran
 DEFAULTS = {"precision": "f64", "shape": "linear", "transfer": "FLIP", "granular": True, "dt": 2.0e-5}
 
 # The onsets against the geometric events of the same run, computed from the points' positions: the
-# reference is the event, not the paper's times (to which this reconstruction's positions were tuned).
+# reference is the event, not the paper's times (to which this reconstruction's positions were tuned
+# by bisection). These rows are self-consistency (kind="self-consistency"): the run agrees with its
+# own geometry, as the paper's mechanism says it should, which is not agreement with the paper's
+# numbers.
 _STEP = ("the event falls inside a step (≤ dt) and the velocity change it causes is recorded after the next "
          "step (dt): 2 dt")
 VALIDATION = [
     Check("granular_onset_s", "domains_touch_s", "Granular MPM §4.1: a disconnected point first feels its "
-          "neighbour when the domains of interaction touch", 2.01 * 2.0e-5, _STEP, relative=False),
+          "neighbour when the domains of interaction touch (the run's own geometric event)", 2.01 * 2.0e-5, _STEP,
+          relative=False, kind="self-consistency"),
     Check("stress_free_onset_s", "node_sharing_s", "Granular MPM §4.1: stress-free MPM couples points once they "
-          "share a grid node", 2.01 * 2.0e-5, _STEP, relative=False),
+          "share a grid node (the run's own geometric event)", 2.01 * 2.0e-5, _STEP, relative=False,
+          kind="self-consistency"),
 ]
 
 # Table 2 of the paper (SI)

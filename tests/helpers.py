@@ -4,6 +4,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +42,19 @@ def run_script(name, out, *flags, timeout=600):
     return json.loads((out / "summary.json").read_text())
 
 
+_QUICK_RUNS: dict[tuple, tuple[dict, Path]] = {}
+
+
+def quick_run(name, *flags):
+    """``run_script(name, folder, *flags)`` once per (name, flags) in a test session: (summary.json,
+    folder). The test modules of a case and the in-suite ``mpmdem validate --quick`` share the run."""
+    key = (name, tuple(flags))
+    if key not in _QUICK_RUNS:
+        out = Path(tempfile.mkdtemp(prefix=f"mpmdem-{name}-"))
+        _QUICK_RUNS[key] = (run_script(name, out, *flags), out)
+    return _QUICK_RUNS[key]
+
+
 def run_refused(name, out, *flags, timeout=120):
     """Run ``cases/<name>.py --quick`` on the CPU with flags it should refuse; return (exit code, the
     lines of stderr other than Warp's note that there is no CUDA driver)."""
@@ -49,4 +63,5 @@ def run_refused(name, out, *flags, timeout=120):
     return proc.returncode, [ln for ln in proc.stderr.strip().splitlines() if "CUDA driver" not in ln]
 
 
-__all__ = ["ENV", "ROOT", "LinearElastic", "free_disk_scene", "random_velocity", "run_refused", "run_script"]
+__all__ = ["ENV", "ROOT", "LinearElastic", "free_disk_scene", "quick_run", "random_velocity", "run_refused",
+           "run_script"]

@@ -76,15 +76,20 @@ def test_domino_case(tmp_path):
     assert s["final_angles_deg"][-1] == pytest.approx(-90.0, abs=1.0)
     assert all(b > a for a, b in zip(s["tip_times"], s["tip_times"][1:], strict=False))
     # Reference: the steady ("asymptotic") domino-wave speed, v = sqrt(g h) G(d/h) by dimensional
-    # analysis (McLachlan et al. 1983, SIAM Rev. 25, 403), with G computed for blocks that topple
-    # without sliding and lean on each other after inelastic impacts (Stronge & Shu 1988, Proc. R.
-    # Soc. A 418, 155; van Leeuwen 2010, Am. J. Phys. 78, 721) and measured (McLachlan et al.;
-    # Larham 2013, arXiv:1302.3311). The one figure checked here from a text: real dominoes (about
-    # 4.5 cm tall, sqrt(g h) ≈ 0.66 m/s) topple at "of the order of a metre per second" (van Leeuwen
-    # 2013, arXiv:1301.0615, introduction), G ≈ 1.5. The band [1.0, 2.0] is the spread of G at
-    # pitch/height around 0.5 in those papers' figures as summarised there, not read off the figures
-    # themselves (their texts were not at hand): wide on purpose, a factor 2, and it still rejects the
-    # transient (0.45-0.97 over the first five blocks) and the old 0.2-3.0 band's extremes. Friction
+    # analysis (McLachlan et al. 1983, SIAM Rev. 25, 403, as Efthimiou & Johnson 2007, SIAM Rev. 49,
+    # 111, state it in their eq. 1), with G computed for blocks that topple without sliding and lean on
+    # each other after fully inelastic collisions (van Leeuwen 2010, Am. J. Phys. 78, 721).
+    # What was read (issue 45): of van Leeuwen 2010 (and its 2004 preprint, physics/0401018), the
+    # abstract and the introduction only: its assumptions (rotation without slip on the table, the
+    # struck domino keeps being pushed, so collisions are fully inelastic and a train of leaning
+    # dominoes drives the front) and that it computes the speed against the spacing; its figures and
+    # their values could not be read here. Of van Leeuwen 2013 (arXiv:1301.0615), the introduction:
+    # the propagation speed of a train of real dominoes is "of the order of a meter per second" (no
+    # height given there; for a common domino of 4-5 cm, sqrt(g h) ≈ 0.66 m/s, our assumption, G ≈
+    # 1.5). Larham's measurements (2007-2013) could not be read.
+    # The band [1.0, 2.0] is therefore that one figure's order of magnitude, a factor 2 around it, set
+    # before the run and not read off a curve of G(d/h): it rejects the transient (0.45-0.97 over the
+    # first five blocks) and a gravity or time-unit slip (a factor sqrt(10) or more). Friction
     # (μ = 0.4) and a restitution below 1 (e = 0.3) slow the wave: the low half of the band is
     # expected. The speed is fitted over the second half of the row (blocks 6-11). Measured: 1.12.
     pitch = 0.5 * 0.2  # m, the case's default spacing/height 0.5 × h = 0.2 m

@@ -28,6 +28,7 @@ ALLOWED = {
     ("rod-collision", "--offset", "0"): "the first contact on a grid line",
     ("rotating-disk", "--omega", "-1e-05"): "a clockwise spin",
     ("sand-blocks", "--sphero-radius", "0"): "sharp corners",
+    ("sand-blocks", "--ensemble-seed", "0"): "a random seed",
     ("silo-filling", "--settle", "0"): "the paper's run length (the default)",
     ("silo-filling", "--jitter", "0"): "release positions on the axis",
 }

@@ -4,12 +4,12 @@ user would (``--quick`` on the CPU)."""
 import math
 
 import pytest
-from helpers import run_script
+from helpers import quick_run, run_script
 
 
 @pytest.fixture(scope="module")
 def silo(tmp_path_factory):
-    return run_script("silo_filling", tmp_path_factory.mktemp("silo"))
+    return quick_run("silo_filling")[0]
 
 
 @pytest.fixture(scope="module")

@@ -5,14 +5,18 @@ One coarse run (6.25 mm grid, 2048 points, 0.6 s; ~15 s on 2 CPU cores) shared b
 
 import math
 
+import numpy as np
 import pytest
-from helpers import run_script
+from helpers import quick_run, run_refused
+
+from mpmdem.cases import sand_blocks as sb
 
 # the experiment, restated so that a change in the case has to be looked at here too
 BLOCK_W, BLOCK_H = 0.020, 0.018  # m
 COLUMN_W, COLUMN_H, SAND_RHO = 0.10, 0.20, 1500.0  # m, m, kg/m³
-# MPM-SDEM §6 at g = 10 m/s² (see the case header for the ×10 of its printed times)
-PAPER = {"reach": 0.25, "block2_ground": 0.40, "block1_ground": 0.45}
+# MPM-SDEM §6 at g = 10 m/s² (see the case header for the ×10 of its printed times): the blocks'
+# times are when each "touches the ground" (the case header quotes the sentence)
+PAPER = {"reach": 0.25, "block2_touch": 0.40, "block1_touch": 0.45}
 # The paper gives its times to 0.05 s (printed 2.5, 4.0, 4.5 s), i.e. each ±0.025 s; our frames are
 # 0.01 s apart. The quick grid is half the default resolution (2048 against 8192 points): we allow
 # twice the paper's reading resolution, ±0.05 s. A wrong g reading (sqrt(10) or 10 × in time), a
@@ -23,8 +27,8 @@ TIP_ANGLE = math.degrees(math.atan(BLOCK_W / BLOCK_H))  # 48°
 
 
 @pytest.fixture(scope="module")
-def summary(tmp_path_factory):
-    return run_script("sand_blocks", tmp_path_factory.mktemp("sand_blocks"))
+def summary():
+    return quick_run("sand_blocks")[0]
 
 
 def test_completed(summary):
@@ -38,25 +42,90 @@ def _check_event(summary, event):
     assert abs(t - PAPER[event]) <= TOLERANCE, f"{event} at {t:.3f} s, paper {PAPER[event]} s"
 
 
-@pytest.mark.parametrize("event", ["reach", "block2_ground"])
-def test_event_times_against_the_paper(summary, event):
-    """The sand reaches the stack, and block 2 comes to lie on its side on the floor, at the paper's
-    times (at the full grids, on the GPU: reach 0.22 s and block 2 at 0.39-0.40 s, docs/studies/index.md)."""
-    _check_event(summary, event)
+def test_the_flow_reaches_the_blocks_at_the_papers_time(summary):
+    _check_event(summary, "reach")
 
 
-@pytest.mark.xfail(strict=True, reason="on the quick grid block 1 ends leaning on the sand, touching the floor at "
-                   "0.49 s but never lying flat on it by 0.6 s; at the full grids (GPU, docs/studies/index.md) it "
-                   "lies flat at 0.39-0.40 s with Table 3's friction (paper 0.45 s), 0.40-0.47 s or never with the "
-                   "reproduction's")
-def test_block1_lands_at_the_papers_time(summary):
-    _check_event(summary, "block1_ground")
+def test_block2_comes_to_rest_on_its_side_at_the_papers_time(summary):
+    """The second reading of "lands": block 2 lies at rest on a face on the floor from about the paper's
+    0.40 s (at the full grids, on the GPU: 0.39-0.40 s, docs/studies/index.md)."""
+    assert summary["block2_rest_time"] is not None
+    assert abs(summary["block2_rest_time"] - PAPER["block2_touch"]) <= TOLERANCE
+    assert summary["block2_final_pose"] == "on its side on the floor"
 
 
-def test_block1_falls_to_the_floor_after_block2(summary):
-    # block 1 rides block 2 down: it reaches the floor (a corner first) after block 2 does
-    assert summary["block1_touch_time"] is not None
-    assert summary["block1_touch_time"] > summary["block2_touch_time"]
+@pytest.mark.xfail(strict=True, reason="the paper's reading, first touch of the floor: block 2's corner touches at "
+                   "0.33 s while it tips (0.31-0.33 s at every grid on the GPU), 0.07 s before the paper's 0.40 s")
+def test_block2_touches_the_ground_at_the_papers_time(summary):
+    _check_event(summary, "block2_touch")
+
+
+def test_block1_touches_the_ground_at_the_papers_time(summary):
+    """Block 1's first touch on the quick grid, 0.49 s (paper 0.45 s): inside ±0.05 s. It tumbles, so
+    one run says little (0.39-0.49 s over the committed grids; the ensemble study is the comparison)."""
+    _check_event(summary, "block1_touch")
+
+
+def test_block1_falls_no_faster_than_gravity_after_block2_touches(summary):
+    """When block 2's corner reaches the floor, block 1 is still up (it does not ride block 2 down). From
+    there it needs at least a free fall to reach the floor: t1 − t2 ≥ sqrt(2 y1 / g), with y1 its
+    lowest point then; the sand flows along the floor under it and cannot pull it down faster than
+    gravity. A block 1 that falls through block 2, rides it down glued, or a gravity or time-unit slip
+    fails it (measured: 0.16 s against 0.09 s, y1 = 40 mm)."""
+    times = np.asarray(summary["times"])
+    t2, t1 = summary["block2_touch_time"], summary["block1_touch_time"]
+    assert t2 is not None and t1 is not None
+    y1 = summary["block1_lowest_point_m"][int(np.argmin(np.abs(times - t2)))]
+    assert y1 > BLOCK_H  # more than a block height above the floor: not riding block 2
+    frame = times[1] - times[0]
+    assert t1 - t2 >= math.sqrt(2.0 * y1 / summary["gravity"]) - frame
+
+
+def test_the_ensemble_start_moves_the_blocks_and_the_sand_within_its_bounds():
+    """--ensemble-seed: the free blocks move by at most ±0.5 mm, along x only (the stack stays in
+    contact), the glued block stays; the sand points by at most a tenth of their spacing, none below
+    the lifted bottom row; different seeds give different starts, no seed the experiment's."""
+    base = sb.block_positions()
+    for seed in range(20):
+        moved = sb.block_positions(seed)
+        assert moved["block3"] == base["block3"]
+        for n in ("block1", "block2"):
+            assert moved[n][1] == base[n][1] and abs(moved[n][0] - base[n][0]) <= sb.PERTURB_BLOCK_X
+    assert sb.block_positions(1) != sb.block_positions(2)
+    h = sb.GRID_QUICK
+    s = h / sb.POINTS_PER_CELL
+    lattice, jittered = sb.sand_points(h), sb.sand_points(h, 3)
+    assert lattice.shape == jittered.shape
+    assert np.abs(jittered - lattice).max() <= sb.PERTURB_SAND * s + 1e-12
+    assert np.abs(jittered - lattice).max() > 0.5 * sb.PERTURB_SAND * s
+    assert jittered[:, 1].min() >= lattice[:, 1].min() - 1e-12
+    assert not np.array_equal(sb.sand_points(h, 4), jittered)
+
+
+def test_readings_of_a_tumbling_track():
+    """cases.sand_blocks.readings on a made-up track: a corner touches at 0.3 s while the block turns,
+    it passes face-down for one frame at 0.4 s, then lies on its side from 0.5 s to the end."""
+    t = np.round(np.arange(0.0, 0.8, 0.01), 2)
+    low = np.where(t >= 0.3, 0.0, 0.02)
+    angle = np.where(t < 0.3, 0.0, np.where(t < 0.5, -45.0, -90.0))
+    angle[np.isclose(t, 0.4)] = -90.0
+    r = sb.readings(t, low, angle)
+    assert r["touch"] == pytest.approx(0.3) and r["rest"] == pytest.approx(0.5)
+    assert r["pose"] == "on its side on the floor"
+    # inverted, 4 mm up at the end: no rest on the floor
+    low[-10:] = 0.004
+    angle[-10:] = 180.0
+    r = sb.readings(t, low, angle)
+    assert r["rest"] is None and r["pose"] == "inverted raised"
+    # on a face for fewer than REST_FRAMES frames at the end: not at rest
+    short = sb.readings(t[:53], np.zeros(53), np.where(t[:53] < 0.5, -45.0, -90.0))
+    assert short["rest"] is None
+
+
+def test_a_negative_ensemble_seed_is_refused(tmp_path):
+    code, lines = run_refused("sand_blocks", tmp_path, "--ensemble-seed", "-1")
+    assert code == 2 and len(lines) == 1 and "--ensemble-seed" in lines[0]
+    assert not (tmp_path / "sand_blocks.h5").exists()
 
 
 def test_block2_ends_on_its_side(summary):

@@ -10,7 +10,7 @@ import sys
 
 import numpy as np
 import pytest
-from helpers import ENV, ROOT, run_script
+from helpers import ENV, ROOT, quick_run
 
 from mpmdem import InputError, LinearElastic, Scene, Simulation, rectangle
 from mpmdem.cases import silo_discharge as silo
@@ -18,7 +18,7 @@ from mpmdem.cases import silo_discharge as silo
 
 @pytest.fixture(scope="module")
 def summary(tmp_path_factory):
-    return run_script("silo_discharge", tmp_path_factory.mktemp("silo"))
+    return quick_run("silo_discharge")[0]
 
 
 def test_completed_and_mass_kept(summary):
@@ -43,16 +43,16 @@ def test_discharged_mass_grows_steadily(summary):
     assert summary["rate_residual"] < 0.05
 
 
-def test_rate_against_beverloo_at_our_contact_radius(summary):
-    """2D Beverloo, W = C ρ sqrt(g) (D0 − k r_p)^(3/2) with the paper's C = 0.58 and k = 2.2, read at
-    the contact radius of this grid (r_p = h/√2 = 3.5 mm, not Table 3's 1 mm: k r_p is the empty
-    annulus the contacts leave along the orifice's edges). At D0 = 4 cm = 8 cells the quick grid is
-    coarse: the rate moves by tens of per cent between 0.7 and 0.5 cm grids, so the check is ±25 %
-    (it fails on a jammed orifice, a rate set by the walls, or a g or ρ unit slip, each a factor ≥ 2).
-    Under refinement the rate keeps growing past the law (1.7 × the paper's C on a 2.5 mm grid):
-    tests/test_study_results.py holds that gap as a strict xfail."""
-    expected = silo.beverloo(summary["orifice_m"], r_p=summary["contact_radius"])
-    assert 0.75 < summary["rate"] / expected < 1.25
+def test_rate_against_the_papers_beverloo_curve(summary):
+    """MPM-SDEM Fig. 16: W = 0.58 ρ sqrt(g) (D0 − 2.2 r_p)^(3/2) with the paper's r_p = 1 mm, at D0 =
+    4 cm: 20.2 kg/(m s), within 20 %, the scatter of 2D Beverloo prefactors between materials and of
+    the paper's own Fig. 16 points (the validation row's tolerance). The reference is the paper's
+    curve, not one moved to our grid's contact radius. The quick grid (5 mm, a 15 cm fill) is about
+    the paper's resolution: measured 17.9 (−12 %). A jammed orifice, a rate set by the walls, or a g
+    or ρ unit slip miss by a factor ≥ 2. Under refinement the rate grows past the curve (1.7 × the
+    paper's C on a 2.5 mm grid): tests/test_study_results.py holds that gap as a strict xfail."""
+    assert summary["orifice_m"] == pytest.approx(0.04)
+    assert abs(summary["rate"] / silo.beverloo(summary["orifice_m"]) - 1.0) < 0.2
 
 
 def test_fill_level_falls_with_the_discharge(summary):

@@ -19,6 +19,7 @@ STUDIES = {
     "block-impact": "block_impact:GRIDS",
     "block-impact-coupling": "block_impact:COUPLING",
     "block-impact-rounding": "block_impact:ROUNDING",
+    "block-impact-ensemble": "block_impact:ENSEMBLE",
     "column-collapse": "column_collapse",
     "disk-restitution": "disk_restitution",
 }

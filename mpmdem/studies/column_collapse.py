@@ -3,7 +3,8 @@ a = 0.5, 1, 2, 4, 8 at 10, 20, 40 and 80 cells across the column, against Lube e
 
 The runout is the deposit's front (the edge of the continuous deposit, as the experiments read it),
 the farthest point is kept beside it; the chart shows the finest grid with a resolution error bar
-(its change from the next coarser grid) against Lube's fits and their scatter, the coarser grids faint.
+(its change from the next coarser grid) against the two coefficient sets quoted for Lube et al. and the
+band between them (not their scatter: the papers were not read here), the coarser grids faint.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import numpy as np
 
 from mpmdem.study import Study
 
-from ..cases.column_collapse import lube_height, lube_runout
+from ..cases.column_collapse import lube_height, lube_runout, runout_band
 from .run_summaries import load_runs
 
 
@@ -42,9 +43,11 @@ def analyze(rows: list[dict], out: Path) -> dict:
     ratios = sorted({x["a"] for x in table})
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
     aa = np.geomspace(0.4, 10, 200)
-    lube_r = np.array([lube_runout(v) for v in aa])
-    ax.plot(aa, lube_r, "k--", lw=1, label="Lube et al. 2005")
-    ax.fill_between(aa, 0.8 * lube_r, 1.2 * lube_r, color="0.85", zorder=0, label="±20 %: their data's scatter")
+    band = np.array([runout_band(v) for v in aa])
+    ax.plot(aa, [lube_runout(v, "A") for v in aa], "k--", lw=1, label="Lube et al. 2005, set A (1.2 a, 1.9 a^2/3)")
+    ax.plot(aa, [lube_runout(v, "B") for v in aa], "k:", lw=1, label="set B (1.6 a, 2.2 a^2/3)")
+    ax.fill_between(aa, band[:, 0], band[:, 1], color="0.85", zorder=0,
+                    label="between the sets (the papers not read: not their scatter)")
     ax2.plot(aa, [lube_height(v) for v in aa], "k--", lw=1, label="Lube et al. 2005")
     for j, c in enumerate(cells[:-1]):  # the coarser grids, faint
         sel = [x for x in table if x["cells"] == c]
