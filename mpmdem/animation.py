@@ -78,8 +78,40 @@ def _output(path: Path, out: str | os.PathLike | None, field: str) -> tuple[Path
     return target, writer
 
 
+def split_grains(geometry: dict | None) -> tuple[dict | None, int, np.ndarray | None]:
+    """(the geometry of the bodies drawn as outlines, how many they are, the grains' radii [m] or
+    None): grains (``grain`` 1 in the geometry, the last bodies) are drawn as disks."""
+    if geometry is None:
+        return None, 0, None
+    m = len(geometry["vertex_count"])
+    grain = np.asarray(geometry.get("grain", np.zeros(m)), dtype=bool)
+    rows = m - int(np.count_nonzero(grain))
+    if rows == m:
+        return geometry, m, None
+    outlined = {k: (v if k == "vertices" else v[:rows]) for k, v in geometry.items()} if rows else None
+    # a disk's radius; a polygon grain's sphero radius + the mean distance of its core vertices
+    start = np.asarray(geometry["vertex_start"])[rows:]
+    count = np.asarray(geometry["vertex_count"])[rows:]
+    norms = np.hypot(*np.asarray(geometry["vertices"], dtype=np.float64)[start[0]:].T)
+    core = np.add.reduceat(norms, start - start[0]) / count
+    return outlined, rows, np.asarray(geometry["radius"], dtype=np.float64)[rows:] + core
+
+
+def _grains_of_frame(rf: RunFile, k: int, rows: int, field: str) -> tuple[np.ndarray, np.ndarray | None]:
+    """(centroids [m] of the grains at frame k, their values of ``field`` or None)."""
+    x = np.asarray(rf.body_field("x", k), dtype=np.float64)[rows:]
+    values = None
+    if field in BODY_SNAPSHOT_FIELDS:
+        try:
+            values = np.asarray(BODY_SNAPSHOT_FIELDS[field][0](rf, k), dtype=np.float64)[rows:]
+        except KeyError:
+            values = None
+    return x, values
+
+
 def _extent(rf: RunFile, frames: list[int], field: str, geometry: dict | None) -> tuple[np.ndarray, ...]:
     """Axis limits (lo, hi) [m] over the chosen frames, and the field's (min, max) there (NaN: none)."""
+    geometry, rows, grain_radius = split_grains(geometry)
     lo, hi = np.full(2, np.inf), np.full(2, -np.inf)
     vmin, vmax = np.inf, -np.inf
     has_points = rf.particle_count > 0 and "x" in rf.fields
@@ -92,11 +124,19 @@ def _extent(rf: RunFile, frames: list[int], field: str, geometry: dict | None) -
                 lo, hi = np.minimum(lo, x.min(axis=0)), np.maximum(hi, x.max(axis=0))
             if field in SNAPSHOT_FIELDS:
                 values.append(SNAPSHOT_FIELDS[field][0](rf, k))
-        bodies = _bodies_of_frame(rf, k, geometry, field) if geometry is not None else None
+        bodies = _bodies_of_frame(rf, k, geometry, field, rows) if geometry is not None else None
         if bodies is not None and bodies.lo is not None:
             lo, hi = np.minimum(lo, bodies.lo), np.maximum(hi, bodies.hi)
             if bodies.values is not None:
                 values.append(bodies.values[~bodies.fixed])
+        if grain_radius is not None:
+            x, v = _grains_of_frame(rf, k, rows, field)
+            ok = np.isfinite(x).all(axis=1)
+            if ok.any():
+                lo = np.minimum(lo, (x[ok] - grain_radius[ok, None]).min(axis=0))
+                hi = np.maximum(hi, (x[ok] + grain_radius[ok, None]).max(axis=0))
+            if v is not None:
+                values.append(v)
         finite = np.concatenate([np.ravel(v) for v in values] or [np.zeros(0)])
         finite = finite[np.isfinite(finite)]
         if finite.size:
@@ -119,7 +159,8 @@ def animate_run(
     """Write an animation of a run: one picture per chosen frame.
 
     The points are drawn as squares of their own size, coloured by ``field``; the bodies as filled
-    outlines (fixed ones grey, the others coloured by ``field`` when it is a body quantity); one
+    outlines (fixed ones grey, the others coloured by ``field`` when it is a body quantity), grains
+    as disks of their radius (one ``EllipseCollection``: a million grains are one artist); one
     colour scale over the whole animation; the simulated time in the title.
 
     Args:
@@ -165,12 +206,13 @@ def _render(rf: RunFile, chosen: list[int], field: str, fps: float, dpi: int, ta
     import matplotlib
     import matplotlib.pyplot as plt
     from matplotlib import animation
-    from matplotlib.collections import PatchCollection
+    from matplotlib.collections import EllipseCollection, PatchCollection
     from matplotlib.colors import Normalize
     from matplotlib.patches import PathPatch
 
     geometry = rf.body_geometry() if rf.body_count else None
     lo, hi, (vmin, vmax) = _extent(rf, chosen, field, geometry)
+    outlined, rows, grain_radius = split_grains(geometry)
     norm = Normalize(vmin, vmax) if np.isfinite(vmin) else None
     # Fixed bodies and non-finite values take the colour of fixed bodies.
     cmap = matplotlib.colormaps["tab10" if field == "body" else "viridis"].with_extremes(bad=FIXED_BODY_COLOR)
@@ -191,6 +233,12 @@ def _render(rf: RunFile, chosen: list[int], field: str, fps: float, dpi: int, ta
     p0, p1 = ax.transData.transform([(0.0, 0.0), (1.0, 0.0)])
     points_per_m = abs(p1[0] - p0[0]) * 72.0 / fig.dpi
     drawn: list = []
+    grains = None
+    if grain_radius is not None:  # sizes in data units: the disks scale with the axes
+        d = 2.0 * grain_radius
+        grains = EllipseCollection(d, d, np.zeros(len(d)), units="xy", offsets=np.zeros((len(d), 2)),
+                                   offset_transform=ax.transData, cmap=cmap, norm=norm, linewidths=0, zorder=1.5)
+        ax.add_collection(grains)
 
     def draw(k: int) -> list:
         for artist in drawn:
@@ -209,7 +257,15 @@ def _render(rf: RunFile, chosen: list[int], field: str, fps: float, dpi: int, ta
             else:
                 points.set_array(None)
                 points.set_facecolor("tab:blue")
-        bodies = _bodies_of_frame(rf, k, geometry, field) if geometry is not None else None
+        if grains is not None:
+            x, v = _grains_of_frame(rf, k, rows, field)
+            grains.set_offsets(np.where(np.isfinite(x), x, np.nan))
+            if v is not None and norm is not None:
+                grains.set_array(np.ma.masked_invalid(v))
+            else:
+                grains.set_array(None)
+                grains.set_facecolor(BODY_COLOR)
+        bodies = _bodies_of_frame(rf, k, outlined, field, rows) if outlined is not None else None
         if bodies is not None and bodies.paths:
             patches = PatchCollection([PathPatch(p) for p in bodies.paths], edgecolor="k", linewidths=0.5,
                                       zorder=1, cmap=cmap, norm=norm)
@@ -220,7 +276,7 @@ def _render(rf: RunFile, chosen: list[int], field: str, fps: float, dpi: int, ta
             ax.add_collection(patches)
             drawn.append(patches)
         ax.set_title(f"{rf.path.name}: {field}, t = {times[k]:.4g} s (frame {k})")
-        return [points, *drawn]
+        return [points, *drawn, *([grains] if grains is not None else [])]
 
     anim = animation.FuncAnimation(fig, draw, frames=chosen, blit=False, repeat=False)
     writer = animation.writers[writer_name](fps=fps)

@@ -122,18 +122,19 @@ class _BodyDraw:
     hi: np.ndarray | None
 
 
-def _bodies_of_frame(rf: RunFile, k: int, geometry: dict, field: str) -> _BodyDraw | None:
-    """Outlines and colours of the bodies at frame k; None when the file has no drawable bodies."""
-    m = rf.body_count
+def _bodies_of_frame(rf: RunFile, k: int, geometry: dict, field: str, rows: int | None = None) -> _BodyDraw | None:
+    """Outlines and colours of the bodies at frame k (the first ``rows`` of them: the others are
+    grains, drawn as disks; None: all); None when the file has no drawable bodies."""
+    m = rf.body_count if rows is None else rows
     if m == 0 or "x" not in rf.body_fields or len(geometry["vertex_count"]) != m:
         return None
-    x = np.asarray(rf.body_field("x", k), dtype=np.float64)
-    angle = rf.body_field("angle", k) if "angle" in rf.body_fields else None
+    x = np.asarray(rf.body_field("x", k), dtype=np.float64)[:m]
+    angle = rf.body_field("angle", k)[:m] if "angle" in rf.body_fields else None
     geoms = body_outlines(geometry, x, angle)
     values = None
     if field in BODY_SNAPSHOT_FIELDS:
         try:
-            values = BODY_SNAPSHOT_FIELDS[field][0](rf, k)
+            values = BODY_SNAPSHOT_FIELDS[field][0](rf, k)[:m]
         except KeyError:  # this file has no such body field
             values = None
     motion = np.asarray(geometry["motion"])

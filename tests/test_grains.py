@@ -162,3 +162,36 @@ def test_too_many_bodies_for_the_device_is_refused_before_allocating():
     with pytest.raises(InputError) as e:
         check_device_memory(SmallGPU(), 10**6, 10**6, 12, "f32")
     assert "at most" in one_line(e) and "GiB" in str(e.value)
+
+
+def test_output_holds_the_grains_as_points(tmp_path):
+    """A run with grains: the HDF5 file's bodies are the walls and the grains (``grain`` marks
+    them), the grains sidecar shows them as points with their radius, the bodies sidecar the
+    walls only, and ``animate`` draws them (one EllipseCollection)."""
+    meshio = pytest.importorskip("meshio")
+    from mpmdem.animation import animate_run
+    from mpmdem.io import RunFile
+
+    s = Scene(domain=((0.0, 0.0), (0.02, 0.02)), gravity=(0.0, -9.81), contact=ContactLaw(1e6))
+    s.add_walls(("left", "right", "bottom"), thickness=0.004)
+    g = s.add_grains(box(0.0, 0.0, 0.02, 0.02), radius=R, density=1830.0, seed=4)
+    result = Simulation(s, SolverConfig(precision="f64"), device="cpu").run(2e-4, out=tmp_path, frames=2,
+                                                                          name="grains")
+    with RunFile(result.path) as rf:
+        geo = rf.body_geometry()
+        assert rf.body_count == 3 + len(g)
+        assert np.array_equal(geo["grain"], np.repeat([0, 1], [3, len(g)]))
+        assert np.array_equal(geo["radius"][3:], g.radius)
+        x_last = rf.body_field("x", rf.frame_count - 1)[3:]
+    with meshio.xdmf.TimeSeriesReader(tmp_path / "grains_grains.xdmf") as r:
+        points, _ = r.read_points_cells()
+        _, point_data, _ = r.read_data(2)
+    assert points.shape == (len(g), 3)
+    assert np.array_equal(point_data["radius"], g.radius)
+    assert np.array_equal(point_data["x"][:, :2], x_last)
+    with meshio.xdmf.TimeSeriesReader(tmp_path / "grains_bodies.xdmf") as r:
+        r.read_points_cells()
+        _, _, cell_data = r.read_data(0)
+    assert len(cell_data["radius"][0]) == 3  # the walls only
+    gif = animate_run(result.path, tmp_path / "grains.gif")
+    assert gif.stat().st_size > 1000
