@@ -309,7 +309,9 @@ def build_dem(args, g: dict) -> CaseSetup:
                       friction=GRAIN_FRICTION, seed=args.seed, name="sand")
     device = args.device or default_device()
     precision = getattr(args, "precision", None) or DEFAULTS_DEM["precision"]
-    packing = settle(closed, SolverConfig(precision=precision), device=device)
+    # at rest after a free fall through the lattice's height at the least, 8 of them at the most
+    fall = math.sqrt(2.0 * LATTICE_HEIGHT * g["fill"] / GRAVITY)
+    packing = settle(closed, SolverConfig(precision=precision), device=device, min_time=fall, max_time=8.0 * fall)
     scene = _dem_scene(g, args, gate=False)
     scene.add_grain_set(packing.grains[0])
     inf = math.inf

@@ -127,22 +127,23 @@ def _placed(scene: Scene, grains: list[GrainSet]):
         scene.grains = saved
 
 
-def settle(scene: Scene, config: SolverConfig | None = None, *, device: str = "cpu", max_time: float | None = None,
-           check_every: float | None = None, rest_speed: float = REST_SPEED, margin: float = MARGIN) -> Packing:
+def settle(scene: Scene, config: SolverConfig | None = None, *, device: str = "cpu", min_time: float | None = None,
+           max_time: float | None = None, check_every: float | None = None, rest_speed: float = REST_SPEED,
+           margin: float = MARGIN) -> Packing:
     """Pour the scene's grains under its gravity until at rest and measure the packing.
 
     Runs ``Simulation(scene, config, device)`` in chunks of ``check_every`` [s] (default: a tenth
-    of the free-fall time sqrt(2 H / g) through the domain height H) from at least one free fall
-    until the grains' RMS speed is below ``rest_speed`` × sqrt(g r) or ``max_time`` [s] (default 20
-    free falls) has passed. The scene is not changed. Returns the ``Packing`` (the settled grain
-    sets, φ, ρ_b [kg/m³], Z)."""
+    of ``min_time``) from ``min_time`` [s] (default: the free-fall time sqrt(2 H / g) through the
+    domain height H) until the grains' RMS speed is below ``rest_speed`` × sqrt(g r) or
+    ``max_time`` [s] (default 20 × min_time) has passed. The scene is not changed. Returns the
+    ``Packing`` (the settled grain sets, φ, ρ_b [kg/m³], Z)."""
     if not scene.grains:
         raise InputError("scene.grains", [], "a scene with grains (Scene.add_grains)")
     g = math.hypot(*scene.gravity)
     if g <= 0.0:
         raise InputError("scene.gravity", scene.gravity, "a gravity that pours the grains (|g| > 0)")
     (_, y0), (_, y1) = scene.domain
-    fall = math.sqrt(2.0 * (y1 - y0) / g)
+    fall = min_time or math.sqrt(2.0 * (y1 - y0) / g)
     chunk = check_every or 0.1 * fall
     end = max_time or 20.0 * fall
     r_mean = float(np.mean(np.concatenate([np.sqrt(gs.area / math.pi) for gs in scene.grains])))
