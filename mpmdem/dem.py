@@ -24,6 +24,7 @@ from .bodies import ContactLaw
 from .checks import check_time_step, eq51_step
 from .config import SolverConfig
 from .errors import BlowUpError, InputError
+from .host_memory import available_host_memory
 from .kernels import clock as clock_kernels
 from .kernels import dem as dem_kernels
 from .kernels import dem_lists, dem_split
@@ -106,10 +107,8 @@ def check_device_memory(device, bodies: int, vertices: int, slots: int, precisio
         free = float(device.free_memory)
         limit, where = 0.8 * free, f"80 % of the {free / 2**30:.3g} GiB free on {device.alias}"
     else:
-        import os
-
-        free = float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
-        limit, where = 0.5 * free, f"half of the {free / 2**30:.3g} GiB of free host memory ({device.alias})"
+        free = available_host_memory()
+        limit, where = 0.5 * free, f"half of the {free / 2**30:.3g} GiB of host memory available ({device.alias})"
     if need > limit:
         raise InputError("DEM bodies", bodies, f"at most {int(limit // per)} bodies (grains included) on this device: "
                          f"about {per:.0f} B each ({slots} list slots), {need / 2**30:.3g} GiB against {where}; "

@@ -20,7 +20,6 @@ Masses are per unit thickness: ρ × area [kg/m].
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,6 +28,7 @@ from shapely.geometry.base import BaseGeometry
 
 from .checks import at_least, finite, positive
 from .errors import InputError
+from .host_memory import available_host_memory
 from .rigid_arrays import RigidArrays
 from .spheropolygons import placed, random_convex_polygon
 
@@ -191,11 +191,11 @@ def place_grains(region, *, radius: float, shape: str = "disk", density: float, 
     pitch = 2.0 * r_max * (1.0 + GAP)
     row = pitch * math.sqrt(3.0) / 2.0
     estimate = geom.area / (pitch * row)
-    available = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 1 << 34
+    available = available_host_memory()
     if estimate * HOST_BYTES_PER_GRAIN > 0.5 * available:
         raise InputError("radius", radius, f"grains few enough to build on this machine: about {estimate:.3g} grains of "
-                         f"{HOST_BYTES_PER_GRAIN} B fill the region, against half of {available / 2**30:.3g} GiB "
-                         "free; take larger grains or a smaller region")
+                         f"{HOST_BYTES_PER_GRAIN} B fill the region, against half of the {available / 2**30:.3g} GiB "
+                         "of host memory available; take larger grains or a smaller region")
     # hexagonal lattice points whose cell (a circle of pitch/2) lies inside the region
     inner = geom.buffer(-0.5 * pitch)
     x0, y0, x1, y1 = geom.bounds
