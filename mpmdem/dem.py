@@ -555,7 +555,8 @@ class DEMSolver(ClockedStage):
             self._probe_kernel = reduction_kernels.make_body_probe_mass(self.config.precision)
         self._probe_mass.zero_()
         wp.launch(self._probe_kernel, self.body_count,
-                  inputs=[self.B.x, self.B.mass, self.B.motion, self._probe_boxes, self._probe_mass], device=self.device)
+                  inputs=[self.B.x, self.B.mass, self.B.motion, self._probe_boxes, self._probe_mass],
+                  device=self.device)
         return {f"mass_{p.name}": float(m) for p, m in zip(probes, self._probe_mass.numpy(), strict=True)}
 
     #: Diagnostics that are works done on the system (for the energy balance).

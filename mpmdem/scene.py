@@ -361,7 +361,8 @@ class Scene:
         grains = place_grains(region, radius=radius, shape=shape, density=density, friction=friction, seed=seed,
                               polydispersity=polydispersity, sides=sides, rounding=rounding, velocity=velocity,
                               name=name)
-        return self.add_grain_set(grains, what=f"region (bounds {tuple(round(v, 6) for v in as_region(region).bounds)})")
+        bounds = tuple(round(v, 6) for v in as_region(region).bounds)
+        return self.add_grain_set(grains, what=f"region (bounds {bounds})")
 
     def add_grain_set(self, grains: GrainSet, *, what: str = "grains") -> GrainSet:
         """Add grains placed elsewhere (``add_grains`` of another scene, or a ``mpmdem.packing.settle``

@@ -8,7 +8,7 @@ import pytest
 import shapely
 from scipy.spatial import cKDTree
 
-from mpmdem import ContactLaw, InputError, Scene, SolverConfig, Simulation, spheropolygon
+from mpmdem import ContactLaw, InputError, Scene, Simulation, SolverConfig, spheropolygon
 from mpmdem.dem import check_device_memory
 from mpmdem.grains import place_grains
 from mpmdem.packing import settle
