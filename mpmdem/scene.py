@@ -20,7 +20,7 @@ from .boundaries import SIDES, Boundary, as_boundary, check_walls_on_grid_lines
 from .errors import InputError
 from .grains import GrainSet, as_region, place_grains
 from .materials import Material
-from .overlaps import OVERLAP_FRACTION, depth_inside, overlap_pairs, overlap_tolerance
+from .overlaps import depth_inside, overlap_pairs, overlap_tolerance
 from .probes import MassProbe, make_mass_probe
 from .rigid_arrays import RigidArrays, rigid_arrays, stacked
 from .shapes import SEEDINGS, SeededPoints, Shape, rectangle, seed_points
@@ -384,8 +384,9 @@ class Scene:
 
     def _check_grains_clear(self, grains: GrainSet) -> None:
         """InputError when a new grain overlaps a body already in the scene (walls, fixed, free or
-        kinematic bodies, earlier grains): the distance of the bodies' cores to the grain's centre
-        below a + the grain's bounding radius, less ``overlaps.OVERLAP_FRACTION`` of it."""
+        kinematic bodies, earlier grains) by more than ``validate`` lets bodies start overlapping
+        (``overlaps.overlap_tolerance``: a settled pack rests on its walls): the depth is a + the
+        grain's bounding radius − the distance of the body's core to the grain's centre."""
         if not (self.rigid_bodies or self.grains):
             return
         arrays = self.body_arrays()
@@ -395,8 +396,8 @@ class Scene:
         i, j = shapely.STRtree(cores).query(points, predicate="dwithin", distance=reach + arrays.radius.max())
         if not len(i):
             return
-        # (a settled pack rests on its walls: overlaps up to validate's 1 % of a grain pass)
-        hit = shapely.distance(cores[j], points[i]) < arrays.radius[j] + reach[i] * (1.0 - OVERLAP_FRACTION)
+        depth = arrays.radius[j] + reach[i] - shapely.distance(cores[j], points[i])
+        hit = depth > self._overlap_tolerance(stacked([arrays, grains.rigid_arrays()]), j, len(arrays) + i)
         if not hit.any():
             return
         bodies = np.unique(j[hit])
@@ -575,14 +576,19 @@ class Scene:
             none = np.zeros(0, dtype=np.intp)
             return none, none, np.zeros(0), np.zeros(0)
         i, j, depth = overlap_pairs(arrays)
+        tol = self._overlap_tolerance(arrays, i, j)
+        deep = depth > tol
+        return i[deep], j[deep], depth[deep], tol[deep]
+
+    def _overlap_tolerance(self, arrays: RigidArrays, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """``overlaps.overlap_tolerance`` [m] of the pairs (i, j) of ``arrays`` in this scene: its
+        round-off, its gravity and domain height along it, its k_n (none without a contact law)."""
         (x0, y0), (x1, y1) = self.domain
         gx, gy = self.gravity
         g = math.hypot(gx, gy)
         height = (abs(gx) * (x1 - x0) + abs(gy) * (y1 - y0)) / g if g > 0.0 else 0.0
-        tol = overlap_tolerance(arrays, i, j, roundoff=self._roundoff, gravity=g, height=height,
-                                normal_stiffness=self.contact.normal_stiffness)
-        deep = depth > tol
-        return i[deep], j[deep], depth[deep], tol[deep]
+        kn = self.contact.normal_stiffness if self.contact is not None else math.inf
+        return overlap_tolerance(arrays, i, j, roundoff=self._roundoff, gravity=g, height=height, normal_stiffness=kn)
 
     def _named(self, i: np.ndarray, j: np.ndarray, depth: np.ndarray) -> list[tuple[str, str, float]]:
         """(body, body, depth [m]) of pairs of rigid bodies given by index."""
