@@ -386,7 +386,7 @@ class Scene:
         """InputError when a new grain overlaps a body already in the scene (walls, fixed, free or
         kinematic bodies, earlier grains) by more than ``validate`` lets bodies start overlapping
         (``overlaps.overlap_tolerance``: a settled pack rests on its walls): the depth is a + the
-        grain's bounding radius − the distance of the body's core to the grain's centre."""
+        grain's sphero radius − the distance of the two cores (a polygon grain's own core)."""
         if not (self.rigid_bodies or self.grains):
             return
         arrays = self.body_arrays()
@@ -396,8 +396,14 @@ class Scene:
         i, j = shapely.STRtree(cores).query(points, predicate="dwithin", distance=reach + arrays.radius.max())
         if not len(i):
             return
-        depth = arrays.radius[j] + reach[i] - shapely.distance(cores[j], points[i])
-        hit = depth > self._overlap_tolerance(stacked([arrays, grains.rigid_arrays()]), j, len(arrays) + i)
+        own = grains.rigid_arrays()
+        grain_cores = own.take(np.unique(i)).cores if grains.local.shape[1] > 1 else None
+        if grain_cores is None:  # disks: the core is the centre
+            distance = shapely.distance(cores[j], points[i])
+        else:
+            distance = shapely.distance(cores[j], grain_cores[np.searchsorted(np.unique(i), i)])
+        depth = arrays.radius[j] + grains.radius[i] - distance
+        hit = depth > self._overlap_tolerance(stacked([arrays, own]), j, len(arrays) + i)
         if not hit.any():
             return
         bodies = np.unique(j[hit])
