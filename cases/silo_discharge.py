@@ -208,8 +208,10 @@ def geometry(args) -> dict:
     small = coarse(args)
     h = args.cell_size or (QUICK["cell_size"] if small else GRID_TABLE)
     fill = args.fill_height or (QUICK["fill_height"] if small else FILL)
-    for name, v, lo, hi in (("--cell-size", h, 1e-3, 0.02), ("--width", args.width, 0.02, 1.0),
-                            ("--fill-height", fill, 0.01, 2.0), ("--drop", args.drop, 0.05, 2.0),
+    # (grains need no grid: a DEM silo of 10⁶ grains of 1 mm is 2 m wide)
+    big = 4.0 if getattr(args, "sand", "mpm") == "dem" else 1.0
+    for name, v, lo, hi in (("--cell-size", h, 1e-3, 0.02), ("--width", args.width, 0.02, big),
+                            ("--fill-height", fill, 0.01, 2.0 * big), ("--drop", args.drop, 0.05, 2.0),
                             ("--orifice", args.orifice, 1e-3, 1.0)):
         if not (math.isfinite(v) and lo <= v <= hi):
             raise InputError(name, v, f"a length in [{lo}, {hi}] m")
