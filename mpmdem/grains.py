@@ -224,8 +224,10 @@ def place_grains(region, *, radius: float, shape: str = "disk", density: float, 
     else:
         local = np.zeros((n, 1, 2))
         a = sizes
-        area = math.pi * sizes**2
-        second = 0.5 * math.pi * sizes**4
+        # sphero_disk's own expressions, a²θ/2 and a⁴θ/4 with θ = 2π: the same floats as its bodies
+        # (a⁴ by Python's pow: numpy's array power rounds some values an ulp apart; 1e6 in 0.1 s)
+        area = 0.5 * sizes * sizes * (2.0 * math.pi)
+        second = 0.25 * np.array([a**4 for a in sizes.tolist()]) * (2.0 * math.pi)
         core = np.zeros(n)
         angle = np.zeros(n)
     # a random offset of at most pitch/2 − R_i keeps grain i inside its lattice cell

@@ -195,3 +195,60 @@ def test_output_holds_the_grains_as_points(tmp_path):
     assert len(cell_data["radius"][0]) == 3  # the walls only
     gif = animate_run(result.path, tmp_path / "grains.gif")
     assert gif.stat().st_size > 1000
+
+
+def test_grains_rest_on_material_points():
+    """Grains are bodies to the coupling too (MPM-SDEM eq. 44-46): 140 grains poured onto an
+    elastic MPM block come to rest on it, their lowest edge at the block's top points + r_p (the
+    points' contact reach, h/√2 = 7.1 mm here), to 1 mm (the contact's overlap under the grains'
+    weight is ~20 µm; a grain falling through the block would sit ≥ 4 mm lower); a mass probe
+    sums the points and the grains (the coupled diagnostics' ``mass`` to round-off)."""
+    from mpmdem import LinearElastic, rectangle, rounded_rectangle
+
+    s = Scene(domain=((0.0, 0.0), (0.1, 0.1)), cell_size=0.01, gravity=(0.0, -9.81),
+              contact=ContactLaw(1e5, restitution=0.3),
+              boundaries={"left": "slip", "right": "slip", "bottom": "fixed", "top": "free"})
+    block = s.add_mpm_body(rectangle(0.0, 0.0, 0.1, 0.03), LinearElastic(1e6, 0.3, 1500.0), name="block")
+    for name, xc in (("left", -0.005), ("right", 0.105)):  # walls above the block (the grid holds its sides)
+        s.add_rigid_body(rounded_rectangle(0.01, 0.07), density=1000.0, position=(xc, 0.07), motion="fixed",
+                         name=name)
+    g = s.add_grains(box(0.0, 0.045, 0.1, 0.08), radius=2e-3, density=1830.0, seed=1)
+    s.add_mass_probe("all")
+    # (grains smaller than a cell: one point's contact disk reaches several of them)
+    sim = Simulation(s, SolverConfig(precision="f64", imp_max_bodies=16), device="cpu")
+    sim.advance_to(0.16)
+    x = sim.body_fields()["x"][2:]
+    top = float(sim.fields()["x"][:, 1].max())
+    assert float((x[:, 1] - g.radius).min()) == pytest.approx(top + block.contact_radius, abs=1e-3)
+    d = sim.diagnostics()
+    assert d["mass_all"] == pytest.approx(d["mass"], rel=1e-12)
+    assert d["bodies_mass"] == pytest.approx(float(g.mass.sum()), rel=1e-12)
+
+
+def test_grains_are_the_bodies_a_list_of_sphero_disks_would_be():
+    """A grain set and the same disks added one by one (``add_rigid_body(sphero_disk(r))``) are
+    the same DEM bodies: the same masses and inertias to the bit, and 0.05 s (~1500 steps) of a
+    pour, the pack landing on the floor, give the same positions, velocities, forces and torques
+    to the bit (CPU; a pack is chaotic: an ulp of one inertia grows to 0.1 rad/s in ω by then)."""
+    from mpmdem import sphero_disk
+
+    g = place_grains(box(0.0, 0.0, 0.03, 0.03), radius=R, density=1830.0, seed=2, friction=0.4)
+    runs = []
+    for as_grains in (True, False):
+        s = Scene(domain=((0.0, 0.0), (0.03, 0.03)), gravity=(0.0, -9.81), contact=ContactLaw(1e6, restitution=0.3))
+        s.add_walls(("left", "right", "bottom"), thickness=0.005)
+        if as_grains:
+            s.add_grain_set(g)
+        else:
+            for k in range(len(g)):
+                s.add_rigid_body(sphero_disk(float(g.radius[k])), density=1830.0, position=tuple(g.position[k]),
+                                 friction=0.4)
+        a = s.body_arrays()
+        sim = Simulation(s, SolverConfig(precision="f64"), device="cpu")
+        sim.advance_to(0.05)  # ~1500 steps: the pack lands on the floor
+        runs.append((a, sim.body_fields()))
+    (a0, f0), (a1, f1) = runs
+    assert np.array_equal(a0.mass, a1.mass) and np.array_equal(a0.inertia, a1.inertia)
+    for name in f0:
+        assert np.array_equal(f0[name], f1[name]), name
+    assert np.abs(f0["v"]).max() > 0.01 and np.abs(f0["torque"]).max() > 0.0  # they moved and touched
