@@ -164,7 +164,7 @@ def test_too_many_bodies_for_the_device_is_refused_before_allocating():
     assert "at most" in one_line(e) and "GiB" in str(e.value)
 
 
-def test_output_holds_the_grains_as_points(tmp_path):
+def test_output_holds_the_grains_as_points(tmp_path, monkeypatch):
     """A run with grains: the HDF5 file's bodies are the walls and the grains (``grain`` marks
     them), the grains sidecar shows them as points with their radius, the bodies sidecar the
     walls only, and ``animate`` draws them (one EllipseCollection)."""
@@ -195,6 +195,23 @@ def test_output_holds_the_grains_as_points(tmp_path):
     assert len(cell_data["radius"][0]) == 3  # the walls only
     gif = animate_run(result.path, tmp_path / "grains.gif")
     assert gif.stat().st_size > 1000
+    # grains below GRAIN_PIXELS pixels (10⁶ of them) are drawn as an image of pixel means
+    import mpmdem.animation as animation
+
+    monkeypatch.setattr(animation, "GRAIN_PIXELS", 1e9)
+    assert animate_run(result.path, tmp_path / "pixels.gif").stat().st_size > 1000
+
+
+def test_grain_image_shows_each_pixels_mean():
+    """``animation.grain_image``: a pixel holding grain centres shows their mean value, the others
+    are masked; centres outside the box and non-finite ones are left out."""
+    from mpmdem.animation import grain_image
+
+    x = np.array([[0.1, 0.1], [0.2, 0.2], [0.9, 0.1], [5.0, 5.0], [np.nan, 0.5]])
+    image = grain_image(x, np.array([1.0, 3.0, 7.0, 100.0, 100.0]), (0.0, 0.0), (1.0, 1.0), (2, 2))
+    assert image.shape == (2, 2)  # (ny, nx)
+    assert image[0, 0] == 2.0 and image[0, 1] == 7.0
+    assert image.mask[1, 0] and image.mask[1, 1]
 
 
 def test_grains_rest_on_material_points():
