@@ -18,16 +18,16 @@ from .plotting import (
     BODY_COLOR,
     BODY_SNAPSHOT_FIELDS,
     FIXED_BODY_COLOR,
+    GRAIN_PIXELS,
     SNAPSHOT_FIELDS,
     _allowed_fields,
     _bodies_of_frame,
+    _grains_of_frame,
+    grain_image,
+    split_grains,
 )
 
 __all__ = ["FORMATS", "animate_run", "parse_frames"]
-
-#: Grains whose mean diameter is below this many pixels are drawn as an image (``grain_image``):
-#: disks under a pixel each cost as much to draw and show nothing more (10⁶ disks: 4.3 s a frame).
-GRAIN_PIXELS = 1.5
 
 #: Output formats by suffix: the matplotlib writer each needs.
 FORMATS = {".mp4": "ffmpeg", ".gif": "pillow"}
@@ -80,56 +80,6 @@ def _output(path: Path, out: str | os.PathLike | None, field: str) -> tuple[Path
     if not animation.writers.is_available(writer):
         raise InputError("out", str(out), f"a .gif: no {writer} writer here (install ffmpeg for MP4)")
     return target, writer
-
-
-def split_grains(geometry: dict | None) -> tuple[dict | None, int, np.ndarray | None]:
-    """(the geometry of the bodies drawn as outlines, how many they are, the grains' radii [m] or
-    None): grains (``grain`` 1 in the geometry, the last bodies) are drawn as disks."""
-    if geometry is None:
-        return None, 0, None
-    m = len(geometry["vertex_count"])
-    grain = np.asarray(geometry.get("grain", np.zeros(m)), dtype=bool)
-    rows = m - int(np.count_nonzero(grain))
-    if rows == m:
-        return geometry, m, None
-    outlined = {k: (v if k == "vertices" else v[:rows]) for k, v in geometry.items()} if rows else None
-    # a disk's radius; a polygon grain's sphero radius + the mean distance of its core vertices
-    start = np.asarray(geometry["vertex_start"])[rows:]
-    count = np.asarray(geometry["vertex_count"])[rows:]
-    norms = np.hypot(*np.asarray(geometry["vertices"], dtype=np.float64)[start[0]:].T)
-    core = np.add.reduceat(norms, start - start[0]) / count
-    return outlined, rows, np.asarray(geometry["radius"], dtype=np.float64)[rows:] + core
-
-
-def _grains_of_frame(rf: RunFile, k: int, rows: int, field: str) -> tuple[np.ndarray, np.ndarray | None]:
-    """(centroids [m] of the grains at frame k, their values of ``field`` or None)."""
-    x = np.asarray(rf.body_field("x", k), dtype=np.float64)[rows:]
-    values = None
-    if field in BODY_SNAPSHOT_FIELDS:
-        try:
-            values = np.asarray(BODY_SNAPSHOT_FIELDS[field][0](rf, k), dtype=np.float64)[rows:]
-        except KeyError:
-            values = None
-    return x, values
-
-
-def grain_image(x: np.ndarray, values: np.ndarray | None, lo, hi, shape: tuple[int, int]) -> np.ma.MaskedArray:
-    """(ny, nx) image of grains at x (n, 2) [m] over the box lo–hi [m], ``shape`` (nx, ny) pixels:
-    each pixel holding grain centres shows their mean value (1 when ``values`` is None), the
-    others masked. O(n): how ``animate`` draws grains smaller than GRAIN_PIXELS pixels."""
-    ok = np.isfinite(x).all(axis=1)
-    v = np.ones(int(ok.sum())) if values is None else np.asarray(values, dtype=np.float64)[ok]
-    keep = np.isfinite(v)
-    x, v = x[ok][keep], v[keep]
-    nx, ny = shape
-    i = np.floor((x[:, 0] - lo[0]) / (hi[0] - lo[0]) * nx).astype(np.int64)
-    j = np.floor((x[:, 1] - lo[1]) / (hi[1] - lo[1]) * ny).astype(np.int64)
-    inside = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
-    cell = j[inside] * nx + i[inside]
-    count = np.bincount(cell, minlength=nx * ny).reshape(ny, nx)
-    total = np.bincount(cell, weights=v[inside], minlength=nx * ny).reshape(ny, nx)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.ma.masked_where(count == 0, total / count)
 
 
 def _extent(rf: RunFile, frames: list[int], field: str, geometry: dict | None) -> tuple[np.ndarray, ...]:

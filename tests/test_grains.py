@@ -198,8 +198,13 @@ def test_output_holds_the_grains_as_points(tmp_path, monkeypatch):
     # grains below GRAIN_PIXELS pixels (10⁶ of them) are drawn as an image of pixel means
     import mpmdem.animation as animation
 
+    import mpmdem.plotting as plotting
+
+    assert len(plotting.plot_run(result.path, tmp_path / "disks", frames=[-1])) == 3  # energy, momentum, snapshot
     monkeypatch.setattr(animation, "GRAIN_PIXELS", 1e9)
+    monkeypatch.setattr(plotting, "GRAIN_PIXELS", 1e9)
     assert animate_run(result.path, tmp_path / "pixels.gif").stat().st_size > 1000
+    assert (tmp_path / "pixels").is_dir() or plotting.plot_run(result.path, tmp_path / "pixels", frames=[-1])
 
 
 def test_grain_image_shows_each_pixels_mean():
