@@ -7,6 +7,9 @@ call with --probe PATH for the ratio): bodies of outer radius 0.5 m (pentagon co
 tangential history per vertex–edge contact, Verlet lists rebuilt on the device when needed,
 walls as fixed bodies, f32. Each size is settled for --warmup steps (untimed), then timed.
 
+``--pack grains``: sphero-disk grains instead (``Scene.add_grains``: radius 0.5 m ± 15 %, on its
+jittered hexagonal lattice, loose, in a box about as tall as wide), the DEM sand of the silo.
+
 Prints one JSON line per size (and per probe run); ``--out FILE`` appends them to FILE.
 Usage: python bench/dem_throughput.py --device cuda --sizes 10000,100000,1000000 --probe PATH
 """
@@ -57,9 +60,25 @@ def pack(n: int, seed: int = 0) -> tuple[Scene, float]:
     return scene, 0.05 * math.sqrt(m / KN)
 
 
-def measure(n: int, steps: int, warmup: int, device: str) -> dict:
+def grain_pack(n: int, seed: int = 0) -> tuple[Scene, float]:
+    """About n sphero-disk grains of mean radius R_OUT (± 15 %) on ``add_grains``' lattice in a box
+    under gravity, floor and side walls, as ``pack``; returns (scene, the probe's dt)."""
+    pitch = 2.0 * R_OUT * 1.15 * 1.02  # grains.GAP: the lattice of the largest grains
+    side = math.sqrt(n)
+    width, tall = side * pitch, side * pitch * math.sqrt(3.0) / 2.0
+    scene = Scene(domain=((0.0, 0.0), (width, 2.0 * tall)), gravity=(0.0, -G),
+                  contact=ContactLaw(KN, restitution=math.exp(-0.3 * math.pi / math.sqrt(1.0 - 0.09))))
+    scene.add_walls(("left", "right", "bottom"), friction=MU, thickness=2.0)
+    scene.add_grains([(0.0, 0.0), (width, 0.0), (width, tall), (0.0, tall)], radius=R_OUT, density=RHO, friction=MU,
+                     seed=seed)
+    m = RHO * math.pi * R_OUT**2
+    return scene, 0.05 * math.sqrt(m / KN)
+
+
+def measure(n: int, steps: int, warmup: int, device: str, grains: bool = False) -> dict:
     t0 = time.perf_counter()
-    scene, dt = pack(n)
+    scene, dt = grain_pack(n) if grains else pack(n)
+    n = scene.dem_body_count - len(scene.rigid_bodies) if grains else n
     build_scene = time.perf_counter() - t0
     t0 = time.perf_counter()
     sim = Simulation(scene, SolverConfig(precision="f32", dt=dt), device=device)
@@ -87,7 +106,7 @@ def measure(n: int, steps: int, warmup: int, device: str) -> dict:
     works = sum(d1[k] - d0[k] for k in dem.WORK_TERMS)
     residual = (d1["energy_total"] - d0["energy_total"] - works) / max(abs(d0["energy_kinetic"]), 1e-30)
     return {
-        "case": "pentagon-pack", "impl": "mpmdem", "device": sim.device, "bodies": n, "steps": steps,
+        "case": "disk-grains" if grains else "pentagon-pack", "impl": "mpmdem", "device": sim.device, "bodies": n, "steps": steps,
         "seconds": seconds, "body_steps_per_s": n * steps / seconds, "simulated_seconds": t - t0_sim,
         "contacts_per_body": contacts / n, "contacts_per_s": contacts * steps / seconds,
         "listed_pairs_per_body": float(dem.C.count.numpy().sum()) / n,
@@ -115,12 +134,14 @@ def main(argv=None) -> int:
     p.add_argument("--warmup", type=int, default=200)
     p.add_argument("--probe", default=None, help="path of warp_dem2d.py: run its pentagon-pre row at each size")
     p.add_argument("--out", default=None, help="append the JSON lines to this file")
+    p.add_argument("--pack", default="pentagons", choices=("pentagons", "grains"),
+                   help="random pentagons added one by one (default) or a grain set of sphero-disks")
     args = p.parse_args(argv)
     wp.init()
     device = args.device or ("cuda" if wp.get_cuda_device_count() else "cpu")
     lines = []
     for n in (int(s) for s in args.sizes.split(",")):
-        row = measure(n, args.steps, args.warmup, device)
+        row = measure(n, args.steps, args.warmup, device, grains=args.pack == "grains")
         if args.probe:
             ref = run_probe(args.probe, n, args.steps, device)
             ref["case"] = "probe-pentagon-pre"

@@ -51,6 +51,24 @@
 # refinement and on the finest grid is 1.7 × the paper's curve: C = 1.00 ± 0.02 with k = 2.2 (paper
 # 0.58). At 5 mm, about the paper's point count, C = 0.69. Original and stress-free MPM blow up as the
 # jet lands.
+#
+# --sand dem: the same silo and container, the sand as free DEM sphero-disks (Scene.add_grains,
+# MPM-SDEM §3's spheropolygons with one core vertex) of mean radius r_p (--grain-radius, default
+# the seed's r_p = 1 mm) ±15 %, grain-grain μ = GRAIN_FRICTION, the same k_n, k_t and restitution.
+# The grains are placed on a loose lattice in the silo, settled under gravity with the orifice
+# closed by a gate plate (mpmdem.packing.settle), then moved into the open silo at t = 0: the flow
+# starts from a settled pack, as the MPM fill starts at rest. Grain density: the continuum's
+# 1500 kg/m³ over the packing fraction φ = PACKING_FRACTION of a settled pack of these grains
+# (0.82, measured by tests/test_grains.py, inside Berryman's 2D 0.82 ± 0.02), so that the pack's
+# bulk density is the continuum's. M(t) is the same mass probe (it counts free bodies by their
+# centroid), and W the same fit; its Beverloo reference uses r_p = the grain radius. (A flowing
+# pack dilates a little: its density near the orifice is below the settled 1500 kg/m³.)
+#
+# What --sand dem gives on a CPU (2 cores, f32): --quick (0.2 m wide, 15 cm fill, D0 = 4 cm, 8568
+# grains, 0.6 s: 86 s) W = 44.6 kg/(m s), steady (halves 44.9 and 44.2), 2.2 × the paper's curve
+# (C = 1.28 with k = 2.2 r_p); a 4 cm silo with D0 = 6 grain diameters 1.9-2.1 × (pentagons 1.9 ×);
+# D0 = 2 diameters jams within 0.05 s (tests/test_silo_dem.py). The grains flow faster than the
+# law, as the MPM sand does under refinement (C = 1.0): disks roll freely (no rolling resistance).
 """Silo discharge (MPM-SDEM §5.3): sand drains through an orifice into a container; rate vs 2D Beverloo."""
 
 import math
@@ -58,7 +76,7 @@ import sys
 
 import numpy as np
 
-from mpmdem import ContactLaw, InputError, MuI, Scene, rectangle, rounded_rectangle
+from mpmdem import ContactLaw, InputError, MuI, Scene, SolverConfig, rectangle, rounded_rectangle
 from mpmdem.cases._table3 import (
     CRITICAL_DENSITY_RATIO,
     DENSITY,
@@ -74,7 +92,7 @@ from mpmdem.cases._table3 import (
     YOUNGS,
     sand,
 )
-from mpmdem.flag_types import given, positive
+from mpmdem.flag_types import count_at_least, given, positive
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
@@ -135,6 +153,13 @@ METHODS = {
     "obstacle-slip": ("granular", None, "obstacle-slip"),
     "obstacle-fixed": ("granular", None, "obstacle-fixed"),
 }
+SANDS = ("mpm", "dem")
+#: --sand dem: grain-grain Coulomb μ (a sand's; a pair with a plate takes the plates' Table 3 μ = 0.2)
+GRAIN_FRICTION = 0.5
+#: solid fraction of a settled pack of these grains (tests/test_grains.py; Berryman 1983: 0.82 ± 0.02)
+PACKING_FRACTION = 0.82
+#: the lattice the grains start on is loose (φ ≈ 0.6): it is this much taller than the fill it settles to
+LATTICE_HEIGHT = 1.4
 MPM_VARIANTS = {"granular": {"granular": True, "density_control": "revert"},
                 "stress-free": {"granular": False, "density_control": "none"},
                 "original": {"granular": False, "density_control": "none"}}
@@ -174,6 +199,16 @@ def add_arguments(parser):
     parser.add_argument("--walls", default=None, choices=WALL_MODES,
                         help="silo and container as fixed spheropolygons (sdem, the paper's) or as grid obstacles "
                              "(obstacle-slip: rollers, obstacle-fixed: no slip; no DEM stage at all)")
+    parser.add_argument("--sand", default="mpm", choices=SANDS,
+                        help="the sand as Granular MPM points (mpm, the default) or as free DEM grains (dem)")
+    parser.add_argument("--grain-radius", type=positive("m"), default=R_P_TABLE,
+                        help=f"--sand dem: mean grain radius r_p [m] (default the seed's r_p = {R_P_TABLE})")
+    parser.add_argument("--grain-shape", default="disk", choices=("disk", "polygon"),
+                        help="--sand dem: sphero-disks (default) or rounded random pentagons")
+    parser.add_argument("--seed", type=count_at_least(0), default=1, help="--sand dem: seed of the grains' sizes and places")
+    parser.add_argument("--settle-max", type=positive("s"), default=None,
+                        help="--sand dem: the longest the grains settle behind the gate [s] (default 8 free falls "
+                             "through the lattice they start on; they stop earlier once at rest)")
 
 
 def coarse(args) -> bool:
@@ -192,8 +227,10 @@ def geometry(args) -> dict:
     small = coarse(args)
     h = given(args.cell_size, QUICK["cell_size"] if small else GRID_TABLE)
     fill = given(args.fill_height, QUICK["fill_height"] if small else FILL)
-    for name, v, lo, hi in (("--cell-size", h, 1e-3, 0.02), ("--width", args.width, 0.02, 1.0),
-                            ("--fill-height", fill, 0.01, 2.0), ("--drop", args.drop, 0.05, 2.0),
+    # (grains need no grid: a DEM silo of 10⁶ grains of 1 mm is 2 m wide)
+    big = 4.0 if getattr(args, "sand", "mpm") == "dem" else 1.0
+    for name, v, lo, hi in (("--cell-size", h, 1e-3, 0.02), ("--width", args.width, 0.02, big),
+                            ("--fill-height", fill, 0.01, 2.0 * big), ("--drop", args.drop, 0.05, 2.0),
                             ("--orifice", args.orifice, 1e-3, 1.0)):
         if not (math.isfinite(v) and lo <= v <= hi):
             raise InputError(name, v, f"a length in [{lo}, {hi}] m")
@@ -204,7 +241,7 @@ def geometry(args) -> dict:
     if not (math.isfinite(args.critical_density_ratio) and 0.5 <= args.critical_density_ratio <= 1.0):
         raise InputError("--critical-density-ratio", args.critical_density_ratio, "a ratio ρ_cr / ρ0 in [0.5, 1]")
     rp = h * (POINTS_PER_CELL**2) ** -0.25  # eq. 45's geometric middle h n^(-1/4)
-    if args.orifice <= 2.0 * rp:
+    if args.orifice <= 2.0 * rp and getattr(args, "sand", "mpm") == "mpm":
         raise InputError("--orifice", args.orifice, f"an orifice wider than two contact radii 2 r_p = {2 * rp:.4g} m "
                          "(a finer --cell-size lets a smaller orifice pass)")
     container = max(CONTAINER, args.width + 2.0 * WALL)
@@ -219,8 +256,16 @@ def geometry(args) -> dict:
     x_len = h * math.ceil((container + 2.0 * WALL) / h - 1e-9)
     y_len = h * math.ceil((top + WALL) / h - 1e-9)
     xc = 0.5 * x_len
-    return dict(h=h, rp=rp, fill=fill, floor=floor, xc=xc, x_len=x_len, y_len=y_len, container=container,
-                width=args.width, orifice=args.orifice)
+    g = dict(h=h, rp=rp, fill=fill, floor=floor, xc=xc, x_len=x_len, y_len=y_len, container=container,
+             width=args.width, orifice=args.orifice, wall_top=fill + HEADROOM)
+    if getattr(args, "sand", "mpm") == "dem":
+        r = args.grain_radius
+        if not (math.isfinite(r) and 1e-5 <= r <= 0.25 * args.orifice):
+            raise InputError("--grain-radius", r, f"a grain radius in [1e-05, D0/4 = {0.25 * args.orifice:.4g}] m")
+        # the walls reach above the loose lattice the grains start on (no grid: the domain is the box)
+        top = floor + LATTICE_HEIGHT * fill + HEADROOM
+        g.update(rp=r, wall_top=LATTICE_HEIGHT * fill + HEADROOM, y_len=max(y_len, top + 2.0 * WALL))
+    return g
 
 
 def beverloo(orifice, c=BEVERLOO_C, k=BEVERLOO_K, r_p=R_P_TABLE, density=DENSITY, gravity=GRAVITY):
@@ -232,7 +277,7 @@ def _solids(g: dict):
     """(name, width, height, centre) of every wall plate [m]: silo walls, silo floor plates either
     side of the orifice, container floor and walls."""
     xc, w, d0, f = g["xc"], g["width"], g["orifice"], g["floor"]
-    wall_h = g["fill"] + HEADROOM + WALL
+    wall_h = g["wall_top"] + WALL
     plate = 0.5 * (w - d0) + WALL  # from the wall's outer face to the orifice's edge
     c = g["container"]
     return [
@@ -277,8 +322,68 @@ def walls(args) -> str:
     return args.walls or METHODS[args.method][2]
 
 
+def _dem_scene(g: dict, args, gate: bool) -> Scene:
+    """The silo and container as fixed plates for grains (no grid); ``gate``: a plate closes the orifice."""
+    contact = ContactLaw(args.normal_stiffness, args.normal_stiffness * KT / KN, restitution=RESTITUTION)
+    scene = Scene(domain=((0.0, -WALL), (g["x_len"], g["y_len"] - WALL)), gravity=(0.0, -GRAVITY), contact=contact)
+    solids = _solids(g)
+    if gate:
+        solids.append(("gate", g["orifice"] + 2.0 * WALL, WALL, (g["xc"], g["floor"] - 0.5 * WALL)))
+    for name, w, hh, (cx, cy) in solids:
+        scene.add_rigid_body(rounded_rectangle(w, hh, SPHERO_RADIUS), density=DENSITY, position=(cx, cy),
+                             motion="fixed", friction=MU_TABLE, name=name)
+    return scene
+
+
+def grain_density() -> float:
+    """ρ_s [kg/m³] of the grains: the continuum's bulk density over a settled pack's φ."""
+    return DENSITY / PACKING_FRACTION
+
+
+def build_dem(args, g: dict) -> CaseSetup:
+    """--sand dem: grains settled behind a gate, then moved into the open silo (see the header)."""
+    from mpmdem.packing import settle
+    from mpmdem.simulation import default_device
+
+    xc, w, f = g["xc"], g["width"], g["floor"]
+    region = [(xc - 0.5 * w, f), (xc + 0.5 * w, f), (xc + 0.5 * w, f + LATTICE_HEIGHT * g["fill"]),
+              (xc - 0.5 * w, f + LATTICE_HEIGHT * g["fill"])]
+    closed = _dem_scene(g, args, gate=True)
+    closed.add_grains(region, radius=args.grain_radius, shape=args.grain_shape, density=grain_density(),
+                      friction=GRAIN_FRICTION, seed=args.seed, name="sand")
+    device = args.device or default_device()
+    precision = getattr(args, "precision", None) or DEFAULTS_DEM["precision"]
+    # at rest after a free fall through the lattice's height at the least, 8 of them at the most
+    fall = math.sqrt(2.0 * LATTICE_HEIGHT * g["fill"] / GRAVITY)
+    longest = given(args.settle_max, 8.0 * fall)
+    if not (math.isfinite(longest) and longest > 0.0):
+        raise InputError("--settle-max", args.settle_max, "a settling time > 0 [s]")
+    packing = settle(closed, SolverConfig(precision=precision), device=device, min_time=min(fall, longest),
+                     max_time=longest)
+    scene = _dem_scene(g, args, gate=False)
+    scene.add_grain_set(packing.grains[0])
+    inf = math.inf
+    scene.add_mass_probe("discharged", hi=(inf, g["floor"]))
+    scene.add_mass_probe("silo", lo=(g["xc"] - 0.5 * g["width"], g["floor"]), hi=(g["xc"] + 0.5 * g["width"], inf))
+    small = coarse(args)
+    end = QUICK["end"] if small else END
+    if not getattr(args, "quiet", False):
+        print(f"silo-discharge: {len(packing.grains[0])} grains settled in {packing.time:.3g} s (packing fraction "
+              f"{packing.packing_fraction:.3f}, bulk density {packing.bulk_density:.0f} kg/m^3)", file=sys.stderr)
+    # (for the summary: the case's functions share only the flags)
+    args.settled = {"time": packing.time, "rms_speed": packing.rms_speed, "packing_fraction": packing.packing_fraction,
+                    "bulk_density": packing.bulk_density, "coordination": packing.coordination}
+    return CaseSetup(scene, end_time=end, frames=round(end / 0.02), config=dict(DEFAULTS_DEM))
+
+
+#: --sand dem: the solver choices (no grid: the MPM defaults of DEFAULTS do not apply)
+DEFAULTS_DEM = {"precision": "f32"}
+
+
 def build(args) -> CaseSetup:
     g = geometry(args)
+    if getattr(args, "sand", "mpm") == "dem":
+        return build_dem(args, g)
     h = g["h"]
     variant, coupling, wall_mode = METHODS[args.method]
     wall_mode = walls(args)
@@ -321,13 +426,13 @@ def build(args) -> CaseSetup:
     return CaseSetup(scene, end_time=end, frames=round(end / 0.02), config=config)
 
 
-def steady_rate(times: np.ndarray, mass: np.ndarray, fill_mass: float) -> dict:
+def steady_rate(times: np.ndarray, mass: np.ndarray, fill_mass: float, t_start: float = T_START) -> dict:
     """Slope of M(t) [kg/(m s)] by least squares over the steady window (see the header), with the
     window [s], the RMS residual relative to the mass discharged in it, and the slopes of its halves."""
     drained = np.flatnonzero(mass >= DRAINED_END * fill_mass)
     t_end = float(times[drained[0]]) if len(drained) else float(times[-1])
-    sel = (times >= T_START - 1e-9) & (times <= t_end + 1e-9)
-    out = {"window_s": [T_START, t_end], "window_frames": int(sel.sum())}
+    sel = (times >= t_start - 1e-9) & (times <= t_end + 1e-9)
+    out = {"window_s": [t_start, t_end], "window_frames": int(sel.sum())}
     if sel.sum() < 4:
         out.update(rate=None, rate_residual=None, rate_halves=None)
         return out
@@ -351,6 +456,7 @@ def summarize(sim, result, args) -> dict:
     out = {
         "orifice_m": g["orifice"], "width_m": g["width"], "fill_height_m": g["fill"], "cell_size": g["h"],
         "contact_radius": g["rp"], "walls": walls(args), "method": args.method, "points": int(sim.particle_count),
+        "sand": getattr(args, "sand", "mpm"), "grains": sum(len(s) for s in sim.scene.grains),
         "fill_mass": fill_mass, "critical_density_ratio": args.critical_density_ratio,
         "material": args.material,
         "grain_diameter_m": args.grain_diameter if args.material == "mu-i" else None,
@@ -360,13 +466,21 @@ def summarize(sim, result, args) -> dict:
         # equivalent fill level: the mass still in the silo over ρ0 × width
         "fill_level_m": (in_silo / (DENSITY * g["width"])).tolist(),
         "beverloo_paper": beverloo(g["orifice"]),
+        # the same law with the grains' r_p (--sand dem), or the paper's for points
+        "beverloo_rp": beverloo(g["orifice"], r_p=g["rp"]) if getattr(args, "sand", "mpm") == "dem" else None,
     }
-    out.update(steady_rate(times, discharged, fill_mass))
+    # (--sand dem at a quick size: a run shorter than 3 T_START starts its window at a third of it;
+    # the grains start settled, and the flow is set up in a few sqrt(D0/g) ~ 0.05 s)
+    dem = getattr(args, "sand", "mpm") == "dem"
+    t_start = min(T_START, float(times[-1]) / 3.0) if dem else T_START
+    out.update(steady_rate(times, discharged, fill_mass, t_start))
     if out["rate"] is not None:
         out["rate_over_paper"] = out["rate"] / out["beverloo_paper"] if out["beverloo_paper"] > 0 else None
+        if dem and out["beverloo_rp"]:
+            out["rate_over_beverloo_rp"] = out["rate"] / out["beverloo_rp"]
     # no point may end beyond a plate of the silo or container: the deepest penetration of a point
     # centre into a plate's core rectangle (rounded corners ignored: conservative) at the last frame
-    x = sim.fields()["x"]
+    x = sim.fields()["x"] if sim.particle_count else sim.body_fields()["x"][len(sim.scene.rigid_bodies):]
     x = x[np.isfinite(x[:, 0])]
     deepest = 0.0
     for _, w, hh, (cx, cy) in _solids(g):
@@ -377,6 +491,8 @@ def summarize(sim, result, args) -> dict:
     out["deepest_penetration_m"] = deepest
     mass = d.get("points_mass", d["mass"])
     out["mass_max_relative_change"] = float(np.abs(np.asarray(mass) / mass[0] - 1.0).max())
+    if dem and getattr(args, "settled", None):
+        out["settled"] = args.settled  # time [s], RMS speed [m/s], φ, bulk density [kg/m³], Z of the settled pack
     out["dt"] = float(d["dt"][-1])
     return out
 

@@ -37,6 +37,7 @@ __all__ = [
     "measure_bound",
     "prime_step",
     "make_diagnostics",
+    "make_body_probe_mass",
     "make_probe_mass",
     "make_speed_check",
     "make_wave_speed",
@@ -263,3 +264,26 @@ def make_probe_mass(precision: str, staged: bool = False):
                 wp.atomic_add(out, k, wp.float64(P.mass[p]))
 
     return probe_mass
+
+
+@functools.cache
+def make_body_probe_mass(precision: str):
+    """Mass [kg/m] of the free DEM bodies (grains included) whose centroid lies inside each probe
+    box lo ≤ x < hi (boxes as vec4 (x0, y0, x1, y1)) into ``out[k]``: the DEM side of a mass probe,
+    the same test on the same boxes as ``make_probe_mass``'s points. ``motion`` 0 is free."""
+    T, vec2 = scalar_types(precision)[:2]
+
+    @kernel
+    def body_probe_mass(x: wp.array(dtype=vec2), mass: wp.array(dtype=T), motion: wp.array(dtype=wp.int32),
+                        boxes: wp.array(dtype=wp.vec4d), out: wp.array(dtype=wp.float64)):
+        i = wp.tid()
+        if motion[i] != 0:
+            return
+        px = wp.float64(x[i][0])
+        py = wp.float64(x[i][1])
+        for k in range(boxes.shape[0]):
+            b = boxes[k]
+            if px >= b[0] and py >= b[1] and px < b[2] and py < b[3]:
+                wp.atomic_add(out, k, wp.float64(mass[i]))
+
+    return body_probe_mass

@@ -18,9 +18,13 @@ from .plotting import (
     BODY_COLOR,
     BODY_SNAPSHOT_FIELDS,
     FIXED_BODY_COLOR,
+    GRAIN_PIXELS,
     SNAPSHOT_FIELDS,
     _allowed_fields,
     _bodies_of_frame,
+    _grains_of_frame,
+    grain_image,
+    split_grains,
 )
 
 __all__ = ["FORMATS", "animate_run", "parse_frames"]
@@ -80,6 +84,7 @@ def _output(path: Path, out: str | os.PathLike | None, field: str) -> tuple[Path
 
 def _extent(rf: RunFile, frames: list[int], field: str, geometry: dict | None) -> tuple[np.ndarray, ...]:
     """Axis limits (lo, hi) [m] over the chosen frames, and the field's (min, max) there (NaN: none)."""
+    geometry, rows, grain_radius = split_grains(geometry)
     lo, hi = np.full(2, np.inf), np.full(2, -np.inf)
     vmin, vmax = np.inf, -np.inf
     has_points = rf.particle_count > 0 and "x" in rf.fields
@@ -92,11 +97,19 @@ def _extent(rf: RunFile, frames: list[int], field: str, geometry: dict | None) -
                 lo, hi = np.minimum(lo, x.min(axis=0)), np.maximum(hi, x.max(axis=0))
             if field in SNAPSHOT_FIELDS:
                 values.append(SNAPSHOT_FIELDS[field][0](rf, k))
-        bodies = _bodies_of_frame(rf, k, geometry, field) if geometry is not None else None
+        bodies = _bodies_of_frame(rf, k, geometry, field, rows) if geometry is not None else None
         if bodies is not None and bodies.lo is not None:
             lo, hi = np.minimum(lo, bodies.lo), np.maximum(hi, bodies.hi)
             if bodies.values is not None:
                 values.append(bodies.values[~bodies.fixed])
+        if grain_radius is not None:
+            x, v = _grains_of_frame(rf, k, rows, field)
+            ok = np.isfinite(x).all(axis=1)
+            if ok.any():
+                lo = np.minimum(lo, (x[ok] - grain_radius[ok, None]).min(axis=0))
+                hi = np.maximum(hi, (x[ok] + grain_radius[ok, None]).max(axis=0))
+            if v is not None:
+                values.append(v)
         finite = np.concatenate([np.ravel(v) for v in values] or [np.zeros(0)])
         finite = finite[np.isfinite(finite)]
         if finite.size:
@@ -119,7 +132,8 @@ def animate_run(
     """Write an animation of a run: one picture per chosen frame.
 
     The points are drawn as squares of their own size, coloured by ``field``; the bodies as filled
-    outlines (fixed ones grey, the others coloured by ``field`` when it is a body quantity); one
+    outlines (fixed ones grey, the others coloured by ``field`` when it is a body quantity), grains
+    as disks of their radius (one ``EllipseCollection``: a million grains are one artist); one
     colour scale over the whole animation; the simulated time in the title.
 
     Args:
@@ -165,12 +179,13 @@ def _render(rf: RunFile, chosen: list[int], field: str, fps: float, dpi: int, ta
     import matplotlib
     import matplotlib.pyplot as plt
     from matplotlib import animation
-    from matplotlib.collections import PatchCollection
-    from matplotlib.colors import Normalize
+    from matplotlib.collections import EllipseCollection, PatchCollection
+    from matplotlib.colors import ListedColormap, Normalize
     from matplotlib.patches import PathPatch
 
     geometry = rf.body_geometry() if rf.body_count else None
     lo, hi, (vmin, vmax) = _extent(rf, chosen, field, geometry)
+    outlined, rows, grain_radius = split_grains(geometry)
     norm = Normalize(vmin, vmax) if np.isfinite(vmin) else None
     # Fixed bodies and non-finite values take the colour of fixed bodies.
     cmap = matplotlib.colormaps["tab10" if field == "body" else "viridis"].with_extremes(bad=FIXED_BODY_COLOR)
@@ -191,6 +206,21 @@ def _render(rf: RunFile, chosen: list[int], field: str, fps: float, dpi: int, ta
     p0, p1 = ax.transData.transform([(0.0, 0.0), (1.0, 0.0)])
     points_per_m = abs(p1[0] - p0[0]) * 72.0 / fig.dpi
     drawn: list = []
+    grains = pixels = None
+    if grain_radius is not None:
+        box = ax.get_window_extent()
+        shape = (max(1, round(box.width)), max(1, round(box.height)))  # the axes in pixels
+        if 2.0 * float(np.mean(grain_radius)) * points_per_m * fig.dpi / 72.0 >= GRAIN_PIXELS:
+            d = 2.0 * grain_radius  # disks in data units: they scale with the axes
+            grains = EllipseCollection(d, d, np.zeros(len(d)), units="xy", offsets=np.zeros((len(d), 2)),
+                                       offset_transform=ax.transData, cmap=cmap, norm=norm, linewidths=0,
+                                       zorder=1.5)
+            ax.add_collection(grains)
+        else:  # grains below a pixel or two (10⁶ of them): an image of the pixels' mean value
+            pixels = ax.imshow(np.ma.masked_all(shape[::-1]), origin="lower", extent=(lo[0], hi[0], lo[1], hi[1]),
+                               cmap=cmap if norm is not None else ListedColormap([BODY_COLOR]),
+                               norm=norm if norm is not None else Normalize(0.0, 1.0), interpolation="nearest",
+                               aspect="auto", zorder=1.5)
 
     def draw(k: int) -> list:
         for artist in drawn:
@@ -209,7 +239,18 @@ def _render(rf: RunFile, chosen: list[int], field: str, fps: float, dpi: int, ta
             else:
                 points.set_array(None)
                 points.set_facecolor("tab:blue")
-        bodies = _bodies_of_frame(rf, k, geometry, field) if geometry is not None else None
+        if grains is not None:
+            x, v = _grains_of_frame(rf, k, rows, field)
+            grains.set_offsets(np.where(np.isfinite(x), x, np.nan))
+            if v is not None and norm is not None:
+                grains.set_array(np.ma.masked_invalid(v))
+            else:
+                grains.set_array(None)
+                grains.set_facecolor(BODY_COLOR)
+        if pixels is not None:
+            x, v = _grains_of_frame(rf, k, rows, field)
+            pixels.set_data(grain_image(x, v if norm is not None else None, lo, hi, shape))
+        bodies = _bodies_of_frame(rf, k, outlined, field, rows) if outlined is not None else None
         if bodies is not None and bodies.paths:
             patches = PatchCollection([PathPatch(p) for p in bodies.paths], edgecolor="k", linewidths=0.5,
                                       zorder=1, cmap=cmap, norm=norm)
@@ -220,7 +261,7 @@ def _render(rf: RunFile, chosen: list[int], field: str, fps: float, dpi: int, ta
             ax.add_collection(patches)
             drawn.append(patches)
         ax.set_title(f"{rf.path.name}: {field}, t = {times[k]:.4g} s (frame {k})")
-        return [points, *drawn]
+        return [points, *drawn, *(a for a in (grains, pixels) if a is not None)]
 
     anim = animation.FuncAnimation(fig, draw, frames=chosen, blit=False, repeat=False)
     writer = animation.writers[writer_name](fps=fps)

@@ -165,8 +165,11 @@ class CoupledStage(ClockedStage):
         self.L = L
 
         mats = scene.materials()
-        bodies = [scene.rigid_bodies[i] for i in dem.order]
-        mu = np.array([[scene.coupling_friction.get((m, b.name), b.friction) for b in bodies] for m in mats], T)
+        rigid = len(scene.rigid_bodies)
+        names = [scene.rigid_bodies[i].name if i < rigid else None for i in dem.order.tolist()]
+        own = dem.arrays.friction[dem.order].tolist()  # (grains: their set's μ; no per-grain override)
+        mu = np.array([[scene.coupling_friction.get((m, name), f) for name, f in zip(names, own, strict=True)]
+                       for m in mats], T)
         vols = mpm.P.vol.numpy()
         per_cell = h * h / float(vols.min())
         self.skin = float(cfg.imp_skin) if cfg.imp_skin is not None else 0.5 * h
@@ -217,11 +220,11 @@ class CoupledStage(ClockedStage):
             n = max(2, int(np.ceil(np.linalg.norm(b - a) / (0.5 * h))))
             return a + np.outer(np.arange(1, n) / n, b - a)  # interior points of edge a→b
 
+        cols = dem.arrays
         for j, i in enumerate(dem.order):
-            shape = self.scene.rigid_bodies[i].shape
-            v = np.asarray(shape.vertices, float)
+            v = cols.local[cols.starts[i]:cols.starts[i] + cols.counts[i]]
             if len(v) == 1:
-                a = 0.5 * shape.radius
+                a = 0.5 * cols.radius[i]
                 pts = np.vstack([v, v + [[a, 0.0], [0.0, a], [-a, 0.0], [0.0, -a]]])
             elif len(v) == 2:
                 pts = np.vstack([v, along(v[0], v[1])])
@@ -420,6 +423,9 @@ class CoupledStage(ClockedStage):
         out["imp_rebuilds"] = float(self.rebuilds.numpy()[0])
         out["imp_pairs"] = imp["imp_pairs"]
         out["imp_contacts"] = imp["imp_contacts"]
+        for name in d:  # mass probes: the points' mass and the free bodies' (grains included)
+            if name.startswith("mass_"):
+                out[name] = m[name] + d[name]
         return out
 
     def state_arrays(self) -> dict[str, wp.array]:

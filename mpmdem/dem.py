@@ -24,12 +24,14 @@ from .bodies import ContactLaw
 from .checks import check_time_step, eq51_step
 from .config import SolverConfig
 from .errors import BlowUpError, InputError
+from .host_memory import available_host_memory
 from .kernels import clock as clock_kernels
 from .kernels import dem as dem_kernels
 from .kernels import dem_lists, dem_split
+from .kernels import reductions as reduction_kernels
 from .kernels.scan import pack_launch
 from .launch_plan import IfFlag, Launch, run_plan
-from .rigid_arrays import RigidArrays, rigid_arrays
+from .rigid_arrays import RigidArrays
 from .scene import Scene
 from .stage import Clock, ClockedStage
 
@@ -66,15 +68,51 @@ def dem_time_step_bound(scene: Scene, arrays: RigidArrays | None = None) -> floa
     the rotational effective mass m* (``effective_mass``) stands in for m_min (for disks m* = m);
     and the explicit dashpot, acting on the lagged velocity, is stable only for
     ω dt < 2 (sqrt(1 + ζ²) − ζ) (a damped pentagon pile gained energy at eq. 51's step).
-    ``arrays``: ``rigid_arrays(scene.rigid_bodies)`` when the caller has them.
+    ``arrays``: ``scene.body_arrays()`` when the caller has them.
     """
-    b = rigid_arrays(scene.rigid_bodies) if arrays is None else arrays
+    b = scene.body_arrays() if arrays is None else arrays
     masses = effective_mass(b.mass, b.inertia, b.core_radius)[b.free]
     if not len(masses):
         if scene.has_mpm:  # fixed or driven bodies under material points: no DEM bound
             return math.inf
-        raise InputError("rigid_bodies", [b.name for b in scene.rigid_bodies], "at least one free rigid body")
+        raise InputError("rigid_bodies", [b.name for b in scene.rigid_bodies], "at least one free rigid body or grain")
     return spring_time_step_bound(scene.contact, float(masses.min()))
+
+
+def motion_ids(arrays: RigidArrays) -> np.ndarray:
+    """(n,) int32 motion codes of the bodies (kernels.dem FREE, FIXED, KINEMATIC)."""
+    return np.where(arrays.free, dem_kernels.FREE,
+                    np.where(arrays.fixed, dem_kernels.FIXED, dem_kernels.KINEMATIC)).astype(np.int32)
+
+
+def device_bytes_per_body(slots: int, vertices_per_body: float, precision: str) -> float:
+    """Device memory one DEM body takes [B]: its ~24 per-body scalars and vectors, its core
+    vertices (body frame and world, owner), its ``slots`` Verlet slots (neighbour, history keys and
+    slips, energy, dissipated work, old copies: ~60 B + 9 scalars each), its broad-phase cell share
+    and the split search's records (16 candidates, 4 pairs of 8 hits: bounded by 2 kB)."""
+    s = 4 if precision == "f32" else 8
+    per_body = 24 * s + 64
+    per_vertex = 4 * s + 4
+    per_slot = 60 + 9 * s
+    return per_body + vertices_per_body * per_vertex + slots * per_slot + 2048
+
+
+def check_device_memory(device, bodies: int, vertices: int, slots: int, precision: str) -> None:
+    """InputError before any allocation when ``bodies`` DEM bodies (``vertices`` core vertices in
+    all, ``slots`` list slots each) would not fit the device: 80 % of the free memory of a CUDA
+    device, or half of the free host memory for the CPU."""
+    per = device_bytes_per_body(slots, vertices / max(bodies, 1), precision)
+    need = per * bodies
+    if device.is_cuda:
+        free = float(device.free_memory)
+        limit, where = 0.8 * free, f"80 % of the {free / 2**30:.3g} GiB free on {device.alias}"
+    else:
+        free = available_host_memory()
+        limit, where = 0.5 * free, f"half of the {free / 2**30:.3g} GiB of host memory available ({device.alias})"
+    if need > limit:
+        raise InputError("DEM bodies", bodies, f"at most {int(limit // per)} bodies (grains included) on this device: "
+                         f"about {per:.0f} B each ({slots} list slots), {need / 2**30:.3g} GiB against {where}; "
+                         "take fewer or larger grains, or a larger device")
 
 
 def spring_time_step_bound(law: ContactLaw, mass: float) -> float:
@@ -137,15 +175,16 @@ class DEMSolver(ClockedStage):
         #: registers made large scenes slower with real steps (bench/README.md, "The one-kernel
         #: search uncapped")
         self.contact_kernel = self.k.contact_forces
-        #: columns of the scene's rigid bodies (scene order)
-        self.arrays = rigid_arrays(scene.rigid_bodies)
+        #: columns of the scene's rigid bodies (scene order), then its grains
+        self.arrays = scene.body_arrays()
         self.dt_bound = dem_time_step_bound(scene, self.arrays)
         check_time_step(config, self.dt_bound, f"2 sqrt(m*/k_n) (sqrt(1+ζ²)−ζ) = {self.dt_bound:.6g} s of these "
                         f"bodies ({eq51_step(config, self.dt_bound)})")
-        self.body_count = len(scene.rigid_bodies)
+        self.body_count = len(self.arrays)
         #: (body, body, depth [m]) of the pairs let start overlapping (Scene(allow_initial_overlap=True))
         self.initial_overlaps = scene.initial_overlaps() if initial_overlaps is None else list(initial_overlaps)
         self._layout()
+        check_device_memory(self.device, self.body_count, self.vertex_total, self.slots, config.precision)
         if clock is None:
             clock = Clock(self.device)
             self.start_clock(clock)
@@ -163,8 +202,7 @@ class DEMSolver(ClockedStage):
     # -- set-up -------------------------------------------------------------------------------
     def _layout(self) -> None:
         """Device order of the bodies, the large/small split, cell size, list sizes."""
-        bodies = self.scene.rigid_bodies
-        motion = np.array([_MOTION_IDS[b.motion] for b in bodies], np.int32)
+        motion = motion_ids(self.arrays)
         pos = self.arrays.position
         bound = self.arrays.bounding_radius
         ref = bound[motion == dem_kernels.FREE]
@@ -173,7 +211,7 @@ class DEMSolver(ClockedStage):
         median = float(np.median(ref))
         big = np.flatnonzero(bound > LARGE_FACTOR * median)
         big = big[np.argsort(-bound[big])][:MAX_LARGE]
-        is_large = np.zeros(len(bodies), bool)
+        is_large = np.zeros(len(motion), bool)
         is_large[big] = True
         small_bound = bound[~is_large]
         r_cut = float(small_bound.max()) if len(small_bound) else median
@@ -207,12 +245,12 @@ class DEMSolver(ClockedStage):
             self.slots = 12 if ratio <= 1.5 else 24 if ratio <= 3.0 else 48
             self.slots += min(len(big), 4)
         self.large = np.flatnonzero(self.is_large).astype(np.int32)
+        self.vertex_total = int(self.arrays.counts.sum())
 
     def _allocate(self) -> None:
         k = self.k
         dev = self.device
         T = np.float32 if self.config.precision == "f32" else np.float64
-        bodies = [self.scene.rigid_bodies[i] for i in self.order]
         n = self.body_count
 
         def arr(values, dtype, shape=None):
@@ -222,6 +260,7 @@ class DEMSolver(ClockedStage):
         cols = self.arrays.take(self.order)
         mass, inertia = cols.mass, cols.inertia
         free = self.motion == dem_kernels.FREE
+        kinematic = self.motion == dem_kernels.KINEMATIC
         counts = cols.counts.astype(np.int32)
         starts = cols.starts.astype(np.int32)
         local = cols.local.astype(T)
@@ -233,8 +272,8 @@ class DEMSolver(ClockedStage):
         B = k.Bodies()
         B.x = arr(cols.position, None, (n, 2))
         B.angle = arr(cols.angle, None)
-        B.v = arr([b.velocity if b.motion == "free" else (0.0, 0.0) for b in bodies], None, (n, 2))
-        B.omega = arr([b.angular_velocity if b.motion == "free" else 0.0 for b in bodies], None)
+        B.v = arr(np.where(free[:, None], cols.velocity, 0.0), None, (n, 2))
+        B.omega = arr(np.where(free, cols.angular_velocity, 0.0), None)
         B.force = arr(np.zeros((n, 2)), None)
         B.torque = arr(np.zeros(n), None)
         B.mass = arr(mass, None)
@@ -243,15 +282,15 @@ class DEMSolver(ClockedStage):
         B.inv_inertia = arr(np.where(free, 1.0 / inertia, 0.0), None)
         B.radius = arr(cols.radius, None)
         B.core_radius = arr(cols.core_radius, None)
-        B.friction = arr([b.friction for b in bodies], None)
+        B.friction = arr(cols.friction, None)
         B.motion = arr(self.motion, np.int32)
         B.vstart = arr(starts, np.int32)
         B.vcount = arr(counts, np.int32)
         B.x_ref = arr(cols.position, None, (n, 2))
         B.angle_ref = arr(cols.angle, None)
-        B.kin_v = arr([b.velocity if b.motion == "kinematic" else (0.0, 0.0) for b in bodies], None, (n, 2))
-        B.kin_omega = arr([b.angular_velocity if b.motion == "kinematic" else 0.0 for b in bodies], None)
-        window = np.array([b.active for b in bodies], np.float64).reshape(n, 2)
+        B.kin_v = arr(np.where(kinematic[:, None], cols.velocity, 0.0), None, (n, 2))
+        B.kin_omega = arr(np.where(kinematic, cols.angular_velocity, 0.0), None)
+        window = np.array(cols.active, np.float64).reshape(n, 2)
         window[:, 1] = np.minimum(window[:, 1], 1e300)
         B.kin_window = wp.array(window, dtype=wp.vec2d, device=dev)
         B.work = wp.zeros(n, dtype=wp.float64, device=dev)
@@ -500,7 +539,25 @@ class DEMSolver(ClockedStage):
         out["list_rebuilds"] = float(self.rebuilds.numpy()[0])
         out["listed_pairs"] = float(self.C.count.numpy().sum())
         out["history_overflows"] = float(self.status.numpy()[dem_kernels.STATUS_HISTORY_OVERFLOW])
+        out.update(self.probe_masses())
         return out
+
+    def probe_masses(self) -> dict[str, float]:
+        """``mass_<probe>`` [kg/m]: the mass of the free bodies and grains whose centroid lies in
+        each of the scene's mass probes, summed on the device (``kernels.reductions``)."""
+        probes = self.scene.mass_probes
+        if not probes:
+            return {}
+        if not hasattr(self, "_probe_boxes"):
+            self._probe_boxes = wp.array(np.array([[*p.lo, *p.hi] for p in probes], np.float64).reshape(-1, 4),
+                                         dtype=wp.vec4d, device=self.device)
+            self._probe_mass = wp.zeros(len(probes), dtype=wp.float64, device=self.device)
+            self._probe_kernel = reduction_kernels.make_body_probe_mass(self.config.precision)
+        self._probe_mass.zero_()
+        wp.launch(self._probe_kernel, self.body_count,
+                  inputs=[self.B.x, self.B.mass, self.B.motion, self._probe_boxes, self._probe_mass],
+                  device=self.device)
+        return {f"mass_{p.name}": float(m) for p, m in zip(probes, self._probe_mass.numpy(), strict=True)}
 
     #: Diagnostics that are works done on the system (for the energy balance).
     WORK_TERMS = ("work_contact_damping", "work_contact_friction", "work_driven")
@@ -521,16 +578,30 @@ class DEMSolver(ClockedStage):
         inv = np.empty_like(self.order)
         inv[self.order] = np.arange(len(self.order))
         bodies = self.scene.rigid_bodies
+        grains = self.scene.grains
         counts = np.array([len(b.shape.vertices) for b in bodies], np.int32)
-        return {
+        vertices = [b.shape.vertices for b in bodies] or [np.zeros((0, 2))]
+        radius = [np.array([b.shape.radius for b in bodies])]
+        motion = [np.array([_MOTION_IDS[b.motion] for b in bodies], np.int32)]
+        mass = [np.array([b.mass for b in bodies])]
+        for g in grains:  # grains last, as arrays (``grain`` marks them for the writers and plots)
+            counts = np.concatenate([counts, np.full(len(g), g.local.shape[1], np.int32)])
+            vertices.append(g.local.reshape(-1, 2))
+            radius.append(g.radius)
+            motion.append(np.full(len(g), dem_kernels.FREE, np.int32))
+            mass.append(g.mass)
+        out = {
             "vertex_start": np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int32),
             "vertex_count": counts,
-            "vertices": np.concatenate([b.shape.vertices for b in bodies]).astype(float),
-            "radius": np.array([b.shape.radius for b in bodies]),
-            "motion": np.array([_MOTION_IDS[b.motion] for b in bodies], np.int32),
-            "mass": np.array([b.mass for b in bodies]),
-            "name": [b.name for b in bodies],
+            "vertices": np.concatenate(vertices).astype(float),
+            "radius": np.concatenate(radius),
+            "motion": np.concatenate(motion).astype(np.int32),
+            "mass": np.concatenate(mass),
+            "name": self.scene.body_names(),
         }
+        if grains:
+            out["grain"] = np.repeat([0, 1], [len(bodies), self.body_count - len(bodies)]).astype(np.int32)
+        return out
 
     # -- checkpoints ----------------------------------------------------------------------------
     def state_arrays(self) -> dict[str, wp.array]:

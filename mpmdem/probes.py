@@ -1,4 +1,5 @@
-"""Mass probes: boxes whose material-point mass is summed on the device at every output frame."""
+"""Mass probes: boxes whose mass (material points, free DEM bodies and grains) is summed on the
+device at every output frame."""
 
 from __future__ import annotations
 
@@ -12,8 +13,10 @@ __all__ = ["MassProbe", "make_mass_probe"]
 
 @dataclass(frozen=True)
 class MassProbe:
-    """An axis-aligned box [m] whose material-point mass [kg/m] is summed on the device at every
-    output frame (Scene.add_mass_probe): diagnostics ``mass_<name>``."""
+    """An axis-aligned box [m] whose mass [kg/m] is summed on the device at every output frame
+    (Scene.add_mass_probe): diagnostics ``mass_<name>``. It counts the material points inside it
+    (``kernels.reductions.make_probe_mass``) and the free DEM bodies and grains whose centroid lies
+    inside it (``make_body_probe_mass``), the same test lo ≤ x < hi for both."""
 
     name: str
     lo: tuple[float, float]

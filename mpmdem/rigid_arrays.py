@@ -9,6 +9,7 @@ expression, the same floats as ``RigidBody.world_vertices`` (``spheropolygons.pl
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from functools import cached_property
@@ -19,7 +20,7 @@ import shapely
 from .bodies import RigidBody
 from .spheropolygons import placed
 
-__all__ = ["RigidArrays", "ragged_rows", "rigid_arrays"]
+__all__ = ["RigidArrays", "ragged_rows", "rigid_arrays", "stacked"]
 
 
 def ragged_rows(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
@@ -48,6 +49,11 @@ class RigidArrays:
         starts: (n,) row of each body's first vertex in ``local`` and ``world``.
         local: (V, 2) core vertices in the body frames [m].
         world: (V, 2) core vertices at the initial position and angle [m].
+        velocity: (n, 2) initial (free) or prescribed (kinematic) velocities [m/s].
+        angular_velocity: (n,) initial or prescribed angular velocities [rad/s].
+        friction: (n,) Coulomb coefficients μ.
+        active: (n, 2) (t_start, t_end) [s] of the kinematic bodies' motion.
+        grain: (n,) whether the body is a grain of a grain set (``Scene.add_grains``).
     """
 
     position: np.ndarray
@@ -64,6 +70,11 @@ class RigidArrays:
     starts: np.ndarray
     local: np.ndarray
     world: np.ndarray
+    velocity: np.ndarray
+    angular_velocity: np.ndarray
+    friction: np.ndarray
+    active: np.ndarray
+    grain: np.ndarray
 
     def __len__(self) -> int:
         return len(self.counts)
@@ -88,7 +99,9 @@ class RigidArrays:
             core_radius=self.core_radius[index], bounding_radius=self.bounding_radius[index],
             density=self.density[index], area=self.area[index], second_moment=self.second_moment[index],
             free=self.free[index], fixed=self.fixed[index], counts=counts, starts=np.cumsum(counts) - counts,
-            local=self.local[rows], world=self.world[rows])
+            local=self.local[rows], world=self.world[rows], velocity=self.velocity[index],
+            angular_velocity=self.angular_velocity[index], friction=self.friction[index], active=self.active[index],
+            grain=self.grain[index])
 
     def world_vertices(self, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(core vertices [m] of bodies ``index``, one body after the other; for each vertex, its
@@ -139,4 +152,19 @@ def rigid_arrays(bodies: list[RigidBody]) -> RigidArrays:
         bounding_radius=per_shape([s.bounding_radius for s in shapes]),
         density=np.array([b.density for b in bodies], dtype=np.float64),
         area=per_shape([s.area for s in shapes]), second_moment=per_shape([s.second_moment for s in shapes]),
-        free=motion == "free", fixed=motion == "fixed", counts=counts, starts=starts, local=local, world=world)
+        free=motion == "free", fixed=motion == "fixed", counts=counts, starts=starts, local=local, world=world,
+        velocity=np.array([b.velocity for b in bodies], dtype=np.float64).reshape(-1, 2),
+        angular_velocity=np.array([b.angular_velocity for b in bodies], dtype=np.float64),
+        friction=np.array([b.friction for b in bodies], dtype=np.float64),
+        active=np.array([b.active for b in bodies], dtype=np.float64).reshape(-1, 2),
+        grain=np.zeros(len(bodies), dtype=bool))
+
+
+def stacked(parts: list[RigidArrays]) -> RigidArrays:
+    """The columns of several sets of bodies, one set after the other (vertex rows renumbered)."""
+    if len(parts) == 1:
+        return parts[0]
+    counts = np.concatenate([p.counts for p in parts])
+    columns = {f.name: np.concatenate([getattr(p, f.name) for p in parts]) for f in dataclasses.fields(RigidArrays)
+               if f.name not in ("counts", "starts")}
+    return RigidArrays(counts=counts, starts=np.cumsum(counts) - counts, **columns)

@@ -18,10 +18,11 @@ import shapely
 from .bodies import ContactLaw, RigidBody, make_rigid_body
 from .boundaries import SIDES, Boundary, as_boundary, check_walls_on_grid_lines
 from .errors import InputError
+from .grains import GrainSet, as_region, place_grains
 from .materials import Material
 from .overlaps import depth_inside, overlap_pairs, overlap_tolerance
 from .probes import MassProbe, make_mass_probe
-from .rigid_arrays import RigidArrays, rigid_arrays
+from .rigid_arrays import RigidArrays, rigid_arrays, stacked
 from .shapes import SEEDINGS, SeededPoints, Shape, rectangle, seed_points
 from .spheropolygons import Spheropolygon, rounded_rectangle
 
@@ -99,6 +100,8 @@ class Scene:
     mass_probes: list[MassProbe] = field(default_factory=list)
     #: (material, rigid body name) → Coulomb μ of material points against that body
     coupling_friction: dict = field(default_factory=dict)
+    #: free grains (``add_grains``): DEM bodies after ``rigid_bodies``, kept as arrays
+    grains: list[GrainSet] = field(default_factory=list)
 
     def __post_init__(self):
         try:
@@ -318,9 +321,127 @@ class Scene:
         self.obstacles.append(obstacle)
         return obstacle
 
+    def add_grains(
+        self,
+        region,
+        *,
+        radius: float,
+        shape: Literal["disk", "polygon"] = "disk",
+        density: float,
+        friction: float = 0.5,
+        seed: int = 0,
+        polydispersity: float = 0.15,
+        sides: int = 5,
+        rounding: float = 0.25,
+        velocity: tuple[float, float] = (0.0, 0.0),
+        name: str | None = None,
+    ) -> GrainSet:
+        """Fill ``region`` with free grains moved by the DEM stage (``mpmdem.grains``), kept as arrays.
+
+        Args:
+            region: a list of (x, y) vertices [m] or a shapely Polygon/MultiPolygon.
+            radius: mean equivalent radius r [m] (a disk's radius; sqrt(area/π) of a polygon).
+            shape: "disk" (sphero-disks) or "polygon" (random convex cores of ``sides`` vertices,
+                rounded by ``rounding`` × their circumradius, at random angles).
+            density: ρ [kg/m³] of the grains (mass per unit thickness ρ × area).
+            friction: Coulomb μ >= 0 (a pair uses the smaller of its two values).
+            seed: seed of the sizes, shapes and places.
+            polydispersity: radii uniform in r (1 ± polydispersity), in [0, 0.5); ±15 % keeps a
+                2D pack from crystallising.
+            velocity: initial velocity of every grain [m/s].
+
+        The grains sit on a jittered hexagonal lattice, apart (a loose pack: pour it with
+        ``mpmdem.packing.settle``). Raises InputError for a region holding no grain, one outside
+        the domain, grains that would overlap a body already in the scene (a wall, a fixed body,
+        grains of an earlier call), or more grains than this machine can build.
+        """
+        name = name or f"grains{len(self.grains)}"
+        if name in {g.name for g in self.grains}:
+            raise InputError("name", name, "a grain-set name not used by another set")
+        grains = place_grains(region, radius=radius, shape=shape, density=density, friction=friction, seed=seed,
+                              polydispersity=polydispersity, sides=sides, rounding=rounding, velocity=velocity,
+                              name=name)
+        bounds = tuple(round(v, 6) for v in as_region(region).bounds)
+        return self.add_grain_set(grains, what=f"region (bounds {bounds})")
+
+    def add_grain_set(self, grains: GrainSet, *, what: str = "grains") -> GrainSet:
+        """Add grains placed elsewhere (``add_grains`` of another scene, or a ``mpmdem.packing.settle``
+        of one: a settled pack moved into the scene it will flow in). InputError when a grain
+        reaches past the domain or overlaps a body already in the scene."""
+        if not isinstance(grains, GrainSet):
+            raise InputError("grains", grains, "a GrainSet (Scene.add_grains, mpmdem.packing.settle)")
+        if grains.name in {g.name for g in self.grains}:
+            raise InputError("name", grains.name, "a grain-set name not used by another set")
+        (x0, y0), (x1, y1) = self.domain
+        x, reach = grains.position, grains.bounding_radius
+        out = (x[:, 0] - reach < x0) | (x[:, 0] + reach > x1) | (x[:, 1] - reach < y0) | (x[:, 1] + reach > y1)
+        if out.any():
+            raise InputError(what.split(" ")[0], what, f"grains inside the domain {self.domain}: {int(out.sum())} "
+                             f"of {len(grains)} grains would reach past it")
+        self._check_grains_clear(grains)
+        self.grains.append(grains)
+        return grains
+
+    def _check_grains_clear(self, grains: GrainSet) -> None:
+        """InputError when a new grain overlaps a body already in the scene (walls, fixed, free or
+        kinematic bodies, earlier grains) by more than ``validate`` lets bodies start overlapping
+        (``overlaps.overlap_tolerance``: a settled pack rests on its walls): the depth is a + the
+        grain's sphero radius − the distance of the two cores (a polygon grain's own core)."""
+        if not (self.rigid_bodies or self.grains):
+            return
+        arrays = self.body_arrays()
+        cores = arrays.cores
+        points = shapely.points(grains.position)
+        reach = grains.bounding_radius
+        i, j = shapely.STRtree(cores).query(points, predicate="dwithin", distance=reach + arrays.radius.max())
+        if not len(i):
+            return
+        own = grains.rigid_arrays()
+        grain_cores = own.take(np.unique(i)).cores if grains.local.shape[1] > 1 else None
+        if grain_cores is None:  # disks: the core is the centre
+            distance = shapely.distance(cores[j], points[i])
+        else:
+            distance = shapely.distance(cores[j], grain_cores[np.searchsorted(np.unique(i), i)])
+        depth = arrays.radius[j] + grains.radius[i] - distance
+        hit = depth > self._overlap_tolerance(stacked([arrays, own]), j, len(arrays) + i)
+        if not hit.any():
+            return
+        bodies = np.unique(j[hit])
+        first = int(bodies[0])
+        raise InputError("region", f"{len(np.unique(i[hit]))} grains overlapping {self.body_name(first)!r}"
+                         + (f" and {len(bodies) - 1} more bodies" if len(bodies) > 1 else ""),
+                         "a region clear of the bodies already in the scene (walls, fixed bodies, earlier grains): "
+                         "grains would start inside them; draw the region inside the walls")
+
+    def body_arrays(self) -> RigidArrays:
+        """Columns of every DEM body: the rigid bodies (scene order), then each grain set's grains."""
+        parts = [rigid_arrays(self.rigid_bodies)] + [g.rigid_arrays() for g in self.grains]
+        return stacked(parts)
+
+    @property
+    def dem_body_count(self) -> int:
+        """Rigid bodies plus grains."""
+        return len(self.rigid_bodies) + sum(len(g) for g in self.grains)
+
+    def body_name(self, k: int) -> str:
+        """Name of DEM body k (``body_arrays`` order): a rigid body's name, or "<set>[i]" for grain i."""
+        if k < len(self.rigid_bodies):
+            return self.rigid_bodies[k].name
+        k -= len(self.rigid_bodies)
+        for g in self.grains:
+            if k < len(g):
+                return f"{g.name}[{k}]"
+            k -= len(g)
+        raise IndexError(k)
+
+    def body_names(self) -> list[str]:
+        """Names of every DEM body (``body_arrays`` order)."""
+        return [b.name for b in self.rigid_bodies] + [f"{g.name}[{k}]" for g in self.grains for k in range(len(g))]
+
     def add_mass_probe(self, name: str, lo=(-math.inf, -math.inf), hi=(math.inf, math.inf)) -> MassProbe:
-        """Measure the mass of the material points inside the box lo ≤ x < hi [m] at every frame
-        (``mass_<name>`` [kg/m] in the diagnostics; see ``mpmdem.probes.MassProbe``)."""
+        """Measure the mass of the material points and free DEM bodies (grains included; a body by its
+        centroid) inside the box lo ≤ x < hi [m] at every frame (``mass_<name>`` [kg/m] in the
+        diagnostics; see ``mpmdem.probes.MassProbe``)."""
         probe = make_mass_probe(name, lo, hi, [p.name for p in self.mass_probes])
         self.mass_probes.append(probe)
         return probe
@@ -401,7 +522,7 @@ class Scene:
         names the deepest pair and its overlap; ``Scene(allow_initial_overlap=True)`` lets a
         deliberately pre-stressed pack through.
         """
-        arrays = rigid_arrays(self.rigid_bodies)
+        arrays = self.body_arrays()
         overlaps = self._initial_overlaps(arrays)
         if not self.allow_initial_overlap:
             self._check_initial_overlaps(*overlaps)
@@ -410,7 +531,7 @@ class Scene:
 
     def _check_points_outside_bodies(self, arrays: RigidArrays) -> None:
         """``validate``'s check that no material point starts inside a rigid body."""
-        if not (self.bodies and self.rigid_bodies):
+        if not (self.bodies and (self.rigid_bodies or self.grains)):
             return
         seeded = [self._seed(b).positions for b in self.bodies]
         x = np.concatenate(seeded)
@@ -430,9 +551,9 @@ class Scene:
         if not inside.any():
             return
         j, i = j[inside], i[inside]
-        per_body = np.bincount(j, minlength=len(self.rigid_bodies))
+        per_body = np.bincount(j, minlength=len(arrays))
         first = int(np.flatnonzero(per_body)[0])
-        body = self.rigid_bodies[first]
+        body_name, body_position = self.body_name(first), tuple(arrays.position[first].tolist())
         owners = np.unique(owner[i[j == first]])
         mpm = ("MPM body " if len(owners) == 1 else "MPM bodies ") + ", ".join(
             repr(self.bodies[k].name) for k in owners)
@@ -441,7 +562,7 @@ class Scene:
         def n_points(n: int) -> str:
             return f"{n} point{'' if n == 1 else 's'}"
 
-        raise InputError(f"rigid body {body.name!r}", body.position,
+        raise InputError(f"rigid body {body_name!r}", body_position,
                          f"a body with no material point starting inside it; {n_points(count)} of {mpm} start "
                          f"inside it ({n_points(total)} start inside {hit} rigid bod{'y' if hit == 1 else 'ies'} in "
                          "all). Move the points or the bodies apart: points may touch a body (overlap it by up to "
@@ -461,31 +582,35 @@ class Scene:
             none = np.zeros(0, dtype=np.intp)
             return none, none, np.zeros(0), np.zeros(0)
         i, j, depth = overlap_pairs(arrays)
+        tol = self._overlap_tolerance(arrays, i, j)
+        deep = depth > tol
+        return i[deep], j[deep], depth[deep], tol[deep]
+
+    def _overlap_tolerance(self, arrays: RigidArrays, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """``overlaps.overlap_tolerance`` [m] of the pairs (i, j) of ``arrays`` in this scene: its
+        round-off, its gravity and domain height along it, its k_n (none without a contact law)."""
         (x0, y0), (x1, y1) = self.domain
         gx, gy = self.gravity
         g = math.hypot(gx, gy)
         height = (abs(gx) * (x1 - x0) + abs(gy) * (y1 - y0)) / g if g > 0.0 else 0.0
-        tol = overlap_tolerance(arrays, i, j, roundoff=self._roundoff, gravity=g, height=height,
-                                normal_stiffness=self.contact.normal_stiffness)
-        deep = depth > tol
-        return i[deep], j[deep], depth[deep], tol[deep]
+        kn = self.contact.normal_stiffness if self.contact is not None else math.inf
+        return overlap_tolerance(arrays, i, j, roundoff=self._roundoff, gravity=g, height=height, normal_stiffness=kn)
 
     def _named(self, i: np.ndarray, j: np.ndarray, depth: np.ndarray) -> list[tuple[str, str, float]]:
         """(body, body, depth [m]) of pairs of rigid bodies given by index."""
-        bodies = self.rigid_bodies
-        return [(bodies[a].name, bodies[b].name, d) for a, b, d in zip(i.tolist(), j.tolist(), depth.tolist(),
-                                                                        strict=True)]
+        return [(self.body_name(a), self.body_name(b), d) for a, b, d in zip(i.tolist(), j.tolist(), depth.tolist(),
+                                                                              strict=True)]
 
     def initial_overlaps(self) -> list[tuple[str, str, float]]:
         """(body, body, depth [m]) of every pair of rigid bodies that can meet and start overlapping
         by more than they may (``validate``), deepest first."""
-        return self._named(*self._initial_overlaps(rigid_arrays(self.rigid_bodies))[:3])
+        return self._named(*self._initial_overlaps(self.body_arrays())[:3])
 
     def _check_initial_overlaps(self, i: np.ndarray, j: np.ndarray, depth: np.ndarray, tol: np.ndarray) -> None:
         """InputError naming the deepest of the pairs (``_initial_overlaps``) that start too deep."""
         if not len(i):
             return
-        a, b = self.rigid_bodies[int(i[0])].name, self.rigid_bodies[int(j[0])].name
+        a, b = self.body_name(int(i[0])), self.body_name(int(j[0]))
         more = f" ({len(i)} pairs overlap in all)" if len(i) > 1 else ""
         raise InputError(f"rigid bodies {a!r} and {b!r}", f"overlapping by {float(depth[0]):.4g} m",
                          f"bodies that start apart or touching, overlapping by at most {float(tol[0]):.3g} m (the "
@@ -545,7 +670,7 @@ class Scene:
     @property
     def has_dem(self) -> bool:
         """Whether the scene has rigid bodies (the DEM stage runs)."""
-        return bool(self.rigid_bodies)
+        return bool(self.rigid_bodies or self.grains)
 
     def particles(self) -> dict[str, np.ndarray]:
         """Host arrays of every material point, body after body (float64)."""
@@ -586,6 +711,7 @@ class Scene:
             "coupling_friction": [[m.to_dict(), name, mu] for (m, name), mu in self.coupling_friction.items()],
             **({"allow_initial_overlap": True} if self.allow_initial_overlap else {}),
             "rigid_bodies": [b.to_dict() for b in self.rigid_bodies],
+            **({"grains": [g.to_dict() for g in self.grains]} if self.grains else {}),
             "boundaries": {s: {"kind": b.kind, "friction": b.friction} for s, b in self.boundaries.items()},
             "obstacles": [{"kind": o.kind, "shape": o.shape.to_dict()} for o in self.obstacles],
             **({"mass_probes": [{"name": p.name, "lo": p.lo, "hi": p.hi} for p in self.mass_probes]}

@@ -11,6 +11,10 @@ Beside ``<run>.h5`` the writer keeps two small XML files, rewritten atomically a
   collection "bodies": each body's dilated outline as a closed Polyline of K + 1 nodes (K points,
   the same count for every body, and the first again); every body field and the static radius,
   motion and mass as cell attributes, one value per body.
+* ``<run>_grains.xdmf`` (when the run has grains: ``/bodies/geometry/grain`` marks them; they are the
+  last bodies): a temporal collection "grains", the grains as points (Polyvertex, XYZ geometry from
+  their centroids) with every body field and the static radius and mass as node attributes; a
+  million grains cost one row each, not an outline. The bodies sidecar then holds the other bodies.
 
 Every DataItem names a whole HDF5 dataset of exactly its dimensions (no HyperSlab: ParaView's Xdmf3
 reader crashes on one, and meshio reads none). The frame-stacked datasets ``/particles/<f>`` and
@@ -34,7 +38,7 @@ from h5py import h5d, h5p, h5s, h5t
 
 from ..outlines import outline_rings, place_rings
 
-__all__ = ["GROUP", "XdmfSidecars", "bodies_xdmf_path", "particles_xdmf_path"]
+__all__ = ["GROUP", "XdmfSidecars", "bodies_xdmf_path", "grains_xdmf_path", "particles_xdmf_path"]
 
 GROUP = "xdmf"
 """HDF5 group holding the per-frame views and outlines the sidecars point at."""
@@ -46,6 +50,12 @@ _STATIC_BODY_ATTRS = ("radius", "motion", "mass")
 def particles_xdmf_path(h5_path: str | os.PathLike) -> Path:
     """The particles sidecar of a run file: ``run.h5`` → ``run.xdmf``."""
     return Path(h5_path).with_suffix(".xdmf")
+
+
+def grains_xdmf_path(h5_path: str | os.PathLike) -> Path:
+    """The grains sidecar of a run file: ``run.h5`` → ``run_grains.xdmf``."""
+    p = Path(h5_path)
+    return p.with_name(p.stem + "_grains.xdmf")
 
 
 def bodies_xdmf_path(h5_path: str | os.PathLike) -> Path:
@@ -114,22 +124,46 @@ class XdmfSidecars:
         # frame's text is made once, so a write costs the file, not every frame's text again
         self._blocks: dict[str, tuple[tuple, list[str]]] = {}
         bodies = file.get("bodies")
-        self._has_bodies = self._m > 0 and bodies is not None and "x" in bodies
+        has_x = self._m > 0 and bodies is not None and "x" in bodies
+        # grains (the last bodies, ``grain`` 1): points of their own sidecar, not outlines
+        grain = np.asarray(body_geometry.get("grain", ())) if body_geometry is not None else np.zeros(0)
+        self._outlined = self._m - int(np.count_nonzero(grain)) if len(grain) else self._m
+        self._has_grains = has_x and self._outlined < self._m
+        self._has_bodies = has_x and self._outlined > 0
         root = file.require_group(GROUP)
         if self._n > 0:
             g = root.create_group("particles")
             g.create_dataset("connectivity", data=np.arange(self._n, dtype=np.int32).reshape(-1, 1))
         if self._has_bodies:
-            self._rings = outline_rings(body_geometry, quad_segs=quad_segs)
+            m = self._outlined
+            geometry = body_geometry if m == self._m else {
+                k: (v if k == "vertices" else v[:m]) for k, v in body_geometry.items()}
+            self._rings = outline_rings(geometry, quad_segs=quad_segs)
             k = self._rings.shape[1]
-            ids = np.arange(self._m * k, dtype=np.int32).reshape(self._m, k)
+            ids = np.arange(m * k, dtype=np.int32).reshape(m, k)
             g = root.create_group("bodies")
             g.create_dataset("connectivity", data=np.concatenate([ids, ids[:, :1]], axis=1))
+            if m < self._m:  # the static attributes of the outlined bodies only (no hyperslabs)
+                for name in _STATIC_BODY_ATTRS:
+                    if name in body_geometry:
+                        g.create_dataset(f"static/{name}", data=np.asarray(body_geometry[name])[:m])
+        if self._has_grains:
+            count = self._m - self._outlined
+            g = root.create_group("grains")
+            g.create_dataset("connectivity", data=np.arange(count, dtype=np.int32).reshape(-1, 1))
+            for name in ("radius", "mass"):
+                if name in body_geometry:
+                    g.create_dataset(f"static/{name}", data=np.asarray(body_geometry[name])[self._outlined:])
 
     @property
     def particles_path(self) -> Path:
         """The particles sidecar (``run.xdmf``)."""
         return particles_xdmf_path(self._h5)
+
+    @property
+    def grains_path(self) -> Path:
+        """The grains sidecar (``run_grains.xdmf``)."""
+        return grains_xdmf_path(self._h5)
 
     @property
     def bodies_path(self) -> Path:
@@ -141,22 +175,29 @@ class XdmfSidecars:
         if self._n > 0:
             self._add_views("particles", k)
         if self._has_bodies:
-            g = self._add_views("bodies", k)
+            m = self._outlined
+            rows = None if m == self._m else (0, m)
+            g = self._add_views("bodies", k, rows=rows)
             bodies = self._file["bodies"]
-            angle = bodies["angle"][k] if "angle" in bodies else None
-            ring = place_rings(self._rings, bodies["x"][k], angle).reshape(-1, 2)
+            angle = bodies["angle"][k][:m] if "angle" in bodies else None
+            ring = place_rings(self._rings, bodies["x"][k][:m], angle).reshape(-1, 2)
             g.create_dataset("outline", data=np.column_stack([ring, np.zeros(len(ring))]))
+        if self._has_grains:
+            self._add_views("grains", k, source="bodies", rows=(self._outlined, self._m))
 
-    def _add_views(self, group: str, k: int) -> h5py.Group:
-        """Virtual datasets /xdmf/<group>/frame_<k>/<view> of frame k of every /<group>/<field>.
+    def _add_views(self, group: str, k: int, *, source: str | None = None,
+                   rows: tuple[int, int] | None = None) -> h5py.Group:
+        """Virtual datasets /xdmf/<group>/frame_<k>/<view> of frame k of every /<source>/<field>
+        (source: ``group``), of its items rows[0] ≤ i < rows[1] (all when None).
 
         Made with h5py's low-level calls: the mappings ``h5py.VirtualLayout`` would store, without
         its per-slice copies of the source (a third of a small scene's frame writing)."""
         out = self._file[GROUP][group].create_group(f"frame_{k:06d}")
-        for name, ds in self._file[group].items():
+        for name, ds in self._file[source or group].items():
             if not isinstance(ds, h5py.Dataset):
                 continue
-            count = ds.shape[1]
+            first, last = rows if rows is not None else (0, ds.shape[1])
+            count = last - first
             source_name = ds.name.encode("utf-8")
             for view, _, shape, parts in _views(name, ds.shape[2:]):
                 dims = (count, *shape)
@@ -167,7 +208,7 @@ class XdmfSidecars:
                     target = h5s.create_simple(dims)
                     target.select_hyperslab(*_hyperslab(dims, (slice(None), *columns)))
                     frame = h5s.create_simple(ds.shape)
-                    frame.select_hyperslab(*_hyperslab(ds.shape, (k, slice(None), *index)))
+                    frame.select_hyperslab(*_hyperslab(ds.shape, (k, slice(first, last), *index)))
                     dcpl.set_virtual(target, b".", source_name, frame)
                 h5d.create(out.id, view.encode("utf-8"), h5t.py_create(ds.dtype, logical=1), h5s.create_simple(dims),
                            dcpl=dcpl)
@@ -179,6 +220,8 @@ class XdmfSidecars:
             _replace(self.particles_path, self._document("particles", times))
         if self._has_bodies:
             _replace(self.bodies_path, self._document("bodies", times))
+        if self._has_grains:
+            _replace(self.grains_path, self._document("grains", times))
 
     def _item(self, path: str, dims: tuple[int, ...], dtype: np.dtype) -> str:
         """A DataItem naming the whole dataset ``path`` of the run file."""
@@ -188,16 +231,16 @@ class XdmfSidecars:
 
     def _document(self, group: str, times: list[float]) -> str:
         """XDMF 3 text of one temporal collection over frames 0..len(times)-1."""
-        src = self._file[group]
+        src = self._file["bodies" if group == "grains" else group]
         fields = {k: ds for k, ds in src.items() if isinstance(ds, h5py.Dataset)}
         base = f"/{GROUP}/{group}"
         conn = self._file[base]["connectivity"]
-        if group == "particles":
-            count, center = self._n, "Node"
+        if group in ("particles", "grains"):
+            count, center = (self._n, "Node") if group == "particles" else (self._m - self._outlined, "Node")
             topology = f'<Topology TopologyType="Polyvertex" NumberOfElements="{count}" NodesPerElement="1">'
             geometry = ("x", (count, 3), fields["x"].dtype) if "x" in fields else None
         else:
-            count, center = self._m, "Cell"
+            count, center = self._outlined, "Cell"
             topology = (f'<Topology TopologyType="Polyline" NumberOfElements="{count}" '
                         f'NodesPerElement="{conn.shape[1]}">')
             geometry = ("outline", (count * self._rings.shape[1], 3), np.dtype(np.float64))
@@ -206,8 +249,9 @@ class XdmfSidecars:
         for name, ds in fields.items():
             for view, kind, shape, _ in _views(name, ds.shape[2:]):
                 attrs.append((view, kind, (count, *shape), ds.dtype, None))
-        if group == "bodies":
-            geo = src["geometry"]
+        if group != "particles":
+            # the whole /bodies/geometry arrays, or their copies of the outlined bodies or the grains
+            geo = self._file[base]["static"] if (group == "grains" or self._outlined < self._m) else src["geometry"]
             for name in _STATIC_BODY_ATTRS:
                 if name in geo and name not in {a[0] for a in attrs}:
                     attrs.append((name, "Scalar", (count,), geo[name].dtype, geo[name].name))
