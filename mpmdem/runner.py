@@ -164,15 +164,19 @@ def out_folder(path: str | Path, flag: str = "--out") -> Path:
     return folder
 
 
-def plan_run(sim, args, out: Path, end_time: float, frames: int) -> str | None:
+def plan_run(sim, args, out: Path, end_time: float, frames: int) -> tuple[int, str | None]:
     """The checks of ``mpmdem.run_plan`` for a built Simulation: InputError for a frame interval
-    below the first step or an output above the limit; the long-run warning line (or None)."""
+    below the first step (given with --frames) or an output above the limit; returns the frame count
+    (a case's own count, when no --frames was given, capped at one frame a step: a flag such as
+    --dem-kappa or --end-time may have lengthened the step) and the long-run warning line (or None)."""
     dt, _ = sim.initial_step()
+    if args.frames is None:
+        frames = min(frames, max(1, int(end_time / dt)))
     check_frame_interval(end_time, frames, dt)
     estimate = estimate_output_bytes(sim.particle_count, sim.body_count, frames, sim.config.precision,
                                      coupled=sim.coupling is not None)
     check_output_size(estimate, out, frames, args.max_output)
-    return long_run_warning(end_time, dt, sim.particle_count, sim.device)
+    return frames, long_run_warning(end_time, dt, sim.particle_count, sim.device)
 
 
 def run_case(module: ModuleType, argv: list[str] | None = None, prog: str | None = None) -> int:
@@ -190,7 +194,7 @@ def run_case(module: ModuleType, argv: list[str] | None = None, prog: str | None
         frames = given(args.frames, setup.frames)
         sim = Simulation(setup.scene, config, device=args.device)
         out = Path(args.out or Path("results") / module.NAME)
-        warning = plan_run(sim, args, out, end_time, frames)
+        frames, warning = plan_run(sim, args, out, end_time, frames)
         out = out_folder(out)
     except InputError as e:
         print(f"mpmdem: error: {e}", file=sys.stderr)

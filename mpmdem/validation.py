@@ -287,13 +287,16 @@ def table_differences(table: dict, checks: dict[str, list[Check]]) -> list[str]:
 
 
 def head_commit(repo: Path | None = None) -> str | None:
-    """The short hash of the checkout's HEAD, with "+dirty" where tracked files differ from it; outside
-    a git checkout (a copy of the tree on another machine) the environment's MPMDEM_COMMIT, else None."""
+    """The environment's MPMDEM_COMMIT when set (a copy of the tree on another machine, whose .git,
+    if any, may be stale); else the short hash of the checkout's HEAD, with "+dirty" where tracked
+    files differ from it; None outside a git checkout."""
     import os
 
+    if os.environ.get("MPMDEM_COMMIT"):
+        return os.environ["MPMDEM_COMMIT"]
     repo = Path(repo) if repo else Path(__file__).resolve().parents[1]
     if not (repo / ".git").exists():
-        return os.environ.get("MPMDEM_COMMIT") or None
+        return None
     try:
         sha = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=repo, capture_output=True, text=True,
                              timeout=30, check=True).stdout.strip()

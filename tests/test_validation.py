@@ -245,10 +245,6 @@ def test_validate_quick_runs_every_declared_check_without_a_fail(tmp_path):
     assert table_differences(table, collect_checks()) == []
 
 
-@pytest.mark.xfail(strict=True, reason="bench/results/validation.json was generated at 5068b65, before issue 45's "
-                   "verdicts, gap ranges and sources; regenerate it on the GPU (`python -m mpmdem.cli validate --device cuda "
-                   "--out results/validation --resume`, then copy its validation.json and .md to bench/results/), "
-                   "update README's counts and remove this mark")
 def test_the_committed_table_is_the_declared_checks():
     """The committed GPU table holds exactly the checks declared at HEAD (same case, quantity, flags,
     reference, sources, tolerance, kind and gap range, in order), names its commit and device, and
