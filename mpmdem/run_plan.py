@@ -51,16 +51,19 @@ def _field_bytes(specs: dict, float_bytes: int) -> int:
 
 
 def estimate_output_bytes(points: int, bodies: int, frames: int, precision: str = "f32",
-                          coupled: bool = False) -> int:
+                          coupled: bool = False, grains: int = 0) -> int:
     """Bytes a run writes: (frames + 1) × (points × bytes per point + bodies × bytes per body +
     a frame's overhead) + a file's overhead; the fields are those of ``mpmdem.io.format`` in the
-    run's precision (plus the contact force of a coupled run). The HDF5 datasets are not compressed."""
+    run's precision (plus the contact force of a coupled run). The HDF5 datasets are not compressed.
+    ``grains`` of the ``bodies`` are grains (``Scene.add_grains``): their XDMF view is a point each,
+    not an outline."""
     float_bytes = PRECISIONS[precision]().itemsize
     point_specs = default_field_specs()
     if coupled:
         point_specs["contact_force"] = ((2,), "float")
     per_frame = (points * _field_bytes(point_specs, float_bytes)
-                 + bodies * (_field_bytes(default_body_field_specs(), float_bytes) + OUTLINE_BYTES_PER_BODY)
+                 + bodies * _field_bytes(default_body_field_specs(), float_bytes)
+                 + (bodies - grains) * OUTLINE_BYTES_PER_BODY
                  + FRAME_OVERHEAD_BYTES)
     return FILE_OVERHEAD_BYTES + (frames + 1) * per_frame
 

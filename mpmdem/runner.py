@@ -174,7 +174,8 @@ def plan_run(sim, args, out: Path, end_time: float, frames: int) -> tuple[int, s
         frames = min(frames, max(1, int(end_time / dt)))
     check_frame_interval(end_time, frames, dt)
     estimate = estimate_output_bytes(sim.particle_count, sim.body_count, frames, sim.config.precision,
-                                     coupled=sim.coupling is not None)
+                                     coupled=sim.coupling is not None,
+                                     grains=sum(len(s) for s in sim.scene.grains))
     check_output_size(estimate, out, frames, args.max_output)
     return frames, long_run_warning(end_time, dt, sim.particle_count, sim.device)
 

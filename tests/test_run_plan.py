@@ -87,3 +87,14 @@ def test_cli_refuses_frames_below_the_step_before_running(tmp_path):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "--frames=100000000 is invalid" in lines[0], proc.stderr
     assert not list(tmp_path.glob("*.h5"))
+
+
+def test_grains_are_estimated_as_points_not_outlines():
+    """A grain's XDMF view is one point (RUN_grains.xdmf), so 1e6 grains cost their fields only:
+    the estimate drops by the outline bytes of every grain, and no more."""
+    from mpmdem.run_plan import OUTLINE_BYTES_PER_BODY, estimate_output_bytes
+
+    as_bodies = estimate_output_bytes(0, 1_000_000, 20, "f32")
+    as_grains = estimate_output_bytes(0, 1_000_000, 20, "f32", grains=1_000_000)
+    assert as_bodies - as_grains == 21 * 1_000_000 * OUTLINE_BYTES_PER_BODY
+    assert as_grains < 21 * 1_000_000 * 64  # a few floats a grain a frame
