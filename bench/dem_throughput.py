@@ -106,7 +106,8 @@ def measure(n: int, steps: int, warmup: int, device: str, grains: bool = False) 
     works = sum(d1[k] - d0[k] for k in dem.WORK_TERMS)
     residual = (d1["energy_total"] - d0["energy_total"] - works) / max(abs(d0["energy_kinetic"]), 1e-30)
     return {
-        "case": "disk-grains" if grains else "pentagon-pack", "impl": "mpmdem", "device": sim.device, "bodies": n, "steps": steps,
+        "case": "disk-grains" if grains else "pentagon-pack", "impl": "mpmdem", "device": sim.device, "bodies": n,
+        "steps": steps,
         "seconds": seconds, "body_steps_per_s": n * steps / seconds, "simulated_seconds": t - t0_sim,
         "contacts_per_body": contacts / n, "contacts_per_s": contacts * steps / seconds,
         "listed_pairs_per_body": float(dem.C.count.numpy().sum()) / n,

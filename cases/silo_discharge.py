@@ -205,7 +205,8 @@ def add_arguments(parser):
                         help=f"--sand dem: mean grain radius r_p [m] (default the seed's r_p = {R_P_TABLE})")
     parser.add_argument("--grain-shape", default="disk", choices=("disk", "polygon"),
                         help="--sand dem: sphero-disks (default) or rounded random pentagons")
-    parser.add_argument("--seed", type=count_at_least(0), default=1, help="--sand dem: seed of the grains' sizes and places")
+    parser.add_argument("--seed", type=count_at_least(0), default=1,
+                        help="--sand dem: seed of the grains' sizes and places")
     parser.add_argument("--settle-max", type=positive("s"), default=None,
                         help="--sand dem: the longest the grains settle behind the gate [s] (default 8 free falls "
                              "through the lattice they start on; they stop earlier once at rest)")

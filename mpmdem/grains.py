@@ -196,7 +196,8 @@ def place_grains(region, *, radius: float, shape: str = "disk", density: float, 
     if estimate * HOST_BYTES_PER_GRAIN > 0.5 * available:
         raise InputError("radius", radius, f"grains few enough to build on this machine: about {estimate:.3g} "
                          f"grains of {HOST_BYTES_PER_GRAIN} B fill the region, against half of the "
-                         f"{available / 2**30:.3g} GiB of host memory available; take larger grains or a smaller region")
+                         f"{available / 2**30:.3g} GiB of host memory available; take larger grains or a smaller "
+                         "region")
     # hexagonal lattice points whose cell (a circle of pitch/2) lies inside the region
     inner = geom.buffer(-0.5 * pitch)
     x0, y0, x1, y1 = geom.bounds

@@ -170,7 +170,8 @@ class Scene:
         if self.cell_size is None:
             raise InputError("cell_size", None, "a grid spacing h > 0 [m] in Scene(...) before adding MPM bodies")
         if not isinstance(material, Material):
-            raise InputError("material", material, "a LinearElastic, NeoHookean, MohrCoulomb, DruckerPrager or MuI material")
+            raise InputError("material", material,
+                             "a LinearElastic, NeoHookean, MohrCoulomb, DruckerPrager or MuI material")
         if callable(velocity):
             vel = velocity
         else:
@@ -470,7 +471,8 @@ class Scene:
         if self.cell_size is None:
             raise InputError("cell_size", None, "a grid spacing h > 0 [m] in Scene(...) before adding MPM bodies")
         if not isinstance(material, Material):
-            raise InputError("material", material, "a LinearElastic, NeoHookean, MohrCoulomb, DruckerPrager or MuI material")
+            raise InputError("material", material,
+                             "a LinearElastic, NeoHookean, MohrCoulomb, DruckerPrager or MuI material")
         x = np.asarray(positions, dtype=float)
         if x.ndim != 2 or x.shape[1] != 2 or len(x) == 0 or not np.isfinite(x).all():
             raise InputError("positions", positions, "a finite (N, 2) array of point positions [m], N >= 1")

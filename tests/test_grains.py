@@ -197,7 +197,6 @@ def test_output_holds_the_grains_as_points(tmp_path, monkeypatch):
     assert gif.stat().st_size > 1000
     # grains below GRAIN_PIXELS pixels (10⁶ of them) are drawn as an image of pixel means
     import mpmdem.animation as animation
-
     import mpmdem.plotting as plotting
 
     assert len(plotting.plot_run(result.path, tmp_path / "disks", frames=[-1])) == 3  # energy, momentum, snapshot

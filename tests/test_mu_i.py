@@ -19,7 +19,7 @@ from test_plasticity import drive, mean_tau
 
 from mpmdem import MuI
 from mpmdem.errors import InputError
-from mpmdem.kernels.plasticity import make_point_driver
+from mpmdem.kernels.point_driver import make_point_driver
 
 P0 = 2.0e3  # confining pressure [Pa]: ~14 cm of sand
 N_STEPS = 4000
