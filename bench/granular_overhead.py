@@ -94,7 +94,7 @@ SEED = 0
 
 
 # -- scenes ---------------------------------------------------------------------------------------
-def dense_column(particles: int) -> Scene:
+def dense_column(particles: int, material=MATERIAL) -> Scene:
     """Column W × 2W on the floor of a 3W × 2.5W box, 2 × 2 points per cell, about ``particles`` points."""
     cells = max(2, round(math.sqrt(particles / (2 * POINTS_PER_CELL**2))))  # W in cells
     h = COLUMN_WIDTH / cells
@@ -102,7 +102,7 @@ def dense_column(particles: int) -> Scene:
     x0 = cells * h  # the column sits in the middle third, on cell lines
     scene = Scene(domain=((0.0, 0.0), (width, height)), cell_size=h, gravity=GRAVITY,
                   boundaries={"bottom": "fixed", "left": "slip", "right": "slip", "top": "slip"})
-    scene.add_mpm_body(rectangle(x0, 0.0, x0 + cells * h, 2 * cells * h), MATERIAL, points_per_cell=POINTS_PER_CELL)
+    scene.add_mpm_body(rectangle(x0, 0.0, x0 + cells * h, 2 * cells * h), material, points_per_cell=POINTS_PER_CELL)
     return scene
 
 
