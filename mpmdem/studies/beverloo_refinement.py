@@ -199,3 +199,32 @@ def analyze_study(out: Path, name: str, density: float, gravity: float) -> dict:
     chart_rates({name: result}, Path(out) / f"{name}_rate_vs_h.png")
     chart_intercepts({name: result}, None, Path(out) / f"{name}_intercept.png")
     return result
+
+
+def compare(studies: Path, out: Path) -> dict:
+    """The committed refinement studies side by side (``studies``: bench/results/studies): W(h) of
+    Drucker–Prager and μ(I), D* against h and d, with the DEM silos beside them; writes
+    ``refinement_summary.json`` and the two charts into ``out``."""
+    from ..cases._table3 import DENSITY, GRAVITY
+
+    studies, out = Path(studies), Path(out)
+    laws = {"Drucker-Prager (Table 3)": "beverloo-refined", "mu(I), d = 2 mm": "beverloo-mu-i"}
+    results = {law: analyze_refinement(load_runs(studies / name), DENSITY, GRAVITY) for law, name in laws.items()}
+    grain = analyze_grain(load_runs(studies / "beverloo-mu-i-grain"), DENSITY, GRAVITY)
+    dem = {}
+    for path in sorted((studies / "beverloo-dem").glob("*.json")):
+        s = json.loads(path.read_text())
+        dem[path.stem] = {k: s.get(k) for k in ("grains", "orifice_m", "width_m", "fill_height_m", "rate", "steps",
+                                                   "wall_seconds", "dt", "device", "rate_over_paper", "end_time")}
+    out.mkdir(parents=True, exist_ok=True)
+    chart_rates(results, out / "refinement_rate_vs_h.png")
+    chart_intercepts(results, grain, out / "refinement_intercept.png")
+    summary = {"laws": results, "grain_diameter": grain, "dem": dem}
+    (out / "refinement_summary.json").write_text(json.dumps(summary, indent=1))
+    return summary
+
+
+if __name__ == "__main__":
+    import sys
+
+    compare(Path(sys.argv[1]), Path(sys.argv[2]))
