@@ -68,7 +68,7 @@ def test_mu_i_rate_converges_within_3_percent(mu_i):
 
 
 @pytest.mark.xfail(strict=True, reason=(
-    "the μ(I) intercept follows the grid: dD*/dh = 2.9 over h = 2.5-1 mm (D* 4.5 -> 0.1 mm), while at "
+    "the μ(I) intercept follows the grid: dD*/dh = 3.0 over h = 2.5-1 mm (D* 4.5 -> 0.1 mm), while at "
     "h = 2.5 mm it grows with the grain only as dD*/dd = 0.63 (D* = 3.2, 4.3, 4.6, 5.7 mm at d = 0.5, 1, "
     "2, 4 mm): the grain sets a part of D*, the cell the rest"))
 def test_mu_i_intercept_follows_the_grain_not_the_grid(mu_i):
