@@ -71,7 +71,7 @@ import sys
 
 import numpy as np
 
-from mpmdem import Boundary, MohrCoulomb, Scene, rectangle
+from mpmdem import Boundary, MohrCoulomb, MuI, Scene, rectangle
 from mpmdem.flag_types import count_at_least, given, interval, positive
 from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
@@ -107,6 +107,10 @@ POISSON = 0.3
 FRICTION_ANGLE = 30.0  # deg
 CRITICAL_DENSITY_RATIO = 0.99
 POINTS_PER_CELL = 2  # per direction: 2 × 2 points per cell, as the paper's N_mppc = 4
+#: d of --material mu-i [m]: millimetre grains, the order of the channel experiments' (not read from
+#: Lube et al. or Lajeunesse et al. here); ρs = ρ / SOLID_FRACTION
+GRAIN_DIAMETER = 1.0e-3
+SOLID_FRACTION = 0.6
 STOP_FRACTION = 0.01  # the flow has stopped once E_k stays below this fraction of its peak
 
 # Lube et al. (2005), quasi-2D channel: the two circulating coefficient sets (see the header)
@@ -159,6 +163,11 @@ def add_arguments(parser):
                         help="E of the grains' continuum [Pa]")
     parser.add_argument("--critical-density-ratio", type=interval(0.0, 1.0), default=CRITICAL_DENSITY_RATIO,
                         help="rho_cr / rho in (0, 1] (stress-free below it); 0: no critical density")
+    parser.add_argument("--material", default="mohr-coulomb", choices=("mohr-coulomb", "mu-i"),
+                        help="mohr-coulomb (phi = 30 deg, the default) or mu-i (Jop et al. 2006's glass-bead "
+                             "mu_s, mu_2, I0 with --grain-diameter)")
+    parser.add_argument("--grain-diameter", type=positive("m"), default=GRAIN_DIAMETER,
+                        help=f"d of --material mu-i [m] (default {GRAIN_DIAMETER})")
 
 
 def _check(args):
@@ -185,10 +194,16 @@ def collapse_time(args) -> float:
     return math.sqrt(args.aspect_ratio * args.width / GRAVITY)
 
 
-def material(args) -> MohrCoulomb:
+def material(args) -> MohrCoulomb | MuI:
+    """Mohr–Coulomb (φ = FRICTION_ANGLE), or μ(I) with Jop et al. 2006's glass-bead friction law, the
+    same elasticity and density, d = --grain-diameter and ρs = ρ / SOLID_FRACTION."""
     ratio = args.critical_density_ratio
-    return MohrCoulomb(args.youngs_modulus, POISSON, DENSITY, FRICTION_ANGLE, 0.0, 0.0,
-                       critical_density=ratio * DENSITY if ratio > 0.0 else None)
+    rho_cr = ratio * DENSITY if ratio > 0.0 else None
+    if getattr(args, "material", "mohr-coulomb") == "mu-i":
+        beads = MuI.glass_beads()
+        return MuI(args.youngs_modulus, POISSON, DENSITY, mu_s=beads.mu_s, mu_2=beads.mu_2, i0=beads.i0,
+                   grain_diameter=args.grain_diameter, grain_density=DENSITY / SOLID_FRACTION, critical_density=rho_cr)
+    return MohrCoulomb(args.youngs_modulus, POISSON, DENSITY, FRICTION_ANGLE, 0.0, 0.0, critical_density=rho_cr)
 
 
 def build(args) -> CaseSetup:
@@ -315,6 +330,7 @@ def summarize(sim, result, args) -> dict:
         "floor": args.floor,
         "youngs_modulus_pa": args.youngs_modulus,
         "friction_angle_deg": FRICTION_ANGLE,
+        "material": getattr(args, "material", "mohr-coulomb"),
         "runout_m": length - w,
         "normalized_runout": runout,
         "runout_p99_m": length_p99 - w,

@@ -16,11 +16,13 @@ STUDIES = {
     "beverloo-refined": "beverloo:REFINED",
     "beverloo-mu-i": "beverloo:MU_I",
     "beverloo-mu-i-grain": "beverloo:MU_I_GRAIN",
+    "beverloo-dem": "beverloo:DEM",
     "block-impact": "block_impact:GRIDS",
     "block-impact-coupling": "block_impact:COUPLING",
     "block-impact-rounding": "block_impact:ROUNDING",
     "block-impact-ensemble": "block_impact:ENSEMBLE",
     "column-collapse": "column_collapse",
+    "column-collapse-mu-i": "column_collapse:MU_I",
     "disk-restitution": "disk_restitution",
 }
 

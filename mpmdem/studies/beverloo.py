@@ -99,3 +99,23 @@ MU_I_GRAIN = Study(
     fixed={"--material": "mu-i", "--cell-size": 0.0025},
     analyze=analyze_grain_runs,
 )
+
+
+def analyze_dem_runs(rows: list[dict], out: Path) -> dict:
+    from ..cases._table3 import DENSITY, GRAVITY
+    from .beverloo_refinement import analyze_dem, write
+
+    result = analyze_dem(load_runs(out), DENSITY, GRAVITY)
+    write(result, out, "beverloo-dem")
+    return result
+
+
+DEM = Study(
+    name="beverloo-dem",
+    case="silo-discharge",
+    description="the silo with DEM grains (sphero-disks, r_p = 1 and 0.5 mm) at D0 = 2-6 cm: the grains' "
+                "Beverloo C and k, the reference for the continuum",
+    grid={"--orifice": [0.02, 0.03, 0.04, 0.05, 0.06], "--grain-radius": [0.001, 0.0005]},
+    fixed={"--sand": "dem"},
+    analyze=analyze_dem_runs,
+)

@@ -129,6 +129,24 @@ def analyze_grain(runs: list[dict], density: float, gravity: float) -> dict:
     return {"per_grain_diameter": per_d, "d_star_slope_per_d": slope}
 
 
+def analyze_dem(runs: list[dict], density: float, gravity: float) -> dict:
+    """Per grain radius r_p (the DEM silos, ``--sand dem``), the Beverloo line on every orifice: C and
+    D*, and k = D*/r_p to set beside the seed's k = 2.2."""
+    per_r = {}
+    for r_p in sorted({float(r["flags"]["grain-radius"]) for r in runs if "grain-radius" in r.get("flags", {})}):
+        done = sorted((float(r["orifice_m"]), float(r["rate"])) for r in runs
+                      if r.get("status") == "completed" and r.get("rate") is not None
+                      and float(r["flags"].get("grain-radius", "nan")) == r_p)
+        if not done:
+            continue
+        d0, w = (np.array(v) for v in zip(*done, strict=True))
+        line = beverloo_line(d0, w, density, gravity)
+        if line.get("D_star_m") is not None:
+            line["k_over_radius"] = line["D_star_m"] / r_p
+        per_r[f"{r_p:g}"] = {**line, "rate": dict(zip([f"{d:g}" for d in d0], w.tolist(), strict=True))}
+    return {"per_grain_radius": per_r}
+
+
 def write(result: dict, out: Path, name: str) -> None:
     (Path(out) / f"{name}.json").write_text(json.dumps(result, indent=1))
 

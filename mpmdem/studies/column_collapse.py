@@ -94,3 +94,14 @@ STUDY = Study(
     grid={"--aspect-ratio": [0.5, 1.0, 2.0, 4.0, 8.0], "--cells-per-width": [10, 20, 40, 80]},
     analyze=analyze,
 )
+
+
+#: the same sweep with μ(I) (glass-bead friction law, d = 1 mm) on the three finer grids
+MU_I = Study(
+    name="column-collapse-mu-i",
+    case="column-collapse",
+    description="column collapse with mu(I): runout and final height vs a at 20, 40 and 80 cells across",
+    grid={"--aspect-ratio": [0.5, 1.0, 2.0, 4.0, 8.0], "--cells-per-width": [20, 40, 80]},
+    fixed={"--material": "mu-i"},
+    analyze=analyze,
+)
