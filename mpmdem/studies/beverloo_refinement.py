@@ -151,8 +151,9 @@ def write(result: dict, out: Path, name: str) -> None:
     (Path(out) / f"{name}.json").write_text(json.dumps(result, indent=1))
 
 
-def chart_rates(results: dict[str, dict], path: Path) -> None:
-    """W against h per D0, one panel per law (``results``: law name → ``analyze_refinement``)."""
+def chart_rates(results: dict[str, dict], path: Path, grains: dict | None = None) -> None:
+    """W against h per D0, one panel per law (``results``: law name → ``analyze_refinement``); the
+    DEM silos' W (``analyze_dem``) as horizontal lines, dashed for r_p = 1 mm, dotted for 0.5 mm."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -164,12 +165,18 @@ def chart_rates(results: dict[str, dict], path: Path) -> None:
             ax.plot(np.array(e["h_m"]) * 1e3, e["rate"], "o-", color=f"C{i}", label=f"D0 = {float(d) * 100:g} cm")
             if e.get("w_inf") is not None:
                 ax.errorbar([0.0], [e["w_inf"]], yerr=[e["w_inf_err"]], fmt="s", color=f"C{i}", capsize=3)
-        ax.set_xlabel("cell size h [mm]  (squares: Richardson W∞ at h = 0)")
+            for style, r_p in (("--", "0.001"), (":", "0.0005")):
+                w = ((grains or {}).get("per_grain_radius", {}).get(r_p, {}).get("rate", {})).get(d)
+                if w is not None:
+                    ax.axhline(w, color=f"C{i}", ls=style, lw=0.8)
+        ax.set_xlabel("cell size h [mm]")
         ax.set_title(law)
         ax.set_xlim(left=-0.3)
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel("discharge rate W [kg/(m s)]")
     axes[0][-1].legend(fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5))
+    fig.suptitle("squares at h = 0: Richardson W∞; horizontal lines: DEM grains, r_p = 1 mm (dashed) and "
+                 "0.5 mm (dotted)", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -230,14 +237,15 @@ def compare(studies: Path, out: Path) -> dict:
     results = {law: analyze_refinement(load_runs(studies / name), DENSITY, GRAVITY) for law, name in laws.items()}
     grain = analyze_grain(load_runs(studies / "beverloo-mu-i-grain"), DENSITY, GRAVITY)
     dem = {}
-    for path in sorted((studies / "beverloo-dem").glob("*.json")):
+    for path in sorted((studies / "beverloo-dem").glob("silo_dem_*.json")):
         s = json.loads(path.read_text())
         dem[path.stem] = {k: s.get(k) for k in ("grains", "orifice_m", "width_m", "fill_height_m", "rate", "steps",
                                                    "wall_seconds", "dt", "device", "rate_over_paper", "end_time")}
+    grains = analyze_dem(load_runs(studies / "beverloo-dem"), DENSITY, GRAVITY)
     out.mkdir(parents=True, exist_ok=True)
-    chart_rates(results, out / "refinement_rate_vs_h.png")
+    chart_rates(results, out / "refinement_rate_vs_h.png", grains)
     chart_intercepts(results, grain, out / "refinement_intercept.png")
-    summary = {"laws": results, "grain_diameter": grain, "dem": dem}
+    summary = {"laws": results, "grain_diameter": grain, "dem": dem, "dem_study": grains}
     (out / "refinement_summary.json").write_text(json.dumps(summary, indent=1))
     return summary
 
