@@ -24,13 +24,13 @@ from .bodies import ContactLaw
 from .checks import check_time_step, eq51_step
 from .config import SolverConfig
 from .errors import BlowUpError, InputError
-from .host_memory import available_host_memory
 from .kernels import clock as clock_kernels
 from .kernels import dem as dem_kernels
 from .kernels import dem_lists, dem_split
 from .kernels import reductions as reduction_kernels
 from .kernels.scan import pack_launch
 from .launch_plan import IfFlag, Launch, run_plan
+from .memory import check_device_memory
 from .rigid_arrays import RigidArrays
 from .scene import Scene
 from .stage import Clock, ClockedStage
@@ -83,36 +83,6 @@ def motion_ids(arrays: RigidArrays) -> np.ndarray:
     """(n,) int32 motion codes of the bodies (kernels.dem FREE, FIXED, KINEMATIC)."""
     return np.where(arrays.free, dem_kernels.FREE,
                     np.where(arrays.fixed, dem_kernels.FIXED, dem_kernels.KINEMATIC)).astype(np.int32)
-
-
-def device_bytes_per_body(slots: int, vertices_per_body: float, precision: str) -> float:
-    """Device memory one DEM body takes [B]: its ~24 per-body scalars and vectors, its core
-    vertices (body frame and world, owner), its ``slots`` Verlet slots (neighbour, history keys and
-    slips, energy, dissipated work, old copies: ~60 B + 9 scalars each), its broad-phase cell share
-    and the split search's records (16 candidates, 4 pairs of 8 hits: bounded by 2 kB)."""
-    s = 4 if precision == "f32" else 8
-    per_body = 24 * s + 64
-    per_vertex = 4 * s + 4
-    per_slot = 60 + 9 * s
-    return per_body + vertices_per_body * per_vertex + slots * per_slot + 2048
-
-
-def check_device_memory(device, bodies: int, vertices: int, slots: int, precision: str) -> None:
-    """InputError before any allocation when ``bodies`` DEM bodies (``vertices`` core vertices in
-    all, ``slots`` list slots each) would not fit the device: 80 % of the free memory of a CUDA
-    device, or half of the free host memory for the CPU."""
-    per = device_bytes_per_body(slots, vertices / max(bodies, 1), precision)
-    need = per * bodies
-    if device.is_cuda:
-        free = float(device.free_memory)
-        limit, where = 0.8 * free, f"80 % of the {free / 2**30:.3g} GiB free on {device.alias}"
-    else:
-        free = available_host_memory()
-        limit, where = 0.5 * free, f"half of the {free / 2**30:.3g} GiB of host memory available ({device.alias})"
-    if need > limit:
-        raise InputError("DEM bodies", bodies, f"at most {int(limit // per)} bodies (grains included) on this device: "
-                         f"about {per:.0f} B each ({slots} list slots), {need / 2**30:.3g} GiB against {where}; "
-                         "take fewer or larger grains, or a larger device")
 
 
 def spring_time_step_bound(law: ContactLaw, mass: float) -> float:

@@ -28,7 +28,7 @@ from shapely.geometry.base import BaseGeometry
 
 from .checks import at_least, finite, positive
 from .errors import InputError
-from .host_memory import available_host_memory
+from .memory import available_host_memory
 from .rigid_arrays import RigidArrays
 from .spheropolygons import placed, random_convex_polygon
 

@@ -9,8 +9,8 @@ import shapely
 from scipy.spatial import cKDTree
 
 from mpmdem import ContactLaw, InputError, Scene, Simulation, SolverConfig, spheropolygon
-from mpmdem.dem import check_device_memory
 from mpmdem.grains import place_grains
+from mpmdem.memory import check_device_memory
 from mpmdem.packing import settle
 
 R = 1.0e-3  # m, the seed's r_p (MPM-SDEM Table 3)
