@@ -217,6 +217,48 @@ def chart_intercepts(results: dict[str, dict], grain: dict | None, path: Path) -
     plt.close(fig)
 
 
+def chart_work_accuracy(studies: Path, path: Path) -> dict:
+    """Every continuum run's work (points × steps) against its deviation from the r_p = 1 mm DEM silo
+    at the same D0, with the DEM runs' work (grains × steps): what the continuum saves, and at what
+    accuracy. Work, not wall time: the runs shared a GPU twelve at a time, so their wall times are not
+    their own. Returns the plotted rows."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    dem = {round(float(r["orifice_m"]), 6): r for r in load_runs(studies / "beverloo-dem")
+           if r.get("rate") is not None and r["flags"].get("grain-radius") == "0.001"}
+    rows = []
+    for law, name in (("Drucker-Prager", "beverloo-refined"), ("mu(I)", "beverloo-mu-i")):
+        for r in load_runs(studies / name):
+            ref = dem.get(round(float(r["orifice_m"]), 6))
+            if ref is None or r.get("rate") is None:
+                continue
+            rows.append({"law": law, "orifice_m": r["orifice_m"], "cell_size": r["cell_size"],
+                         "work": r["particles"] * r["steps"], "deviation": r["rate"] / ref["rate"] - 1.0})
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    for i, law in enumerate(("Drucker-Prager", "mu(I)")):
+        sel = [x for x in rows if x["law"] == law]
+        ax.scatter([x["work"] for x in sel], [100 * abs(x["deviation"]) for x in sel], color=f"C{i}", s=18,
+                   label=f"{law} (5 orifices x grids)")
+    work_dem = [r["grains"] * r["steps"] for r in dem.values()]
+    for k, w in enumerate(work_dem):
+        ax.axvline(w, color="k", ls=":", lw=0.8, label="DEM grains, r_p = 1 mm (the reference)" if k == 0 else None)
+    ax.axhline(10.0, color="0.5", ls="--", lw=0.8, label="10 %")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("work of the run: points (or grains) x steps")
+    ax.set_ylabel("|W / W_DEM - 1| [%]")
+    ax.set_title("silo discharge: the continuum against the grains (H100 runs)", fontsize=10)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return {"rows": rows, "dem_work": work_dem}
+
+
 def analyze_study(out: Path, name: str, density: float, gravity: float) -> dict:
     """The ``analyze`` of the refinement studies: fits into OUT/<name>.json and a W(h) chart."""
     result = analyze_refinement(load_runs(out), density, gravity)
@@ -245,7 +287,8 @@ def compare(studies: Path, out: Path) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     chart_rates(results, out / "refinement_rate_vs_h.png", grains)
     chart_intercepts(results, grain, out / "refinement_intercept.png")
-    summary = {"laws": results, "grain_diameter": grain, "dem": dem, "dem_study": grains}
+    work = chart_work_accuracy(studies, out / "refinement_work_vs_grains.png")
+    summary = {"laws": results, "grain_diameter": grain, "dem": dem, "dem_study": grains, "work_accuracy": work}
     (out / "refinement_summary.json").write_text(json.dumps(summary, indent=1))
     return summary
 
