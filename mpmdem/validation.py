@@ -288,13 +288,22 @@ def table_differences(table: dict, checks: dict[str, list[Check]]) -> list[str]:
 
 def head_commit(repo: Path | None = None) -> str | None:
     """The environment's MPMDEM_COMMIT when set (a copy of the tree on another machine, whose .git,
-    if any, may be stale); else the short hash of the checkout's HEAD, with "+dirty" where tracked
-    files differ from it; None outside a git checkout."""
+    if any, may be stale); else the short hash of the checkout's HEAD (``repo``, else the checkout
+    that holds this package, else the working directory's), with "+dirty" where tracked files differ
+    from it; None outside a git checkout."""
     import os
 
     if os.environ.get("MPMDEM_COMMIT"):
         return os.environ["MPMDEM_COMMIT"]
-    repo = Path(repo) if repo else Path(__file__).resolve().parents[1]
+    if repo is None:
+        # a source checkout holds the package; an installed package does not, and then the checkout
+        # it was installed from is the working directory (CI, the README's commands) or above it
+        here = Path.cwd().resolve()
+        candidates = [Path(__file__).resolve().parents[1], here, *here.parents]
+        repo = next((c for c in candidates if (c / ".git").exists()), None)
+        if repo is None:
+            return None
+    repo = Path(repo)
     if not (repo / ".git").exists():
         return None
     try:
