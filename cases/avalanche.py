@@ -15,8 +15,8 @@ import sys
 import numpy as np
 
 from mpmdem import MohrCoulomb, Scene, rectangle
+from mpmdem.case import CaseSetup
 from mpmdem.cases._variants import GRANULAR_VARIANTS, critical_density, plot_variants, read_run
-from mpmdem.runner import CaseSetup
 
 NAME = "avalanche"
 DESCRIPTION = "granular avalanche over two inclines (15°): original, stress-free and Granular MPM deposits"

@@ -9,8 +9,8 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, Scene, rounded_rectangle
+from mpmdem.case import CaseSetup
 from mpmdem.flag_types import non_negative, positive
-from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
 NAME = "block-on-incline"

@@ -13,9 +13,9 @@ import sys
 import numpy as np
 
 from mpmdem import InputError, NeoHookean, Scene, disk
+from mpmdem.case import CaseSetup
 from mpmdem.flag_types import count_at_least, given, positive
 from mpmdem.io import RunFile
-from mpmdem.runner import CaseSetup
 
 NAME = "bouncing-disk"
 DESCRIPTION = "elastic disk dropped under gravity onto a frictionless floor: rebound height and energy"

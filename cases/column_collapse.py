@@ -72,8 +72,8 @@ import sys
 import numpy as np
 
 from mpmdem import Boundary, MohrCoulomb, MuI, Scene, rectangle
+from mpmdem.case import CaseSetup
 from mpmdem.flag_types import count_at_least, given, interval, positive
-from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
 NAME = "column-collapse"

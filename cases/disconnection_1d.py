@@ -11,7 +11,7 @@ import sys
 import numpy as np
 
 from mpmdem import LinearElastic, Scene, SolverConfig
-from mpmdem.runner import CaseSetup
+from mpmdem.case import CaseSetup
 from mpmdem.validation import Check
 
 NAME = "disconnection-1d"

@@ -9,8 +9,8 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, Scene, sphero_disk
+from mpmdem.case import CaseSetup
 from mpmdem.flag_types import interval, non_negative
-from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
 NAME = "disk-collision"

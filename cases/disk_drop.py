@@ -20,6 +20,7 @@ import sys
 import numpy as np
 
 from mpmdem import InputError, Scene, disk, rounded_rectangle
+from mpmdem.case import CaseSetup
 from mpmdem.cases import momentum_exchange
 from mpmdem.cases.momentum_exchange import (
     DENSITY,
@@ -33,7 +34,6 @@ from mpmdem.cases.momentum_exchange import (
     table1_material,
 )
 from mpmdem.flag_types import positive
-from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
 NAME = "disk-drop"

@@ -10,8 +10,8 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, Scene, rounded_rectangle
+from mpmdem.case import CaseSetup
 from mpmdem.flag_types import count_at_least, given, positive
-from mpmdem.runner import CaseSetup
 
 NAME = "domino"
 DESCRIPTION = "a row of blocks on a floor topples after a push (DEM only): front speed, toppled count"

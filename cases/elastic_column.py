@@ -10,8 +10,8 @@ import sys
 import numpy as np
 
 from mpmdem import LinearElastic, Scene, rectangle
+from mpmdem.case import CaseSetup
 from mpmdem.flag_types import count_at_least, given
-from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
 NAME = "elastic-column"

@@ -22,9 +22,9 @@ import sys
 
 import numpy as np
 
+from mpmdem.case import CaseSetup
 from mpmdem.cases import normal_force as nf
 from mpmdem.flag_types import count_at_least, positive
-from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
 NAME = "friction-force"

@@ -85,6 +85,7 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, Scene, rounded_rectangle
+from mpmdem.case import CaseSetup
 from mpmdem.cases._granular_matrix_sample import (
     container,
     deepest_overlap,
@@ -97,7 +98,6 @@ from mpmdem.cases._granular_matrix_sample import (
 )
 from mpmdem.cases._table3 import CM, GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, SPHERO_RADIUS, VERLET, sand
 from mpmdem.flag_types import count_at_least, interval, non_negative, positive
-from mpmdem.runner import CaseSetup
 
 NAME = "granular-matrix"
 DESCRIPTION = "uniaxial compression of pentagons (SDEM) with MPM fines in their voids: force–settlement (MPM-SDEM §7)"

@@ -35,8 +35,8 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, LinearElastic, Scene, disk, sphero_disk
+from mpmdem.case import CaseSetup
 from mpmdem.flag_types import positive
-from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
 NAME = "momentum-exchange"

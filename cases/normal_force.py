@@ -42,8 +42,8 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, LinearElastic, Scene, rounded_rectangle
+from mpmdem.case import CaseSetup
 from mpmdem.flag_types import count_at_least, given, positive
-from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 from mpmdem.variants import Variant
 

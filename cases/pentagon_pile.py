@@ -8,8 +8,8 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, Scene, random_convex_polygon
+from mpmdem.case import CaseSetup
 from mpmdem.flag_types import count_at_least, given
-from mpmdem.runner import CaseSetup
 
 NAME = "pentagon-pile"
 DESCRIPTION = "random pentagons poured into a box settle (DEM only): packing, contacts, rest"

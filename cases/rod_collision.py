@@ -11,8 +11,8 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, LinearElastic, Scene, Simulation, SolverConfig, rod
+from mpmdem.case import CaseSetup
 from mpmdem.flag_types import count_at_least, given, interval, positive
-from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
 NAME = "rod-collision"

@@ -12,9 +12,9 @@ import sys
 import numpy as np
 
 from mpmdem import InputError, NeoHookean, Scene, disk
+from mpmdem.case import CaseSetup
 from mpmdem.flag_types import count_at_least, given, nonzero
 from mpmdem.io import RunFile
-from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
 NAME = "rotating-disk"

@@ -73,9 +73,9 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, DruckerPrager, InputError, Scene, rounded_rectangle
+from mpmdem.case import CaseSetup
 from mpmdem.cases._table3 import GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, VERLET, sand
 from mpmdem.flag_types import count_at_least, given, non_negative, positive
-from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
 NAME = "sand-blocks"

@@ -77,6 +77,7 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, MuI, Scene, SolverConfig, rectangle, rounded_rectangle
+from mpmdem.case import CaseSetup
 from mpmdem.cases._table3 import (
     CRITICAL_DENSITY_RATIO,
     DENSITY,
@@ -93,7 +94,6 @@ from mpmdem.cases._table3 import (
     sand,
 )
 from mpmdem.flag_types import count_at_least, given, positive
-from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 
 NAME = "silo-discharge"

@@ -56,8 +56,8 @@ import sys
 import numpy as np
 
 from mpmdem import MohrCoulomb, Scene, rectangle
+from mpmdem.case import CaseSetup
 from mpmdem.flag_types import count_at_least, given, non_negative
-from mpmdem.runner import CaseSetup
 from mpmdem.validation import Check
 from mpmdem.variants import Variant
 

@@ -11,8 +11,8 @@ import sys
 import numpy as np
 
 from mpmdem import MohrCoulomb, Scene, rectangle
+from mpmdem.case import CaseSetup
 from mpmdem.cases._variants import GRANULAR_VARIANTS, critical_density, plot_variants, read_run
-from mpmdem.runner import CaseSetup
 
 NAME = "slope-flow"
 DESCRIPTION = "a granular block flows down a 30° slope: mean density in original, stress-free and Granular MPM"

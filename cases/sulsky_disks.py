@@ -8,8 +8,8 @@ import sys
 import numpy as np
 
 from mpmdem import NeoHookean, Scene, disk
+from mpmdem.case import CaseSetup
 from mpmdem.flag_types import count_at_least, given
-from mpmdem.runner import CaseSetup
 
 NAME = "sulsky-disks"
 DESCRIPTION = "two elastic disks collide and rebound (MPM notes / Sulsky 1995)"

@@ -51,8 +51,8 @@ import sys
 import numpy as np
 
 from mpmdem import Boundary, MohrCoulomb, Scene, rectangle
+from mpmdem.case import CaseSetup
 from mpmdem.flag_types import given, positive
-from mpmdem.runner import CaseSetup
 
 NAME = "toyoura-flume"
 DESCRIPTION = "Toyoura sand flows down a 45° flume onto a load cell: arrival, impact force, deposit"

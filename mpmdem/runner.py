@@ -14,10 +14,10 @@ import json
 import sys
 import time
 import typing
-from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
 
+from .case import CaseSetup
 from .config import SolverConfig
 from .errors import BlowUpError, InputError
 from .flag_types import choice, count_at_least, given, non_negative, positive
@@ -30,21 +30,10 @@ from .run_plan import (
     long_run_warning,
     parse_size,
 )
-from .scene import Scene
 from .signals import deferred_stop, exit_code, sigterm_raises
 from .warp_init import check_device, cpu_only
 
 __all__ = ["CaseSetup", "OneLineParser", "case_module", "count_at_least", "make_case_parser", "out_folder", "run_case"]
-
-
-@dataclass
-class CaseSetup:
-    """What a case's ``build`` returns: the scene, the run length and frame count."""
-
-    scene: Scene
-    end_time: float
-    frames: int = 20
-    config: dict = field(default_factory=dict)
 
 
 def _join_dash_values(parser: argparse.ArgumentParser, argv: list[str]) -> list[str]:
