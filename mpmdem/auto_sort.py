@@ -23,14 +23,14 @@ __all__ = ["AUTO_SORT_CHECK_STEPS", "AUTO_SORT_DRIFT", "AUTO_SORT_MIN_POINTS", "
 #: neighbours. A first choice, to be measured on the GPU (drift against step time): cell order
 #: gives about 1 / (points per cell column), a random order close to 1.
 AUTO_SORT_DRIFT = 0.25
-#: Fewest points for which the order is watched. Below it the points and the grid fit in the
-#: H100's 50 MB L2 cache, where memory order matters little (to be measured, as the threshold).
+#: Fewest points for which the order is watched. Below it the points and the grid fit in a data-centre
+#: GPU's L2 cache, where memory order matters little (to be measured, as the threshold).
 AUTO_SORT_MIN_POINTS = 65536
 #: Fewest steps between two drift checks [steps]; 0: after every batch of ``advance_to`` (up to
-#: 400 steps on CUDA). A check is one kernel over the points and a 4-byte read back (7 µs of GPU
-#: time at 1M points on an H100, against ~220 µs a step). Checking at most every 100 steps let a
-#: shuffled 1M-point block run most of a 1000-step window unsorted on an H100 (2.34e9 point
-#: updates/s against 4.50e9 sorted, bench/results/mpm_auto_sort_h100.jsonl): every batch it is.
+#: 400 steps on CUDA). A check is one kernel over the points and a 4-byte read back, a few per cent
+#: of a large step. Checking at most every 100 steps let a shuffled 1M-point block run most of a
+#: 1000-step window unsorted (about half the sorted throughput): every batch it is. Figures:
+#: docs/benchmarks.md, "Tuning constants and their measured reasons".
 AUTO_SORT_CHECK_STEPS = 0
 
 

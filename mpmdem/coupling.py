@@ -45,7 +45,7 @@ SIFTED_IMP_POINTS = 65536
 #: With at most this many rigid bodies, in scenes of fewer than SIFTED_IMP_POINTS points, on the
 #: devices of STATIC_IMP_DEVICES, every point lists every body once and for all (``static_lists``):
 #: the step then has no list check and no conditional rebuild, which a small scene pays per step
-#: (a skipped conditional node costs ~4.8 µs on an H100, bench/launch_floor.py), and the force
+#: (a skipped conditional node costs a few µs, bench/launch_floor.py), and the force
 #: kernel finds the bodies within reach by their bounding circle and box. The CPU keeps the
 #: Verlet lists (its steps are paid in work, not in launches); both give the same forces.
 STATIC_IMP_BODIES = 8

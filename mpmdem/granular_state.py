@@ -42,8 +42,8 @@ LINK_LANES = 4
 LINK_LANES_POINTS = 65536
 LINK_LANES_DEVICES = ("cuda",)
 #: Threads a point of ``relink`` where ``link`` takes LINK_LANES: one a listed pair (a point lists
-#: at most ``kernels.granular.PAIR_SLOTS`` = 8). H100, call s39-D, µs a step, sand-blocks 2 / 4 / 8
-#: lanes 118.1 / 115.2 / 112.8, silo-discharge 154.1 / 153.9 / 150.5.
+#: at most ``kernels.granular.PAIR_SLOTS`` = 8); 8 was the fastest of 2, 4 and 8 on sand-blocks and
+#: silo-discharge (docs/benchmarks.md, "Tuning constants and their measured reasons").
 RELINK_LANES = 8
 #: Whether a point may change node ranges without a rebuild where no pair's pre-task can then
 #: change (``make_interaction``: every domain granular and under half a cell, not deforming, not

@@ -62,10 +62,8 @@ MIRROR_IN_G2P = True
 FOLD_IN_GRID_UPDATE = True
 #: Both only in scenes of fewer points than this: they trade a launch for work in kernels that run
 #: over every point or node, which pays in small scenes, paid per launch, and costs in large ones,
-#: paid in bandwidth (1M points, slip walls, H100: G2P 45 -> 132 us, the grid update 10 -> 18 us).
-#: The MPM bench's step (slip walls, H100) is 4-7 us faster with them up to 32k points, the same at
-#: 65536, and 5 and 16 us slower at 131k and 262k (bench/README.md, "Small scenes without list
-#: checks or wall-image launches").
+#: paid in bandwidth (G2P and the grid update grow severalfold at 1M points). Faster up to 32k points,
+#: even at 65536, slower above (docs/benchmarks.md, "Tuning constants and their measured reasons").
 IMAGES_IN_KERNELS_POINTS = 65536
 
 #: MUSL (and USAVG) re-map the new point velocities in the G2P that updates them (``make_g2p``'s

@@ -33,8 +33,8 @@ FRAME_OVERHEAD_BYTES = 10_500
 FILE_OVERHEAD_BYTES = 200_000
 #: the world outline of a body in the XDMF view of each frame: ~64 points × 3 float64
 OUTLINE_BYTES_PER_BODY = 64 * 3 * 8
-#: the fastest step measured on a GPU: ~28 µs, normal-force (2,601 points, one body) on an H100
-#: (bench/results/small_scenes.jsonl); a lower bound for any scene
+#: a lower bound for any scene's GPU step [s], under the fastest step measured (normal-force,
+#: bench/results/small_scenes.jsonl; docs/benchmarks.md)
 GPU_STEP_FLOOR_S = 25e-6
 #: the fastest CPU rate measured: 4.3e6 point-steps per second, plain MPM on a dense column of
 #: 16,200 points (bench/results/granular_overhead_cpu.jsonl)

@@ -65,8 +65,8 @@ STATUS_SLOTS = 4
 #: The largest extent of deforming domains, the margins and the moves are reduced into this many
 #: slots (point p uses slot p % EXT_SLOTS, and only when it beats the slot): no million atomics on
 #: one address, and few loads for ``judge``, one thread on the critical path of every step, to reduce
-#: (H100, 262k points: 8 slots against 32 took ~2 µs off every scene's step, 203.2 → 201.1 µs on the
-#: dispersed cloud).
+#: (8 against 32 was faster on every scene: docs/benchmarks.md, "Tuning constants and their measured
+#: reasons").
 EXT_SLOTS = 8
 
 # Slots of ``Interaction.motion`` (each reduced over EXT_SLOTS slots), in quanta (rounded up), the
@@ -149,8 +149,8 @@ PAIR_SLOTS = 8
 STREAK_START = 8
 #: The most steps that rebuild without a check.
 STREAK_MAX = 32
-#: Steps the wide lists last (H100, 1M points: 8, 16, 32 steps: cloud 624 / 622 / 622 µs, flowing
-#: column 502 / 496 / 494).
+#: Steps the wide lists last (16 and 32 equal, 8 slower at 1M points: docs/benchmarks.md, "Tuning
+#: constants and their measured reasons").
 WIDE_STEPS = 16
 #: Steps in a row that keep everything and end the wide lists.
 CALM_STEPS = 8

@@ -52,7 +52,7 @@ ASSIGN_CACHE = 8
 #: Grid copies are visited in runs of this many nodes along j: ``Grid.depth`` holds, for each run,
 #: the most copies in use at one of its nodes, and the kernels over copies go that deep at every
 #: node of the run, so their stores cover whole memory sectors (a store to a sector that other
-#: threads leave partly unwritten is several times slower on an H100 than a whole one).
+#: threads leave partly unwritten is several times slower than a whole one).
 COPY_RUN = 8
 
 
