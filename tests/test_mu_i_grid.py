@@ -24,7 +24,7 @@ HEIGHT, TOP = 0.04, 0.05  # m: heap height and crest width
 E = 2.0e6  # Pa
 
 
-def heap(theta_deg: float) -> Simulation:
+def heap(theta_deg: float, device: str = "cpu") -> Simulation:
     """A trapezoidal heap with sides at ``theta_deg`` on a no-slip floor, 2 × 2 points per cell."""
     run = HEIGHT / math.tan(math.radians(theta_deg))
     base = TOP + 2.0 * run
@@ -34,7 +34,7 @@ def heap(theta_deg: float) -> Simulation:
                   gravity=(0.0, -9.81), boundaries={"bottom": "fixed", "left": "slip", "right": "slip", "top": "free"})
     outline = [(x0, 0.0), (x0 + base, 0.0), (x0 + run + TOP, HEIGHT), (x0 + run, HEIGHT)]
     scene.add_mpm_body(polygon(outline), MuI.glass_beads(youngs_modulus=E), points_per_cell=2)
-    return Simulation(scene, SolverConfig(shape="bspline2", transfer="APIC"), device="cpu")
+    return Simulation(scene, SolverConfig(shape="bspline2", transfer="APIC"), device=device)
 
 
 def largest_displacement(sim: Simulation, x0: np.ndarray) -> float:
@@ -68,8 +68,8 @@ def test_heap_below_atan_mu_s_stays_at_rest(theta):
     assert largest_displacement(sim, x0) < 10.0 * settle
 
 
-def test_heap_above_atan_mu_2_flows():
-    sim = heap(45.0)
+def test_heap_above_atan_mu_2_flows(device):
+    sim = heap(45.0, device)
     x0 = sim.fields()["x"].copy()
     sim.advance_to(0.2)
     assert largest_displacement(sim, x0) > H_CELL
