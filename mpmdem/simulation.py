@@ -143,7 +143,7 @@ class Simulation:
         launch from the host instead of n."""
         if self._graph is not None or not self.config.cuda_graph or not wp.get_device(self.device).is_cuda:
             return
-        t, *_ = self.stage.read_clock()
+        t = self.stage.read_clock().t
         self.stage.set_stop_time(t)  # dt = 0: loads every module, changes nothing
         self.stage.step()
         wp.synchronize_device(self.device)
@@ -196,12 +196,14 @@ class Simulation:
         stage.set_stop_time(t_stop)
         cuda = wp.get_device(self.device).is_cuda
         max_batch = max_batch or (400 if cuda else 25)
-        t, dt, bound, steps, status = stage.read_clock()
+        clock = stage.read_clock()
+        t, dt, steps = clock.t, clock.dt, clock.steps
         batch = 1
         while t < t_stop:
             self.advance(batch)
-            t, dt, bound, steps, status = stage.read_clock()
-            stage.check_status(t, dt, bound, status)
+            clock = stage.read_clock()
+            stage.check_status(clock.t, clock.dt, clock.bound, clock.status)
+            t, dt, steps = clock.t, clock.dt, clock.steps
             if self._auto_sort is not None:
                 self._auto_sort.after_batch(steps)
             if self._graph is not None and self.block_layouts:
@@ -290,14 +292,16 @@ class Simulation:
 
         status, message = "completed", ""
         try:
-            t_start, dt, bound, steps, _ = self.stage.read_clock()
+            start = self.stage.read_clock()
+            t_start = start.t
             if t_start >= end_time:
                 raise InputError("end_time", end_time, f"a time after the current time {t_start:g} s")
-            record(t_start, steps, *self.initial_step())
+            record(t_start, start.steps, *self.initial_step())
             for k in range(1, frames + 1):
                 t_frame = end_time if k == frames else t_start + (end_time - t_start) * k / frames
                 t, steps = self.advance_to(t_frame, on_batch=progress)
-                _, dt, bound, _, _ = self.stage.read_clock()
+                clock = self.stage.read_clock()
+                dt, bound = clock.dt, clock.bound
                 record(t, steps, dt, bound)
         except BlowUpError as e:
             status, message = "blown-up", str(e)

@@ -31,12 +31,14 @@ __all__ = ["Clock", "ClockReading", "ClockedStage", "Stage"]
 
 
 class ClockReading(NamedTuple):
-    """The clock at one host sync: t, dt, bound [s] and the steps taken."""
+    """The clock at one host sync: t, dt, bound [s], the steps taken and, read by a stage
+    (``ClockedStage.read_clock``), its status counters (None from ``Clock.read``)."""
 
     t: float
     dt: float
     bound: float
     steps: int
+    status: np.ndarray | None = None
 
 
 class Clock:
@@ -101,10 +103,9 @@ class ClockedStage:
         """Steps run until the clock reaches t_stop [s]; later steps do nothing."""
         self.sim_clock.set_stop_time(t_stop)
 
-    def read_clock(self) -> tuple[float, float, float, int, np.ndarray]:
-        """(t, dt, dt_bound, steps, status counts): one host sync."""
-        t, dt, bound, steps = self.sim_clock.read()
-        return t, dt, bound, steps, self.status_counts()
+    def read_clock(self) -> ClockReading:
+        """The clock with the stage's status counters: one host sync."""
+        return self.sim_clock.read()._replace(status=self.status_counts())
 
 
 @runtime_checkable
@@ -126,8 +127,8 @@ class Stage(Protocol):
     def set_stop_time(self, t_stop: float) -> None:
         """Steps run until the clock reaches t_stop [s]."""
 
-    def read_clock(self) -> tuple[float, float, float, int, np.ndarray]:
-        """(t, dt, dt_bound, steps, status counts): one host sync."""
+    def read_clock(self) -> ClockReading:
+        """(t, dt, dt_bound, steps, status counts) by name: one host sync."""
 
     def check_status(self, t: float, dt: float, bound: float, status: np.ndarray) -> None:
         """Raise BlowUpError when the status counters read with the clock show one."""
