@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import NamedTuple
 
 import numpy as np
 import warp as wp
@@ -63,6 +64,14 @@ def contact_time_step_bound(scene: Scene, point_mass: float) -> float:
     """
     return spring_time_step_bound(scene.coupling_contact or scene.contact, point_mass)
 
+
+
+class CoupledStatus(NamedTuple):
+    """The status counters of a coupled step, per stage (each stage's own STATUS_* slots)."""
+
+    mpm: np.ndarray
+    dem: np.ndarray
+    coupling: np.ndarray
 
 class CoupledStage(ClockedStage):
     """One explicit step of a scene with material points and rigid bodies.
@@ -366,21 +375,19 @@ class CoupledStage(ClockedStage):
             lists = [IfAny([block.flag for block in lists], self.any_rebuild, lists)]
         return lists + self.mpm.start_plan
 
-    def status_counts(self) -> np.ndarray:
-        """Status counts of both stages and the coupling, one after the other."""
-        return np.concatenate([self.mpm.status_counts(), self.dem.status_counts(), self.status.numpy()])
+    def status_counts(self) -> CoupledStatus:
+        """Status counts of both stages and of the coupling, by name."""
+        return CoupledStatus(self.mpm.status_counts(), self.dem.status_counts(), self.status.numpy())
 
     def likely_cause(self, dt: float, bound: float) -> str:
         """The rigid bodies' initial overlap, the points' causes, the contact stiffness."""
         return coupled_likely_cause(self.config, self.scene, self.dem.overlap_cause(), dt, bound, self.contact_bound)
 
-    def check_status(self, t: float, dt: float, bound: float, status: np.ndarray) -> None:
+    def check_status(self, t: float, dt: float, bound: float, status: CoupledStatus) -> None:
         """The MPM and DEM checks, then overflowing point–body lists or bins."""
-        nm = len(self.mpm.status)
-        nd = len(self.dem.status)
-        self.mpm.check_status(t, dt, bound, status[:nm])
-        self.dem.check_status(t, dt, bound, status[nm:nm + nd])
-        own = status[nm + nd:]
+        self.mpm.check_status(t, dt, bound, status.mpm)
+        self.dem.check_status(t, dt, bound, status.dem)
+        own = status.coupling
         if own[coupling_kernels.STATUS_SLOT_OVERFLOW] > 0:
             raise BlowUpError("imp-overflow", f"at t = {t:.6g} s a material point was near more than "
                               f"{self.config.imp_max_bodies} rigid bodies: raise SolverConfig(imp_max_bodies=...) "
