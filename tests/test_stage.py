@@ -7,7 +7,7 @@ from helpers import free_disk_scene
 
 import mpmdem as m
 from mpmdem.kernels import clock as clock_slots
-from mpmdem.stage import Clock, Stage
+from mpmdem.stage import Clock, ClockReading, Stage
 
 FREE = {s: "free" for s in ("left", "right", "bottom", "top")}
 
@@ -36,8 +36,15 @@ def test_every_stage_satisfies_the_stage_protocol(kind):
             assert isinstance(stage, Stage)
             assert stage.sim_clock is sim.clock
             assert stage.clock is sim.clock.values and stage.steps is sim.clock.steps
-    t, dt, bound, steps, status = sim.stage.read_clock()
-    assert (t, steps) == (0.0, 0) and isinstance(status, np.ndarray)
+    clock = sim.stage.read_clock()
+    assert isinstance(clock, ClockReading) and (clock.t, clock.steps) == (0.0, 0)
+    if kind == "coupled":  # each stage's counters by name
+        from mpmdem.coupling import CoupledStatus
+
+        assert isinstance(clock.status, CoupledStatus)
+        assert all(isinstance(part, np.ndarray) and not part.any() for part in clock.status)
+    else:
+        assert isinstance(clock.status, np.ndarray) and not clock.status.any()
     sim.stage.set_stop_time(1.0)
     assert sim.clock.values.numpy()[clock_slots.CLOCK_T_STOP] == 1.0
     sim.stage.step()
