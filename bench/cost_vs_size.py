@@ -21,11 +21,13 @@ The two lines drawn under each method (``--plot``):
   Warp's activity timing over eager steps of the method's smallest size) times the µs a node of a
   chain of point-sized no-op kernels costs in a CUDA graph (bench/launch_floor.py's ``points``
   chain, measured in the same call). No step of the method can be faster, whatever its size.
-- **memory roofline** [µs/step]: 2 × the bytes of the state the step must read and write (every
-  array of the points' struct ``P``, the grid's ``G`` and the bodies' ``B``) over the device's copy
-  bandwidth, measured in the same call (a device-to-device copy of ``COPY_BYTES``). A step that
-  read and wrote its state once at full bandwidth would take this long; a real step reads some
-  arrays several times and keeps others, so this is a bound, not a model.
+- **memory roofline** [µs/step]: 2 × the bytes of the state every step must read and write (every
+  array of the points' struct ``P`` and the bodies' ``B``) over the device's copy bandwidth,
+  measured in the same call (a device-to-device copy of ``COPY_BYTES``). The grid (``G``) is left
+  out: Granular MPM allocates grid layers a dense scene never touches, so counting them would put
+  the bound above the measured step. A step that read and wrote the points' and bodies' state once
+  at full bandwidth would take this long; a real step also reads the grid and reads some arrays
+  several times, so this is a lower bound, not a model.
 
 One JSON line per (method, size) and one per measured constant; ``--out`` appends them.
 ``--plot FILE.jsonl`` draws the chart from such a file instead of measuring.
@@ -96,22 +98,18 @@ def build(method: str, n: int) -> tuple:
     raise ValueError(method)
 
 
-def state_bytes(sim: Simulation) -> int:
-    """Bytes of every device array in the points' (P), grid's (G) and bodies' (B) structs of the stages."""
-    total = 0
+def state_bytes(sim: Simulation) -> dict[str, int]:
+    """Bytes of the device arrays of the points' (P), grid's (G) and bodies' (B) structs of the stages."""
+    total = {"P": 0, "G": 0, "B": 0}
     for stage in (getattr(sim, "mpm", None), getattr(sim, "dem", None)):
-        if stage is None:
-            continue
-        for name in ("P", "G", "B"):
-            struct = getattr(stage, name, None)
+        for name in total:
+            struct = getattr(stage, name, None) if stage is not None else None
             if struct is None:
                 continue
             for attr in dir(struct):
-                if attr.startswith("_"):
-                    continue
-                value = getattr(struct, attr, None)
+                value = None if attr.startswith("_") else getattr(struct, attr, None)
                 if isinstance(value, wp.array):
-                    total += value.capacity if hasattr(value, "capacity") else value.size * value.dtype_size
+                    total[name] += value.capacity
     return total
 
 
@@ -190,8 +188,9 @@ def plot(rows: list[dict], chart: Path) -> None:
     fig, ax = plt.subplots(figsize=(7.5, 5.2))
     colours = dict(zip(METHODS, ("tab:blue", "tab:orange", "tab:green", "tab:red"), strict=True))
     for method in METHODS:
-        pts = sorted((r["size"], r["us_per_step"], r["state_bytes"], r.get("launches_per_step"))
-                     for r in rows if r.get("method") == method)
+        pts = sorted((r["size"], r["us_per_step"], r["state_bytes"]["P"] + r["state_bytes"]["B"],
+                      r.get("launches_per_step"))
+                     for r in rows if r.get("method") == method and "us_per_step" in r)
         if not pts:
             continue
         size, us, nbytes, launches = (np.array(c, dtype=float) for c in zip(*pts, strict=True))
