@@ -15,6 +15,10 @@ and one thread per slot computes the pair and adds its forces to both bodies.
 
 Tangential history (the δ_t of eq. 43) is kept per vertex–edge contact: each pair slot holds
 HISTORY_SLOTS (feature key, δ_t) entries, carried across steps and across list rebuilds.
+
+In scenes with disk grains the pairs of two small sphero-disks (``Bodies.disk``) skip the feature
+search: ``kernels.dem_disks`` computes them from the centre distance with the same ``touch_force``
+(the kernels here built with ``disk_pairs`` leave them out).
 """
 
 import functools

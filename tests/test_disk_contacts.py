@@ -72,6 +72,22 @@ def test_disk_pass_is_the_general_search_to_the_bit(monkeypatch):
     assert fast["rebuilds"] > 10
 
 
+def test_disk_pass_restarts_bit_for_bit(monkeypatch, tmp_path):
+    """Verify a checkpoint of a pour with the disk–disk pass (its incoming lists and the partners'
+    copies of δ_t included) continues bit for bit."""
+    ref = simulate(monkeypatch, pour(), True, 1000)  # (the pack lands at about step 900)
+    ref.save_checkpoint(tmp_path / "disks.npz")
+    assert any(name.startswith("D.") for name in ref.stage.state_arrays())
+    second = simulate(monkeypatch, pour(), True, 0)
+    second.load_checkpoint(tmp_path / "disks.npz")
+    for sim in (ref, second):
+        sim.advance(500)
+    a, b = ref.body_fields(), second.body_fields()
+    for name in a:
+        assert np.array_equal(a[name], b[name]), name
+    assert np.abs(a["torque"]).max() > 0.0
+
+
 def test_mixed_scene_forces_match_to_round_off(monkeypatch):
     """Verify a first step of squeezed disk grains among free pentagons and free rigid disks (pairs of
     every kind touching at once) gives the general search's forces and torques. Each pair's force is
