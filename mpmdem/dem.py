@@ -297,7 +297,8 @@ class DEMSolver(ClockedStage):
         self.D = None
         if self.disk_pairs:
             self.contact_kernel = self.k.make_contact_forces(None, True)
-            self.D = dem_disks.make_disk_pairs(self.config.precision, self.config.deterministic).DiskPairs()
+            self.disks = dem_disks.make_disk_pairs(self.config.precision, self.config.deterministic)
+            self.D = self.disks.DiskPairs()
             self.D.incoming = wp.zeros(n * K, dtype=wp.int32, device=dev)
             self.D.fill = wp.zeros(n, dtype=wp.int32, device=dev)
             self.D.count = wp.zeros(n, dtype=wp.int32, device=dev)
@@ -393,9 +394,8 @@ class DEMSolver(ClockedStage):
                     self.cell_count, self.cell_items, self.status, C.total, self.body_count], block_dim=block),
         ]
         if self.disk_pairs:  # each disk's pairs owned by lower disks (kernels.dem_disks)
-            disks = dem_disks.make_disk_pairs(self.config.precision, self.config.deterministic)
-            rebuild += [Launch(disks.list_incoming, self.body_count, [B, C, self.D, self.flags, self.status]),
-                        Launch(disks.sort_incoming, self.body_count, [C, self.D, self.flags])]
+            rebuild += [Launch(self.disks.list_incoming, self.body_count, [B, C, self.D, self.flags, self.status]),
+                        Launch(self.disks.sort_incoming, self.body_count, [C, self.D, self.flags])]
         rebuild.append(Launch(k.finish_rebuild, 1, [self.flags, self.rebuilds]))
         return [IfFlag(self.flags, rebuild)]
 
@@ -459,9 +459,9 @@ class DEMSolver(ClockedStage):
             return
         B, C, world, dev = self.B, self.C, self.world, self.device
         pairs = self.body_count * self.slots
-        if self.disk_pairs:
-            disks = dem_disks.make_disk_pairs(self.config.precision, self.config.deterministic)
-            wp.launch(disks.disk_forces, self.body_count, inputs=[B, C, self.D, self.params, self.clock], device=dev)
+        if self.disk_pairs:  # (before the general search: a disk's sum starts with its disk partners)
+            wp.launch(self.disks.disk_forces, self.body_count, inputs=[B, C, self.D, self.params, self.clock],
+                      device=dev)
         if self.split is None:
             wp.launch(self.contact_kernel, pairs, inputs=[B, C, self.params, world, self.clock, self.status],
                       device=dev)

@@ -34,9 +34,10 @@ def disk_set(name: str, positions, radius: float, *, density: float = 1000.0, fr
                     tuple(float(v) for v in velocity))
 
 
-def simulate(monkeypatch, scene: Scene, disk_pairs: bool, steps: int, config: SolverConfig = F64) -> Simulation:
+def simulate(monkeypatch, scene: Scene, disk_pairs: bool, steps: int, config: SolverConfig = F64,
+             device: str = "cpu") -> Simulation:
     monkeypatch.setattr(dem_module, "DISK_PAIRS", disk_pairs)
-    sim = Simulation(scene, config, device="cpu")
+    sim = Simulation(scene, config, device=device)
     assert sim.dem.disk_pairs == disk_pairs
     sim.stage.set_stop_time(1e30)
     sim.advance(steps)
@@ -88,12 +89,13 @@ def test_disk_pass_restarts_bit_for_bit(monkeypatch, tmp_path):
     assert np.abs(a["torque"]).max() > 0.0
 
 
-def test_mixed_scene_forces_match_to_round_off(monkeypatch):
+def test_mixed_scene_forces_match_to_round_off(monkeypatch, device):
     """Verify a first step of squeezed disk grains among free pentagons and free rigid disks (pairs of
     every kind touching at once) gives the general search's forces and torques. Each pair's force is
-    the same floats; a disk's sum adds its pentagon partners after its disk partners here, in index
-    order there, so a sum of m terms may differ by m ulp of its largest term: 1e-13 of the largest
-    force bounds that in f64 (m < 20)."""
+    the same expression (on a GPU the compiler may fuse it differently in the two kernels: an ulp);
+    a disk's sum adds its pentagon partners after its disk partners here, in index order (or the
+    atomics' order, on a GPU) there, so a sum of m terms may differ by m ulp of its largest term:
+    1e-13 of the largest force bounds that in f64 (m < 20)."""
     g = place_grains(box(0.0, 0.0, 0.02, 0.02), radius=0.001, density=1000.0, seed=3, friction=0.5)
     centre = np.array([0.01, 0.01])
     g = dataclasses.replace(g, position=centre + 0.93 * (g.position - centre))  # overlapping neighbours
@@ -108,7 +110,7 @@ def test_mixed_scene_forces_match_to_round_off(monkeypatch):
                          angle=float(rng.uniform(0, 6.3)), velocity=(0.01, -0.02), friction=0.5)
     forces = []
     for disk_pairs in (True, False):
-        sim = simulate(monkeypatch, s, disk_pairs, 1)
+        sim = simulate(monkeypatch, s, disk_pairs, 1, device=device)
         forces.append(sim.body_fields())
     fast, general = forces
     for name in ("force", "torque"):
@@ -118,7 +120,7 @@ def test_mixed_scene_forces_match_to_round_off(monkeypatch):
 
 
 @pytest.mark.parametrize("restitution", [1.0, 0.4])
-def test_head_on_impact_of_two_disks_is_the_linear_spring_dashpot(monkeypatch, restitution):
+def test_head_on_impact_of_two_disks_is_the_linear_spring_dashpot(monkeypatch, restitution, device):
     """Verify a head-on impact of two disks of different masses against the law's analytic solution:
     with the dashpot c = 2ζ sqrt(k_n m*) (m* = m1 m2 / (m1 + m2); the lever arms are 0 on the centre
     line) the overlap is a damped oscillator (MPM-SDEM eq. 43's normal part), in contact for π/ω_d,
@@ -137,7 +139,7 @@ def test_head_on_impact_of_two_disks_is_the_linear_spring_dashpot(monkeypatch, r
     t_contact = math.pi / (math.sqrt(kn / m_eff) * math.sqrt(1.0 - zeta**2))
     dt = t_contact / 400.0
     monkeypatch.setattr(dem_module, "DISK_PAIRS", True)
-    sim = Simulation(s, SolverConfig(precision="f64", dt=dt), device="cpu")
+    sim = Simulation(s, SolverConfig(precision="f64", dt=dt), device=device)
     assert sim.dem.disk_pairs
     sim.stage.set_stop_time(1e30)
     d0 = sim.diagnostics()
@@ -160,7 +162,7 @@ def test_head_on_impact_of_two_disks_is_the_linear_spring_dashpot(monkeypatch, r
     assert d1["momentum_x"] == pytest.approx(m1 * v1 + m2 * v2, rel=1e-12)  # equal and opposite, to the bit
 
 
-def test_disk_sliding_on_a_disk_at_rest_saturates_at_coulomb(monkeypatch):
+def test_disk_sliding_on_a_disk_at_rest_saturates_at_coulomb(monkeypatch, device):
     """Verify the tangential spring with history and its Coulomb cap (MPM-SDEM eq. 43) on a disk grain
     sliding over the top of a fixed disk of its size under gravity: while it sticks, the tangential
     force is −k_t Σ v_t dt over its steps in contact (v_t the contact point's tangential velocity,
@@ -176,7 +178,7 @@ def test_disk_sliding_on_a_disk_at_rest_saturates_at_coulomb(monkeypatch):
     s.add_rigid_body(sphero_disk(r), density=rho, position=(0.0, 0.0), motion="fixed", friction=mu)
     s.add_grain_set(disk_set("g", [(0.0, 2.0 * r - delta0)], r, density=rho, friction=mu, velocity=(v0, 0.0)))
     monkeypatch.setattr(dem_module, "DISK_PAIRS", True)
-    sim = Simulation(s, SolverConfig(precision="f64", dt=dt), device="cpu")
+    sim = Simulation(s, SolverConfig(precision="f64", dt=dt), device=device)
     assert sim.dem.disk_pairs and int(sim.dem.B.disk.numpy().sum()) == 2  # the pair is the disk pass's
     sim.stage.set_stop_time(1e30)
     stretch = 0.0  # δ_t [m]; in scene order the fixed disk (at the origin) is body 0, the grain 1
