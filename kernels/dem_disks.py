@@ -162,7 +162,8 @@ def make_disk_pairs(precision: str, deterministic: bool = False):
                 else:
                     f += fj
                     tq += tj
-                    D.slip[at] = slip
+                    if touching or slip0 != T(0.0):
+                        D.slip[at] = slip
         wp.atomic_add(B.force, b, f)
         wp.atomic_add(B.torque, b, tq)
 
