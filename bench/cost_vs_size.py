@@ -27,7 +27,8 @@ Each (family, size) is warmed up (compilation, CUDA-graph capture, ``--warmup`` 
 family, its floor dashed, its roofline dotted). One JSON line per run on stdout (``--out``
 appends them). Nothing about time is asserted.
 
-    python bench/cost_vs_size.py --device cpu --sizes 1000,10000 --steps 10 --out bench/results/cost_vs_size_cpu.jsonl
+    python bench/cost_vs_size.py --device cpu --sizes 1000,10000,100000 --steps 30 --warmup 5 \
+        --out bench/results/cost_vs_size_cpu.jsonl
     python bench/cost_vs_size.py --plot bench/results/cost_vs_size_cpu.jsonl --png bench/results/cost_vs_size_cpu.png
     python bench/cost_vs_size.py --device cuda --out bench/results/cost_vs_size_h100.jsonl
 """
