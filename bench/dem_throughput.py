@@ -68,7 +68,8 @@ def grain_pack(n: int, seed: int = 0) -> tuple[Scene, float]:
     The loose jittered lattice of ``add_grains`` used before (φ ≈ 0.65, in a box as tall as wide) was
     seen to blow up on a GPU (the cause was not recorded). Under gravity that column falls into its
     gaps, the upper grains landing on the compacted ones at several m/s (overlaps of a quarter radius
-    at k_n = 1e6 after 0.5 s); the lattice at contact has no gap to fall into."""
+    at k_n = 1e6 after 0.5 s); the lattice at contact has no gap to fall into (it still compresses
+    under its weight, the rows above the compression wave moving down together)."""
     from grain_throughput import lattice_pack  # (a script beside this one)
 
     return lattice_pack(n, seed=seed)

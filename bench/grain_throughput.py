@@ -5,9 +5,11 @@ The pack, the probe's as far as our model allows: n sphero-disks of radius R = 0
 by default) on a hexagonal lattice of pitch 2R (1 + 1e-4) — apart, none overlapping — with the bottom
 row on the floor and side walls (fixed bodies), under gravity, each grain given a random velocity
 of up to 0.1 m/s a component (the probe's jitter); k_n = 1e6 N/m per m, the probe's dashpot ratio
-ζ = 0.3, μ = 0.5, ρ = 1000 kg/m³, dt = 0.05 sqrt(m/k_n) (the probe's). The lattice rests on the floor,
-so nothing falls: the grains touch where the jitter and the weight press them together. f32, one
-step recorded as a CUDA graph. Each size and path is settled for --warmup steps (untimed), then timed.
+ζ = 0.3, μ = 0.5, ρ = 1000 kg/m³, dt = 0.05 sqrt(m/k_n) (the probe's). The lattice has no gap to fall
+into, but at this k_n a column of rows is soft under its own weight: the rows above the compression
+wave (c ≈ 2R sqrt(k_n/m) ≈ 36 m/s) move down together, and the lists are rebuilt every few steps
+(``steps_per_rebuild``; the probe rebuilds its grid every 10). f32, one step recorded as a CUDA
+graph. Each size and path is settled for --warmup steps (untimed), then timed.
 
 ``--polydispersity p``: radii R (1 − p u), u uniform in [0, 1), on the same lattice (gaps the grains
 settle into). Ours runs every feature the probe leaves out: tangential history per pair, Verlet
