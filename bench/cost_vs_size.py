@@ -1,39 +1,36 @@
-"""Cost against size: µs per step against points (or grains) for plain MPM, Granular MPM, DEM grains
-and coupled MPM–DEM, with each method's launch floor and memory roofline (issue 46 item 4).
+"""Cost against size: µs per step of plain MPM, Granular MPM, DEM grains and the coupled step from 1e3
+to 1e7 points (or grains), with each family's launch floor and a memory roofline (issue 46, item 4).
 
-The scenes are those of the throughput benches, so their rows can be read beside them:
+Families (the scenes of the other benches, so the rows can be read beside theirs):
 
-- ``mpm``: bench/mpm_throughput.py's Neo-Hookean block (bspline2, APIC, USL, f32, CFL step);
-- ``granular``: bench/granular_overhead.py's dense column at rest, Granular MPM (linear, PIC, f32,
-  a fixed dt of a quarter of the Courant bound);
-- ``grains``: bench/dem_throughput.py's box of sphero-disk grains (``Scene.add_grains``, radius
-  0.5 m ± 15 %, f32, the probe's dt), settled for ``--warmup`` steps before timing;
-- ``coupled``: bench/coupled_throughput.py's sand with pentagons mixed in, one pentagon per
-  ``POINTS_PER_BODY`` points (1M points: 10k pentagons, its issue's scene).
+- ``mpm``: ``granular_overhead.dense_column`` (a sand column, 2 × 2 points per cell, on a floor),
+  plain MPM (APIC, quadratic B-spline, f32), fixed dt = ¼ of the initial Courant bound;
+- ``granular``: the same scene and dt with ``SolverConfig(granular=True)``;
+- ``dem-grains``: ``grain_throughput.lattice_pack`` (disks at rest on a floor, the probe's jitter,
+  k_n and dt), the disk–disk pass;
+- ``coupled``: ``coupled_throughput``'s sand with free pentagons mixed in, one pentagon for every
+  POINTS_PER_BODY points (at most --max-bodies), PIC, dt = ¼ of the smallest bound.
 
-For each method and size: build, capture the step's CUDA graph, take ``--warmup`` steps, then time
-``Simulation.advance`` over a window of about ``WINDOW_S`` seconds (at least ``MIN_STEPS``) between two
-device synchronisations.
+Each (family, size) is warmed up (compilation, CUDA-graph capture, ``--warmup`` steps), then
+``--steps`` steps run between two device synchronisations. Its line holds ``us_per_step`` and:
 
-The two lines drawn under each method (``--plot``):
+- ``floor_us``: the same family's µs per step at FLOOR_SIZE items, measured first in the same
+  run: a step where the work is nothing and the launches (graph nodes) are all. A line leaves the
+  floor where its µs per step rises above it.
+- ``roofline_us``: the time to read and write once, at the device bandwidth measured in the same
+  run (a device-to-device copy), the state a step carries to the next (``Stage.state_arrays``:
+  points, bodies, the listed contact slots; the DEM's per-slot arrays counted for the slots in use,
+  the grid, rebuilt every step, not counted): a lower bound, and ``us_per_step / roofline_us`` how
+  far the step sits above it. ``state_bytes`` and ``bandwidth_gbs`` are in the line.
 
-- **launch floor** [µs/step]: the kernels, memsets and copies one step launches (counted with
-  Warp's activity timing over eager steps of the method's smallest size) times the µs a node of a
-  chain of point-sized no-op kernels costs in a CUDA graph (bench/launch_floor.py's ``points``
-  chain, measured in the same call). No step of the method can be faster, whatever its size.
-- **memory roofline** [µs/step]: 2 × the bytes of the state every step must read and write (every
-  array of the points' struct ``P`` and the bodies' ``B``) over the device's copy bandwidth,
-  measured in the same call (a device-to-device copy of ``COPY_BYTES``). The grid (``G``) is left
-  out: Granular MPM allocates grid layers a dense scene never touches, so counting them would put
-  the bound above the measured step. A step that read and wrote the points' and bodies' state once
-  at full bandwidth would take this long; a real step also reads the grid and reads some arrays
-  several times, so this is a lower bound, not a model.
+``--plot FILE.jsonl --png OUT.png`` draws the chart from such lines (log-log: a solid line per
+family, its floor dashed, its roofline dotted). One JSON line per run on stdout (``--out``
+appends them). Nothing about time is asserted.
 
-One JSON line per (method, size) and one per measured constant; ``--out`` appends them.
-``--plot FILE.jsonl`` draws the chart from such a file instead of measuring.
-
-    python bench/cost_vs_size.py --device cuda --out bench/results/cost_vs_size/h100.jsonl
-    python bench/cost_vs_size.py --plot bench/results/cost_vs_size/h100.jsonl --chart docs/img/cost_vs_size.png
+    python bench/cost_vs_size.py --device cpu --sizes 1000,10000,100000 --steps 30 --warmup 5 \
+        --out bench/results/cost_vs_size_cpu.jsonl
+    python bench/cost_vs_size.py --plot bench/results/cost_vs_size_cpu.jsonl --png bench/results/cost_vs_size_cpu.png
+    python bench/cost_vs_size.py --device cuda --out bench/results/cost_vs_size_h100.jsonl
 """
 
 from __future__ import annotations
@@ -48,217 +45,204 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import coupled_throughput  # noqa: E402
-import dem_throughput  # noqa: E402
-import granular_overhead  # noqa: E402
-import launch_floor  # noqa: E402
-import mpm_throughput  # noqa: E402
-from small_scenes import commit  # noqa: E402
-
-from mpmdem import Simulation, SolverConfig  # noqa: E402
-from mpmdem.mpm import initial_dt_bound  # noqa: E402
-
-METHODS = ("mpm", "granular", "grains", "coupled")
-GPU_SIZES = (1_000, 3_000, 10_000, 30_000, 100_000, 300_000, 1_000_000, 3_000_000, 10_000_000)
-CPU_SIZES = (1_000, 3_000, 10_000)
-POINTS_PER_BODY = 100
-WINDOW_S = 0.3  # timed window [s]
-MIN_STEPS = 20
-MAX_STEPS = 5000
-COPY_BYTES = 1 << 30
-FLOOR_NODES = 200  # nodes of the no-op chain timed for the floor
-EAGER_STEPS = 5  # eager steps whose launches are counted
+FAMILIES = ("mpm", "granular", "dem-grains", "coupled")
+GPU_SIZES = (1000, 10000, 100000, 1000000, 10000000)
+CPU_SIZES = (1000, 10000)
+FLOOR_SIZE = 64  # items of the floor run (the coupled floor: FLOOR_SIZE × 4 points and one pentagon)
+POINTS_PER_BODY = 100  # coupled: points per free pentagon (the issue's 1M points with 10k pentagons)
+MAX_BODIES = 10000
+DT_FACTOR = 0.25
+#: DEM arrays with one entry a listed-pair slot (bodies × K): a step touches the listed slots only
+SLOT_ARRAYS = ("C.nbr", "C.key", "C.slip", "C.energy", "C.dissipated", "C.pairs", "D.incoming", "D.slip")
 
 
-def build(method: str, n: int) -> tuple:
-    """(scene, config, size actually built) of one method at about n points or grains."""
-    if method == "mpm":
-        scene = mpm_throughput.build_scene(mpm_throughput.grid_cells(n))
-        config = SolverConfig(shape="bspline2", transfer="APIC", update="USL", precision="f32")
-        return scene, config, len(scene.particles()["mass"])
-    if method == "granular":
-        scene = granular_overhead.dense_column(n)
-        dt = granular_overhead.DT_FACTOR * initial_dt_bound(scene)
-        config = SolverConfig(shape="linear", transfer="PIC", update="USL", precision="f32", granular=True, dt=dt)
-        return scene, config, len(scene.particles()["mass"])
-    if method == "grains":
-        scene, dt = dem_throughput.grain_pack(n)
-        return scene, SolverConfig(precision="f32", dt=dt), scene.dem_body_count - len(scene.rigid_bodies)
-    if method == "coupled":
-        case = coupled_throughput.build(n, max(1, n // POINTS_PER_BODY))
-        scene = coupled_throughput.make_scene(case, True, False)
-        mass = float(np.min(scene.particles()["mass"]))
+def build(family: str, n: int, max_bodies: int = MAX_BODIES):
+    """(scene, config, the number of items, a set-up callable run on the Simulation before its first
+    step) of one family at about n points or grains."""
+    from mpmdem import SolverConfig
+
+    if family in ("mpm", "granular"):
+        from granular_overhead import dense_column
+
+        from mpmdem.mpm import initial_dt_bound
+
+        scene = dense_column(n)
+        dt = DT_FACTOR * initial_dt_bound(scene)
+        return scene, SolverConfig(dt=dt, granular=family == "granular"), len(scene.particles()["mass"]), None
+    if family == "dem-grains":
+        from grain_throughput import JITTER, lattice_pack
+
+        scene, dt = lattice_pack(n)
+
+        def jitter(sim):
+            dem = sim.dem
+            free = int(np.count_nonzero(dem.motion == 0))
+            v = dem.B.v.numpy()
+            v[:free] = np.random.default_rng(0).uniform(-JITTER, JITTER, (free, 2))
+            dem.B.v.assign(v)
+
+        return scene, SolverConfig(dt=dt), n, jitter
+    if family == "coupled":
+        from coupled_throughput import build as build_case
+        from coupled_throughput import make_scene
+
         from mpmdem.coupling import contact_time_step_bound
         from mpmdem.dem import dem_time_step_bound
-        dt = coupled_throughput.DT_FACTOR * min(initial_dt_bound(scene), contact_time_step_bound(scene, mass),
-                                                dem_time_step_bound(scene))
-        config = SolverConfig(transfer="PIC", shape="bspline2", dt=dt)
-        return scene, config, len(scene.particles()["mass"])
-    raise ValueError(method)
+        from mpmdem.mpm import initial_dt_bound
+
+        bodies = max(1, min(max_bodies, n // POINTS_PER_BODY))
+        case = build_case(n, bodies)
+        plain, scene = make_scene(case, False, False), make_scene(case, True, False)
+        mass = float(np.min(scene.particles()["mass"]))
+        dt = DT_FACTOR * min(initial_dt_bound(plain), contact_time_step_bound(scene, mass), dem_time_step_bound(scene))
+        return scene, SolverConfig(transfer="PIC", shape="bspline2", dt=dt), len(scene.particles()["mass"]), None
+    raise ValueError(f"family {family!r}: one of {', '.join(FAMILIES)}")
 
 
-def state_bytes(sim: Simulation) -> dict[str, int]:
-    """Bytes of the device arrays of the points' (P), grid's (G) and bodies' (B) structs of the stages."""
-    total = {"P": 0, "G": 0, "B": 0}
-    for stage in (getattr(sim, "mpm", None), getattr(sim, "dem", None)):
-        for name in total:
-            struct = getattr(stage, name, None) if stage is not None else None
-            if struct is None:
-                continue
-            for attr in dir(struct):
-                value = None if attr.startswith("_") else getattr(struct, attr, None)
-                if isinstance(value, wp.array):
-                    total[name] += value.capacity
-    return total
+def state_bytes(sim) -> int:
+    """Bytes of the state a step carries to the next (``state_arrays``), the DEM's per-slot arrays
+    counted for their listed slots only."""
+    arrays = sim.stage.state_arrays()
+    dem = sim.dem
+    listed = used = 1.0
+    if dem is not None:
+        listed, used = float(dem.C.count.numpy().sum()), float(dem.body_count * dem.slots)
+    total = 0.0
+    for name, a in arrays.items():
+        size = a.size * wp.types.type_size_in_bytes(a.dtype)
+        if name.split(".", 1)[-1] in SLOT_ARRAYS or name.replace("dem.", "", 1) in SLOT_ARRAYS:
+            size *= listed / max(used, 1.0)
+        total += size
+    return int(total)
 
 
-def launches_per_step(sim: Simulation, device) -> float:
-    """Kernels, memsets and copies one eager step launches (Warp's activity timing)."""
-    if not wp.get_device(device).is_cuda:
-        return float("nan")
-    wp.timing_begin(cuda_filter=wp.TIMING_KERNEL | wp.TIMING_MEMSET | wp.TIMING_MEMCPY)
-    for _ in range(EAGER_STEPS):
-        sim.stage.step()
-    results = wp.timing_end()
-    return len(results) / EAGER_STEPS
-
-
-def time_steps(sim: Simulation, device) -> tuple[float, int]:
-    """(µs per step, steps) of ``Simulation.advance`` over a window of about WINDOW_S."""
-    wp.synchronize_device(device)
-    start = time.perf_counter()
-    sim.advance(MIN_STEPS)
-    wp.synchronize_device(device)
-    probe = (time.perf_counter() - start) / MIN_STEPS
-    steps = int(min(MAX_STEPS, max(MIN_STEPS, WINDOW_S / max(probe, 1e-9))))
-    start = time.perf_counter()
-    sim.advance(steps)
-    wp.synchronize_device(device)
-    return 1e6 * (time.perf_counter() - start) / steps, steps
-
-
-def measure(method: str, n: int, warmup: int, device, count_launches: bool) -> dict:
-    """One row: µs per step of a method at about n points (or grains), its state bytes and launches."""
-    t0 = time.perf_counter()
-    scene, config, built = build(method, n)
-    sim = Simulation(scene, config, device=str(device))
-    sim._capture()
-    sim.stage.set_stop_time(1.0e30)
-    sim.advance(warmup)
-    setup = time.perf_counter() - t0
-    us, steps = time_steps(sim, device)
-    t, dt, bound, _, status = sim.stage.read_clock()
-    sim.stage.check_status(t, dt, bound, status)
-    row = dict(bench="cost_vs_size", method=method, device=wp.get_device(device).name, requested=n, size=built,
-               bodies=sim.body_count, us_per_step=us, steps=steps, warmup=warmup, setup_seconds=setup,
-               state_bytes=state_bytes(sim), cuda_graph=sim._graph is not None, precision=config.precision,
-               granular=config.granular, commit=commit(), warp=wp.__version__)
-    if count_launches:
-        row["launches_per_step"] = launches_per_step(sim, device)
-    del sim, scene
-    gc.collect()
-    return row
-
-
-def copy_bandwidth(device) -> float:
-    """Device-to-device copy bandwidth [B/s]: bytes read plus bytes written per second."""
-    n = COPY_BYTES // 4
-    a = wp.zeros(n, dtype=wp.float32, device=device)
-    b = wp.empty(n, dtype=wp.float32, device=device)
-    wp.copy(b, a)
+def bandwidth(device: str) -> float:
+    """Device-to-device copy bandwidth [B/s]: bytes read plus written per second, over repeated copies
+    of an array (256 MiB on a GPU, 32 MiB on a CPU)."""
+    count = (256 if wp.get_device(device).is_cuda else 32) * 2**20 // 4
+    src = wp.zeros(count, dtype=wp.float32, device=device)
+    dst = wp.zeros_like(src)
+    wp.copy(dst, src)
     wp.synchronize_device(device)
     reps = 20
     start = time.perf_counter()
     for _ in range(reps):
-        wp.copy(b, a)
+        wp.copy(dst, src)
     wp.synchronize_device(device)
-    return 2.0 * COPY_BYTES * reps / (time.perf_counter() - start)
+    return 2.0 * 4 * count * reps / (time.perf_counter() - start)
 
 
-def plot(rows: list[dict], chart: Path) -> None:
-    """µs per step against size per method, with its launch floor and roofline, log-log."""
+def measure(family: str, n: int, steps: int, warmup: int, device: str, max_bodies: int = MAX_BODIES) -> dict:
+    """µs per step of one family at about n items (see the module docstring)."""
+    from mpmdem import Simulation
+
+    t0 = time.perf_counter()
+    scene, config, items, setup = build(family, n, max_bodies)
+    sim = Simulation(scene, config, device=device)
+    if setup is not None:
+        setup(sim)
+    stage = sim.stage
+    sim.advance_to(1.0e-12)  # modules, the CUDA graph, one step
+    t, dt, *_ = stage.read_clock()
+    sim.advance_to(t + (warmup - 0.5) * dt)
+    stage.set_stop_time(1.0e9)
+    wp.synchronize_device(device)
+    before = stage.read_clock()[3]
+    build_seconds = time.perf_counter() - t0
+    start = time.perf_counter()
+    sim.advance(steps)
+    wp.synchronize_device(device)
+    seconds = time.perf_counter() - start
+    t, dt, bound, after, status = stage.read_clock()
+    if after - before != steps:
+        raise RuntimeError(f"{family} at {n}: took {after - before} of {steps} timed steps")
+    stage.check_status(t, dt, bound, status)
+    row = dict(case="cost-vs-size", family=family, requested=n, items=items, steps=steps,
+               us_per_step=1e6 * seconds / steps, item_steps_per_s=items * steps / seconds,
+               state_bytes=state_bytes(sim), bodies=sim.body_count, cuda_graph=sim._graph is not None,
+               device=str(sim.device), device_name=wp.get_device(device).name, build_seconds=build_seconds,
+               warp=wp.__version__)
+    del sim, stage
+    gc.collect()
+    return row
+
+
+def plot(lines: list[dict], png: str) -> None:
+    """The chart: µs per step against items per family (solid), its floor (dashed), its roofline (dotted)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    consts = {r["constant"]: r["value"] for r in rows if "constant" in r}
-    node_us, bandwidth = consts.get("us_per_node"), consts.get("copy_bandwidth")
-    fig, ax = plt.subplots(figsize=(7.5, 5.2))
-    colours = dict(zip(METHODS, ("tab:blue", "tab:orange", "tab:green", "tab:red"), strict=True))
-    for method in METHODS:
-        pts = sorted((r["size"], r["us_per_step"], r["state_bytes"]["P"] + r["state_bytes"]["B"],
-                      r.get("launches_per_step"))
-                     for r in rows if r.get("method") == method and "us_per_step" in r)
-        if not pts:
+    fig, ax = plt.subplots(figsize=(7.5, 5.0))
+    colours = dict(zip(FAMILIES, ("tab:blue", "tab:orange", "tab:green", "tab:red"), strict=True))
+    rows = [r for r in lines if r.get("case") == "cost-vs-size" and not r.get("floor")]
+    span = [min(r["items"] for r in rows), max(r["items"] for r in rows)] if rows else [1, 1]
+    for family in FAMILIES:
+        own = sorted((r for r in rows if r["family"] == family), key=lambda r: r["items"])
+        if not own:
             continue
-        size, us, nbytes, launches = (np.array(c, dtype=float) for c in zip(*pts, strict=True))
-        c = colours[method]
-        ax.loglog(size, us, "o-", color=c, label=method)
-        if bandwidth:
-            ax.loglog(size, 1e6 * 2.0 * nbytes / bandwidth, ":", color=c, lw=1)
-        known = launches[np.isfinite(launches)] if node_us else []
-        if len(known):
-            ax.axhline(known[0] * node_us, color=c, ls="--", lw=0.8)
-    ax.plot([], [], "k--", lw=0.8, label="launch floor (launches × µs per graph node)")
-    ax.plot([], [], "k:", lw=1, label="memory roofline (2 × state bytes / copy bandwidth)")
-    ax.set_xlabel("points (MPM, granular, coupled) or grains (DEM)")
+        c = colours[family]
+        x = [r["items"] for r in own]
+        ax.loglog(x, [r["us_per_step"] for r in own], "o-", color=c, label=f"{family}")
+        ax.loglog(span, [own[0]["floor_us"]] * 2, "--", color=c, lw=0.9)
+        ax.loglog(x, [r["roofline_us"] for r in own], ":", color=c, lw=1.2)
+    ax.plot([], [], "k--", lw=0.9, label=f"launch floor (the family at {FLOOR_SIZE} items)")
+    ax.plot([], [], "k:", lw=1.2, label="memory roofline (state read + written once)")
+    device = rows[0]["device_name"] if rows else ""
+    ax.set_xlabel("points or grains")
     ax.set_ylabel("µs per step")
-    device = next((r["device"] for r in rows if "device" in r), "")
-    ax.set_title(f"cost against size, {device}")
+    ax.set_title(f"Cost against size ({device})")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    chart.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(chart, dpi=120)
+    fig.savefig(png, dpi=130)
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--device", default=None)
-    p.add_argument("--methods", default=",".join(METHODS))
-    p.add_argument("--sizes", default=None, help="comma-separated sizes (default 1e3..1e7 on cuda, 1e3..1e4 on cpu)")
-    p.add_argument("--max-size", default="", help="per-method caps, e.g. grains=3000000,granular=3000000")
-    p.add_argument("--warmup", type=int, default=20)
-    p.add_argument("--out", type=Path, default=None)
-    p.add_argument("--plot", type=Path, default=None, help="draw the chart from this .jsonl instead of measuring")
-    p.add_argument("--chart", type=Path, default=Path("cost_vs_size.png"))
+    p.add_argument("--families", default=",".join(FAMILIES))
+    p.add_argument("--sizes", default=None, help=f"items (default GPU {GPU_SIZES}, CPU {CPU_SIZES})")
+    p.add_argument("--steps", type=int, default=100)
+    p.add_argument("--warmup", type=int, default=10)
+    p.add_argument("--max-bodies", type=int, default=MAX_BODIES, help="coupled: the most pentagons")
+    p.add_argument("--out", default=None, help="append the JSON lines to this file")
+    p.add_argument("--plot", default=None, help="draw the chart from this JSONL file (no run)")
+    p.add_argument("--png", default=None, help="with --plot: the chart's file")
     args = p.parse_args(argv)
     if args.plot:
-        plot([json.loads(line) for line in args.plot.read_text().splitlines() if line.strip()], args.chart)
+        plot([json.loads(s) for s in Path(args.plot).read_text().splitlines() if s.strip()],
+             args.png or str(Path(args.plot).with_suffix(".png")))
         return 0
     wp.init()
-    device = wp.get_device(args.device or ("cuda" if wp.get_cuda_device_count() else "cpu"))
+    device = args.device or ("cuda" if wp.get_cuda_device_count() else "cpu")
     sizes = [int(float(s)) for s in args.sizes.split(",")] if args.sizes else list(
-        GPU_SIZES if device.is_cuda else CPU_SIZES)
-    caps = {k: int(float(v)) for k, v in (kv.split("=") for kv in args.max_size.split(",") if kv)}
-    rows = []
-
-    def emit(row):
-        rows.append(row)
-        print(json.dumps(row), flush=True)
-        if args.out:
-            args.out.parent.mkdir(parents=True, exist_ok=True)
-            with args.out.open("a") as f:
-                f.write(json.dumps(row) + "\n")
-
-    with wp.ScopedDevice(device):
-        if device.is_cuda:
-            emit(dict(bench="cost_vs_size", constant="copy_bandwidth", value=copy_bandwidth(device),
-                      unit="B/s", device=device.name, commit=commit()))
-            floor = launch_floor.measure("points", FLOOR_NODES, 1024, 50, str(device))
-            emit(dict(bench="cost_vs_size", constant="us_per_node", value=floor["us_per_node"], unit="us",
-                      device=device.name, source="launch_floor points chain, 1024 threads", commit=commit()))
-        for method in [m.strip() for m in args.methods.split(",") if m.strip()]:
-            for k, n in enumerate(s for s in sizes if s <= caps.get(method, sizes[-1])):
-                try:
-                    emit(measure(method, n, args.warmup, device, count_launches=k == 0))
-                except Exception as exc:  # a size that does not fit is a row, not the end of the sweep
-                    emit(dict(bench="cost_vs_size", method=method, requested=n, error=f"{type(exc).__name__}: {exc}"))
-                    break
+        GPU_SIZES if device.startswith("cuda") else CPU_SIZES)
+    families = [f.strip() for f in args.families.split(",") if f.strip()]
+    unknown = [f for f in families if f not in FAMILIES]
+    if unknown:
+        p.error(f"--families: {unknown} not among {', '.join(FAMILIES)}")
+    bw = bandwidth(device)
+    lines = []
+    for family in families:
+        floor = measure(family, FLOOR_SIZE * (4 if family == "coupled" else 1), args.steps, args.warmup, device,
+                        args.max_bodies)
+        floor.update(floor=True, bandwidth_gbs=bw / 1e9, roofline_us=1e6 * 2.0 * floor["state_bytes"] / bw)
+        lines.append(floor)
+        print(json.dumps(floor), flush=True)
+        for n in sizes:
+            row = measure(family, n, args.steps, args.warmup, device, args.max_bodies)
+            row.update(floor_us=floor["us_per_step"], bandwidth_gbs=bw / 1e9,
+                       roofline_us=1e6 * 2.0 * row["state_bytes"] / bw)
+            row["over_floor"] = row["us_per_step"] / row["floor_us"]
+            row["over_roofline"] = row["us_per_step"] / row["roofline_us"]
+            lines.append(row)
+            print(json.dumps(row), flush=True)
     if args.out:
-        plot(rows, args.out.with_suffix(".png"))
+        with open(args.out, "a") as f:
+            for row in lines:
+                f.write(json.dumps(row) + "\n")
     return 0
 
 

@@ -15,6 +15,10 @@ and one thread per slot computes the pair and adds its forces to both bodies.
 
 Tangential history (the δ_t of eq. 43) is kept per vertex–edge contact: each pair slot holds
 HISTORY_SLOTS (feature key, δ_t) entries, carried across steps and across list rebuilds.
+
+In scenes with disk grains the pairs of two small sphero-disks (``Bodies.disk``) skip the feature
+search: ``kernels.dem_disks`` computes them from the centre distance with the same ``touch_force``
+(the kernels here built with ``disk_pairs`` leave them out).
 """
 
 import functools
@@ -89,6 +93,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         kin_omega: wp.array(dtype=T)
         kin_window: wp.array(dtype=wp.vec2d)  # [t_start, t_end) of the prescribed motion [s]
         work: wp.array(dtype=wp.float64)  # work done on the other bodies by a kinematic one [J/m]
+        disk: wp.array(dtype=wp.int32)  # 1: a small sphero-disk whose disk–disk pairs take kernels.dem_disks
 
     @wp.struct
     class Contacts:
@@ -216,14 +221,15 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
 
     # -- contact forces (MPM-SDEM eq. 38-43) ------------------------------------------------------
     @wp.func
-    def vertex_contact(B: Bodies, C: Contacts, prm: Params, tid: int, i: int, j: int, side: int, X: vec2, N: vec2,
-                       d: T, reach: T, a_r: T, key: int, dt: T):
-        """The force on body i [N/m] of one touching vertex X of pair slot ``tid`` (bodies i, j; X a
-        vertex of i on side 0, of j on side 1) at distance d along N (from the other core towards
-        X): overlap eq. 38, contact point eq. 41 (in the middle of the overlap), spring–dashpot and
-        Coulomb cap eq. 43. Returns (F on i, contact point p [m], δ_t, stored energy, dissipated work).
-        The bodies' velocities, masses and the pair's history are read here, at a touch, and not
-        held through the feature search (registers: ``mpmdem.dem``)."""
+    def touch_force(B: Bodies, prm: Params, i: int, j: int, side: int, X: vec2, N: vec2, d: T, reach: T, a_r: T,
+                    slip0: T, dt: T):
+        """The force on body i [N/m] of one touching vertex X (a vertex of i on side 0, of j on side
+        1, of sphero radius a_r [m]) at distance d along N (from the other core towards X), with the
+        tangential stretch δ_t = slip0 [m] of the last step: overlap eq. 38, contact point eq. 41 (in
+        the middle of the overlap), spring–dashpot and Coulomb cap eq. 43. Returns (F on i, contact
+        point p [m], δ_t, stored energy, dissipated work). The bodies' velocities and masses are read
+        here, at a touch, and not held through the feature search (registers: ``mpmdem.dem``). The
+        vertex–edge search (``vertex_contact``) and the disk–disk pass (``kernels.dem_disks``) share it."""
         delta, p = contact_point(X, N, d, reach, a_r)
         xi = B.x[i]
         xj = B.x[j]
@@ -237,11 +243,17 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         inv_eff = (B.inv_mass[i] + B.inv_inertia[i] * lever_i * lever_i + B.inv_mass[j]
                    + B.inv_inertia[j] * lever_j * lever_j)
         mu = wp.min(B.friction[i], B.friction[j])
-        F, slip, e_pair, lost_pair = spring_dashpot(prm.kn, prm.kt, prm.zeta, mu, delta, vel, N, inv_eff,
-                                                    find_slip(C.key[tid], C.slip[tid], key), dt)
+        F, slip, e_pair, lost_pair = spring_dashpot(prm.kn, prm.kt, prm.zeta, mu, delta, vel, N, inv_eff, slip0, dt)
         if side == 1:
             F = -F  # force on i
         return F, p, slip, e_pair, lost_pair
+
+    @wp.func
+    def vertex_contact(B: Bodies, C: Contacts, prm: Params, tid: int, i: int, j: int, side: int, X: vec2, N: vec2,
+                       d: T, reach: T, a_r: T, key: int, dt: T):
+        """``touch_force`` of one touching vertex X of pair slot ``tid`` (bodies i, j), its δ_t of the
+        last step looked up under the feature ``key`` in the pair's history."""
+        return touch_force(B, prm, i, j, side, X, N, d, reach, a_r, find_slip(C.key[tid], C.slip[tid], key), dt)
 
     @wp.func
     def pair_side(B: Bodies, i: int, j: int, side: int):
@@ -372,10 +384,11 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         C.energy[tid] = energy
         C.dissipated[tid] = C.dissipated[tid] + lost
 
-    def make_contact_forces(max_registers: int | None = None):
+    def make_contact_forces(max_registers: int | None = None, disk_pairs: bool = False):
         """The contact kernel with at most ``max_registers`` registers per thread on CUDA (None:
         the compiler's choice, which the stage uses; capped builds are for
-        ``bench/kernel_registers.py``)."""
+        ``bench/kernel_registers.py``); with ``disk_pairs`` it leaves the pairs of two bodies
+        flagged ``B.disk`` to the disk–disk pass (``kernels.dem_disks``)."""
 
         @kernel(deterministic=deterministic, max_registers=max_registers)
         def contact_forces(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
@@ -385,6 +398,9 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
             if tid < 0:
                 return
             i, j, xi, xj = pair_bodies(B, C, tid)
+            if wp.static(disk_pairs):
+                if B.disk[i] != 0 and B.disk[j] != 0:
+                    return
             keys, slips, energy, lost, fi, ti, fj, tj = no_touches()
             touching = overlapping_circles(B, i, j)
             if touching:
@@ -474,6 +490,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
 
     return Namespace(
         Bodies=Bodies, Contacts=Contacts, Params=Params, start_contacts=start_contacts, clear_loads=clear_loads,
+        touch_force=touch_force, cross=cross,
         clear_cells=clear_cells,
         finish_rebuild=finish_rebuild, reset_total=reset_total,
         contact_forces=contact_forces, make_contact_forces=functools.cache(make_contact_forces),

@@ -23,9 +23,10 @@ __all__ = ["make_dem_lists"]
 
 
 @functools.cache
-def make_dem_lists(precision: str, deterministic: bool = False):
+def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool = False):
     """Kernels ``bin_bodies`` and ``build_lists`` of the body-pair lists for one precision (the
-    packing of the listed slots only outside deterministic mode)."""
+    packing of the listed slots only outside deterministic mode; with ``disk_pairs`` the pairs of
+    two bodies flagged ``B.disk`` are left out of the packed list: ``kernels.dem_disks`` takes them)."""
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2
@@ -140,6 +141,12 @@ def make_dem_lists(precision: str, deterministic: bool = False):
         B.angle_ref[i] = B.angle[i]
         return n
 
+    @wp.func
+    def general_pair(B: Bodies, C: Contacts, i: int, s: int):
+        """Whether owned slot s of body i goes to the general pair search (not two disks of the
+        disk–disk pass)."""
+        return B.disk[i] == 0 or B.disk[C.nbr[i * C.slots + s]] == 0
+
     @kernel
     def build_lists(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
                     is_large: wp.array(dtype=wp.int32), large: wp.array(dtype=wp.int32), n_large: int,
@@ -157,9 +164,19 @@ def make_dem_lists(precision: str, deterministic: bool = False):
         n = int(0)
         if i < bodies:
             n = list_pairs(B, C, prm, world, is_large, large, n_large, cell_count, cell_items, status, i)
-        if wp.static(not deterministic):
+        if wp.static(not deterministic and not disk_pairs):
             off = block_append(total, n)
             for s in range(n):
                 C.pairs[off + s] = i * C.slots + s
+        if wp.static(not deterministic and disk_pairs):  # (the general pairs only)
+            m = int(0)
+            for s in range(n):
+                if general_pair(B, C, i, s):
+                    m += 1
+            off = block_append(total, m)
+            for s in range(n):
+                if general_pair(B, C, i, s):
+                    C.pairs[off] = i * C.slots + s
+                    off += 1
 
     return Namespace(bin_bodies=bin_bodies, build_lists=build_lists)

@@ -5,7 +5,8 @@ No physics here (that is ``mpmdem.kernels.dem``): this module lays the bodies ou
 cells and the Verlet lists, and launches the kernels of a step:
 
 world vertices → displacement check → (list rebuild, only when flagged on the device) →
-contact forces (one kernel; in large GPU scenes three, the search split over candidate vertices:
+(scenes with disk grains: the disk–disk pass, ``kernels.dem_disks``) → contact forces (one
+kernel; in large GPU scenes three, the search split over candidate vertices:
 ``kernels.dem_split``) → rigid-body update → clock.
 
 The rebuild kernels run every step but return at once unless the device flag is set, so the
@@ -26,7 +27,7 @@ from .config import SolverConfig
 from .errors import BlowUpError, InputError
 from .kernels import clock as clock_kernels
 from .kernels import dem as dem_kernels
-from .kernels import dem_lists, dem_split
+from .kernels import dem_disks, dem_lists, dem_split
 from .kernels import reductions as reduction_kernels
 from .kernels.scan import pack_launch
 from .launch_plan import IfFlag, Launch, run_plan
@@ -117,6 +118,10 @@ SPLIT_THREADS_PER_BODY = 4
 SPLIT_ASSEMBLE_REGISTERS = 128
 #: The same on a CPU (its threads run one after another: fewer take the candidates out of order).
 SPLIT_CPU_THREADS = 4096
+#: Scenes with disk grains compute the pairs of two small sphero-disks in the disk–disk pass
+#: (``kernels.dem_disks``: no feature search; the same forces as the general search). False: the
+#: general search for every pair (bench/grain_throughput.py compares the two).
+DISK_PAIRS = True
 
 
 class DEMSolver(ClockedStage):
@@ -145,6 +150,8 @@ class DEMSolver(ClockedStage):
         #: registers made large scenes slower with real steps (bench/README.md, "The one-kernel
         #: search uncapped")
         self.contact_kernel = self.k.contact_forces
+        #: the disk–disk pass (``kernels.dem_disks``): scenes with disk grains (``_disk_flags``)
+        self.disk_pairs = DISK_PAIRS and any(g.shape == "disk" for g in scene.grains)
         #: columns of the scene's rigid bodies (scene order), then its grains
         self.arrays = scene.body_arrays()
         self.dt_bound = dem_time_step_bound(scene, self.arrays)
@@ -264,6 +271,8 @@ class DEMSolver(ClockedStage):
         window[:, 1] = np.minimum(window[:, 1], 1e300)
         B.kin_window = wp.array(window, dtype=wp.vec2d, device=dev)
         B.work = wp.zeros(n, dtype=wp.float64, device=dev)
+        disk = self._disk_flags(cols, local)
+        B.disk = arr(disk, np.int32)
         self.B = B
         self.local = wp.array(local, dtype=self._vec2, device=dev)
         self.owner = wp.array(owner, dtype=wp.int32, device=dev)
@@ -285,6 +294,15 @@ class DEMSolver(ClockedStage):
         C.pairs = wp.zeros(n * K, dtype=wp.int32, device=dev)
         C.total = wp.zeros(1, dtype=wp.int32, device=dev)
         self.C = C
+        self.D = None
+        if self.disk_pairs:
+            self.contact_kernel = self.k.make_contact_forces(None, True)
+            self.disks = dem_disks.make_disk_pairs(self.config.precision, self.config.deterministic)
+            self.D = self.disks.DiskPairs()
+            self.D.incoming = wp.zeros(n * K, dtype=wp.int32, device=dev)
+            self.D.fill = wp.zeros(n, dtype=wp.int32, device=dev)
+            self.D.count = wp.zeros(n, dtype=wp.int32, device=dev)
+            self.D.slip = wp.zeros(n * K, dtype=self._scalar, device=dev)
         self.split = self._split_search(n, int(np.max(counts)) if n else 0)
 
         law = self.scene.contact
@@ -316,6 +334,15 @@ class DEMSolver(ClockedStage):
         self.rebuilds = wp.zeros(1, dtype=wp.int64, device=dev)
         self.status = wp.zeros(dem_kernels.STATUS_SIZE, dtype=wp.int32, device=dev)
         self.diag = wp.zeros(len(dem_kernels.DIAG_NAMES), dtype=wp.float64, device=dev)
+
+    def _disk_flags(self, cols: RigidArrays, local: np.ndarray) -> np.ndarray:
+        """(n,) 1 for the bodies (device order) whose pairs with each other take the disk–disk pass:
+        small (not "large") sphero-disks, a core of one vertex at the centroid; all 0 unless
+        ``disk_pairs``."""
+        one = (cols.counts == 1) & ~self.is_large & (cols.core_radius == 0.0)
+        one[one] = np.all(local[cols.starts[one]] == 0.0, axis=1)
+        self.disk_pairs = bool(self.disk_pairs and self.free and one.any())
+        return (one & self.disk_pairs).astype(np.int32)
 
     @property
     def _scalar(self):
@@ -354,7 +381,7 @@ class DEMSolver(ClockedStage):
         unless the rebuild flag is set, so in a CUDA graph it is one conditional node instead of
         five launches (built once: the arrays it names live as long as the stage)."""
         k, B, C, params = self.k, self.B, self.C, self.params
-        lists = dem_lists.make_dem_lists(self.config.precision, self.config.deterministic)
+        lists = dem_lists.make_dem_lists(self.config.precision, self.config.deterministic, self.disk_pairs)
         rebuild = [Launch(k.clear_cells, len(self.cell_count), [self.flags, self.cell_count])]
         if len(self.small):
             rebuild.append(Launch(lists.bin_bodies, len(self.small),
@@ -365,8 +392,11 @@ class DEMSolver(ClockedStage):
             Launch(lists.build_lists, dim,
                    [B, C, params, self.world, self.is_large_arr, self.large_ids, len(self.large), self.flags,
                     self.cell_count, self.cell_items, self.status, C.total, self.body_count], block_dim=block),
-            Launch(k.finish_rebuild, 1, [self.flags, self.rebuilds]),
         ]
+        if self.disk_pairs:  # each disk's pairs owned by lower disks (kernels.dem_disks)
+            rebuild += [Launch(self.disks.list_incoming, self.body_count, [B, C, self.D, self.flags, self.status]),
+                        Launch(self.disks.sort_incoming, self.body_count, [C, self.D, self.flags])]
+        rebuild.append(Launch(k.finish_rebuild, 1, [self.flags, self.rebuilds]))
         return [IfFlag(self.flags, rebuild)]
 
     def contact_stage(self) -> None:
@@ -418,7 +448,8 @@ class DEMSolver(ClockedStage):
         S.code = wp.zeros(hits, dtype=wp.int32, device=dev)
         S.normal = wp.zeros(hits, dtype=self._vec2, device=dev)
         S.distance = wp.zeros(hits, dtype=self._scalar, device=dev)
-        threads = (min(cap, max(SPLIT_THREADS_PER_SM * dev.sm_count, SPLIT_THREADS_PER_BODY * n)) if dev.is_cuda
+        per_body = 0 if self.disk_pairs else SPLIT_THREADS_PER_BODY  # (with disks: the few general pairs)
+        threads = (min(cap, max(SPLIT_THREADS_PER_SM * dev.sm_count, per_body * n)) if dev.is_cuda
                    else min(cap, SPLIT_CPU_THREADS))
         return kernels, S, threads
 
@@ -428,6 +459,9 @@ class DEMSolver(ClockedStage):
             return
         B, C, world, dev = self.B, self.C, self.world, self.device
         pairs = self.body_count * self.slots
+        if self.disk_pairs:  # (before the general search: a disk's sum starts with its disk partners)
+            wp.launch(self.disks.disk_forces, self.body_count, inputs=[B, C, self.D, self.params, self.clock],
+                      device=dev)
         if self.split is None:
             wp.launch(self.contact_kernel, pairs, inputs=[B, C, self.params, world, self.clock, self.status],
                       device=dev)
@@ -578,6 +612,8 @@ class DEMSolver(ClockedStage):
         """Every time-varying device array, by a stable name."""
         arrays = {f"B.{name}": getattr(self.B, name) for name in _BODY_STATE}
         arrays.update({f"C.{name}": getattr(self.C, name) for name in _CONTACT_STATE})
+        if self.D is not None:
+            arrays.update({f"D.{name}": getattr(self.D, name) for name in ("incoming", "count", "slip")})
         arrays.update(world=self.world, flags=self.flags, rebuilds=self.rebuilds, status=self.status,
                       clock=self.clock, steps=self.steps)
         return arrays
