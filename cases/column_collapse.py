@@ -72,9 +72,9 @@ import sys
 import numpy as np
 
 from mpmdem import Boundary, MohrCoulomb, MuI, Scene, rectangle
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import count_at_least, given, interval, positive
-from mpmdem.validation import Check
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given, interval, positive
+from mpmdem.study.validation import Check
 
 NAME = "column-collapse"
 DESCRIPTION = "a granular column collapses on a rough floor: runout and final height vs Lube et al. (2005)"
@@ -390,6 +390,6 @@ def _plot(x0, x1, w, a, h, path) -> None:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/column_collapse.py"))

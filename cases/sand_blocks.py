@@ -73,10 +73,10 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, DruckerPrager, InputError, Scene, rounded_rectangle
-from mpmdem.case import CaseSetup
 from mpmdem.cases._table3 import GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, VERLET, sand
-from mpmdem.flag_types import count_at_least, given, non_negative, positive
-from mpmdem.validation import Check
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given, non_negative, positive
+from mpmdem.study.validation import Check
 
 NAME = "sand-blocks"
 DESCRIPTION = "block impact: a sand column topples two of three stacked wooden blocks (MPM-SDEM §6, the experiment)"
@@ -387,6 +387,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/sand_blocks.py"))

@@ -56,7 +56,7 @@
 # MPM-SDEM §3's spheropolygons with one core vertex) of mean radius r_p (--grain-radius, default
 # the seed's r_p = 1 mm) ±15 %, grain-grain μ = GRAIN_FRICTION, the same k_n, k_t and restitution.
 # The grains are placed on a loose lattice in the silo, settled under gravity with the orifice
-# closed by a gate plate (mpmdem.packing.settle), then moved into the open silo at t = 0: the flow
+# closed by a gate plate (mpmdem.sim.packing.settle), then moved into the open silo at t = 0: the flow
 # starts from a settled pack, as the MPM fill starts at rest. Grain density: the continuum's
 # 1500 kg/m³ over the packing fraction φ = PACKING_FRACTION of a settled pack of these grains
 # (0.82, measured by tests/test_grains.py, inside Berryman's 2D 0.82 ± 0.02), so that the pack's
@@ -77,7 +77,6 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, MuI, Scene, SolverConfig, rectangle, rounded_rectangle
-from mpmdem.case import CaseSetup
 from mpmdem.cases._table3 import (
     CRITICAL_DENSITY_RATIO,
     DENSITY,
@@ -93,8 +92,9 @@ from mpmdem.cases._table3 import (
     YOUNGS,
     sand,
 )
-from mpmdem.flag_types import count_at_least, given, positive
-from mpmdem.validation import Check
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given, positive
+from mpmdem.study.validation import Check
 
 NAME = "silo-discharge"
 DESCRIPTION = "sand drains from a silo through an orifice into a container: flow rate vs 2D Beverloo (MPM-SDEM §5.3)"
@@ -218,7 +218,7 @@ def coarse(args) -> bool:
     instead of an hour). A size flag that is given sets that size alone; the others keep the preset."""
     if args.quick:
         return True
-    from mpmdem.simulation import default_device
+    from mpmdem.sim.simulation import default_device
 
     return (args.device or default_device()) == "cpu"
 
@@ -343,8 +343,8 @@ def grain_density() -> float:
 
 def build_dem(args, g: dict) -> CaseSetup:
     """--sand dem: grains settled behind a gate, then moved into the open silo (see the header)."""
-    from mpmdem.packing import settle
-    from mpmdem.simulation import default_device
+    from mpmdem.sim.packing import settle
+    from mpmdem.sim.simulation import default_device
 
     xc, w, f = g["xc"], g["width"], g["floor"]
     region = [(xc - 0.5 * w, f), (xc + 0.5 * w, f), (xc + 0.5 * w, f + LATTICE_HEIGHT * g["fill"]),
@@ -499,6 +499,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/silo_discharge.py"))

@@ -223,7 +223,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         X): overlap eq. 38, contact point eq. 41 (in the middle of the overlap), spring–dashpot and
         Coulomb cap eq. 43. Returns (F on i, contact point p [m], δ_t, stored energy, dissipated work).
         The bodies' velocities, masses and the pair's history are read here, at a touch, and not
-        held through the feature search (registers: ``mpmdem.dem``)."""
+        held through the feature search (registers: ``mpmdem.sim.dem``)."""
         delta, p = contact_point(X, N, d, reach, a_r)
         xi = B.x[i]
         xj = B.x[j]
