@@ -57,7 +57,7 @@
 #   at half the speed (bench/granular_matrix.py runs that check).
 # * Δt: the library's step (CFL 0.4 and eq. 51 with the point term), not Table 3's 2e-4 s.
 # * restitution 0.5 for the normal dashpot (the paper's law is elastic; damping not given).
-# * g = 10 m/s² (cases/_table3.py).
+# * g = 10 m/s² (mpmdem/study/references/table3.py).
 #
 # Measured (summary.json): per frame the bar's displacement d (its settlement, from its start), the
 # force on it (vertical reaction, compression positive) as sampled at the frame and as the mean over
@@ -95,9 +95,9 @@ from mpmdem.cases._granular_matrix_sample import (
     void_area,
     void_lattice,
 )
-from mpmdem.cases._table3 import CM, GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, SPHERO_RADIUS, VERLET, sand
 from mpmdem.study.case import CaseSetup
 from mpmdem.study.flag_types import count_at_least, interval, non_negative, positive
+from mpmdem.study.references.table3 import CM, GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, SPHERO_RADIUS, VERLET, sand
 
 NAME = "granular-matrix"
 DESCRIPTION = "uniaxial compression of pentagons (SDEM) with MPM fines in their voids: force–settlement (MPM-SDEM §7)"

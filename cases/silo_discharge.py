@@ -19,7 +19,7 @@
 # * the sand starts at rest (no gate; the orifice is open at t = 0), filled in 2 × 2 points per
 #   cell with the outermost points at r_p from the walls and floor (touching, zero overlap).
 #
-# Units: Table 3 in cases/_table3.py (1.5 g/cm² read as 1500 kg/m³ over 1 m of thickness; g = 10
+# Units: Table 3 in mpmdem/study/references/table3.py (1.5 g/cm² read as 1500 kg/m³ over 1 m of thickness; g = 10
 # m/s², the experiments' gravity: Table 3's printed 10 cm/s² is discussed in cases/sand_blocks.py;
 # at 10 cm/s² every rate would be 10 × smaller and every time 10 × longer).
 #
@@ -77,7 +77,10 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, MuI, Scene, SolverConfig, rectangle, rounded_rectangle
-from mpmdem.cases._table3 import (
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given, positive
+from mpmdem.study.references.beverloo import beverloo
+from mpmdem.study.references.table3 import (
     CRITICAL_DENSITY_RATIO,
     DENSITY,
     GRAVITY,
@@ -92,8 +95,6 @@ from mpmdem.cases._table3 import (
     YOUNGS,
     sand,
 )
-from mpmdem.study.case import CaseSetup
-from mpmdem.study.flag_types import count_at_least, given, positive
 from mpmdem.study.validation import Check
 
 NAME = "silo-discharge"
@@ -112,11 +113,6 @@ VALIDATION = [
           "and 2.5 mm",
           coarser=(("--cell-size", "0.005"),)),
 ]
-
-# -- the 2D Beverloo law of Fig. 16 ------------------------------------------------------------
-BEVERLOO_C = 0.58
-BEVERLOO_K = 2.2
-ORIFICES_PAPER = (0.02, 0.03, 0.04, 0.05, 0.06)  # m, the five D0 of Fig. 16
 
 # -- our geometry and choices (see the header) ---------------------------------------------------
 WIDTH = 0.20  # m, inner width of the silo
@@ -267,11 +263,6 @@ def geometry(args) -> dict:
         top = floor + LATTICE_HEIGHT * fill + HEADROOM
         g.update(rp=r, wall_top=LATTICE_HEIGHT * fill + HEADROOM, y_len=max(y_len, top + 2.0 * WALL))
     return g
-
-
-def beverloo(orifice, c=BEVERLOO_C, k=BEVERLOO_K, r_p=R_P_TABLE, density=DENSITY, gravity=GRAVITY):
-    """The 2D Beverloo rate C ρ sqrt(g) (D0 − k r_p)^(3/2) [kg/(m s)] of MPM-SDEM Fig. 16."""
-    return c * density * math.sqrt(gravity) * max(orifice - k * r_p, 0.0) ** 1.5
 
 
 def _solids(g: dict):

@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mpmdem.cases._table3 import DENSITY, GRAVITY
 from mpmdem.study.builtin.beverloo_refinement import analyze_grain, analyze_refinement
 from mpmdem.study.builtin.run_summaries import load_runs
+from mpmdem.study.references.table3 import DENSITY, GRAVITY
 
 STUDIES = Path(__file__).resolve().parents[1] / "bench" / "results" / "studies"
 

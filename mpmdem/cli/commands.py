@@ -27,24 +27,22 @@ commands:
 
 
 def _list() -> int:
-    from ..cases import CASES
-    from ..study.runner import case_module
+    from ..study.case import case_module, case_names
 
-    width = max(len(n) for n in CASES)
-    for name in CASES:
+    width = max(len(n) for n in case_names())
+    for name in case_names():
         print(f"{name:<{width}}  {case_module(name).DESCRIPTION}")
     return 0
 
 
 def _run_help() -> int:
     """``mpmdem run --help``: the cases (``mpmdem run CASE --help`` gives a case's flags)."""
-    from ..cases import CASES, DEFAULT_CASE
-    from ..study.runner import case_module
+    from ..study.case import case_module, case_names, default_case
 
-    width = max(len(n) for n in CASES)
-    print("usage: mpmdem run [CASE] [flags]\n\nRun a case (default: " + DEFAULT_CASE + "); mpmdem run CASE --help "
+    width = max(len(n) for n in case_names())
+    print("usage: mpmdem run [CASE] [flags]\n\nRun a case (default: " + default_case() + "); mpmdem run CASE --help "
           "lists its flags.\n\ncases:")
-    for name in CASES:
+    for name in case_names():
         print(f"  {name:<{width}}  {case_module(name).DESCRIPTION}")
     return 0
 
@@ -261,13 +259,13 @@ def _dispatch(argv: list[str]) -> int:
     if cmd == "validate":
         return _validate(rest)
     if cmd == "run":
-        from ..cases import DEFAULT_CASE
         from ..errors import InputError
-        from ..study.runner import case_module, run_case
+        from ..study.case import case_module, default_case
+        from ..study.runner import run_case
 
         if rest and rest[0] in ("-h", "--help"):
             return _run_help()
-        name = rest[0] if rest and not rest[0].startswith("-") else DEFAULT_CASE
+        name = rest[0] if rest and not rest[0].startswith("-") else default_case()
         flags = rest[1:] if rest and not rest[0].startswith("-") else rest
         try:
             module = case_module(name)

@@ -1,4 +1,8 @@
-"""Command-line front of the cases: common flags, config overrides, summary.json, exit codes.
+"""Running one case: its flags (the common ones, the config's and its own), its SolverConfig (case
+defaults, then its build, then the flags), the run, its variants and its summary.json.
+
+The library's "run one case": ``mpmdem run``, a case script's ``__main__``, ``mpmdem validate`` and
+the study workers all run a case through ``run_case`` (the case protocol: ``mpmdem.study.case``).
 
 Exit codes: 0 done, 2 bad input (one line on stderr, no traceback), 3 blow-up (the file keeps
 the frames written before it), 130 interrupted by Ctrl-C, 143 stopped by SIGTERM (the file is
@@ -9,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import importlib
 import json
 import sys
 import time
@@ -20,7 +23,7 @@ from types import ModuleType
 from ..errors import BlowUpError, InputError
 from ..model.config import SolverConfig
 from ..sim.warp_init import check_device, cpu_only
-from .case import CaseSetup
+from .case import CaseSetup, case_module
 from .flag_types import choice, count_at_least, given, non_negative, positive
 from .run_plan import (
     DISK_FRACTION,
@@ -113,15 +116,6 @@ def make_case_parser(module: ModuleType, prog: str | None = None) -> argparse.Ar
     if hasattr(module, "add_arguments"):
         module.add_arguments(p)
     return p
-
-
-def case_module(name: str) -> ModuleType:
-    """Import the module of a case by its CLI name (e.g. "sulsky-disks")."""
-    from ..cases import CASES
-
-    if name not in CASES:
-        raise InputError("case", name, "one of " + ", ".join(CASES))
-    return importlib.import_module(f"mpmdem.cases.{CASES[name]}")
 
 
 def config_from_args(setup: CaseSetup, module: ModuleType, args) -> SolverConfig:

@@ -18,7 +18,7 @@ from pathlib import Path
 from types import MappingProxyType
 
 from ..errors import InputError
-from .worker import study_case  # (there, where the runs use it: no import cycle)
+from .case import load_case
 
 __all__ = ["Run", "Study", "load_study", "plan_runs", "run_study"]
 
@@ -181,7 +181,7 @@ def plan_runs(study: Study, device: str | None = None) -> list[Run]:
     """
     from .runner import make_case_parser
 
-    module = study_case(study.case)
+    module = load_case(study.case)
     parser = make_case_parser(module)
     if not study.grid or any(len(v) == 0 for v in study.grid.values()):
         empty = next((k for k, v in study.grid.items() if len(v) == 0), "grid")

@@ -232,11 +232,10 @@ def convergence(ladder: list[dict], flags: list[list[str]]) -> dict:
 
 def collect_checks(cases: list[str] | None = None) -> dict[str, list[Check]]:
     """Case name → its checks, for every registered case that declares VALIDATION."""
-    from ..cases import CASES
-    from .runner import case_module
+    from .case import case_module, case_names
 
     out = {}
-    for name in cases or list(CASES):
+    for name in cases or list(case_names()):
         checks = getattr(case_module(name), "VALIDATION", None)
         if checks:
             out[name] = list(checks)

@@ -17,9 +17,10 @@ import threading
 import time
 import traceback
 from pathlib import Path
-from types import ModuleType
 
-__all__ = ["FINAL_STATUSES", "execute_run", "failed_row", "scalar_summary", "study_case"]
+from .case import load_case
+
+__all__ = ["FINAL_STATUSES", "execute_run", "failed_row", "scalar_summary"]
 
 #: statuses a resumed study does not run again (unless --rerun-failed: then only "completed")
 FINAL_STATUSES = ("completed", "blown-up", "bad-input")
@@ -61,22 +62,6 @@ def failed_row(run_id: str, values: dict, message: str, **extra) -> dict:
     return {"id": run_id, **values, "status": "error", "message": message, **extra}
 
 
-def study_case(case: str) -> ModuleType:
-    """The case module: a name of ``mpmdem list`` or an importable module (``my_package.my_case``)."""
-    import importlib
-
-    from ..cases import CASES
-    from ..errors import InputError
-    from .runner import case_module
-
-    if case in CASES or not all(part.isidentifier() for part in case.split(".")):
-        return case_module(case)
-    try:
-        return importlib.import_module(case)
-    except ImportError as e:
-        raise InputError("case", case, f"a case of mpmdem list or an importable case module ({e})") from None
-
-
 def execute_run(case: str, run_id: str, values: dict, argv: list[str], run_dir: str, device: str | None) -> dict:
     """Run the case with ``argv`` + ``--out run_dir --quiet``; the row: id, grid values, status,
     message, wall seconds, device, worker and the summary's scalars."""
@@ -90,7 +75,7 @@ def execute_run(case: str, run_id: str, values: dict, argv: list[str], run_dir: 
     row = {"id": run_id, **values}
     try:
         with RUN_LOCK, contextlib.redirect_stderr(stderr):
-            code = run_case(study_case(case), [*argv, "--out", str(folder), "--quiet"], prog=f"mpmdem run {case}")
+            code = run_case(load_case(case), [*argv, "--out", str(folder), "--quiet"], prog=f"mpmdem run {case}")
         summary = _read_summary(folder)
         lines = [ln.removeprefix("mpmdem: ").removeprefix("error: ") for ln in stderr.getvalue().splitlines()
                  if ln.strip()]

@@ -55,7 +55,7 @@ REFINED_GRIDS = [0.005, 0.0035, 0.0025, 0.002, 0.0014, 0.001]
 
 def _refinement(name: str):
     def analyze_runs(rows: list[dict], out: Path) -> dict:
-        from ...cases._table3 import DENSITY, GRAVITY
+        from ..references.table3 import DENSITY, GRAVITY
         from .beverloo_refinement import analyze_study
 
         return analyze_study(out, name, DENSITY, GRAVITY)
@@ -64,7 +64,7 @@ def _refinement(name: str):
 
 
 def analyze_grain_runs(rows: list[dict], out: Path) -> dict:
-    from ...cases._table3 import DENSITY, GRAVITY
+    from ..references.table3 import DENSITY, GRAVITY
     from .beverloo_refinement import analyze_grain, chart_intercepts, write
 
     result = analyze_grain(load_runs(out), DENSITY, GRAVITY)
@@ -102,7 +102,7 @@ MU_I_GRAIN = Study(
 
 
 def analyze_dem_runs(rows: list[dict], out: Path) -> dict:
-    from ...cases._table3 import DENSITY, GRAVITY
+    from ..references.table3 import DENSITY, GRAVITY
     from .beverloo_refinement import analyze_dem, write
 
     result = analyze_dem(load_runs(out), DENSITY, GRAVITY)

@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...cases._table3 import DENSITY, GRAVITY, R_P_TABLE
-from ...cases.silo_discharge import BEVERLOO_C, BEVERLOO_K, ORIFICES_PAPER, beverloo
+from ..references.beverloo import BEVERLOO_C, BEVERLOO_K, ORIFICES_PAPER, beverloo
+from ..references.table3 import DENSITY, GRAVITY, R_P_TABLE
 
 PREFACTOR = DENSITY * math.sqrt(GRAVITY)  # ρ sqrt(g) [kg/(m³) m^0.5/s]
 

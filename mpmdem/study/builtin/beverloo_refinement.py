@@ -272,7 +272,7 @@ def compare(studies: Path, out: Path) -> dict:
     """The committed refinement studies side by side (``studies``: bench/results/studies): W(h) of
     Drucker–Prager and μ(I), D* against h and d, with the DEM silos beside them; writes
     ``refinement_summary.json`` and the two charts into ``out``."""
-    from ...cases._table3 import DENSITY, GRAVITY
+    from ..references.table3 import DENSITY, GRAVITY
 
     studies, out = Path(studies), Path(out)
     laws = {"Drucker-Prager (Table 3)": "beverloo-refined", "mu(I), d = 2 mm": "beverloo-mu-i"}

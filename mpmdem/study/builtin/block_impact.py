@@ -15,7 +15,7 @@ speed × accuracy chart, and for several starts per grid the median, spread and 
 from functools import partial
 from pathlib import Path
 
-from mpmdem.cases.sand_blocks import ENSEMBLE_STARTS as ENSEMBLE_STARTS_CASE
+from mpmdem.study.references.block_impact import ENSEMBLE_STARTS as ENSEMBLE_STARTS_CASE
 from mpmdem.study.study import Study
 
 from .block_impact_analysis import analyze

@@ -4,7 +4,7 @@ final poses, block 2's orientation history, each run's wall time against its lar
 error, and, for an ensemble (several starts per grid), each event's median and spread and the
 distribution of final poses.
 
-The readings are recomputed from each run's tracks with ``cases.sand_blocks.readings`` (times,
+The readings are recomputed from each run's tracks with ``mpmdem.study.references.block_impact.readings`` (times,
 lowest point, angle), so runs written before the two readings existed are read the same way.
 """
 
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...cases.sand_blocks import T_PAPER, readings
+from ..references.block_impact import T_PAPER, readings
 
 #: the events of a run: the flow's arrival, and each free block's first touch and rest [s]
 EVENTS = ("reach", "block2_touch", "block2_rest", "block1_touch", "block1_rest")

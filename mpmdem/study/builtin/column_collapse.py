@@ -16,7 +16,7 @@ import numpy as np
 
 from mpmdem.study.study import Study
 
-from ...cases.column_collapse import lube_height, lube_runout, runout_band
+from ..references.lube2005 import lube_height, lube_runout, runout_band
 from .run_summaries import load_runs
 
 

@@ -6,7 +6,7 @@ per m. Gravity: Table 3 prints 10.0 cm/s², §6 says g = 10 m/s²; both runs her
 gravity of the experiments (cases/sand_blocks.py gives the argument from the paper's own times).
 """
 
-from mpmdem import DruckerPrager
+from ...model.granular_materials import DruckerPrager
 
 CM = 1.0e-2  # m
 KN_TABLE = 6.0e6 / CM  # 6.0e6 N/cm → N/m per m
