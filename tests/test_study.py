@@ -11,7 +11,7 @@ import pytest
 
 from mpmdem.cli import main
 from mpmdem.errors import InputError
-from mpmdem.study import study_cluster
+from mpmdem.study import cluster as study_cluster
 from mpmdem.study.cluster import study_client
 from mpmdem.study.study import Study, load_study, plan_runs, run_study
 from mpmdem.study.table import ResultsTable
