@@ -180,16 +180,16 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
     small = device in LINK_LANES_DEVICES and n < LINK_LANES_POINTS
     lanes = LINK_LANES if small else 1
     relink_lanes = RELINK_LANES if small and not deforming else 1
-    check, prepare, place, link, settle, relink, label, assign = granular_kernels.make_granular_kernels(
+    kernels = granular_kernels.make_granular_kernels(
         c.shape, prec, staged=stage.staged, link_lanes=lanes, relink_lanes=relink_lanes,
         check_capped=n >= LINK_LANES_POINTS, moves=bool(S.moves))
     reset = Launch(granular_kernels.make_reset_search(prec, deforming), grid_dim,
                    [stage.G, stage.D, S.ext_max, S.slack, S.cell_ref, S.flags, S.motion])
-    rebuild = [reset, Launch(prepare, n, gin)]
+    rebuild = [reset, Launch(kernels.prepare, n, gin)]
     # the start of each cell's run in the cell-sorted list: prefix sums of the counts (gated
     # by the rebuild flag: outside a CUDA graph the kernels of a skipped rebuild are launched
     # and return; deforming domains rebuild every step: an open gate)
-    gate = (S.flags[granular_kernels.FLAG_REBUILD:] if check is not None
+    gate = (S.flags[granular_kernels.FLAG_REBUILD:] if kernels.check is not None
             else wp.ones(1, dtype=wp.int32, device=stage.device))
     if wp.get_device(stage.device).is_cuda:
         scan, threads = scan_kernels.make_tile_scan(), scan_kernels.SCAN_THREADS
@@ -203,23 +203,23 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
                     if k == 0 or levels[k - 1][0].shape[0] > scan_kernels.SCAN_TILE]
     else:
         rebuild += [Launch(scan_kernels.make_serial_scan(), 1, [S.count, S.prefix1, gate])]
-    rebuild += [Launch(place, n, gin), Launch(link, n * lanes, gin)]
-    relabel = [Launch(relink, n * relink_lanes, gin), Launch(label, n, gin)]
-    if assign is not None:
+    rebuild += [Launch(kernels.place, n, gin), Launch(kernels.link, n * lanes, gin)]
+    relabel = [Launch(kernels.relink, n * relink_lanes, gin), Launch(kernels.label, n, gin)]
+    if kernels.assign is not None:
         # the tent: each node gives out its copies (instead of the claims in P2G)
-        relabel += [Launch(assign, grid_dim, gin)]
-    if check is None:
+        relabel += [Launch(kernels.assign, grid_dim, gin)]
+    if kernels.check is None:
         return rebuild + relabel, None, None
     # the rebuild runs only when the previous step's judge (end_step) asked for it, the
     # relabel when it asked for either: inside a CUDA graph conditional nodes skip their
     # launches; elsewhere each kernel reads its flag and returns at once. ``check`` goes
     # after the step's last G2P.
-    rebuild += [Launch(settle, n, gin)]
+    rebuild += [Launch(kernels.settle, n, gin)]
     rebuild_flag = S.flags[granular_kernels.FLAG_REBUILD:]
     relabel_flag = S.flags[granular_kernels.FLAG_RELABEL:]
     inner = [IfFlag(rebuild_flag, rebuild)] if NESTED_REBUILD else rebuild
     plan = [IfFlag(relabel_flag, inner + relabel)]
-    return plan, granular_kernels.make_rebuild_decision(prec), Launch(check, n, gin)
+    return plan, granular_kernels.make_rebuild_decision(prec), Launch(kernels.check, n, gin)
 
 
 def _require_granular(stage) -> None:

@@ -9,7 +9,6 @@ update (USF, USL, MUSL, USAVG). The arrays are built by ``mpmdem.sim.mpm_state``
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
@@ -35,6 +34,7 @@ from . import granular_state
 from .block_layout import BlockLayout
 from .cell_sort import PointSorter, device_order
 from .launch_plan import ExtensionPoint, Launch, Zero, plan_blocks, plan_kernels, run_plan
+from .mpm_roles import GridUpdate, WallFold, last_grid_update, launches
 from .mpm_state import GHOST_NODES, STATE_FIELDS, initial_dt_bound, make_domain, make_grid, make_points, wall_band
 from .stage import Clock, ClockedStage
 
@@ -206,7 +206,6 @@ class MPMSolver(ClockedStage):
         # image points at walls (kernels/wall_images.py: fold_ghosts, mirror_ghosts)
         mirror_walls = any(b.kind != "free" for b in self.scene.boundaries.values())
         layered = c.granular
-        grid_kernel_makers = {}
         mirror = wall_image_kernels.make_mirror_ghosts(prec, layered=layered)
         # the wall images touch only the nodes near the grid's edge: their kernels run over those
         band = wall_band(self.D.layer_rows, self.grid_shape[1]) if mirror_walls else np.zeros((1, 2), np.int32)
@@ -218,15 +217,11 @@ class MPMSolver(ClockedStage):
         self.mirror_in_g2p = (mirror_walls and MIRROR_IN_G2P and c.update in ("USL", "MUSL") and not s.xpic
                               and not (self.coupled and c.coupling == "liu") and n < IMAGES_IN_KERNELS_POINTS)
 
-        fold_flags = {}  # id(fold kernel) -> its flags (for the fusion below)
-        remapping = set()  # ids of the re-mapping grid updates (MUSL's second)
-
         def fold(**flags):
             if not mirror_walls:
                 return []
             kernel = wall_image_kernels.make_fold_ghosts(prec, layered=layered, **flags)
-            fold_flags[id(kernel)] = flags
-            return [Launch(kernel, band_dim, [G, D, clock, self.wall_band])]
+            return [WallFold(Launch(kernel, band_dim, [G, D, clock, self.wall_band]), flags)]
 
         def mirrored(*fields):
             if not mirror_walls or not fields or self.mirror_in_g2p:
@@ -263,17 +258,14 @@ class MPMSolver(ClockedStage):
                                                      obstacles=bool(self.scene.obstacles), clear=clear,
                                                      zero_remap=zero_remap, fold=fold, images=images, **flags)
 
-            kernel = make()
-            grid_kernel_makers[id(kernel)] = make
-            if flags.get("remap"):
-                remapping.add(id(kernel))
             if flags.get("remap"):
                 fields = [G.vm]
             elif flags.get("fused_impulse"):
                 fields = [G.vt]
             else:
                 fields = ([G.v] if flags.get("velocity") else []) + ([G.vt] if flags.get("force") else [])
-            return [Launch(kernel, grid_dim, [G, D, clock, work])] + mirrored(*fields)
+            update = GridUpdate(Launch(make(), grid_dim, [G, D, clock, work]), make, remap=bool(flags.get("remap")))
+            return [update] + mirrored(*fields)
 
         def g2p(**flags):
             k = transfer_kernels.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds,
@@ -334,12 +326,8 @@ class MPMSolver(ClockedStage):
             seq += xpic_smoothing() + g2p(velocity=True, position=False, stress="none", remap=remap_in_g2p)
             # the re-mapped momentum starts from zero: the grid update before clears it at the nodes
             # (copies) it visits, which are those the re-mapping P2G adds to (no memset of the grid)
-            last = max(k for k, item in enumerate(seq)
-                       if isinstance(item, Launch) and id(item.kernel) in grid_kernel_makers)
-            item = seq[last]
-            seq[last] = Launch(grid_kernel_makers[id(item.kernel)](zero_remap=True), item.dim, item.inputs)
-            grid_kernel_makers[id(seq[last].kernel)] = functools.partial(grid_kernel_makers[id(item.kernel)],
-                                                                         zero_remap=True)
+            last = last_grid_update(seq)
+            seq[last] = seq[last].remade(zero_remap=True)
             if remap_in_g2p:
                 seq += fold(mass=False, momentum=True, force=False, remap=True)
             else:
@@ -350,14 +338,9 @@ class MPMSolver(ClockedStage):
         # memset of the grid starts the next step; not where something after it reads the nodal
         # mass (XPIC's updates, Liu et al.'s exchange): there the grid is cleared at the start
         self.clears_grid = layered or not (s.xpic or (self.coupled and c.coupling == "liu"))
-        clearing = {}  # id(the clearing grid update) -> its maker
         if self.clears_grid:
-            last = max(k for k, item in enumerate(seq)
-                       if isinstance(item, Launch) and id(item.kernel) in grid_kernel_makers)
-            item = seq[last]
-            make = grid_kernel_makers[id(item.kernel)]
-            seq[last] = Launch(make(clear=True), item.dim, item.inputs)
-            clearing[id(seq[last].kernel)] = make
+            last = last_grid_update(seq)
+            seq[last] = seq[last].clearing()
         # the ghosts beyond the walls need no update where G2P reads the wall images and nothing
         # there does work (fixed and slip walls, no damping, no obstacle node among them): then the
         # clearing update folds too, each node clearing the ghost copies it read
@@ -370,20 +353,20 @@ class MPMSolver(ClockedStage):
             # images, the clearing one): the update folds its own node first
             for k in range(len(seq) - 1):
                 a, b = seq[k], seq[k + 1]
-                flags = fold_flags.get(id(getattr(a, "kernel", None)))
-                if flags is None or flags.get("xpic"):
+                if not isinstance(a, WallFold) or a.flags.get("xpic") or not isinstance(b, GridUpdate):
                     continue
+                flags = a.flags
                 fold = (flags["mass"], flags["momentum"], flags["force"], flags.get("remap", False))
-                make = grid_kernel_makers.get(id(getattr(b, "kernel", None)))
-                if make is not None and not fold[3] and id(b.kernel) not in remapping:
-                    fused = make(fold=fold)
-                elif images and id(getattr(b, "kernel", None)) in clearing:
-                    fused = clearing[id(b.kernel)](clear=True, fold=fold, images=True)
+                if not b.clears and not fold[3] and not b.remap:
+                    fused = b.make(fold=fold)
+                elif images and b.clears:
+                    fused = b.make(clear=True, fold=fold, images=True)
                 else:
                     continue
                 seq[k] = None
-                seq[k + 1] = Launch(fused, b.dim, b.inputs)
+                seq[k + 1] = Launch(fused, b.launch.dim, b.launch.inputs)
             seq = [item for item in seq if item is not None]
+        seq = launches(seq)
         if layered and check is not None:
             # the positions the next step starts from are final: whether it may keep the labels
             seq += [check]
