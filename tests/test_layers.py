@@ -86,3 +86,13 @@ def test_graph_sees_the_cases_and_lazy_imports():
     assert "mpmdem.study.case" in g["mpmdem.cases.axial_bar"]
     assert "mpmdem.study.runner" in g["mpmdem.cases.axial_bar"]  # inside ``if __name__ == "__main__"``
     assert "mpmdem.study.runner" in g["mpmdem.study.worker"]  # inside a function
+
+
+def test_pyproject_installs_every_subpackage():
+    """An install carries every package of the layers (pyproject's explicit list), not only a checkout."""
+    import tomllib
+
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {".".join(["mpmdem", *p.parent.relative_to(ROOT / "mpmdem").parts])
+             for p in (ROOT / "mpmdem").rglob("__init__.py")}
+    assert found <= listed, sorted(found - listed)
