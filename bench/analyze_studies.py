@@ -11,8 +11,8 @@ import json
 import sys
 from pathlib import Path
 
-from mpmdem.studies import STUDIES
-from mpmdem.study import load_study
+from mpmdem.study.builtin import STUDIES
+from mpmdem.study.study import load_study
 
 
 def main(root: Path) -> None:

@@ -64,7 +64,7 @@ def build(family: str, n: int, max_bodies: int = MAX_BODIES):
     if family in ("mpm", "granular"):
         from granular_overhead import dense_column
 
-        from mpmdem.mpm import initial_dt_bound
+        from mpmdem.sim.mpm import initial_dt_bound
 
         scene = dense_column(n)
         dt = DT_FACTOR * initial_dt_bound(scene)
@@ -86,9 +86,9 @@ def build(family: str, n: int, max_bodies: int = MAX_BODIES):
         from coupled_throughput import build as build_case
         from coupled_throughput import make_scene
 
-        from mpmdem.coupling import contact_time_step_bound
-        from mpmdem.dem import dem_time_step_bound
-        from mpmdem.mpm import initial_dt_bound
+        from mpmdem.sim.coupling import contact_time_step_bound
+        from mpmdem.sim.dem import dem_time_step_bound
+        from mpmdem.sim.mpm import initial_dt_bound
 
         bodies = max(1, min(max_bodies, n // POINTS_PER_BODY))
         case = build_case(n, bodies)

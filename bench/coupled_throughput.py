@@ -65,9 +65,9 @@ import numpy as np
 import warp as wp
 
 from mpmdem import ContactLaw, MohrCoulomb, Scene, Simulation, SolverConfig, regular_polygon
-from mpmdem.coupling import contact_time_step_bound
-from mpmdem.dem import dem_time_step_bound
-from mpmdem.mpm import initial_dt_bound
+from mpmdem.sim.coupling import contact_time_step_bound
+from mpmdem.sim.dem import dem_time_step_bound
+from mpmdem.sim.mpm import initial_dt_bound
 
 MATERIAL = MohrCoulomb(1.0e7, 0.3, 2000.0, 30.0, 0.0)
 LAW = ContactLaw(1.0e7, restitution=0.3)

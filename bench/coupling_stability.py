@@ -6,7 +6,7 @@ MPM-SDEM eq. 51 sets the coupled step from the grid and the DEM bodies only,
 
 with m_min the smallest DEM body mass. A material point on a contact spring k_n is a much lighter
 oscillator than any body, so eq. 51 may be too large when k_n is large against the point masses.
-mpmdem.coupling adds that term (dt ≤ π κ2 × the contact bound 2 sqrt(m_p,min / k) (sqrt(1+ζ²) − ζ)
+mpmdem.sim.coupling adds that term (dt ≤ π κ2 × the contact bound 2 sqrt(m_p,min / k) (sqrt(1+ζ²) − ζ)
 with m_p,min the smallest POINT mass). This bench maps where fixed-dt runs turn unstable and which
 mass — the point's m_p or a node's ρh² — sets that edge.
 
@@ -77,7 +77,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mpmdem.study_cluster import map_tasks
+from mpmdem.study.cluster import map_tasks
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SCENES = ("disk-drop", "hard-exchange", "lone-point")
@@ -300,7 +300,7 @@ def _task(args, name: str, ppc: int, kn: float, rp: float, factor: float, refine
 
 
 def _run_all(tasks: list[dict], args) -> list[dict]:
-    """Every task on the study runner's clusters (mpmdem.study_cluster): ``--jobs`` CPU processes,
+    """Every task on the study runner's clusters (mpmdem.study.cluster): ``--jobs`` CPU processes,
     ``--gpus`` pinned GPU workers or ``--scheduler``; one JSON line per run as it finishes."""
     tasks = sorted(tasks, key=lambda t: -t["cost"])  # longest first: the processes end together
     rows = []

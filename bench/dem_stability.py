@@ -4,7 +4,7 @@ For three scenes (a disk dropped on a floor: one translational contact; a tilted
 dropped on a floor: corner impacts that turn the body; a small pile of random pentagons: many
 contacts per body) × restitution e × r = dt / dt_default, with dt_default = 2π·0.1·sqrt(m*/k_n)
 (sqrt(1+ζ²) − ζ) the default step (eq. 51 with the rotational effective mass m* and the
-explicit-dashpot factor, see mpmdem.dem.dem_time_step_bound), each run is classified:
+explicit-dashpot factor, see mpmdem.sim.dem.dem_time_step_bound), each run is classified:
 
 - ``blown-up``: the solver stopped it (BlowUpError: NaN/inf, a body left the box, energy growth);
 - ``energy-gain``: it finished but the total energy ended above its initial value by more than
@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from mpmdem import BlowUpError, ContactLaw, Scene, Simulation, SolverConfig, rounded_rectangle, sphero_disk
-from mpmdem.dem import dem_time_step_bound
+from mpmdem.sim.dem import dem_time_step_bound
 
 RATIOS = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0)
 RESTITUTIONS = (1.0, 0.5, 0.1)

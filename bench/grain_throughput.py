@@ -15,7 +15,7 @@ graph. Each size and path is settled for --warmup steps (untimed), then timed.
 settle into). Ours runs every feature the probe leaves out: tangential history per pair, Verlet
 lists rebuilt on the device when needed, walls as bodies, energy and dissipation booked.
 
-Prints one JSON line per size and path (``path``: "disk-pass" or "general", ``mpmdem.dem.DISK_PAIRS``)
+Prints one JSON line per size and path (``path``: "disk-pass" or "general", ``mpmdem.sim.dem.DISK_PAIRS``)
 and per probe run; ``--out FILE`` appends them to FILE.
 Usage: python bench/grain_throughput.py --sizes 10000,100000,1000000 --probe ../shared/bench/warp_dem2d.py
 """
@@ -33,9 +33,9 @@ import time
 import numpy as np
 import warp as wp
 
-import mpmdem.dem as dem_module
+import mpmdem.sim.dem as dem_module
 from mpmdem import ContactLaw, Scene, Simulation, SolverConfig
-from mpmdem.grains import GrainSet
+from mpmdem.model.grains import GrainSet
 
 R = 0.5  # m, grain radius (the probe's)
 RHO, KN, MU, G, ZETA, JITTER = 1000.0, 1.0e6, 0.5, 9.81, 0.3, 0.1

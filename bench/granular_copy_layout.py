@@ -28,7 +28,7 @@ sys.path.insert(0, "bench")
 import granular_overhead as go  # noqa: E402
 
 from mpmdem import Simulation, SolverConfig  # noqa: E402
-from mpmdem.mpm import initial_dt_bound  # noqa: E402
+from mpmdem.sim.mpm import initial_dt_bound  # noqa: E402
 
 n = int(sys.argv[1]) if len(sys.argv) > 1 else 1048576
 wp.init()

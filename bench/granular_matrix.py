@@ -1,6 +1,6 @@
 """Granular-matrix study (MPM-SDEM §7, Fig. 23): force–settlement and apparent modulus per fines content.
 
-Runs cases/granular_matrix.py (through ``mpmdem.runner.run_case``, in this process) for every fines
+Runs cases/granular_matrix.py (through ``mpmdem.study.runner.run_case``, in this process) for every fines
 content of the study (``--fines``, default 0, 0.1, 0.2, 0.3 of the void area) at the bar speed
 ``--bar-speed`` (default the case's 5 cm/s), and again at half that speed for the lowest and the
 highest content (``--half-rate ends``; ``all`` or ``none``): the quasi-static check of the case's
@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from mpmdem.cases import granular_matrix as case
-from mpmdem.runner import run_case
+from mpmdem.study.runner import run_case
 
 ROOT = Path(__file__).resolve().parents[1]
 

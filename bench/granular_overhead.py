@@ -69,7 +69,7 @@ import warp as wp
 
 from mpmdem import MohrCoulomb, Scene, Simulation, SolverConfig, rectangle
 from mpmdem.kernels import granular as kgran
-from mpmdem.mpm import initial_dt_bound
+from mpmdem.sim.mpm import initial_dt_bound
 
 #: "Granular MPM" sand, E lowered from 1 GPa to 10 MPa (a 10× larger stable step).
 MATERIAL = MohrCoulomb(1.0e7, 0.3, 2250.0, 30.0, 0.0, bagnold=0.15, critical_density=2235.0)
@@ -163,7 +163,7 @@ def time_mode(scene: Scene, config: SolverConfig, steps: int, device, kernel_ste
     sim.advance_to(1.0e-12)  # loads the modules, records the CUDA graph, takes one step
     t, dt, *_ = mpm.read_clock()
     # the warm-up steps as a run takes them (checks after each batch; Granular MPM lays its blocks
-    # in line or in conditional nodes by how often they ran, mpmdem.block_layout)
+    # in line or in conditional nodes by how often they ran, mpmdem.sim.block_layout)
     sim.advance_to(t + (warmup - 0.5) * dt)
     mpm.set_stop_time(1.0e9)
     wp.synchronize_device(device)
@@ -247,7 +247,7 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=None, help="also append the JSON lines to this .jsonl file")
     parser.add_argument("--warmup", type=int, default=WARMUP_STEPS,
                         help="steps before timing, through advance_to as a run takes them (the Granular MPM "
-                             "blocks' layout is chosen after 100 of them, mpmdem.block_layout)")
+                             "blocks' layout is chosen after 100 of them, mpmdem.sim.block_layout)")
     parser.add_argument("--kernel-steps", type=int, default=0,
                         help="on cuda, also time each kernel over this many steps launched without the graph")
     args = parser.parse_args(argv)

@@ -75,9 +75,9 @@ from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 import mpmdem
 import mpmdem.io
 from mpmdem import BlowUpError, InputError, Simulation, SolverConfig
-from mpmdem.mpm import initial_dt_bound
-from mpmdem.runner import make_case_parser
-from mpmdem.study_cluster import map_tasks
+from mpmdem.sim.mpm import initial_dt_bound
+from mpmdem.study.cluster import map_tasks
+from mpmdem.study.runner import make_case_parser
 
 RESULTS = Path(__file__).resolve().parent / "results"
 DEFAULT_CASES = ("rotating-disk", "bouncing-disk")
@@ -94,7 +94,7 @@ WARMUP_STEPS = 3
 def load_case(name: str):
     """The module of a case by its CLI name, or None when it is not there (yet)."""
     try:
-        from mpmdem.runner import case_module
+        from mpmdem.study.runner import case_module
 
         return case_module(name)
     except (InputError, ImportError):
@@ -371,7 +371,7 @@ def sweep(args) -> list[dict]:
                 out.write(line + "\n")
             out.flush()
 
-        # the study runner's clusters (mpmdem.study_cluster): --jobs CPU processes, --gpus pinned GPU
+        # the study runner's clusters (mpmdem.study.cluster): --jobs CPU processes, --gpus pinned GPU
         # workers or --scheduler; a group's rows as soon as it ends
         for group in map_tasks(run_group, tasks, workers=args.jobs, gpus=args.gpus, scheduler=args.scheduler):
             emit(group)

@@ -35,7 +35,7 @@ import numpy as np
 import warp as wp
 
 from mpmdem import NeoHookean, Scene, Simulation, SolverConfig, rectangle
-from mpmdem.mpm import device_order
+from mpmdem.sim.mpm import device_order
 
 YOUNGS, POISSON, DENSITY = 1.0e5, 0.3, 1000.0
 GRAVITY = (0.0, -9.81)

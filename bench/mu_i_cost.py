@@ -24,7 +24,7 @@ import warp as wp
 from granular_overhead import DT_FACTOR, FLOW_TIME, WARMUP_STEPS, dense_column, time_mode
 
 from mpmdem import DruckerPrager, MuI, SolverConfig
-from mpmdem.mpm import initial_dt_bound
+from mpmdem.sim.mpm import initial_dt_bound
 
 E, NU, RHO, RHO_CR = 1.0e7, 0.3, 1500.0, 0.99 * 1500.0
 LAWS = {

@@ -6,7 +6,7 @@ and host round trips more than memory traffic. This bench builds each case at it
 (`sand-blocks`, `normal-force`, `silo-filling`, `silo-discharge`), exactly as `mpmdem run` does,
 steps it ``--warmup`` steps as a run does (``Simulation.advance_to``: kernel compilation,
 CUDA-graph capture, the first list builds, the layout of the Granular MPM block chosen from how
-often it ran, ``mpmdem.block_layout``: excluded), then times ``--steps`` steps between two device
+often it ran, ``mpmdem.sim.block_layout``: excluded), then times ``--steps`` steps between two device
 synchronisations, with the stepping ``Simulation.advance`` does (captured graphs of
 STEPS_PER_GRAPH steps on CUDA, no output, no host reads). The
 targets of issue 27 are per step, so a fixed number of steps measures them; a case's full run is
@@ -33,8 +33,9 @@ from pathlib import Path
 
 import warp as wp
 
-from mpmdem import Simulation, simulation
-from mpmdem.runner import case_module, config_from_args, make_case_parser
+from mpmdem import Simulation
+from mpmdem.sim import simulation
+from mpmdem.study.runner import case_module, config_from_args, make_case_parser
 
 CASES = ("sand-blocks", "normal-force", "silo-filling", "silo-discharge")
 #: Diagnostics that count how often a conditional part of the step ran (its rate per step is written)
@@ -64,7 +65,7 @@ def build_case(name: str, device: str, flags: list[str]):
 
 def layout(sim) -> dict:
     """Granular MPM in CUDA graphs: how the relabel and rebuild blocks were laid out for the timed
-    steps (``mpmdem.block_layout``)."""
+    steps (``mpmdem.sim.block_layout``)."""
     layouts = getattr(sim, "block_layouts", [])
     names = ("granular_relabel_block", "granular_rebuild_block")
     return {name: "inline" if b.inline else "conditional" for name, b in zip(names, layouts, strict=False)}
@@ -103,7 +104,7 @@ def main(argv=None) -> int:
     p.add_argument("--warmup", type=int, default=1000, help="steps before timing (through advance_to, as a run)")
     p.add_argument("--steps", type=int, default=5000, help="timed steps per case")
     p.add_argument("--steps-per-graph", type=int, default=None,
-                   help="steps per CUDA-graph launch (default mpmdem.simulation.STEPS_PER_GRAPH; 1: one per step)")
+                   help="steps per CUDA-graph launch (default mpmdem.sim.simulation.STEPS_PER_GRAPH; 1: one per step)")
     p.add_argument("--out", type=Path, default=RESULTS / "small_scenes.jsonl")
     args, flags = p.parse_known_args(argv)
     if args.steps_per_graph is not None:

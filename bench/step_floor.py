@@ -32,7 +32,7 @@ from pathlib import Path
 
 import warp as wp
 
-from mpmdem import simulation
+from mpmdem.sim import simulation
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from small_scenes import CASES, RESULTS, build_case, commit, run_cases  # noqa: E402

@@ -27,10 +27,10 @@ import warp as wp
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from small_scenes import CASES, build_case, commit  # noqa: E402
 
-import mpmdem.coupling  # noqa: E402
-import mpmdem.dem  # noqa: E402
-import mpmdem.mpm  # noqa: E402
-from mpmdem import launch_plan  # noqa: E402
+import mpmdem.sim.coupling  # noqa: E402
+import mpmdem.sim.dem  # noqa: E402
+import mpmdem.sim.mpm  # noqa: E402
+from mpmdem.sim import launch_plan  # noqa: E402
 
 
 class StepRecorder:
@@ -72,14 +72,14 @@ class StepRecorder:
 
         wp.launch = launch_plan.wp.launch = recorded_launch
         wp.array.zero_ = recorded_zero
-        for module in (launch_plan, mpmdem.mpm, mpmdem.dem, mpmdem.coupling):
+        for module in (launch_plan, mpmdem.sim.mpm, mpmdem.sim.dem, mpmdem.sim.coupling):
             module.run_plan = recorded_run_plan
         return self
 
     def __exit__(self, *exc):
         wp.launch = launch_plan.wp.launch = self._launch
         wp.array.zero_ = self._zero
-        for module in (launch_plan, mpmdem.mpm, mpmdem.dem, mpmdem.coupling):
+        for module in (launch_plan, mpmdem.sim.mpm, mpmdem.sim.dem, mpmdem.sim.coupling):
             module.run_plan = self._run_plan
         return False
 

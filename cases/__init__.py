@@ -4,10 +4,10 @@ A case module defines NAME, DESCRIPTION, DEFAULTS (SolverConfig fields), ``add_a
 (optional), ``build(args) -> CaseSetup`` and ``summarize(sim, result, args) -> dict``.
 
 A case that compares runs (slope-flow, avalanche, normal-force --all-grids, silo-filling --compare)
-declares them as data, ``VARIANTS`` (a list of ``mpmdem.variants.Variant``: flags and SolverConfig
+declares them as data, ``VARIANTS`` (a list of ``mpmdem.study.variants.Variant``: flags and SolverConfig
 fields overridden, optionally only under a flag), and defines ``compare(main, runs, args) -> dict``.
 The runner runs each variant as a run of its own into OUT/<variant>/ and ``compare`` only reads
-their results (``mpmdem.variants.VariantRun``); ``summarize`` starts no simulation.
+their results (``mpmdem.study.variants.VariantRun``); ``summarize`` starts no simulation.
 """
 
 #: CLI name → module name, in the order ``mpmdem list`` shows them.

@@ -3,9 +3,9 @@
 "original": the plain algorithm, no critical density; "stress_free": stress-free below the
 critical density (Dunatunga & Kamrin), no density control, one grid; "granular": Granular MPM
 (density control of eq. 13-15 and a grid per component, §3). A case declares them as its
-``VARIANTS = GRANULAR_VARIANTS`` (``mpmdem.variants``): the runner runs each as a run of its own (the one equal to the
-case's own run is that run), and the case's ``compare`` reads each run file (``read_run``): the
-mean density of its points per frame (the paper's Figs. 2 and 10) and its final point cloud. A
+``VARIANTS = GRANULAR_VARIANTS`` (``mpmdem.study.variants``): the runner runs each as a run of its
+own (the one equal to the case's own run is that run), and the case's ``compare`` reads each run
+file (``read_run``): the mean density of its points per frame (the paper's Figs. 2 and 10) and its final point cloud. A
 blow-up ends that variant's run and is reported, as in the paper where some variants fail.
 """
 
@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from mpmdem.io import RunFile
-from mpmdem.variants import Variant
+from mpmdem.study.variants import Variant
 
 #: The three variants; ``critical_density``: whether the case's material has a critical density
 #: (its ``build`` reads it with ``critical_density(args)``).

@@ -15,8 +15,8 @@ import sys
 import numpy as np
 
 from mpmdem import MohrCoulomb, Scene, rectangle
-from mpmdem.case import CaseSetup
 from mpmdem.cases._variants import GRANULAR_VARIANTS, critical_density, plot_variants, read_run
+from mpmdem.study.case import CaseSetup
 
 NAME = "avalanche"
 DESCRIPTION = "granular avalanche over two inclines (15°): original, stress-free and Granular MPM deposits"
@@ -58,7 +58,7 @@ def _scene(critical: bool) -> Scene:
     return scene
 
 
-#: original, stress-free and Granular MPM, each a run of its own (mpmdem.variants), compared by ``compare``
+#: original, stress-free and Granular MPM, each a run of its own (mpmdem.study.variants), compared by ``compare``
 VARIANTS = GRANULAR_VARIANTS
 
 
@@ -104,6 +104,6 @@ def compare(main, runs, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/avalanche.py"))

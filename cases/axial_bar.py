@@ -12,9 +12,9 @@ import sys
 import numpy as np
 
 from mpmdem import LinearElastic, Scene, rectangle
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import count_at_least, given, positive
-from mpmdem.validation import Check
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given, positive
+from mpmdem.study.validation import Check
 
 NAME = "axial-bar"
 DESCRIPTION = "1D vibration of an elastic bar vs the analytic first mode (centre-of-mass velocity)"
@@ -82,6 +82,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/axial_bar.py"))

@@ -9,9 +9,9 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, Scene, rounded_rectangle
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import non_negative, positive
-from mpmdem.validation import Check
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import non_negative, positive
+from mpmdem.study.validation import Check
 
 NAME = "block-on-incline"
 DESCRIPTION = "a block slides (or sticks) on a fixed incline: acceleration vs g(sin θ − μ cos θ)"
@@ -97,6 +97,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/block_on_incline.py"))

@@ -13,9 +13,9 @@ import sys
 import numpy as np
 
 from mpmdem import InputError, NeoHookean, Scene, disk
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import count_at_least, given, positive
 from mpmdem.io import RunFile
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given, positive
 
 NAME = "bouncing-disk"
 DESCRIPTION = "elastic disk dropped under gravity onto a frictionless floor: rebound height and energy"
@@ -173,6 +173,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/bouncing_disk.py"))

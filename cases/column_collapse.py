@@ -72,9 +72,17 @@ import sys
 import numpy as np
 
 from mpmdem import Boundary, MohrCoulomb, MuI, Scene, rectangle
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import count_at_least, given, interval, positive
-from mpmdem.validation import Check
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given, interval, positive
+from mpmdem.study.references.lube2005 import (
+    LUBE_RUNOUT_LINEAR,
+    LUBE_RUNOUT_POWER,
+    SCALING,
+    lube_height,
+    lube_runout,
+    runout_band,
+)
+from mpmdem.study.validation import Check
 
 NAME = "column-collapse"
 DESCRIPTION = "a granular column collapses on a rough floor: runout and final height vs Lube et al. (2005)"
@@ -112,45 +120,6 @@ POINTS_PER_CELL = 2  # per direction: 2 × 2 points per cell, as the paper's N_m
 GRAIN_DIAMETER = 1.0e-3
 SOLID_FRACTION = 0.6
 STOP_FRACTION = 0.01  # the flow has stopped once E_k stays below this fraction of its peak
-
-# Lube et al. (2005), quasi-2D channel: the two circulating coefficient sets (see the header)
-LUBE_SETS = {
-    "A": {"linear": (1.2, 1.8), "power": (1.9, 2.0 / 3.0, 2.8)},  # (λ1, upper a), (λ2, exponent, lower a)
-    "B": {"linear": (1.6, 1.8), "power": (2.2, 2.0 / 3.0, 2.8)},
-}
-LUBE_RUNOUT_LINEAR = LUBE_SETS["A"]["linear"]  # (prefactor, upper end of the linear regime in a)
-LUBE_RUNOUT_POWER = LUBE_SETS["A"]["power"]  # (prefactor, exponent, lower end of the power regime)
-LUBE_HEIGHT_SPLIT = 1.15  # H_f/L0 = a below, a^(2/5) above
-SCALING = ("Lube, Huppert, Sparks & Freundt 2005, Phys. Rev. E 72, 041301 (quasi-2D channel), as the two "
-           "coefficient sets that circulate under its name (the paper was not read here): (L_f-L0)/L0 = 1.2-1.6 a "
-           "for a <= 1.8, 1.9-2.2 a^(2/3) for a >= 2.8 (log-log interpolation between); H_f/L0 = a for a <= 1.15, "
-           "a^(2/5) above")
-
-
-def lube_runout(a: float, coefficients: str = "A") -> float:
-    """Normalized runout (L_f − L0)/L0 at aspect ratio a of one coefficient set circulating under Lube
-    et al. (2005)'s name ("A": 1.2 a / 1.9 a^(2/3), "B": 1.6 a / 2.2 a^(2/3); see the header)."""
-    k1, a1 = LUBE_SETS[coefficients]["linear"]
-    k2, n, a2 = LUBE_SETS[coefficients]["power"]
-    if a <= a1:
-        return k1 * a
-    if a >= a2:
-        return k2 * a**n
-    s = math.log(a / a1) / math.log(a2 / a1)  # transition: straight line in log-log
-    return math.exp((1.0 - s) * math.log(k1 * a1) + s * math.log(k2 * a2**n))
-
-
-def runout_band(a: float) -> tuple[float, float]:
-    """The reference band of the normalized runout at aspect ratio a: the lowest and highest of the
-    coefficient sets (the spread between them, not the experiments' scatter; see the header)."""
-    values = [lube_runout(a, k) for k in LUBE_SETS]
-    return min(values), max(values)
-
-
-def lube_height(a: float) -> float:
-    """Normalized final height H_f/L0 of Lube et al. (2005) at aspect ratio a."""
-    return a if a <= LUBE_HEIGHT_SPLIT else a**0.4
-
 
 def add_arguments(parser):
     parser.add_argument("--aspect-ratio", type=positive(), default=1.0, help="a = initial height / width, in [0.1, 20]")
@@ -390,6 +359,6 @@ def _plot(x0, x1, w, a, h, path) -> None:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/column_collapse.py"))

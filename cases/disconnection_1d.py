@@ -11,8 +11,8 @@ import sys
 import numpy as np
 
 from mpmdem import LinearElastic, Scene, SolverConfig
-from mpmdem.case import CaseSetup
-from mpmdem.validation import Check
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.validation import Check
 
 NAME = "disconnection-1d"
 DESCRIPTION = "five points on a line: point 3 meets point 4 (stress-free vs Granular, original MPM vs cpGIMP)"
@@ -112,7 +112,7 @@ def onsets(tr: dict, tol: float = 1.0e-9) -> list[float]:
     return out
 
 
-#: The four traces the summary compares (not ``mpmdem.variants`` runs: they record point 3 at every step).
+#: The four traces the summary compares (not ``mpmdem.study.variants`` runs: they record point 3 at every step).
 TRACES = {
     "granular_original": {"granular": True, "shape": "linear"},
     "granular_cpgimp": {"granular": True, "shape": "cpgimp"},
@@ -170,6 +170,6 @@ def _plot(traces: dict, path) -> None:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/disconnection_1d.py"))

@@ -9,9 +9,9 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, Scene, sphero_disk
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import interval, non_negative
-from mpmdem.validation import Check
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import interval, non_negative
+from mpmdem.study.validation import Check
 
 NAME = "disk-collision"
 DESCRIPTION = "rigid disks collide head-on and obliquely (spring-dashpot DEM vs its closed form)"
@@ -92,6 +92,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/disk_collision.py"))

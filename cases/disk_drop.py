@@ -20,7 +20,6 @@ import sys
 import numpy as np
 
 from mpmdem import InputError, Scene, disk, rounded_rectangle
-from mpmdem.case import CaseSetup
 from mpmdem.cases import momentum_exchange
 from mpmdem.cases.momentum_exchange import (
     DENSITY,
@@ -33,8 +32,9 @@ from mpmdem.cases.momentum_exchange import (
     resolution,
     table1_material,
 )
-from mpmdem.flag_types import positive
-from mpmdem.validation import Check
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import positive
+from mpmdem.study.validation import Check
 
 NAME = "disk-drop"
 DESCRIPTION = "elastic MPM disk dropped onto a fixed spheropolygon: rebound energy vs released (MPM-SDEM §5.1.2)"
@@ -165,6 +165,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/disk_drop.py"))

@@ -10,8 +10,8 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, Scene, rounded_rectangle
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import count_at_least, given, positive
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given, positive
 
 NAME = "domino"
 DESCRIPTION = "a row of blocks on a floor topples after a push (DEM only): front speed, toppled count"
@@ -88,6 +88,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/domino.py"))

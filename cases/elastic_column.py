@@ -10,9 +10,9 @@ import sys
 import numpy as np
 
 from mpmdem import LinearElastic, Scene, rectangle
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import count_at_least, given
-from mpmdem.validation import Check
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given
+from mpmdem.study.validation import Check
 
 NAME = "elastic-column"
 DESCRIPTION = "elastic column settling under gravity vs sigma_yy = -rho g (H - y)"
@@ -74,6 +74,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/elastic_column.py"))

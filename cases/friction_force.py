@@ -22,10 +22,10 @@ import sys
 
 import numpy as np
 
-from mpmdem.case import CaseSetup
 from mpmdem.cases import normal_force as nf
-from mpmdem.flag_types import count_at_least, positive
-from mpmdem.validation import Check
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, positive
+from mpmdem.study.validation import Check
 
 NAME = "friction-force"
 DESCRIPTION = "elastic MPM block sliding on a fixed spheropolygon: friction force vs μ × weight (MPM-SDEM §5.2.2)"
@@ -125,6 +125,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/friction_force.py"))

@@ -57,7 +57,7 @@
 #   at half the speed (bench/granular_matrix.py runs that check).
 # * Δt: the library's step (CFL 0.4 and eq. 51 with the point term), not Table 3's 2e-4 s.
 # * restitution 0.5 for the normal dashpot (the paper's law is elastic; damping not given).
-# * g = 10 m/s² (cases/_table3.py).
+# * g = 10 m/s² (mpmdem/study/references/table3.py).
 #
 # Measured (summary.json): per frame the bar's displacement d (its settlement, from its start), the
 # force on it (vertical reaction, compression positive) as sampled at the frame and as the mean over
@@ -85,7 +85,6 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, Scene, rounded_rectangle
-from mpmdem.case import CaseSetup
 from mpmdem.cases._granular_matrix_sample import (
     container,
     deepest_overlap,
@@ -96,8 +95,9 @@ from mpmdem.cases._granular_matrix_sample import (
     void_area,
     void_lattice,
 )
-from mpmdem.cases._table3 import CM, GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, SPHERO_RADIUS, VERLET, sand
-from mpmdem.flag_types import count_at_least, interval, non_negative, positive
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, interval, non_negative, positive
+from mpmdem.study.references.table3 import CM, GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, SPHERO_RADIUS, VERLET, sand
 
 NAME = "granular-matrix"
 DESCRIPTION = "uniaxial compression of pentagons (SDEM) with MPM fines in their voids: force–settlement (MPM-SDEM §7)"
@@ -180,7 +180,7 @@ def params(args) -> dict:
 
 def sample(args, p: dict) -> dict:
     """The packed skeleton, the fines' points and the areas [m, m²] of this run (deterministic in --seed)."""
-    from mpmdem.simulation import default_device
+    from mpmdem.sim.simulation import default_device
 
     return _sample(args.seed, p["size"], p["height"], p["h"], p["rp"], args.fines, float(args.normal_stiffness),
                    args.device or default_device())
@@ -334,6 +334,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/granular_matrix.py"))

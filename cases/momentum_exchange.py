@@ -13,7 +13,7 @@
 # ν = (3K − 2G) / (2(3K + G)) = 0.203, not the 0.278 Table 1 prints (which no (K, G) pair of the
 # table satisfies); K and G are kept since they set the wave speeds.
 # Table 1's Δt = 1e-4 s is not used: a contact spring of 6e8 N/m on a point of ~5e-4 kg/m is
-# stable only below ~2e-6 s, so the coupled step of mpmdem.coupling (eq. 51 with the point-mass
+# stable only below ~2e-6 s, so the coupled step of mpmdem.sim.coupling (eq. 51 with the point-mass
 # bound) is taken; it is ~6e-7 s at the paper's resolution.
 # Restitution: Table 1 has no contact damping, so e = 1 (the paper calls the collision elastic).
 #
@@ -35,9 +35,9 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, LinearElastic, Scene, disk, sphero_disk
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import positive
-from mpmdem.validation import Check
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import positive
+from mpmdem.study.validation import Check
 
 NAME = "momentum-exchange"
 DESCRIPTION = "elastic MPM disk hits an equal DEM disk head-on: speed and kinetic energy handed over (MPM-SDEM §5.1.1)"
@@ -215,6 +215,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/momentum_exchange.py"))

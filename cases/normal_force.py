@@ -42,10 +42,10 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, LinearElastic, Scene, rounded_rectangle
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import count_at_least, given, positive
-from mpmdem.validation import Check
-from mpmdem.variants import Variant
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given, positive
+from mpmdem.study.validation import Check
+from mpmdem.study.variants import Variant
 
 NAME = "normal-force"
 DESCRIPTION = "elastic MPM block resting on a fixed spheropolygon: normal coupling force vs weight (MPM-SDEM §5.2.1)"
@@ -224,7 +224,7 @@ def normal_summary(sim, normal_history: np.ndarray, h: float, contact_radius: fl
     }
 
 
-#: The other three grid sizes (--all-grids), each a run of its own (mpmdem.variants); the one of
+#: The other three grid sizes (--all-grids), each a run of its own (mpmdem.study.variants); the one of
 #: --grid-index is the case's own run.
 VARIANTS = [Variant(f"grid{i}", args={"grid_index": i}, flag="all_grids") for i in range(4)]
 
@@ -265,6 +265,6 @@ def compare(main, runs, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/normal_force.py"))

@@ -8,8 +8,8 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, Scene, random_convex_polygon
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import count_at_least, given
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given
 
 NAME = "pentagon-pile"
 DESCRIPTION = "random pentagons poured into a box settle (DEM only): packing, contacts, rest"
@@ -93,6 +93,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/pentagon_pile.py"))

@@ -11,9 +11,9 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, LinearElastic, Scene, Simulation, SolverConfig, rod
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import count_at_least, given, interval, positive
-from mpmdem.validation import Check
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given, interval, positive
+from mpmdem.study.validation import Check
 
 NAME = "rod-collision"
 OWN_COUPLING_FLAG = True  # --scheme picks SolverConfig.coupling (and the set-up that goes with it)
@@ -242,6 +242,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/rod_collision.py"))

@@ -12,10 +12,10 @@ import sys
 import numpy as np
 
 from mpmdem import InputError, NeoHookean, Scene, disk
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import count_at_least, given, nonzero
 from mpmdem.io import RunFile
-from mpmdem.validation import Check
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given, nonzero
+from mpmdem.study.validation import Check
 
 NAME = "rotating-disk"
 DESCRIPTION = "elastic disk spinning freely without gravity: angular momentum and velocity per transfer"
@@ -129,6 +129,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/rotating_disk.py"))

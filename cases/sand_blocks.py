@@ -29,7 +29,7 @@
 # §6's printed times (2.5, 4.0, 4.5 s) and those its discussion compares at (0.25, 0.40 s). We run
 # at 10 m/s², the experiment's gravity, and compare with 0.25 / 0.40 / 0.45 s.
 #
-# Sand: Table 3 (cases/_table3.py) with §6's changes: g = 10 m/s², ψ = 0°, φ = 22°, about 8000
+# Sand: Table 3 (mpmdem/study/references/table3.py) with §6's changes: g = 10 m/s², ψ = 0°, φ = 22°, about 8000
 # points: the default grid 3.125 mm with 2 × 2 points per cell gives 32 × 64 cells, 8192 points
 # (Table 3's 3.5 mm would not put the right wall on a grid line: 0.5 m = 142.9 cells).
 #
@@ -73,10 +73,11 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, DruckerPrager, InputError, Scene, rounded_rectangle
-from mpmdem.case import CaseSetup
-from mpmdem.cases._table3 import GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, VERLET, sand
-from mpmdem.flag_types import count_at_least, given, non_negative, positive
-from mpmdem.validation import Check
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given, non_negative, positive
+from mpmdem.study.references.block_impact import ENSEMBLE_STARTS, T_PAPER, T_PAPER_PRINTED, first_time, readings
+from mpmdem.study.references.table3 import GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, VERLET, sand
+from mpmdem.study.validation import Check
 
 NAME = "sand-blocks"
 DESCRIPTION = "block impact: a sand column topples two of three stacked wooden blocks (MPM-SDEM §6, the experiment)"
@@ -88,8 +89,6 @@ DEFAULTS = {"granular": True, "shape": "bspline2", "transfer": "APIC", "precisio
 #: events are the paper's "touches the ground" (the header): the first touch of the floor. Block 1
 #: tumbles, so its row compares the median of ENSEMBLE_STARTS perturbed starts with the paper.
 COARSER = (("--cell-size", "0.00625"),)
-#: block 1 tumbles: its row is the median of this many perturbed starts (--ensemble-seed 1 … N)
-ENSEMBLE_STARTS = 16
 _FRAME = "the paper's 0.05 s reading resolution plus a frame"
 _TRACKS = ("bench/results/studies/block-impact*: the committed runs at this grid (both friction sets, corner "
            "rounding 1-3 mm, imp and grid coupling), widened by a frame")
@@ -112,8 +111,6 @@ VALIDATION = [
 # -- §6 --------------------------------------------------------------------------------------
 FRICTION_ANGLE = 22.0  # deg
 DILATANCY_ANGLE = 0.0  # deg
-T_PAPER_PRINTED = {"reach": 2.5, "block2_touch": 4.0, "block1_touch": 4.5}  # s, as printed
-T_PAPER = {"reach": 0.25, "block2_touch": 0.40, "block1_touch": 0.45}  # s, at g = 10 m/s² (header)
 
 # -- the experiment's geometry (header) -------------------------------------------------------
 FLUME = (0.5, 0.3)  # m, length × wall height
@@ -139,9 +136,6 @@ POINTS_PER_CELL = 2
 SLAB = 0.02  # m, thickness of the floor slab and the right wall body
 END_FULL = 0.6  # s: past the paper's 0.45 s
 END_QUICK = 0.6  # s
-LAND = 0.001  # m: a block whose lowest point is this close to the floor touches it (1/18 of its height)
-FLAT = 10.0  # deg: a block turned within this of a multiple of 90° lies on a face
-REST_FRAMES = 5  # frames (0.05 s, the paper's reading resolution): at rest = on a face on the floor this long
 PERTURB_BLOCK_X = 0.0005  # m: --ensemble-seed moves each free block by up to this along x
 PERTURB_SAND = 0.1  # --ensemble-seed moves each sand point by up to this fraction of its spacing
 
@@ -248,50 +242,6 @@ def build(args) -> CaseSetup:
                      config={"imp_skin": VERLET, "imp_cell_capacity": 64})
 
 
-def first_time(times: np.ndarray, flags: np.ndarray) -> float | None:
-    """The first time [s] at which ``flags`` holds, or None."""
-    k = np.flatnonzero(flags)
-    return float(times[k[0]]) if len(k) else None
-
-
-def face_down(angle_deg: np.ndarray) -> np.ndarray:
-    """Whether a block turned by ``angle_deg`` from upright lies on a face (within FLAT of a multiple of 90°)."""
-    return np.abs((np.asarray(angle_deg, dtype=float) + 45.0) % 90.0 - 45.0) <= FLAT
-
-
-def pose(lowest_m: float, angle_deg: float) -> str:
-    """A block's pose from its lowest point's height [m] and its turn from upright [deg]: the face it
-    lies on ("upright", "on its side", "inverted", or "leaning" between faces) and where ("on the
-    floor" within LAND of it, else "raised")."""
-    wrapped = (angle_deg + 180.0) % 360.0 - 180.0
-    quarter = round(wrapped / 90.0)
-    face = "leaning" if abs(wrapped - 90.0 * quarter) > FLAT else \
-        {0: "upright", 1: "on its side", -1: "on its side", 2: "inverted", -2: "inverted"}[quarter]
-    return f"{face} {'on the floor' if lowest_m <= LAND else 'raised'}"
-
-
-def readings(times, lowest_m, angle_deg, *, hold: int = REST_FRAMES) -> dict:
-    """Both readings of a block's landing from its track (times [s], its lowest point's height [m],
-    its turn from upright [deg], one per frame):
-
-    * ``touch``: the first time its lowest point is within LAND of the floor (MPM-SDEM §6's
-      "touches the ground");
-    * ``rest``: the first time from which it lies on a face on the floor up to the end of the run,
-      for at least ``hold`` frames (None if it does not, or not that long);
-    * ``pose``: its final pose (``pose()``); ``rest_height_m``: its lowest point at the end.
-    """
-    times = np.asarray(times, dtype=float)
-    lowest = np.asarray(lowest_m, dtype=float)
-    on = (lowest <= LAND) & face_down(angle_deg)
-    rest = None
-    if len(on) and on[-1]:
-        off = np.flatnonzero(~on)
-        k = off[-1] + 1 if len(off) else 0
-        rest = float(times[k]) if len(on) - k >= hold else None
-    return {"touch": first_time(times, lowest <= LAND), "rest": rest,
-            "pose": pose(float(lowest[-1]), float(np.asarray(angle_deg)[-1])), "rest_height_m": float(lowest[-1])}
-
-
 def block_penetration(x: np.ndarray, centre, angle: float, radius: float) -> float:
     """Deepest penetration [m] of point centres x (N, 2) into a rounded rectangle BLOCK at (centre,
     angle) with corner radius ``radius``: radius minus the distance to its core, where positive."""
@@ -387,6 +337,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/sand_blocks.py"))

@@ -19,7 +19,7 @@
 # * the sand starts at rest (no gate; the orifice is open at t = 0), filled in 2 × 2 points per
 #   cell with the outermost points at r_p from the walls and floor (touching, zero overlap).
 #
-# Units: Table 3 in cases/_table3.py (1.5 g/cm² read as 1500 kg/m³ over 1 m of thickness; g = 10
+# Units: Table 3 in mpmdem/study/references/table3.py (1.5 g/cm² read as 1500 kg/m³ over 1 m of thickness; g = 10
 # m/s², the experiments' gravity: Table 3's printed 10 cm/s² is discussed in cases/sand_blocks.py;
 # at 10 cm/s² every rate would be 10 × smaller and every time 10 × longer).
 #
@@ -56,7 +56,7 @@
 # MPM-SDEM §3's spheropolygons with one core vertex) of mean radius r_p (--grain-radius, default
 # the seed's r_p = 1 mm) ±15 %, grain-grain μ = GRAIN_FRICTION, the same k_n, k_t and restitution.
 # The grains are placed on a loose lattice in the silo, settled under gravity with the orifice
-# closed by a gate plate (mpmdem.packing.settle), then moved into the open silo at t = 0: the flow
+# closed by a gate plate (mpmdem.sim.packing.settle), then moved into the open silo at t = 0: the flow
 # starts from a settled pack, as the MPM fill starts at rest. Grain density: the continuum's
 # 1500 kg/m³ over the packing fraction φ = PACKING_FRACTION of a settled pack of these grains
 # (0.82, measured by tests/test_grains.py, inside Berryman's 2D 0.82 ± 0.02), so that the pack's
@@ -77,8 +77,10 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, MuI, Scene, SolverConfig, rectangle, rounded_rectangle
-from mpmdem.case import CaseSetup
-from mpmdem.cases._table3 import (
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given, positive
+from mpmdem.study.references.beverloo import beverloo
+from mpmdem.study.references.table3 import (
     CRITICAL_DENSITY_RATIO,
     DENSITY,
     GRAVITY,
@@ -93,8 +95,7 @@ from mpmdem.cases._table3 import (
     YOUNGS,
     sand,
 )
-from mpmdem.flag_types import count_at_least, given, positive
-from mpmdem.validation import Check
+from mpmdem.study.validation import Check
 
 NAME = "silo-discharge"
 DESCRIPTION = "sand drains from a silo through an orifice into a container: flow rate vs 2D Beverloo (MPM-SDEM §5.3)"
@@ -112,11 +113,6 @@ VALIDATION = [
           "and 2.5 mm",
           coarser=(("--cell-size", "0.005"),)),
 ]
-
-# -- the 2D Beverloo law of Fig. 16 ------------------------------------------------------------
-BEVERLOO_C = 0.58
-BEVERLOO_K = 2.2
-ORIFICES_PAPER = (0.02, 0.03, 0.04, 0.05, 0.06)  # m, the five D0 of Fig. 16
 
 # -- our geometry and choices (see the header) ---------------------------------------------------
 WIDTH = 0.20  # m, inner width of the silo
@@ -218,7 +214,7 @@ def coarse(args) -> bool:
     instead of an hour). A size flag that is given sets that size alone; the others keep the preset."""
     if args.quick:
         return True
-    from mpmdem.simulation import default_device
+    from mpmdem.sim.simulation import default_device
 
     return (args.device or default_device()) == "cpu"
 
@@ -267,11 +263,6 @@ def geometry(args) -> dict:
         top = floor + LATTICE_HEIGHT * fill + HEADROOM
         g.update(rp=r, wall_top=LATTICE_HEIGHT * fill + HEADROOM, y_len=max(y_len, top + 2.0 * WALL))
     return g
-
-
-def beverloo(orifice, c=BEVERLOO_C, k=BEVERLOO_K, r_p=R_P_TABLE, density=DENSITY, gravity=GRAVITY):
-    """The 2D Beverloo rate C ρ sqrt(g) (D0 − k r_p)^(3/2) [kg/(m s)] of MPM-SDEM Fig. 16."""
-    return c * density * math.sqrt(gravity) * max(orifice - k * r_p, 0.0) ** 1.5
 
 
 def _solids(g: dict):
@@ -343,8 +334,8 @@ def grain_density() -> float:
 
 def build_dem(args, g: dict) -> CaseSetup:
     """--sand dem: grains settled behind a gate, then moved into the open silo (see the header)."""
-    from mpmdem.packing import settle
-    from mpmdem.simulation import default_device
+    from mpmdem.sim.packing import settle
+    from mpmdem.sim.simulation import default_device
 
     xc, w, f = g["xc"], g["width"], g["floor"]
     region = [(xc - 0.5 * w, f), (xc + 0.5 * w, f), (xc + 0.5 * w, f + LATTICE_HEIGHT * g["fill"]),
@@ -499,6 +490,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/silo_discharge.py"))

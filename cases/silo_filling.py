@@ -56,10 +56,10 @@ import sys
 import numpy as np
 
 from mpmdem import MohrCoulomb, Scene, rectangle
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import count_at_least, given, non_negative
-from mpmdem.validation import Check
-from mpmdem.variants import Variant
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given, non_negative
+from mpmdem.study.validation import Check
+from mpmdem.study.variants import Variant
 
 NAME = "silo-filling"
 DESCRIPTION = "a flat-bottom silo filled from the top, 3 points every 0.17 s (stress-free vs Granular MPM)"
@@ -166,7 +166,7 @@ def scene(n: int, jitter: float = JITTER) -> Scene:
     return sc
 
 
-#: --compare: the same filling with stress-free MPM, a run of its own (mpmdem.variants), one frame
+#: --compare: the same filling with stress-free MPM, a run of its own (mpmdem.study.variants), one frame
 #: every 0.5 s
 VARIANTS = [Variant("stress_free", config={"granular": False, "density_control": "none"}, args={"frame_interval": 0.5},
                     flag="compare")]
@@ -332,6 +332,6 @@ def _plot(clouds: dict, path, t_end: float) -> None:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/silo_filling.py"))

@@ -11,8 +11,8 @@ import sys
 import numpy as np
 
 from mpmdem import MohrCoulomb, Scene, rectangle
-from mpmdem.case import CaseSetup
 from mpmdem.cases._variants import GRANULAR_VARIANTS, critical_density, plot_variants, read_run
+from mpmdem.study.case import CaseSetup
 
 NAME = "slope-flow"
 DESCRIPTION = "a granular block flows down a 30° slope: mean density in original, stress-free and Granular MPM"
@@ -41,7 +41,7 @@ def _scene(critical: bool) -> Scene:
     return scene
 
 
-#: original, stress-free and Granular MPM, each a run of its own (mpmdem.variants), compared by ``compare``
+#: original, stress-free and Granular MPM, each a run of its own (mpmdem.study.variants), compared by ``compare``
 VARIANTS = GRANULAR_VARIANTS
 
 
@@ -73,6 +73,6 @@ def compare(main, runs, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/slope_flow.py"))

@@ -8,8 +8,8 @@ import sys
 import numpy as np
 
 from mpmdem import NeoHookean, Scene, disk
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import count_at_least, given
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import count_at_least, given
 
 NAME = "sulsky-disks"
 DESCRIPTION = "two elastic disks collide and rebound (MPM notes / Sulsky 1995)"
@@ -64,6 +64,6 @@ def summarize(sim, result, args) -> dict:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/sulsky_disks.py"))

@@ -51,8 +51,8 @@ import sys
 import numpy as np
 
 from mpmdem import Boundary, MohrCoulomb, Scene, rectangle
-from mpmdem.case import CaseSetup
-from mpmdem.flag_types import given, positive
+from mpmdem.study.case import CaseSetup
+from mpmdem.study.flag_types import given, positive
 
 NAME = "toyoura-flume"
 DESCRIPTION = "Toyoura sand flows down a 45° flume onto a load cell: arrival, impact force, deposit"
@@ -274,6 +274,6 @@ def _plot(t, force, snaps: dict, xw: float, path, angle: float) -> None:
 
 
 if __name__ == "__main__":
-    from mpmdem.runner import run_case
+    from mpmdem.study.runner import run_case
 
     sys.exit(run_case(sys.modules[__name__], prog="python cases/toyoura_flume.py"))

@@ -85,8 +85,8 @@ def draw(case: str, run_file: Path, field: str, work: Path) -> tuple[Path, str]:
     """A GIF of the run (mpmdem animate) if small enough, else the last snapshot (mpmdem plot)."""
     from PIL import Image
 
-    from mpmdem.animation import animate_run
-    from mpmdem.plotting import plot_run
+    from mpmdem.io.animation import animate_run
+    from mpmdem.io.plotting import plot_run
 
     work.mkdir(parents=True, exist_ok=True)
     n = frame_count(run_file)

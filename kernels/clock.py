@@ -1,7 +1,7 @@
 """Slots of the device clock: one float64 array every kernel of a step reads (and the dt and
 time kernels write), so the host never needs dt inside the step loop.
 
-Kernels index it with these names (``clock[CLOCK_DT]``); the host side is ``mpmdem.stage.Clock``.
+Kernels index it with these names (``clock[CLOCK_DT]``); the host side is ``mpmdem.sim.stage.Clock``.
 ``land_on_stop`` is the rule that makes the steps of a frame end on its time.
 
 The dt of a step is set by the last kernel of the step before (``take_step`` then ``set_step``,
@@ -112,7 +112,7 @@ def set_step(clock: wp.array(dtype=wp.float64), t: wp.float64, t_stop: wp.float6
 @kernel
 def land_step(clock: wp.array(dtype=wp.float64), cap: wp.float64, cap_bound: wp.float64):
     """The next step's dt from CLOCK_BOUND_NEXT (``set_step``), launched by the host after it moved
-    t_stop (``mpmdem.stage.Clock.set_stop_time``): steps land on the new stop."""
+    t_stop (``mpmdem.sim.stage.Clock.set_stop_time``): steps land on the new stop."""
     t = clock[CLOCK_T]  # (every load first: one round trip)
     t_stop = clock[CLOCK_T_STOP]
     fixed = clock[CLOCK_DT_FIXED]

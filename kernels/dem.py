@@ -228,7 +228,7 @@ def make_dem_kernels(precision: str, deterministic: bool = False):
         tangential stretch δ_t = slip0 [m] of the last step: overlap eq. 38, contact point eq. 41 (in
         the middle of the overlap), spring–dashpot and Coulomb cap eq. 43. Returns (F on i, contact
         point p [m], δ_t, stored energy, dissipated work). The bodies' velocities and masses are read
-        here, at a touch, and not held through the feature search (registers: ``mpmdem.dem``). The
+        here, at a touch, and not held through the feature search (registers: ``mpmdem.sim.dem``). The
         vertex–edge search (``vertex_contact``) and the disk–disk pass (``kernels.dem_disks``) share it."""
         delta, p = contact_point(X, N, d, reach, a_r)
         xi = B.x[i]

@@ -12,7 +12,7 @@ Both laws have the signature
 
 deps = sym(L) dt is the strain increment [-], dw = skew(L) dt the spin increment [-] (pass zero
 when the caller already rotated ``sigma``), dt the step [s] (only the Bagnold term uses it),
-``prm`` the packed parameters (layout below, filled by ``mpmdem.granular_materials``) and dw_p the
+``prm`` the packed parameters (layout below, filled by ``mpmdem.model.granular_materials``) and dw_p the
 plastic work increment per unit current volume σ_new : Δε^p [J/m³] (≥ 0).
 
 Parameter layout (``PARAM_LEN`` = 10 entries, SI units; slots 0–3 mirror the vec4 of

@@ -96,7 +96,7 @@ def make_mirror_ghosts(precision: str, layered: bool = False, pair: bool = False
     """Ghost nodes beyond a fixed or slip wall take the mirrored velocity of the interior:
     ``mirror_ghosts(field, second, D, clock, owner)`` mirrors ``field``, and with ``pair`` also
     ``second`` (two fields in one launch; without it ``second`` is not read). Launched over the
-    nodes of ``band`` (``mpmdem.mpm_state.wall_band``: those within two ghost widths of the edge).
+    nodes of ``band`` (``mpmdem.sim.mpm_state.wall_band``: those within two ghost widths of the edge).
 
     Wide stencils (B-splines) reach one or two nodes past the wall. Setting those ghosts to the
     mirror image of the interior field (odd in every component for a fixed wall, odd in the
@@ -358,7 +358,7 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
     (Exact for slip walls; for fixed walls the odd extension is exact in 1D and a close
     approximation in 2D.) Each interior node gathers its images in a fixed order (no atomics),
     so the fold is deterministic (``make_fold_node``). Launched over the nodes near the grid's
-    edge (``mpmdem.mpm_state.wall_band``).
+    edge (``mpmdem.sim.mpm_state.wall_band``).
     """
     Particles, Grid, Domain = make_state_structs(precision)
     fold_node = make_fold_node(precision, mass=mass, momentum=momentum, force=force, remap=remap, xpic=xpic,

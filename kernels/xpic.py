@@ -1,6 +1,6 @@
 """XPIC(m)'s smoothing passes over the points ("Motion integration" eq. 39-40): the grid field
 G v*_{k−1} interpolated to the points, then spread back mass-weighted, m − 1 times a step
-(``mpmdem.mpm``'s ``xpic_smoothing`` lays them out between the grid updates)."""
+(``mpmdem.sim.mpm``'s ``xpic_smoothing`` lays them out between the grid updates)."""
 
 import functools
 

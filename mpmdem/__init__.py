@@ -25,15 +25,14 @@ if hasattr(_wp, "LOG_WARNING"):
 else:  # older Warp
     _wp.config.quiet = True
 
-from .bodies import ContactLaw, RigidBody
-from .config import SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverConfig, TransferScheme
 from .errors import BlowUpError, InputError
-from .granular_materials import DruckerPrager, MohrCoulomb, MuI
-from .materials import LinearElastic, Material, NeoHookean
-from .scene import Boundary, MassProbe, MPMBody, Scene
-from .shapes import Shape, disk, polygon, rectangle, seed_points
-from .simulation import RunResult, Simulation, default_device
-from .spheropolygons import (
+from .model.bodies import ContactLaw, RigidBody
+from .model.config import SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverConfig, TransferScheme
+from .model.granular_materials import DruckerPrager, MohrCoulomb, MuI
+from .model.materials import LinearElastic, Material, NeoHookean
+from .model.scene import Boundary, MassProbe, MPMBody, Scene
+from .model.shapes import Shape, disk, polygon, rectangle, seed_points
+from .model.spheropolygons import (
     Spheropolygon,
     random_convex_polygon,
     regular_polygon,
@@ -43,6 +42,7 @@ from .spheropolygons import (
     spheropolygon,
     spheropolygon_from_file,
 )
+from .sim.simulation import RunResult, Simulation, default_device
 
 __all__ = [
     "SHAPE_FUNCTIONS",

@@ -4,7 +4,7 @@ One rule for what a number is, for every module that takes numbers from the user
 spheropolygons, bodies and contact laws, materials): a real value that ``float()`` accepts and
 that is finite. A bool is not a number here (``True`` would pass as 1.0), nor is a string.
 
-``mpmdem.validation`` is something else: the ``mpmdem validate`` command (cases against their
+``mpmdem.study.validation`` is something else: the ``mpmdem validate`` command (cases against their
 references).
 """
 

@@ -2,7 +2,7 @@
 ``--crash`` end its process. ``count_rows`` is an ``analyze`` for a study file's test."""
 
 from mpmdem import ContactLaw, Scene, sphero_disk
-from mpmdem.case import CaseSetup
+from mpmdem.study.case import CaseSetup
 
 NAME = "study-raising-case"
 DESCRIPTION = "one resting DEM disk; --fail raises inside build (a bug, not bad input)"

@@ -1,4 +1,4 @@
-"""Tests of ``mpmdem animate`` (mpmdem.animation): GIFs of a made-up run and of a real coupled run,
+"""Tests of ``mpmdem animate`` (mpmdem.io.animation): GIFs of a made-up run and of a real coupled run,
 frame selection, and the one-line errors of the command line."""
 
 from __future__ import annotations
@@ -8,9 +8,9 @@ from helpers import run_script
 from PIL import Image
 from test_io import N, write_body_run, write_run
 
-from mpmdem import animation
 from mpmdem.cli import main
 from mpmdem.errors import InputError
+from mpmdem.io import animation
 
 
 def gif_frames(path) -> int:

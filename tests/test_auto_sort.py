@@ -1,4 +1,4 @@
-"""Re-sorting of the points that triggers itself as their memory order drifts (mpmdem.auto_sort):
+"""Re-sorting of the points that triggers itself as their memory order drifts (mpmdem.sim.auto_sort):
 the drift measure, when the automatic re-sorting runs, and that it leaves the results alone."""
 
 import numpy as np
@@ -6,9 +6,9 @@ import pytest
 from helpers import free_disk_scene
 
 import mpmdem as m
-from mpmdem import auto_sort
-from mpmdem.auto_sort import AutoSort, auto_sort_applies
-from mpmdem.spheropolygons import rounded_rectangle
+from mpmdem.model.spheropolygons import rounded_rectangle
+from mpmdem.sim import auto_sort
+from mpmdem.sim.auto_sort import AutoSort, auto_sort_applies
 
 H = 0.05  # a disk of radius 0.3 m at 2 × 2 points per cell of 0.05 m: about 450 points
 

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from mpmdem.studies.beverloo import REFINED_GRIDS
-from mpmdem.studies.beverloo_refinement import analyze_grain, analyze_refinement, beverloo_line, richardson
+from mpmdem.study.builtin.beverloo import REFINED_GRIDS
+from mpmdem.study.builtin.beverloo_refinement import analyze_grain, analyze_refinement, beverloo_line, richardson
 
 RHO, G = 1500.0, 10.0
 

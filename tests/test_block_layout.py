@@ -1,4 +1,4 @@
-"""The Granular MPM block laid out as conditional graph nodes or in line (``mpmdem.block_layout``).
+"""The Granular MPM block laid out as conditional graph nodes or in line (``mpmdem.sim.block_layout``).
 
 A block that runs in most steps costs less launched in line (each kernel reads its flag and
 returns where the block would be skipped) than as a taken conditional node; one that rarely runs
@@ -18,10 +18,10 @@ import warp as wp
 from conftest import DEVICES
 from test_granular import assert_steps_label_as_brute_force, meeting_grains
 
-from mpmdem import block_layout
-from mpmdem.block_layout import BlockLayout
 from mpmdem.kernels import granular as kgran
-from mpmdem.launch_plan import IfFlag
+from mpmdem.sim import block_layout
+from mpmdem.sim.block_layout import BlockLayout
+from mpmdem.sim.launch_plan import IfFlag
 
 
 def test_layout_follows_the_rate(monkeypatch):

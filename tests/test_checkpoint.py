@@ -126,7 +126,7 @@ def test_coupled_restart_is_bit_for_bit(tmp_path, device):
     """A coupled scene (points sliding on a fixed body, a free block landing on them) restarts
     exactly: point–body lists, tangential history, the contact energies and works come back."""
     from mpmdem import ContactLaw, LinearElastic, Scene, rectangle
-    from mpmdem.spheropolygons import rounded_rectangle
+    from mpmdem.model.spheropolygons import rounded_rectangle
 
     def make():
         scene = Scene(domain=((0.0, 0.0), (0.4, 0.3)), cell_size=0.02, gravity=(0.0, -9.81),

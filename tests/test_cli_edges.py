@@ -7,7 +7,7 @@ import sys
 import pytest
 from helpers import ENV
 
-from mpmdem.warp_init import DRIVER_WARNING, cpu_only
+from mpmdem.sim.warp_init import DRIVER_WARNING, cpu_only
 
 CLI = [sys.executable, "-m", "mpmdem.cli"]
 

@@ -8,7 +8,7 @@ import pytest
 import shapely
 
 import mpmdem as m
-from mpmdem.spheropolygons import random_convex_polygon, rounded_rectangle
+from mpmdem.model.spheropolygons import random_convex_polygon, rounded_rectangle
 
 FREE = {s: "free" for s in ("left", "right", "bottom", "top")}
 

@@ -61,7 +61,7 @@ def test_dem_step_compiles_for_sm90(tmp_path):
 
 def test_coupled_step_compiles_for_sm90(tmp_path):
     """The point–body lists, IMP forces, the grid scheme's scatter and Liu's exchange."""
-    from mpmdem.spheropolygons import rounded_rectangle
+    from mpmdem.model.spheropolygons import rounded_rectangle
 
     done = 0
     for scheme in ("imp", "grid", "liu"):

@@ -12,10 +12,10 @@ brute-force shapely search and the contact laws in tests/test_dem.py.
 import numpy as np
 import pytest
 
-import mpmdem.dem as dem_module
+import mpmdem.sim.dem as dem_module
 from mpmdem import ContactLaw, Scene, Simulation, SolverConfig
 from mpmdem.kernels import dem_split
-from mpmdem.spheropolygons import random_convex_polygon, rod, rounded_rectangle, sphero_disk
+from mpmdem.model.spheropolygons import random_convex_polygon, rod, rounded_rectangle, sphero_disk
 
 STEPS = 150
 

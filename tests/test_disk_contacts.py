@@ -1,6 +1,6 @@
 """The DEM's disk–disk pass (``kernels.dem_disks``): pairs of two sphero-disks without the feature search.
 
-Verify it against the general vertex–edge search (``mpmdem.dem.DISK_PAIRS = False``: the reference
+Verify it against the general vertex–edge search (``mpmdem.sim.dem.DISK_PAIRS = False``: the reference
 for every other body pair, tested against shapely and the contact laws in tests/test_dem.py) and
 against the contact law itself (MPM-SDEM eq. 38-43): a head-on impact of two disks and a disk
 sliding on a disk at rest. f64 on the CPU, a few bodies, seconds once compiled.
@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 from shapely.geometry import box
 
-import mpmdem.dem as dem_module
+import mpmdem.sim.dem as dem_module
 from mpmdem import ContactLaw, Scene, Simulation, SolverConfig, regular_polygon, sphero_disk
-from mpmdem.grains import GrainSet, place_grains
+from mpmdem.model.grains import GrainSet, place_grains
 
 F64 = SolverConfig(precision="f64")
 G = 9.81

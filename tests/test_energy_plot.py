@@ -10,7 +10,7 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as pyplot  # noqa: E402
 
-from mpmdem.plotting import ENERGY_BLACK, _energy_history  # noqa: E402
+from mpmdem.io.plotting import ENERGY_BLACK, _energy_history  # noqa: E402
 
 #: the energy and work diagnostics of a coupled run (points, bodies, contacts between them)
 COUPLED = ("energy_kinetic", "energy_strain", "energy_gravity", "energy_contact", "energy_contact_bodies",

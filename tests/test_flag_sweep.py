@@ -1,12 +1,12 @@
 """Every numeric flag of every case, and the flags all cases share, refuses 0, a negative value, NaN
 and inf while the flags are parsed: one line naming the flag and what it allows, exit code 2, before
-any scene is built or any kernel runs (mpmdem.flag_types). The values a flag means are listed in
+any scene is built or any kernel runs (mpmdem.study.flag_types). The values a flag means are listed in
 ALLOWED with the reason; the test checks that they parse as given (0 is not "not given")."""
 
 import pytest
 
 from mpmdem.cases import CASES
-from mpmdem.runner import case_module, make_case_parser
+from mpmdem.study.runner import case_module, make_case_parser
 
 #: 0, a negative value written as argparse would take for a flag (-1e-05, not -1), NaN and inf
 VALUES = ("0", "-1e-05", "nan", "inf")

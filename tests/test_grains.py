@@ -1,4 +1,4 @@
-"""Grain sets (Scene.add_grains, mpmdem.grains): placement, mass properties, a settled packing
+"""Grain sets (Scene.add_grains, mpmdem.model.grains): placement, mass properties, a settled packing
 against the 2D literature, mass probes on grains, and the one-line errors of bad input."""
 
 import math
@@ -9,9 +9,9 @@ import shapely
 from scipy.spatial import cKDTree
 
 from mpmdem import ContactLaw, InputError, Scene, Simulation, SolverConfig, spheropolygon
-from mpmdem.grains import place_grains
-from mpmdem.memory import check_device_memory
-from mpmdem.packing import settle
+from mpmdem.model.grains import place_grains
+from mpmdem.model.memory import check_device_memory
+from mpmdem.sim.packing import settle
 
 R = 1.0e-3  # m, the seed's r_p (MPM-SDEM Table 3)
 
@@ -169,8 +169,8 @@ def test_output_holds_the_grains_as_points(tmp_path, monkeypatch):
     them), the grains sidecar shows them as points with their radius, the bodies sidecar the
     walls only, and ``animate`` draws them (one EllipseCollection)."""
     meshio = pytest.importorskip("meshio")
-    from mpmdem.animation import animate_run
     from mpmdem.io import RunFile
+    from mpmdem.io.animation import animate_run
 
     s = Scene(domain=((0.0, 0.0), (0.02, 0.02)), gravity=(0.0, -9.81), contact=ContactLaw(1e6))
     s.add_walls(("left", "right", "bottom"), thickness=0.004)
@@ -196,8 +196,8 @@ def test_output_holds_the_grains_as_points(tmp_path, monkeypatch):
     gif = animate_run(result.path, tmp_path / "grains.gif")
     assert gif.stat().st_size > 1000
     # grains below GRAIN_PIXELS pixels (10⁶ of them) are drawn as an image of pixel means
-    import mpmdem.animation as animation
-    import mpmdem.plotting as plotting
+    import mpmdem.io.animation as animation
+    import mpmdem.io.plotting as plotting
 
     assert len(plotting.plot_run(result.path, tmp_path / "disks", frames=[-1])) == 3  # energy, momentum, snapshot
     monkeypatch.setattr(animation, "GRAIN_PIXELS", 1e9)
@@ -209,7 +209,7 @@ def test_output_holds_the_grains_as_points(tmp_path, monkeypatch):
 def test_grain_image_shows_each_pixels_mean():
     """``animation.grain_image``: a pixel holding grain centres shows their mean value, the others
     are masked; centres outside the box and non-finite ones are left out."""
-    from mpmdem.animation import grain_image
+    from mpmdem.io.animation import grain_image
 
     x = np.array([[0.1, 0.1], [0.2, 0.2], [0.9, 0.1], [5.0, 5.0], [np.nan, 0.5]])
     image = grain_image(x, np.array([1.0, 3.0, 7.0, 100.0, 100.0]), (0.0, 0.0), (1.0, 1.0), (2, 2))

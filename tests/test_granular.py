@@ -13,8 +13,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from mpmdem import BlowUpError, InputError, LinearElastic, MohrCoulomb, Scene, Simulation, SolverConfig, rectangle
-from mpmdem.granular_state import CRITICAL_BAND
 from mpmdem.kernels import granular as kgran
+from mpmdem.sim.granular_state import CRITICAL_BAND
 
 H = 0.01  # m
 

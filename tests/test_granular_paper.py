@@ -21,7 +21,7 @@ def test_slope_flow_density(tmp_path):
     assert o["mean_density_end"] < RHO_CR - 1.0
     assert f["mean_density_end"] < RHO_CR - 1.0
     assert (tmp_path / "slope_flow.png").is_file()
-    # the variants are runs of their own (mpmdem.variants), each in its folder; the granular one is the
+    # the variants are runs of their own (mpmdem.study.variants), each in its folder; the granular one is the
     # case's own run, not run again
     for name in ("original", "stress_free"):
         v = json.loads((tmp_path / name / "summary.json").read_text())

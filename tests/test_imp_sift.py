@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import mpmdem as m
-from mpmdem import coupling
-from mpmdem.spheropolygons import rounded_rectangle
+from mpmdem.model.spheropolygons import rounded_rectangle
+from mpmdem.sim import coupling
 
 
 def disk_onto_a_spinning_square(device):

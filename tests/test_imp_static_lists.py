@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 import mpmdem as m
-from mpmdem import coupling
-from mpmdem.spheropolygons import rounded_rectangle
+from mpmdem.model.spheropolygons import rounded_rectangle
+from mpmdem.sim import coupling
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 from step_nodes import step_nodes  # noqa: E402

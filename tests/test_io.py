@@ -1,4 +1,4 @@
-"""Tests of the run-file writer/reader (mpmdem.io) and the quick-look plots (mpmdem.plotting).
+"""Tests of the run-file writer/reader (mpmdem.io) and the quick-look plots (mpmdem.io.plotting).
 
 Pure numpy/h5py/matplotlib: nothing here needs Warp or a GPU.
 """
@@ -19,18 +19,18 @@ import numpy as np
 import pytest
 
 STANDALONE = ("mpmdem", "mpmdem.io", "mpmdem.io.closing", "mpmdem.io.csv", "mpmdem.io.format", "mpmdem.io.reader",
-              "mpmdem.io.writer", "mpmdem.io.xdmf", "mpmdem.plotting", "mpmdem.outlines")
+              "mpmdem.io.writer", "mpmdem.io.xdmf", "mpmdem.io.plotting", "mpmdem.model", "mpmdem.model.outlines")
 
 
 def _load_standalone() -> tuple[types.ModuleType, types.ModuleType]:
-    """Import mpmdem.io and mpmdem.plotting without running the package __init__ (and Warp)."""
+    """Import mpmdem.io and mpmdem.io.plotting without running the package __init__ (and Warp)."""
     pkg_dir = Path(__file__).resolve().parents[1] / "mpmdem"
     saved = {k: sys.modules.pop(k) for k in STANDALONE if k in sys.modules}
     stub = types.ModuleType("mpmdem")
     stub.__path__ = [str(pkg_dir)]
     sys.modules["mpmdem"] = stub
     try:
-        return importlib.import_module("mpmdem.io"), importlib.import_module("mpmdem.plotting")
+        return importlib.import_module("mpmdem.io"), importlib.import_module("mpmdem.io.plotting")
     finally:
         # Drop the stub so that a later `import mpmdem` elsewhere runs the real package.
         for k in STANDALONE:
@@ -40,7 +40,7 @@ def _load_standalone() -> tuple[types.ModuleType, types.ModuleType]:
 
 try:
     from mpmdem.io import FrameWriter, RunFile
-    from mpmdem.plotting import plot_run
+    from mpmdem.io.plotting import plot_run
 
     PKG_DIR = Path(sys.modules["mpmdem.io"].__file__).resolve().parents[1]  # .../mpmdem
 except ImportError:  # the package __init__ cannot be imported here (no Warp, or mid-edit)

@@ -7,7 +7,7 @@ bits), and leave no conditional node after the cut (a CUDA capture cannot record
 branch is open). Reference: the plan's own order, as ``run_plan`` walks it.
 """
 
-from mpmdem.launch_plan import IfAny, IfFlag, Launch, split_after_conditionals
+from mpmdem.sim.launch_plan import IfAny, IfFlag, Launch, split_after_conditionals
 
 
 def launches(items, inline_all=True):
@@ -56,7 +56,7 @@ def test_a_relabel_in_line_leaves_its_own_kernels_after_the_cut():
 def test_grouped_conditional_blocks_keep_the_launch_order():
     """Verify the first run of conditional blocks goes under one IfAny of their flags, in-line
     blocks and launches stay outside it, and the launches keep their order."""
-    from mpmdem.launch_plan import group_conditionals
+    from mpmdem.sim.launch_plan import group_conditionals
 
     lists = IfFlag("lists", [Launch("build_lists", 1, [])])
     plan = relabel_plan(True, False)[1:]  # the relabel in line, its rebuild a conditional node

@@ -22,8 +22,8 @@ import numpy as np
 import pytest
 from test_granular import assert_steps_label_as_brute_force, meeting_grains
 
-from mpmdem import granular_state
 from mpmdem.kernels import granular as kgran
+from mpmdem.sim import granular_state
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 from small_scenes import build_case  # noqa: E402

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 import mpmdem as m
-from mpmdem import mpm
-from mpmdem.spheropolygons import rounded_rectangle
+from mpmdem.model.spheropolygons import rounded_rectangle
+from mpmdem.sim import mpm
 
 #: largest position difference [m] between the two paths on a GPU (see the module docstring)
 ROUNDING = 1.0e-9

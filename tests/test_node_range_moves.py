@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mpmdem import granular_state
 from mpmdem.kernels import granular as kgran
+from mpmdem.sim import granular_state
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 from small_scenes import build_case  # noqa: E402

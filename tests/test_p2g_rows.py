@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 import mpmdem as m
-from mpmdem import mpm
-from mpmdem.spheropolygons import rounded_rectangle
+from mpmdem.model.spheropolygons import rounded_rectangle
+from mpmdem.sim import mpm
 
 
 def disk_onto_a_square(shape: str, transfer: str, update: str, precision: str):

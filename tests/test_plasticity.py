@@ -13,9 +13,9 @@ import pytest
 import warp as wp
 
 from mpmdem.errors import InputError
-from mpmdem.granular_materials import DruckerPrager, MohrCoulomb
 from mpmdem.kernels.plasticity import PARAM_LEN, param_vector
 from mpmdem.kernels.point_driver import make_point_driver
+from mpmdem.model.granular_materials import DruckerPrager, MohrCoulomb
 
 MAT22 = wp.types.matrix((2, 2), wp.float64)
 F_TOL = 1e-11  # relative to the stress scale, see the module docstring

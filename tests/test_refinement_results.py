@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mpmdem.cases._table3 import DENSITY, GRAVITY
-from mpmdem.studies.beverloo_refinement import analyze_grain, analyze_refinement
-from mpmdem.studies.run_summaries import load_runs
+from mpmdem.study.builtin.beverloo_refinement import analyze_grain, analyze_refinement
+from mpmdem.study.builtin.run_summaries import load_runs
+from mpmdem.study.references.table3 import DENSITY, GRAVITY
 
 STUDIES = Path(__file__).resolve().parents[1] / "bench" / "results" / "studies"
 
@@ -125,7 +125,7 @@ def test_grains_match_the_seeds_beverloo_curve():
 
 
 def dem_study():
-    from mpmdem.studies.beverloo_refinement import analyze_dem
+    from mpmdem.study.builtin.beverloo_refinement import analyze_dem
 
     return analyze_dem(load_runs(STUDIES / "beverloo-dem"), DENSITY, GRAVITY)["per_grain_radius"]
 

@@ -1,4 +1,4 @@
-"""What a run will cost, checked before its first step (mpmdem.run_plan): the frame interval against
+"""What a run will cost, checked before its first step (mpmdem.study.run_plan): the frame interval against
 the stable step, the output size against a limit, a warning for a run of days."""
 
 import subprocess
@@ -8,7 +8,7 @@ import pytest
 from helpers import ENV
 
 from mpmdem.errors import InputError
-from mpmdem.run_plan import (
+from mpmdem.study.run_plan import (
     check_frame_interval,
     check_output_size,
     estimate_output_bytes,
@@ -92,7 +92,7 @@ def test_cli_refuses_frames_below_the_step_before_running(tmp_path):
 def test_grains_are_estimated_as_points_not_outlines():
     """A grain's XDMF view is one point (RUN_grains.xdmf), so 1e6 grains cost their fields only:
     the estimate drops by the outline bytes of every grain, and no more."""
-    from mpmdem.run_plan import OUTLINE_BYTES_PER_BODY, estimate_output_bytes
+    from mpmdem.study.run_plan import OUTLINE_BYTES_PER_BODY, estimate_output_bytes
 
     as_bodies = estimate_output_bytes(0, 1_000_000, 20, "f32")
     as_grains = estimate_output_bytes(0, 1_000_000, 20, "f32", grains=1_000_000)

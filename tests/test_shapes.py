@@ -1,4 +1,4 @@
-"""Tests of mpmdem.shapes: shape constructors, membership and point seeding."""
+"""Tests of mpmdem.model.shapes: shape constructors, membership and point seeding."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import shapely
 
-from mpmdem.shapes import SeededPoints, disk, from_file, polygon, rectangle, seed_points
+from mpmdem.model.shapes import SeededPoints, disk, from_file, polygon, rectangle, seed_points
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 4, 8])

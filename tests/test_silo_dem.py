@@ -44,7 +44,7 @@ def test_the_grains_and_their_mass(wide, narrow):
 
 def test_the_settled_fill_has_the_continuums_bulk_density(wide):
     """The grain density is 1500 kg/m³ / φ with φ = 0.82 (a settled pack's): the settled fill's own
-    bulk density (``mpmdem.packing``'s window) is the continuum's 1500 kg/m³ within 3 % (φ's
+    bulk density (``mpmdem.sim.packing``'s window) is the continuum's 1500 kg/m³ within 3 % (φ's
     scatter between packs of a few hundred grains, ±0.01, is 1.2 %; measured 1490), at rest."""
     settled = wide["settled"]
     assert settled["bulk_density"] == pytest.approx(silo.DENSITY, rel=0.03)

@@ -108,7 +108,7 @@ def test_cpu_keeps_the_coarse_preset_for_every_size_not_given(flags, h, fill):
     """Verify that on the CPU each size flag sets its size alone (the issue: --end-time, --cell-size
     or --fill-height switched the whole scene to the paper's grid)."""
     from mpmdem.cases import silo_discharge as case
-    from mpmdem.runner import make_case_parser
+    from mpmdem.study.runner import make_case_parser
 
     args = make_case_parser(case).parse_args(["--device", "cpu", *flags])
     g = case.geometry(args)
@@ -119,7 +119,7 @@ def test_cpu_keeps_the_coarse_preset_for_every_size_not_given(flags, h, fill):
 def test_cpu_run_says_which_size_runs(capsys):
     """Verify the CPU's line names the flags left to the preset and the size that runs."""
     from mpmdem.cases import silo_discharge as case
-    from mpmdem.runner import make_case_parser
+    from mpmdem.study.runner import make_case_parser
 
     case.build(make_case_parser(case).parse_args(["--device", "cpu", "--end-time", "1.0"]))
     err = capsys.readouterr().err.strip().splitlines()

@@ -1,4 +1,4 @@
-"""Tests of mpmdem.spheropolygons: exact mass properties, constructors, frames and input errors."""
+"""Tests of mpmdem.model.spheropolygons: exact mass properties, constructors, frames and input errors."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 from shapely.geometry.polygon import orient
 
 from mpmdem.errors import InputError
-from mpmdem.spheropolygons import (
+from mpmdem.model.spheropolygons import (
     Spheropolygon,
     _convex_moments,
     _offset_moments,

@@ -7,7 +7,7 @@ from helpers import free_disk_scene
 
 import mpmdem as m
 from mpmdem.kernels import clock as clock_slots
-from mpmdem.stage import Clock, ClockReading, Stage
+from mpmdem.sim.stage import Clock, ClockReading, Stage
 
 FREE = {s: "free" for s in ("left", "right", "bottom", "top")}
 
@@ -39,7 +39,7 @@ def test_every_stage_satisfies_the_stage_protocol(kind):
     clock = sim.stage.read_clock()
     assert isinstance(clock, ClockReading) and (clock.t, clock.steps) == (0.0, 0)
     if kind == "coupled":  # each stage's counters by name
-        from mpmdem.coupling import CoupledStatus
+        from mpmdem.sim.coupling import CoupledStatus
 
         assert isinstance(clock.status, CoupledStatus)
         assert all(isinstance(part, np.ndarray) and not part.any() for part in clock.status)
@@ -61,7 +61,7 @@ def test_clock_slots_are_distinct_and_fill_the_array():
 
 def test_a_stage_built_alone_keeps_its_own_clock_and_policy():
     """Verify an MPM stage built without a clock makes one with its CFL policy."""
-    from mpmdem.mpm import MPMSolver
+    from mpmdem.sim.mpm import MPMSolver
 
     config = m.SolverConfig(cfl=0.3)
     stage = MPMSolver(free_disk_scene(), config, "cpu")

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 import warp as wp
 
-from mpmdem.launch_plan import IfAny, Launch, run_plan
+from mpmdem.sim.launch_plan import IfAny, Launch, run_plan
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 from step_nodes import step_nodes  # noqa: E402

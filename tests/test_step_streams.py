@@ -1,4 +1,4 @@
-"""The coupled step's parallel branches in a CUDA graph (``mpmdem.step_streams``).
+"""The coupled step's parallel branches in a CUDA graph (``mpmdem.sim.step_streams``).
 
 On CUDA, outside deterministic mode, the coupled step is recorded on three streams: the body–body
 contact forces and the body update on a side branch beside the IMP forces and the MPM passes, and,
@@ -21,8 +21,8 @@ import pytest
 from conftest import HAS_CUDA
 
 import mpmdem as m
-from mpmdem import block_layout
-from mpmdem.spheropolygons import rounded_rectangle
+from mpmdem.model.spheropolygons import rounded_rectangle
+from mpmdem.sim import block_layout
 
 #: largest allowed position difference [m] (see the module docstring)
 ROUNDING = 1.0e-9

@@ -9,12 +9,12 @@ import time
 
 import pytest
 
-from mpmdem import study_cluster
 from mpmdem.cli import main
 from mpmdem.errors import InputError
-from mpmdem.study import Study, load_study, plan_runs, run_study
-from mpmdem.study_cluster import study_client
-from mpmdem.study_table import ResultsTable
+from mpmdem.study import cluster as study_cluster
+from mpmdem.study.cluster import study_client
+from mpmdem.study.study import Study, load_study, plan_runs, run_study
+from mpmdem.study.table import ResultsTable
 
 INCLINE = Study("incline", "block-on-incline", grid={"--angle": [20.0, 30.0]},
                 fixed={"quick": True, "friction": 0.2, "--quiet": True})

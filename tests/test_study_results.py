@@ -14,10 +14,10 @@ import pytest
 
 from mpmdem.cases.column_collapse import runout_band
 from mpmdem.cases.silo_discharge import beverloo
-from mpmdem.studies import STUDIES
-from mpmdem.studies.beverloo_analysis import PREFACTOR, dead_zone, exponent_test, fit_beverloo, fit_power_law
-from mpmdem.studies.block_impact_analysis import ensemble, run_events
-from mpmdem.study import load_study, plan_runs
+from mpmdem.study.builtin import STUDIES
+from mpmdem.study.builtin.beverloo_analysis import PREFACTOR, dead_zone, exponent_test, fit_beverloo, fit_power_law
+from mpmdem.study.builtin.block_impact_analysis import ensemble, run_events
+from mpmdem.study.study import load_study, plan_runs
 
 RESULTS = Path(__file__).resolve().parents[1] / "bench" / "results" / "studies"
 

@@ -13,7 +13,7 @@ import pytest
 from mpmdem import NeoHookean, Scene, Simulation, SolverConfig, rectangle
 from mpmdem.kernels import transfer
 from mpmdem.kernels.clock import CLOCK_DT
-from mpmdem.mpm import TILED_P2G_BLOCK, TILED_P2G_POINTS
+from mpmdem.sim.mpm import TILED_P2G_BLOCK, TILED_P2G_POINTS
 
 BLOCK = 64
 

@@ -5,7 +5,7 @@ import pytest
 from helpers import free_disk_scene, random_velocity
 
 from mpmdem import TRANSFER_SCHEMES, Simulation, SolverConfig
-from mpmdem.launch_plan import run_plan
+from mpmdem.sim.launch_plan import run_plan
 
 
 def one_step(scene, config, device):

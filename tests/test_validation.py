@@ -9,7 +9,7 @@ from helpers import ROOT, quick_run
 
 from mpmdem.cli import main
 from mpmdem.errors import InputError
-from mpmdem.validation import (
+from mpmdem.study.validation import (
     Check,
     check_identity,
     collect_checks,
@@ -132,7 +132,7 @@ def test_validate_runs_a_case_and_writes_the_table(tmp_path):
 
 
 def test_the_commit_outside_a_checkout_comes_from_the_environment(tmp_path, monkeypatch):
-    from mpmdem.validation import head_commit
+    from mpmdem.study.validation import head_commit
 
     monkeypatch.delenv("MPMDEM_COMMIT", raising=False)
     assert head_commit(tmp_path) is None
@@ -166,7 +166,7 @@ def test_unknown_or_undeclared_cases_are_one_line_errors(tmp_path, capsys):
 
 def test_a_check_with_coarser_runs_shows_whether_the_deviation_shrinks(tmp_path):
     """The table reports the value at each resolution and the trend of the deviation's size."""
-    from mpmdem.validation import convergence
+    from mpmdem.study.validation import convergence
 
     check = Check("x", 1.0, "ref", 0.05, "tol", flags=("--cells", "40"), coarser=(("--cells", "10"), ("--cells", "20")))
     ladder = [evaluate(check, {"status": "completed", "x": v}) for v in (1.4, 1.2, 1.1)]

@@ -1,12 +1,12 @@
-"""The variant protocol of the cases (mpmdem.variants): declared runs, each run by the runner into a
+"""The variant protocol of the cases (mpmdem.study.variants): declared runs, each run by the runner into a
 folder of its own, compared by reading their results; the one equal to the case's own run is that run."""
 
 import json
 import types
 
 from mpmdem import ContactLaw, Scene, sphero_disk
-from mpmdem.runner import CaseSetup, run_case
-from mpmdem.variants import Variant
+from mpmdem.study.runner import CaseSetup, run_case
+from mpmdem.study.variants import Variant
 
 
 def _case() -> types.ModuleType:

@@ -19,8 +19,8 @@ from mpmdem import (
     rounded_rectangle,
     sphero_disk,
 )
-from mpmdem.overlaps import OVERLAP_FRACTION, body_overlaps, pairs_within
-from mpmdem.rigid_arrays import rigid_arrays
+from mpmdem.model.overlaps import OVERLAP_FRACTION, body_overlaps, pairs_within
+from mpmdem.model.rigid_arrays import rigid_arrays
 
 KN = 1.0e7  # [N/m per m]
 GRAVITY = (0.0, -9.81)  # [m/s²]

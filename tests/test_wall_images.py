@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import mpmdem as m
-from mpmdem import mpm
+from mpmdem.sim import mpm
 
 
 def pile_in_a_box(granular: bool, shape: str, transfer: str, update: str, damping: float = 0.0):

@@ -1,7 +1,7 @@
-"""The kernels of the interaction graph of one variant, in the order ``MPMSolver`` unpacks them."""
+"""The kernels of the interaction graph of one variant, by name (``GranularKernels``)."""
 
 import functools
-from typing import NamedTuple
+from dataclasses import dataclass
 
 import warp as wp
 
@@ -14,8 +14,9 @@ from .search import make_search_kernels
 __all__ = ["GranularKernels", "make_granular_kernels"]
 
 
-class GranularKernels(NamedTuple):
-    """The kernels of ``make_granular_kernels`` (a tuple: ``MPMSolver`` unpacks them by position)."""
+@dataclass(frozen=True)
+class GranularKernels:
+    """The kernels of ``make_granular_kernels``, read by name (``mpmdem.sim.granular_state``)."""
 
     check: wp.Kernel | None  # ``reuse``; None for deforming domains
     prepare: wp.Kernel  # ``search``
@@ -31,8 +32,8 @@ class GranularKernels(NamedTuple):
 def make_granular_kernels(shape: str, precision: str, staged: bool = False,
                           link_lanes: int = 1, relink_lanes: int = 1, check_capped: bool = True,
                           moves: bool = False) -> GranularKernels:
-    """(check, prepare, place, link, settle, relink, label, assign) kernels of the interaction graph
-    (``GranularKernels``).
+    """The check, prepare, place, link, settle, relink, label and assign kernels of the interaction
+    graph (``GranularKernels``).
 
     Launch each with dim = number of points and inputs ``[P, G, D, materials, S, status, clock]``.
     A step that relabels (``FLAG_RELABEL``, set by the previous step's ``judge``,
@@ -66,4 +67,5 @@ def make_granular_kernels(shape: str, precision: str, staged: bool = False,
         check = make_check(shape, precision, staged, check_capped, moves)
     if cells.tent_cells:
         assign = make_assign(shape, precision, staged)
-    return GranularKernels(check, prepare, place, link, settle, relink, label, assign)
+    return GranularKernels(check=check, prepare=prepare, place=place, link=link, settle=settle, relink=relink,
+                           label=label, assign=assign)

@@ -36,7 +36,7 @@ import h5py
 import numpy as np
 from h5py import h5d, h5p, h5s, h5t
 
-from ..outlines import outline_rings, place_rings
+from ..model.outlines import outline_rings, place_rings
 
 __all__ = ["GROUP", "XdmfSidecars", "bodies_xdmf_path", "grains_xdmf_path", "particles_xdmf_path"]
 

@@ -1,0 +1,68 @@
+"""The sides of a scene's domain: the condition on each (fixed, slip, Coulomb friction or free) and
+where a wall may lie."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+from ..errors import InputError
+
+__all__ = ["BOUNDARY_KINDS", "SIDES", "Boundary", "as_boundary", "check_walls_on_grid_lines"]
+
+SIDES = ("left", "right", "bottom", "top")
+BOUNDARY_KINDS = ("fixed", "slip", "friction", "free")
+
+
+@dataclass(frozen=True)
+class Boundary:
+    """Condition on one side of the domain, applied to the grid nodes on and beyond it.
+
+    Attributes:
+        kind: "fixed" (no-slip, v = 0), "slip" (roller: no normal motion), "friction" (a wall that
+            points may leave, with Coulomb friction μ while pressed against it) or "free" (none).
+        friction: Coulomb coefficient μ ≥ 0 of a "friction" wall.
+    """
+
+    kind: Literal["fixed", "slip", "friction", "free"] = "slip"
+    friction: float = 0.0
+
+    def __post_init__(self):
+        if self.kind not in BOUNDARY_KINDS:
+            raise InputError("boundary kind", self.kind, f"one of {', '.join(BOUNDARY_KINDS)}")
+        if not (math.isfinite(self.friction) and self.friction >= 0.0):
+            raise InputError("friction", self.friction, "a coefficient of friction >= 0")
+
+    @property
+    def kind_id(self) -> int:
+        return BOUNDARY_KINDS.index(self.kind)
+
+
+def as_boundary(side: str, b) -> Boundary:
+    if isinstance(b, Boundary):
+        return b
+    if isinstance(b, str):
+        return Boundary(b)
+    raise InputError(f"boundaries[{side!r}]", b, "a Boundary or one of " + ", ".join(BOUNDARY_KINDS))
+
+
+def check_walls_on_grid_lines(domain, cell_size: float, boundaries: dict) -> None:
+    """A wall (fixed, slip or friction side) must lie on a grid line: the grid starts at the
+    lower corner, so the right and top walls need a whole number of cells across. Rounding the
+    grid up instead would put the wall up to a cell beyond the side the user gave."""
+    (x0, y0), (x1, y1) = domain
+    h = cell_size
+    for side, lo, hi, axis in (("right", x0, x1, "x"), ("top", y0, y1, "y")):
+        if boundaries[side].kind == "free":
+            continue
+        cells = (hi - lo) / h
+        if abs(cells - round(cells)) <= 1e-6 * max(1.0, cells):
+            continue
+        n_lo, n_hi = max(1, math.floor(cells)), math.ceil(cells)
+        raise InputError(
+            "domain", domain,
+            f"a {side} wall on a grid line: {axis}1 - {axis}0 = {hi - lo:g} m is {cells:.4g} cells of "
+            f"cell_size {h:g} m, so the wall would sit at {axis} = {lo + n_hi * h:.6g} m; use {axis}1 = "
+            f"{lo + n_lo * h:.6g} or {lo + n_hi * h:.6g} m, cell_size {(hi - lo) / n_hi:.6g} or "
+            f"{(hi - lo) / n_lo:.6g} m, or a free {side} side")

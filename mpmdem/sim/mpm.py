@@ -1,0 +1,580 @@
+"""The MPM stage: the kernel launches of one explicit step of the material points.
+
+No physics is written here; it picks the kernel variants of ``mpmdem.kernels`` that the config
+asks for and lays out their launches (``mpmdem.sim.launch_plan``) in the order of the chosen stress
+update (USF, USL, MUSL, USAVG). The arrays are built by ``mpmdem.sim.mpm_state`` (points, grid) and
+``mpmdem.sim.granular_state`` (interaction graph); the blow-up checks and the per-frame sums are in
+``mpmdem.sim.diagnostics``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import warp as wp
+
+from ..checks import check_time_step
+from ..errors import InputError
+from ..kernels import clock as clock_kernels
+from ..kernels import constitutive as constitutive_kernels
+from ..kernels import contact_scatter as contact_scatter_kernels
+from ..kernels import granular as granular_kernels
+from ..kernels import grid as grid_kernels
+from ..kernels import reductions as reduction_kernels
+from ..kernels import transfer as transfer_kernels
+from ..kernels import wall_images as wall_image_kernels
+from ..kernels import xpic as xpic_kernels
+from ..kernels.shape_functions import SUPPORT_NODES
+from ..kernels.types import scalar_types
+from ..model.config import SolverConfig
+from ..model.scene import Scene
+from . import diagnostics as diagnostics_
+from . import granular_state
+from .block_layout import BlockLayout
+from .cell_sort import PointSorter, device_order
+from .launch_plan import ExtensionPoint, Launch, Zero, plan_blocks, plan_kernels, run_plan
+from .mpm_roles import GridUpdate, WallFold, last_grid_update, launches
+from .mpm_state import GHOST_NODES, STATE_FIELDS, initial_dt_bound, make_domain, make_grid, make_points, wall_band
+from .stage import Clock, ClockedStage
+
+__all__ = ["AFTER_FORCE_UPDATE", "GHOST_NODES", "MPMSolver", "device_order", "initial_dt_bound"]
+
+#: From this many points on CUDA, P2G sums each block's points in a shared-memory tile first
+#: (``MPMSolver.p2g_tile``); below it a step is latency-bound and the tile's barriers only add.
+TILED_P2G_POINTS = 65536
+#: Threads (points) per block of the tiled P2G.
+TILED_P2G_BLOCK = 64
+#: Scenes of fewer points than this run P2G a stencil row a thread (``kernels.transfer.make_p2g``'s
+#: ``rows``) on the devices of ROW_P2G_DEVICES, outside granular mode: their GPU is nearly idle and
+#: each kernel as long as one warp's chain of instructions (bench/README.md, "P2G by stencil rows").
+ROW_P2G_POINTS = 16384
+ROW_P2G_DEVICES = ("cuda",)
+#: G2P reads the wall images (velocities of a ghost node's interior mirror, reflected) instead of a
+#: launch writing them after each grid update (``kernels.wall_images.make_mirrored_source``): one launch
+#: fewer per grid update in scenes with fixed or slip walls, the same bits.
+MIRROR_IN_G2P = True
+#: A grid update folds the wall images onto its own node first (``kernels.grid.make_grid_update``'s
+#: ``fold``), in place of the fold launch before it: the first grid update of MUSL, USF and USAVG
+#: steps, and the step's last (clearing) one where G2P reads the wall images and every wall is
+#: fixed, slip or free (its ghosts then are not updated, so their threads cannot race with the
+#: fold's reads). The same bits.
+FOLD_IN_GRID_UPDATE = True
+#: Both only in scenes of fewer points than this: they trade a launch for work in kernels that run
+#: over every point or node, which pays in small scenes, paid per launch, and costs in large ones,
+#: paid in bandwidth (G2P and the grid update grow severalfold at 1M points). Faster up to 32k points,
+#: even at 65536, slower above (docs/benchmarks.md, "Tuning constants and their measured reasons").
+IMAGES_IN_KERNELS_POINTS = 65536
+
+#: MUSL (and USAVG) re-map the new point velocities in the G2P that updates them (``make_g2p``'s
+#: ``remap``), the same terms in the same order per node, where P2G runs a thread a point (not
+#: tiled, not by rows), outside deterministic mode (whose ordered atomics that G2P lacks).
+REMAP_IN_G2P = True
+
+#: Extension point of the step: after the grid's force update and before G2P (USL only). The
+#: coupling's momentum exchange of Liu et al. runs there (``MPMSolver.extend``).
+AFTER_FORCE_UPDATE = "after_force_update"
+
+
+class MPMSolver(ClockedStage):
+    """Device state and step sequence of the MPM stage of one scene.
+
+    Args:
+        scene: the scene; its points are seeded and uploaded once.
+        config: discretisation choices.
+        device: Warp device ("cpu", "cuda", "cuda:0").
+        clock: the run's clock (``Simulation`` passes its own); None makes one with this stage's
+            dt policy (the CFL bound or the fixed dt).
+
+    Attributes:
+        points: the ``Particles`` struct (device order; ``points.pid`` maps to the scene's).
+        G, D: the ``Grid`` and ``Domain`` structs.
+        clock, steps: the device arrays of ``sim_clock`` that the kernels take.
+    """
+
+    def __init__(self, scene: Scene, config: SolverConfig, device: str, *, clock: Clock | None = None):
+        self.scene = scene
+        self.config = config
+        self.device = wp.get_device(device)
+        self.types = scalar_types(config.precision)
+        host = scene.particles()
+        self.particle_count = len(host["mass"])
+        self.dt_bound0 = initial_dt_bound(scene, host)
+        check_time_step(config, self.dt_bound0, f"h/max(c+|v|) = {self.dt_bound0:.6g} s of this scene "
+                        f"(h = {scene.cell_size:g} m)", use="the CFL policy")
+        if config.shape == "ugimp" and (host["half"] > 0.5 * scene.cell_size + 1e-12).any():
+            raise InputError("shape", config.shape, "uGIMP needs points_per_cell >= 1 (half-lengths <= h/2)")
+        self.body = host["body"]
+        self.release_times = host["release"]  # [s], scene order
+        ppc = max(b.points_per_cell for b in scene.bodies)
+        reach = SUPPORT_NODES[config.shape] + (1 if config.shape == "cpdi1" else 0)
+        # at most (cells reaching a node) × (points per cell) components can meet at one node
+        self.granular_layers = (min(64, max(8, reach * reach * ppc * ppc)) if config.granular_layers is None
+                                else config.granular_layers) if config.granular else 1
+        self.staged = bool((host["release"] > 0.0).any())
+        #: rigid bodies push on the points through contact forces (MPM-SDEM §4; mpmdem.sim.coupling)
+        self.coupled = scene.has_dem
+        mats = scene.materials()
+        self.critical = any(m.critical_density is not None for m in mats)
+        self.order = device_order(host["x"], scene.domain[0], scene.cell_size)
+        own_clock = clock is None
+        if own_clock:
+            clock = Clock(self.device)
+        self.sim_clock = clock
+        self.clock, self.steps = clock.values, clock.steps
+        self._allocate({k: v[self.order] for k, v in host.items()})
+        self._sorter = PointSorter(self.points, self.D, self.grid_shape, config.precision, self.staged, self.device)
+        #: (cap, bound) [s] of every step's dt (``cap_time_step``); cap 0: none
+        self.dt_cap = (0.0, 0.0)
+        #: callables another stage runs at a named place of the step (``extend``)
+        self.extensions: dict[str, list] = {}
+        self._build()
+        if own_clock:
+            self.start_clock(clock)
+
+    def start_clock(self, clock: Clock) -> None:
+        """Set this stage's dt policy on ``clock`` (once, before the first step): the fixed dt, else
+        κ h / max(c + |v|), the speeds measured by the initial pass of ``_build``."""
+        clock.set_policy(dt_fixed=self.config.dt, factor=self.config.cfl, land=self.land_step)
+        wp.launch(reduction_kernels.prime_step, 1, inputs=[clock.values, self.max_speed, float(self.scene.cell_size)],
+                  device=self.device)
+
+    def extend(self, place: str, launch) -> None:
+        """Run ``launch()`` (host code that only launches kernels) at ``place`` of every step.
+
+        The places: AFTER_FORCE_UPDATE (USL steps of coupled scenes). Call before the first step:
+        a CUDA graph records what is registered then.
+        """
+        if place != AFTER_FORCE_UPDATE:
+            raise InputError("place", place, f"one of {AFTER_FORCE_UPDATE}")
+        self.extensions.setdefault(place, []).append(launch)
+
+    @property
+    def P(self):
+        """The ``Particles`` struct (``points``), under the name the kernels give it."""
+        return self.points
+
+    # -- set-up -------------------------------------------------------------------------------
+    def _allocate(self, host: dict) -> None:
+        t = self.types
+        T = np.float32 if self.config.precision == "f32" else np.float64
+        dev = self.device
+        scene = self.scene
+        mats = scene.materials()
+        mat_index = np.array([mats.index(b.material) for b in scene.bodies], np.int32)[host["body"]]
+        host = {**host, "material_index": mat_index}
+        n = self.particle_count
+        self.point_contact_radius = host["contact_radius"]  # device order [m]
+        self.material_kinds = tuple(sorted({m.kind_id for m in mats}))
+        #: hyperelastic scenes store F alone: σ and V are recomputed from it where needed
+        #: (``kernels.constitutive.stress_from_deformation``; ``refresh_derived`` for the host)
+        self.derived_stress = constitutive_kernels.stress_from_deformation(self.material_kinds, self.critical)
+        self.points = make_points(scene, self.config, host, self.order, mat_index, staged=self.staged,
+                                  coupled=self.coupled, device=dev)
+        # where each point's contact force acts (the "grid" coupling scheme spreads it from there)
+        self.contact_at = wp.zeros(n if self.coupled else 1, dtype=t.vec2, device=dev)
+        self.G, self.grid_shape = make_grid(scene, self.config, self.granular_layers, device=dev)
+        self.D = make_domain(scene, self.config, self.granular_layers, float(host["mass"].min()))
+        if self.config.granular:
+            self.interaction, self.scan_totals = granular_state.make_interaction(
+                scene, self.config, host, mats, self.points, self.grid_shape, self.D.layer_rows, t,
+                staged=self.staged, device=dev)
+            self.granular_stats = wp.zeros(2, dtype=wp.int32, device=dev)
+        self.materials = wp.array(np.array([m.packed() for m in mats], T), dtype=t.params, device=dev)
+        self.max_speed = wp.zeros(reduction_kernels.SPEED_SLOTS, dtype=wp.float32, device=dev)
+        self.status = wp.zeros(granular_kernels.STATUS_SLOTS, dtype=wp.int32, device=dev)
+        self.diag = wp.zeros(len(reduction_kernels.DIAG_NAMES), dtype=wp.float64, device=dev)
+        probes = scene.mass_probes
+        self.probe_boxes = wp.array(np.array([[*p.lo, *p.hi] for p in probes], dtype=np.float64).reshape(-1, 4),
+                                    dtype=wp.vec4d, device=dev)
+        self.probe_mass = wp.zeros(max(1, len(probes)), dtype=wp.float64, device=dev)
+        walls = grid_kernels.WALLS
+        self.work = wp.zeros((len(grid_kernels.WORK_TERMS) + 2 * len(walls)) * grid_kernels.WORK_SLOTS,
+                             dtype=wp.float64, device=dev)
+        #: (t [s], impulses on the obstacles) at the last diagnostics, for their mean forces
+        self.impulse_mark = (0.0, np.zeros(2 * len(walls)))
+
+    def _build(self) -> None:
+        """Pick the kernel variants of this config and lay out the launches of one step."""
+        c = self.config
+        s = c.scheme
+        prec = c.precision
+        n = self.particle_count
+        # grid kernels run over the nodes of one layer (in granular mode they loop over the copies)
+        grid_dim = (self.D.layer_rows, self.grid_shape[1])
+        points, G, D, clock, mats, work = self.points, self.G, self.D, self.clock, self.materials, self.work
+        # image points at walls (kernels/wall_images.py: fold_ghosts, mirror_ghosts)
+        mirror_walls = any(b.kind != "free" for b in self.scene.boundaries.values())
+        layered = c.granular
+        mirror = wall_image_kernels.make_mirror_ghosts(prec, layered=layered)
+        # the wall images touch only the nodes near the grid's edge: their kernels run over those
+        band = wall_band(self.D.layer_rows, self.grid_shape[1]) if mirror_walls else np.zeros((1, 2), np.int32)
+        self.wall_band = wp.array(band, dtype=wp.vec2i, device=self.device)
+        band_dim = len(band)
+        mirror_pair = wall_image_kernels.make_mirror_ghosts(prec, layered=layered, pair=True)
+        #: G2P reads the wall images itself (``transfer.make_g2p``'s ``mirror``): USL and MUSL,
+        #: where only G2P reads the mirrored velocities, not XPIC's passes or Liu's exchange
+        self.mirror_in_g2p = (mirror_walls and MIRROR_IN_G2P and c.update in ("USL", "MUSL") and not s.xpic
+                              and not (self.coupled and c.coupling == "liu") and n < IMAGES_IN_KERNELS_POINTS)
+
+        def fold(**flags):
+            if not mirror_walls:
+                return []
+            kernel = wall_image_kernels.make_fold_ghosts(prec, layered=layered, **flags)
+            return [WallFold(Launch(kernel, band_dim, [G, D, clock, self.wall_band]), flags)]
+
+        def mirrored(*fields):
+            if not mirror_walls or not fields or self.mirror_in_g2p:
+                return []
+            if len(fields) == 2:  # (V and Ṽ in one launch)
+                return [Launch(mirror_pair, band_dim, [fields[0], fields[1], D, clock, G.owner, self.wall_band])]
+            return [Launch(mirror, band_dim, [f, f, D, clock, G.owner, self.wall_band]) for f in fields]
+
+        tile = self.p2g_tile()
+        rows = self.p2g_rows(tile)
+
+        def p2g(**flags):
+            kernel = transfer_kernels.make_p2g(c.shape, s.affine, prec, deterministic=c.deterministic,
+                                               layered=layered, staged=self.staged,
+                                               contact=self.coupled and c.coupling == "imp",
+                                               derived=self.material_kinds if self.derived_stress else (),
+                                               tile=tile, rows=rows, **flags)
+            fused = flags.get("fused_impulse", False)
+            extra = []
+            if self.coupled and c.coupling == "grid" and (flags["force"] or fused):
+                scatter = contact_scatter_kernels.make_contact_scatter(prec, fused_impulse=fused,
+                                                                       deterministic=c.deterministic)
+                extra = [Launch(scatter, n, [points, G, D, clock, self.contact_at])]
+            launch = Launch(kernel, n * SUPPORT_NODES[c.shape] if rows else n, [points, G, D, clock, self.status, mats])
+            if tile:  # whole blocks: every thread of a block reaches the shared-tile calls
+                launch = Launch(kernel, -(-n // tile[0]) * tile[0], launch.inputs, block_dim=tile[0])
+            return [launch] + extra + fold(
+                mass=flags["mass"], momentum=flags["momentum"] or fused, force=flags["force"] and not fused,
+                remap=flags.get("remap", False))
+
+        def grid(**flags):
+            def make(clear=False, zero_remap=False, fold=(), images=False):
+                return grid_kernels.make_grid_update(prec, damping=c.damping > 0.0, layered=layered,
+                                                     obstacles=bool(self.scene.obstacles), clear=clear,
+                                                     zero_remap=zero_remap, fold=fold, images=images, **flags)
+
+            if flags.get("remap"):
+                fields = [G.vm]
+            elif flags.get("fused_impulse"):
+                fields = [G.vt]
+            else:
+                fields = ([G.v] if flags.get("velocity") else []) + ([G.vt] if flags.get("force") else [])
+            update = GridUpdate(Launch(make(), grid_dim, [G, D, clock, work]), make, remap=bool(flags.get("remap")))
+            return [update] + mirrored(*fields)
+
+        def g2p(**flags):
+            k = transfer_kernels.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds,
+                                          density_control=c.density_control, critical=self.critical,
+                                          layered=layered, staged=self.staged, derived=self.derived_stress,
+                                          mirror=self.mirror_in_g2p, **flags)
+            return [Launch(k, n, [points, G, D, clock, mats, self.max_speed, self.status, work])]
+
+        def xpic_smoothing():
+            """Σ_k (−1)^{k+1} C(m,k) v*_k into Grid.vs ("Motion integration" eq. 39-40)."""
+            if not s.xpic:
+                return []
+            m = c.xpic_order
+            init, update = grid_kernels.make_xpic_grid(prec)
+            gather = xpic_kernels.make_xpic_gather(c.shape, prec)
+            scatter = xpic_kernels.make_xpic_scatter(c.shape, prec, deterministic=c.deterministic)
+            out = [Launch(init, grid_dim, [G, D, clock, float(m)])]
+            for k in range(2, m + 1):
+                coef = float((-1) ** (k + 1) * math.comb(m, k))
+                out += [Launch(gather, n, [points, G, D, clock]), Zero(G.pk), Launch(scatter, n, [points, G, D, clock])]
+                out += fold(mass=False, momentum=False, force=False, xpic=True)
+                out += [Launch(update, grid_dim, [G, D, clock, coef])] + mirrored(G.vk)
+            return out + mirrored(G.vs)
+
+        self.fused = c.update == "USL" and s.flip_fraction == 0.0 and not s.xpic and c.damping == 0.0
+        seq: list = []
+        self._judge = None  # granular mode, non-deforming domains: the rebuild decision (end_step)
+        check = None
+        self.start_plan: list = []  # granular mode: the relabel at the start of a step (as a block)
+        if c.granular:
+            self.start_plan, self._judge, check = granular_state.granular_plan(self, grid_dim)
+        if c.update == "USL":
+            if self.fused:
+                seq += p2g(mass=True, momentum=True, force=True, fused_impulse=True)
+                seq += grid(velocity=False, force=False, fused_impulse=True)
+            else:
+                seq += p2g(mass=True, momentum=True, force=True) + grid(velocity=True, force=True)
+            if self.coupled and c.coupling == "liu":
+                seq += [ExtensionPoint(AFTER_FORCE_UPDATE)]  # mpmdem.sim.coupling: Liu et al.'s exchange
+            seq += xpic_smoothing() + g2p(velocity=True, position=True, stress="vt")
+        elif c.update == "USF":
+            seq += p2g(mass=True, momentum=True, force=False) + grid(velocity=True, force=False)
+            seq += g2p(velocity=False, position=False, stress="v")
+            seq += p2g(mass=False, momentum=False, force=True) + grid(velocity=False, force=True)
+            seq += xpic_smoothing() + g2p(velocity=True, position=True, stress="none")
+        else:
+            # MUSL; USAVG ("Motion integration" §3.4) adds a first half stress update from V
+            # before the forces and makes the MUSL update the second half.
+            half = 0.5 if c.update == "USAVG" else 1.0
+            if c.update == "USAVG":
+                seq += p2g(mass=True, momentum=True, force=False) + grid(velocity=True, force=False)
+                seq += g2p(velocity=False, position=False, stress="v", stress_fraction=half)
+                seq += p2g(mass=False, momentum=False, force=True) + grid(velocity=False, force=True)
+            else:
+                seq += p2g(mass=True, momentum=True, force=True) + grid(velocity=True, force=True)
+            # MUSL's re-mapping P2G in the velocity G2P (REMAP_IN_G2P), where P2G runs a thread a point
+            remap_in_g2p = REMAP_IN_G2P and not tile and not rows and not c.deterministic
+            seq += xpic_smoothing() + g2p(velocity=True, position=False, stress="none", remap=remap_in_g2p)
+            # the re-mapped momentum starts from zero: the grid update before clears it at the nodes
+            # (copies) it visits, which are those the re-mapping P2G adds to (no memset of the grid)
+            last = last_grid_update(seq)
+            seq[last] = seq[last].remade(zero_remap=True)
+            if remap_in_g2p:
+                seq += fold(mass=False, momentum=True, force=False, remap=True)
+            else:
+                seq += p2g(mass=False, momentum=True, force=False, remap=True)
+            seq += grid(velocity=False, force=False, remap=True)
+            seq += g2p(velocity=False, position=True, stress="vm", stress_fraction=half)
+        # the step's last grid update clears the nodes (copies) it used (kernels/grid.py), so no
+        # memset of the grid starts the next step; not where something after it reads the nodal
+        # mass (XPIC's updates, Liu et al.'s exchange): there the grid is cleared at the start
+        self.clears_grid = layered or not (s.xpic or (self.coupled and c.coupling == "liu"))
+        if self.clears_grid:
+            last = last_grid_update(seq)
+            seq[last] = seq[last].clearing()
+        # the ghosts beyond the walls need no update where G2P reads the wall images and nothing
+        # there does work (fixed and slip walls, no damping, no obstacle node among them): then the
+        # clearing update folds too, each node clearing the ghost copies it read
+        # (``kernels.grid.make_grid_update``'s images)
+        kinds = {b.kind for b in self.scene.boundaries.values()}
+        images = (self.mirror_in_g2p and kinds <= {"fixed", "slip", "free"} and c.damping == 0.0
+                  and not self._obstacle_ghosts())
+        if FOLD_IN_GRID_UPDATE and n < IMAGES_IN_KERNELS_POINTS:
+            # a fold launch right before a grid update that clears and re-maps nothing (or, with
+            # images, the clearing one): the update folds its own node first
+            for k in range(len(seq) - 1):
+                a, b = seq[k], seq[k + 1]
+                if not isinstance(a, WallFold) or a.flags.get("xpic") or not isinstance(b, GridUpdate):
+                    continue
+                flags = a.flags
+                fold = (flags["mass"], flags["momentum"], flags["force"], flags.get("remap", False))
+                if not b.clears and not fold[3] and not b.remap:
+                    fused = b.make(fold=fold)
+                elif images and b.clears:
+                    fused = b.make(clear=True, fold=fold, images=True)
+                else:
+                    continue
+                seq[k] = None
+                seq[k + 1] = Launch(fused, b.launch.dim, b.launch.inputs)
+            seq = [item for item in seq if item is not None]
+        seq = launches(seq)
+        if layered and check is not None:
+            # the positions the next step starts from are final: whether it may keep the labels
+            seq += [check]
+        self._sequence = seq
+        self.diagnostics_kernel = reduction_kernels.make_diagnostics(prec, self.material_kinds, staged=self.staged)
+        self.probe_mass_kernel = reduction_kernels.make_probe_mass(prec, staged=self.staged)
+        # speeds of the initial state, for the first step's dt (later steps: inside G2P)
+        wp.launch(reduction_kernels.make_wave_speed(prec), n, inputs=[points, D, mats, self.max_speed, self.status],
+                  device=self.device)
+
+    def _obstacle_ghosts(self) -> bool:
+        """Whether an obstacle marks a ghost node (beyond the domain's edge): there a grid update
+        reads the obstacle's load, so the ghosts must be updated."""
+        if not self.scene.obstacles:
+            return False
+        solid = self.G.solid.numpy()
+        lo, hi = self.D.node_lo, self.D.node_hi
+        inner = np.zeros(solid.shape, bool)
+        inner[lo[0]:hi[0] + 1, lo[1]:hi[1] + 1] = True
+        return bool(np.any(solid[~inner] != 0))
+
+    def p2g_tile(self) -> tuple:
+        """(B, TX, TY) of the shared-memory P2G (``kernels.transfer.make_p2g``'s ``tile``), or ()
+        for one global atomic per point and node: tiles pay on CUDA from TILED_P2G_POINTS points
+        on, for single-stencil shapes, outside granular and deterministic mode. A block of B
+        cell-sorted points spans about B / ppc cells of one cell column, so the tile is K + 1
+        nodes wide and B / ppc + K + 3 high (K the stencil's nodes per axis)."""
+        c = self.config
+        K = SUPPORT_NODES[c.shape]
+        if (not self.device.is_cuda or self.particle_count < TILED_P2G_POINTS or c.granular or c.deterministic
+                or transfer_kernels.CORNERS.get(c.shape, 1) != 1):
+            return ()
+        ppc = min(b.points_per_cell for b in self.scene.bodies) ** 2
+        B = TILED_P2G_BLOCK
+        TX, TY = K + 1, B // ppc + K + 3
+        if TX > self.grid_shape[0] or TY > self.grid_shape[1]:
+            return ()
+        return (B, TX, TY)
+
+    def p2g_rows(self, tile: tuple) -> bool:
+        """Whether P2G runs a stencil row a thread (``kernels.transfer.make_p2g``'s ``rows``): in
+        scenes of fewer than ROW_P2G_POINTS points on the devices of ROW_P2G_DEVICES, for
+        single-stencil shapes, untiled, outside granular mode (its first P2G claims the point's
+        node copies all at once)."""
+        c = self.config
+        device = "cuda" if self.device.is_cuda else "cpu"
+        return (device in ROW_P2G_DEVICES and self.particle_count < ROW_P2G_POINTS and not tile
+                and not c.granular and transfer_kernels.CORNERS.get(c.shape, 1) == 1)
+
+    # -- stepping -------------------------------------------------------------------------------
+    def step(self) -> None:
+        """Launch one explicit step (dt from the device clock, set by the step before or by
+        ``set_stop_time``; a no-op once t reaches t_stop)."""
+        self.run_sequence()
+        self.end_step()
+
+    def cap_time_step(self, cap: float, bound: float) -> None:
+        """Coupled scenes: every step's dt is at most ``cap`` [s] (unless fixed by the user) and the
+        reported bound at most ``bound`` [s] (MPM-SDEM eq. 51's contact and DEM terms). Call before
+        the first step (a CUDA graph records the launch)."""
+        self.dt_cap = (float(cap), float(bound))
+
+    def land_step(self) -> None:
+        """The next step's dt onto the device clock after the host moved t_stop (the policy's
+        ``land``, ``Clock.set_policy``): from the bound the last step measured, capped in coupled
+        scenes, landed on t_stop (``kernels.clock.land_step``)."""
+        cap, bound = self.dt_cap
+        wp.launch(clock_kernels.land_step, 1, inputs=[self.clock, cap, bound], device=self.device)
+
+    def run_sequence(self, start: bool = True) -> None:
+        """P2G, grid update and G2P of the chosen stress-update order (the MPM stage of a step),
+        after ``start_plan`` (granular mode: the relabel) unless ``start`` is False (a coupled
+        step runs it with its list rebuilds)."""
+        G = self.G
+        if not self.clears_grid:  # (else the last grid update of the step before cleared the nodes it used)
+            G.mass.zero_()
+            G.mom.zero_()
+            if not self.fused:
+                G.force.zero_()
+        if start:
+            run_plan(self.start_plan, self.device, self.extensions)
+        run_plan(self._sequence, self.device, self.extensions)
+
+    def block_layouts(self) -> list[BlockLayout]:
+        """Granular mode with a rebuild decision: the layouts of the relabel block (run by the
+        rebuilds and the relabels without one) and of the rebuild block nested in it, each in its
+        conditional node or in line by how often it runs (``mpmdem.sim.block_layout``); else none."""
+        blocks = list(plan_blocks(self.start_plan))
+        if not blocks or self._judge is None:
+            return []
+        flags = self.interaction.flags
+        rebuilds, relabels = granular_kernels.FLAG_COUNT, granular_kernels.FLAG_RELABELS
+        layouts = [BlockLayout(blocks[0], flags, (rebuilds, relabels))]
+        layouts += [BlockLayout(block, flags, (rebuilds,)) for block in blocks[1:]]
+        return layouts
+
+    def step_kernels(self) -> list:
+        """Every kernel the MPM stage of a step may launch (those of conditional parts included)."""
+        return (list(plan_kernels(self.start_plan + self._sequence))
+                + ([self._judge] if self._judge is not None else []))
+
+    def end_step(self) -> None:
+        """t += dt on the device clock and the next step's dt from the CFL speeds this step's G2P
+        measured, capped in coupled scenes (``kernels.reductions.finish_step``); in granular mode
+        with them, whether the next step rebuilds the interaction graph: one launch."""
+        cap, bound = self.dt_cap
+        clock = [self.clock, self.steps, self.max_speed, float(self.scene.cell_size), cap, bound]
+        if self._judge is not None:
+            wp.launch(self._judge, 1, inputs=[self.interaction, *clock], device=self.device)
+        else:
+            wp.launch(reduction_kernels.end_step, 1, inputs=clock, device=self.device)
+
+    def invalidate_interactions(self) -> None:
+        """Granular mode: the next step rebuilds the interaction graph (after the points were
+        reordered or overwritten from the host, e.g. a checkpoint); a no-op otherwise."""
+        if self.config.granular:
+            flag = wp.array([1], dtype=wp.int32, device="cpu")
+            for slot in (granular_kernels.FLAG_REBUILD, granular_kernels.FLAG_RELABEL):  # (a rebuild labels too)
+                wp.copy(self.interaction.flags, flag, dest_offset=slot, count=1)
+
+    def sort_points(self) -> None:
+        """Reorder the points by grid cell (radix sort on the device); outputs keep the scene's order."""
+        self._sorter.reorder()
+        self.invalidate_interactions()
+
+    def order_drift(self) -> float:
+        """How far the points' memory order has drifted from cell order: the fraction [-] of
+        consecutive pairs whose cells are not neighbours (``PointSorter.drift``; one host sync)."""
+        return self._sorter.drift()
+
+    def shuffle_points(self, seed: int = 0) -> None:
+        """Put the points in a random memory order (benchmarks of sorting; results are unchanged)."""
+        perm = np.random.default_rng(seed).permutation(self.particle_count).astype(np.int32)
+        self._sorter.reorder(wp.array(perm, dtype=wp.int32, device=self.device))
+        self.invalidate_interactions()
+
+    # -- status and output ------------------------------------------------------------------------
+    #: Diagnostics that are works done on the points (for the energy balance).
+    WORK_TERMS = grid_kernels.WORK_TERMS
+
+    def status_counts(self) -> np.ndarray:
+        """Non-finite points, points outside, point-node contributions with no grid layer left."""
+        return self.status.numpy()
+
+    def refresh_derived(self) -> None:
+        """Hyperelastic scenes (``derived_stress``): write every point's volume and stress from its F
+        into ``points.vol`` and ``points.stress``, which the step itself does not store; a no-op
+        otherwise. Anything that reads those arrays on the host calls this first."""
+        if self.derived_stress:
+            refresh = constitutive_kernels.make_derived_state(self.material_kinds, self.config.precision).refresh
+            wp.launch(refresh, self.particle_count, inputs=[self.points, self.materials], device=self.device)
+
+    def state_arrays(self) -> dict[str, wp.array]:
+        """Every time-varying device array (what a checkpoint holds), by a stable name (volume and
+        stress refreshed first: ``refresh_derived``)."""
+        self.refresh_derived()
+        arrays = {f"P.{name}": getattr(self.points, name)
+                  for name in STATE_FIELDS + (("release",) if self.staged else ())}
+        arrays.update(clock=self.clock, steps=self.steps, max_speed=self.max_speed, status=self.status,
+                      work=self.work)
+        return arrays
+
+    def likely_cause(self, dt: float, bound: float) -> str:
+        """What most likely made the points blow up at step dt [s] and bound [s]."""
+        return diagnostics_.likely_cause(self.config, self.scene, dt, bound)
+
+    def check_status(self, t: float, dt: float, bound: float, status: np.ndarray) -> None:
+        """Raise BlowUpError for NaN/inf or escaped points (counted by the G2P kernel)."""
+        diagnostics_.check_point_status(self, t, dt, bound, status)
+
+    def diagnostics(self) -> dict[str, float]:
+        """Energies [J/m], momenta [kg/s, kg m/s per m] and mass [kg/m] of the points."""
+        return diagnostics_.point_diagnostics(self)
+
+    def granular_statistics(self) -> tuple[int, int]:
+        """(components, grid layers in use at the busiest node) of the last step (granular mode; the
+        copies a relabel kept for a component that has left a node count until the next rebuild)."""
+        return granular_state.granular_statistics(self)
+
+    def components(self) -> np.ndarray:
+        """Component label of every point in the scene's order (``granular_state.components``)."""
+        return granular_state.components(self)
+
+    def node_ranges(self) -> np.ndarray:
+        """Grid nodes each point's stencil reaches now (``granular_state.node_ranges``)."""
+        return granular_state.node_ranges(self)
+
+    def interaction_domains(self) -> tuple[np.ndarray, np.ndarray]:
+        """Domains of interaction at the last rebuild (``granular_state.interaction_domains``)."""
+        return granular_state.interaction_domains(self)
+
+    def fields(self) -> dict[str, np.ndarray]:
+        """Host copies of the per-point output fields (copies: on the CPU ``numpy()`` is a view)."""
+        points = self.points
+        self.refresh_derived()
+        fields = {"x": points.x, "v": points.v, "stress": points.stress, "volume": points.vol,
+                  "mass": points.mass, "F": points.F}
+        pid = points.pid.numpy()
+        out = {}
+        for k, a in fields.items():
+            out[k] = np.empty_like(a.numpy())
+            out[k][pid] = a.numpy()  # back to the scene's order
+        out["body"] = self.body.copy()
+        if self.coupled:
+            out["contact_force"] = np.empty_like(points.fcont.numpy())
+            out["contact_force"][pid] = points.fcont.numpy()
+        if self.staged:
+            waiting = self.release_times > self.sim_clock.time
+            out["x"][waiting] = np.nan  # not in the scene yet
+            out["v"][waiting] = np.nan
+        return out

@@ -1,0 +1,112 @@
+"""Where a study's runs execute: a Dask cluster (local CPU processes, one process per GPU, or any
+running cluster by its scheduler address), or this process one run after another.
+
+Every worker is a process with one thread, so Warp's per-process state is never shared by two runs
+at once. GPU workers are Nannies whose environment pins ``CUDA_VISIBLE_DEVICES`` to one card
+(``workers_per_gpu`` of them per card); that needs no dask-cuda.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import uuid
+from collections.abc import Iterator
+from pathlib import Path
+
+from .worker import execute_run, failed_row
+
+__all__ = ["DASK_MISSING", "dask_available", "execute_runs", "map_tasks"]
+
+DASK_MISSING = 'the study runner needs Dask: pip install "mpmdem[study]" (or run serially with --workers 0)'
+
+
+def dask_available() -> bool:
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def gpu_worker_specs(gpus: int, workers_per_gpu: int) -> dict:
+    """SpecCluster worker specs: ``workers_per_gpu`` one-thread Nannies per card, each seeing one card
+    (the cards of an existing ``CUDA_VISIBLE_DEVICES`` list, else 0..gpus-1)."""
+    from distributed import Nanny
+
+    visible = [c.strip() for c in os.environ.get("CUDA_VISIBLE_DEVICES", "").split(",") if c.strip()]
+    cards = visible[:gpus] if len(visible) >= gpus else [str(i) for i in range(gpus)]
+    return {f"gpu{card}-{k}": {"cls": Nanny, "options": {"nthreads": 1, "env": {"CUDA_VISIBLE_DEVICES": card}}}
+            for card in cards for k in range(workers_per_gpu)}
+
+
+@contextlib.contextmanager
+def study_client(workers: int, gpus: int = 0, workers_per_gpu: int = 1, scheduler: str | None = None):
+    """A Dask client: of the cluster at ``scheduler``, else of a local cluster started here (and
+    closed on exit) with ``gpus × workers_per_gpu`` GPU workers or ``workers`` CPU processes."""
+    from distributed import Client, LocalCluster, Scheduler, SpecCluster
+
+    if scheduler:
+        with Client(scheduler) as client:
+            yield client
+        return
+    quiet = {"silence_logs": logging.ERROR}
+    if gpus > 0:
+        cluster = SpecCluster(workers=gpu_worker_specs(gpus, workers_per_gpu),
+                              scheduler={"cls": Scheduler, "options": {"dashboard_address": None}}, **quiet)
+    else:
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                               **quiet)
+    with cluster, Client(cluster) as client:
+        yield client
+
+
+def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | None, gpus: int = 0,
+                 workers_per_gpu: int = 1, scheduler: str | None = None) -> Iterator[dict]:
+    """The row of every run, in the order they finish; ``workers == 0``: in this process, in order."""
+    def args(run):
+        return case, run.id, run.values, list(run.argv), str(out / "runs" / run.id), device
+
+    if not runs:
+        return
+    if workers == 0 and not scheduler and gpus == 0:
+        for run in runs:
+            row = execute_run(*args(run))
+            yield row
+            if row["status"] == "interrupted":  # Ctrl-C reached run_case: stop the study, keep its row
+                raise KeyboardInterrupt
+        return
+    from distributed import as_completed
+
+    n = workers if workers else min(len(runs), os.cpu_count() or 1)
+    with study_client(n, gpus, workers_per_gpu, scheduler) as client:
+        token = uuid.uuid4().hex[:8]  # keys unique on a shared scheduler
+        futures = {client.submit(execute_run, *args(run), key=f"{run.id}-{token}", pure=False): run for run in runs}
+        for future in as_completed(futures):
+            run = futures[future]
+            try:
+                yield future.result()
+            except Exception as e:  # the worker itself died (a crash, killed for memory, ...)
+                yield failed_row(run.id, run.values, f"worker lost: {type(e).__name__}: {e}", device=device)
+
+
+def map_tasks(fn, tasks: list, workers: int = 1, gpus: int = 0, workers_per_gpu: int = 1,
+              scheduler: str | None = None) -> Iterator:
+    """``fn(task)`` of every task, in the order they finish, on the same clusters as a study's runs:
+    in this process (``workers`` ≤ 1, no GPUs, no scheduler), on ``workers`` local CPU processes, on
+    ``gpus × workers_per_gpu`` pinned GPU workers, or on the cluster at ``scheduler``. For sweeps
+    that are not a case × flags (the benches' own scenes); ``fn`` must be picklable (Dask's
+    cloudpickle also takes a script's own functions)."""
+    if workers <= 1 and gpus == 0 and not scheduler:
+        for task in tasks:
+            yield fn(task)
+        return
+    if not dask_available():
+        raise ImportError(DASK_MISSING)
+    from distributed import as_completed
+
+    with study_client(workers, gpus, workers_per_gpu, scheduler) as client:
+        futures = client.map(fn, tasks, pure=False)
+        for future in as_completed(futures):
+            yield future.result()
