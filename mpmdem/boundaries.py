@@ -1,5 +1,5 @@
-"""The sides of a scene's domain: the condition on each (fixed, slip, Coulomb friction or free) and
-where a wall may lie."""
+"""The sides of a scene's domain: the condition on each (fixed, slip, Coulomb friction, free or
+periodic) and where a wall may lie."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ from typing import Literal
 
 from .errors import InputError
 
-__all__ = ["BOUNDARY_KINDS", "SIDES", "Boundary", "as_boundary", "check_walls_on_grid_lines"]
+__all__ = ["BOUNDARY_KINDS", "SIDES", "Boundary", "as_boundary", "check_periodic_sides", "check_walls_on_grid_lines"]
 
 SIDES = ("left", "right", "bottom", "top")
-BOUNDARY_KINDS = ("fixed", "slip", "friction", "free")
+BOUNDARY_KINDS = ("fixed", "slip", "friction", "free", "periodic")
 
 
 @dataclass(frozen=True)
@@ -21,11 +21,13 @@ class Boundary:
 
     Attributes:
         kind: "fixed" (no-slip, v = 0), "slip" (roller: no normal motion), "friction" (a wall that
-            points may leave, with Coulomb friction μ while pressed against it) or "free" (none).
+            points may leave, with Coulomb friction μ while pressed against it), "free" (none) or
+            "periodic" (left and right together: material leaving one side enters by the other,
+            ``kernels/periodic.py``).
         friction: Coulomb coefficient μ ≥ 0 of a "friction" wall.
     """
 
-    kind: Literal["fixed", "slip", "friction", "free"] = "slip"
+    kind: Literal["fixed", "slip", "friction", "free", "periodic"] = "slip"
     friction: float = 0.0
 
     def __post_init__(self):
@@ -36,7 +38,10 @@ class Boundary:
 
     @property
     def kind_id(self) -> int:
-        return BOUNDARY_KINDS.index(self.kind)
+        """The side's kind as the kernels number it (``kernels/wall_kinds.py``). A periodic side is
+        open to the grid update and the wall images (free); the periodic fold and copy
+        (``kernels/periodic.py``) join it to the opposite side."""
+        return BOUNDARY_KINDS.index("free" if self.kind == "periodic" else self.kind)
 
 
 def as_boundary(side: str, b) -> Boundary:
@@ -47,10 +52,24 @@ def as_boundary(side: str, b) -> Boundary:
     raise InputError(f"boundaries[{side!r}]", b, "a Boundary or one of " + ", ".join(BOUNDARY_KINDS))
 
 
+def check_periodic_sides(boundaries: dict) -> None:
+    """Periodic sides come as the pair left and right (periodic in x); y is not periodic."""
+    left, right = (boundaries[s].kind == "periodic" for s in ("left", "right"))
+    for side in ("bottom", "top"):
+        if boundaries[side].kind == "periodic":
+            raise InputError(f"boundaries[{side!r}]", "periodic", "fixed, slip, friction or free (only x is periodic: "
+                             "left and right)")
+    if left != right:
+        side = "right" if left else "left"
+        raise InputError(f"boundaries[{side!r}]", boundaries[side].kind,
+                         "periodic, as the opposite side (periodic in x needs left and right both periodic)")
+
+
 def check_walls_on_grid_lines(domain, cell_size: float, boundaries: dict) -> None:
     """A wall (fixed, slip or friction side) must lie on a grid line: the grid starts at the
     lower corner, so the right and top walls need a whole number of cells across. Rounding the
-    grid up instead would put the wall up to a cell beyond the side the user gave."""
+    grid up instead would put the wall up to a cell beyond the side the user gave. A periodic x
+    needs it too: the period is a whole number of cells."""
     (x0, y0), (x1, y1) = domain
     h = cell_size
     for side, lo, hi, axis in (("right", x0, x1, "x"), ("top", y0, y1, "y")):

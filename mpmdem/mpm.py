@@ -27,6 +27,7 @@ from .kernels import constitutive as constitutive_kernels
 from .kernels import contact_scatter as contact_scatter_kernels
 from .kernels import granular as granular_kernels
 from .kernels import grid as grid_kernels
+from .kernels import periodic as periodic_kernels
 from .kernels import reductions as reduction_kernels
 from .kernels import transfer as transfer_kernels
 from .kernels import wall_images as wall_image_kernels
@@ -102,6 +103,9 @@ class MPMSolver(ClockedStage):
         self.dt_bound0 = initial_dt_bound(scene, host)
         check_time_step(config, self.dt_bound0, f"h/max(c+|v|) = {self.dt_bound0:.6g} s of this scene "
                         f"(h = {scene.cell_size:g} m)", use="the CFL policy")
+        if scene.periodic_x and config.granular:
+            raise InputError("granular", True, "False with periodic x boundaries (the domains of interaction and the "
+                             "component grids know no periodic image yet)")
         if config.shape == "ugimp" and (host["half"] > 0.5 * scene.cell_size + 1e-12).any():
             raise InputError("shape", config.shape, "uGIMP needs points_per_cell >= 1 (half-lengths <= h/2)")
         self.body = host["body"]
@@ -204,7 +208,10 @@ class MPMSolver(ClockedStage):
         grid_dim = (self.D.layer_rows, self.grid_shape[1])
         points, G, D, clock, mats, work = self.points, self.G, self.D, self.clock, self.materials, self.work
         # image points at walls (kernels/wall_images.py: fold_ghosts, mirror_ghosts)
-        mirror_walls = any(b.kind != "free" for b in self.scene.boundaries.values())
+        mirror_walls = any(b.kind not in ("free", "periodic") for b in self.scene.boundaries.values())
+        #: x periodic (kernels/periodic.py): a fold after each P2G, a copy after each grid update,
+        #: the wrap in the G2P that moves the points; the launch fusions below are left out
+        periodic = self.scene.periodic_x
         layered = c.granular
         grid_kernel_makers = {}
         mirror = wall_image_kernels.make_mirror_ghosts(prec, layered=layered)
@@ -216,24 +223,35 @@ class MPMSolver(ClockedStage):
         #: G2P reads the wall images itself (``transfer.make_g2p``'s ``mirror``): USL and MUSL,
         #: where only G2P reads the mirrored velocities, not XPIC's passes or Liu's exchange
         self.mirror_in_g2p = (mirror_walls and MIRROR_IN_G2P and c.update in ("USL", "MUSL") and not s.xpic
-                              and not (self.coupled and c.coupling == "liu") and n < IMAGES_IN_KERNELS_POINTS)
+                              and not (self.coupled and c.coupling == "liu") and n < IMAGES_IN_KERNELS_POINTS
+                              and not periodic)
 
         fold_flags = {}  # id(fold kernel) -> its flags (for the fusion below)
         remapping = set()  # ids of the re-mapping grid updates (MUSL's second)
 
+        period_dim = (self.scene.cell_counts[0], self.grid_shape[1])
+
         def fold(**flags):
+            wrap = []
+            if periodic:  # (the periodic images first: the wall fold then sees whole columns)
+                wrap = [Launch(periodic_kernels.make_periodic_fold(prec, **flags), period_dim, [G, D, clock])]
             if not mirror_walls:
-                return []
+                return wrap
             kernel = wall_image_kernels.make_fold_ghosts(prec, layered=layered, **flags)
             fold_flags[id(kernel)] = flags
-            return [Launch(kernel, band_dim, [G, D, clock, self.wall_band])]
+            return wrap + [Launch(kernel, band_dim, [G, D, clock, self.wall_band])]
 
         def mirrored(*fields):
+            wrap = []
+            if periodic:  # (before the wall images, which mirror the ghost rows of the image columns too)
+                copy = periodic_kernels.make_periodic_copy(prec, remap=c.update in ("MUSL", "USAVG"), xpic=s.xpic)
+                wrap = [Launch(copy, grid_dim, [G, D, clock])]
             if not mirror_walls or not fields or self.mirror_in_g2p:
-                return []
+                return wrap
             if len(fields) == 2:  # (V and Ṽ in one launch)
-                return [Launch(mirror_pair, band_dim, [fields[0], fields[1], D, clock, G.owner, self.wall_band])]
-            return [Launch(mirror, band_dim, [f, f, D, clock, G.owner, self.wall_band]) for f in fields]
+                return wrap + [Launch(mirror_pair, band_dim, [fields[0], fields[1], D, clock, G.owner,
+                                                              self.wall_band])]
+            return wrap + [Launch(mirror, band_dim, [f, f, D, clock, G.owner, self.wall_band]) for f in fields]
 
         tile = self.p2g_tile()
         rows = self.p2g_rows(tile)
@@ -279,7 +297,8 @@ class MPMSolver(ClockedStage):
             k = transfer_kernels.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds,
                                           density_control=c.density_control, critical=self.critical,
                                           layered=layered, staged=self.staged, derived=self.derived_stress,
-                                          mirror=self.mirror_in_g2p, **flags)
+                                          mirror=self.mirror_in_g2p, **flags,
+                                          **({"periodic_x": True} if periodic and flags["position"] else {}))
             return [Launch(k, n, [points, G, D, clock, mats, self.max_speed, self.status, work])]
 
         def xpic_smoothing():
@@ -365,7 +384,7 @@ class MPMSolver(ClockedStage):
         kinds = {b.kind for b in self.scene.boundaries.values()}
         images = (self.mirror_in_g2p and kinds <= {"fixed", "slip", "free"} and c.damping == 0.0
                   and not self._obstacle_ghosts())
-        if FOLD_IN_GRID_UPDATE and n < IMAGES_IN_KERNELS_POINTS:
+        if FOLD_IN_GRID_UPDATE and n < IMAGES_IN_KERNELS_POINTS and not periodic:
             # a fold launch right before a grid update that clears and re-maps nothing (or, with
             # images, the clearing one): the update folds its own node first
             for k in range(len(seq) - 1):
