@@ -212,19 +212,22 @@ class MPMSolver(ClockedStage):
         #: x periodic (kernels/periodic.py): a fold after each P2G, a copy after each grid update,
         #: the wrap in the G2P that moves the points; the launch fusions below are left out
         periodic = self.scene.periodic_x
+        #: fixed walls moving along themselves (``Boundary.velocity``): their wall images reflect
+        #: about the wall's velocity; the launch fusions below are left out
+        moving = {"moving": True} if any(b.velocity != 0.0 for b in self.scene.boundaries.values()) else {}
         layered = c.granular
         grid_kernel_makers = {}
-        mirror = wall_image_kernels.make_mirror_ghosts(prec, layered=layered)
+        mirror = wall_image_kernels.make_mirror_ghosts(prec, layered=layered, **moving)
         # the wall images touch only the nodes near the grid's edge: their kernels run over those
         band = wall_band(self.D.layer_rows, self.grid_shape[1]) if mirror_walls else np.zeros((1, 2), np.int32)
         self.wall_band = wp.array(band, dtype=wp.vec2i, device=self.device)
         band_dim = len(band)
-        mirror_pair = wall_image_kernels.make_mirror_ghosts(prec, layered=layered, pair=True)
+        mirror_pair = wall_image_kernels.make_mirror_ghosts(prec, layered=layered, pair=True, **moving)
         #: G2P reads the wall images itself (``transfer.make_g2p``'s ``mirror``): USL and MUSL,
         #: where only G2P reads the mirrored velocities, not XPIC's passes or Liu's exchange
         self.mirror_in_g2p = (mirror_walls and MIRROR_IN_G2P and c.update in ("USL", "MUSL") and not s.xpic
                               and not (self.coupled and c.coupling == "liu") and n < IMAGES_IN_KERNELS_POINTS
-                              and not periodic)
+                              and not periodic and not moving)
 
         fold_flags = {}  # id(fold kernel) -> its flags (for the fusion below)
         remapping = set()  # ids of the re-mapping grid updates (MUSL's second)
@@ -237,7 +240,7 @@ class MPMSolver(ClockedStage):
                 wrap = [Launch(periodic_kernels.make_periodic_fold(prec, **flags), period_dim, [G, D, clock])]
             if not mirror_walls:
                 return wrap
-            kernel = wall_image_kernels.make_fold_ghosts(prec, layered=layered, **flags)
+            kernel = wall_image_kernels.make_fold_ghosts(prec, layered=layered, **flags, **moving)
             fold_flags[id(kernel)] = flags
             return wrap + [Launch(kernel, band_dim, [G, D, clock, self.wall_band])]
 
@@ -279,7 +282,8 @@ class MPMSolver(ClockedStage):
             def make(clear=False, zero_remap=False, fold=(), images=False):
                 return grid_kernels.make_grid_update(prec, damping=c.damping > 0.0, layered=layered,
                                                      obstacles=bool(self.scene.obstacles), clear=clear,
-                                                     zero_remap=zero_remap, fold=fold, images=images, **flags)
+                                                     zero_remap=zero_remap, fold=fold, images=images, **flags,
+                                                     **moving)
 
             kernel = make()
             grid_kernel_makers[id(kernel)] = make
@@ -306,7 +310,7 @@ class MPMSolver(ClockedStage):
             if not s.xpic:
                 return []
             m = c.xpic_order
-            init, update = grid_kernels.make_xpic_grid(prec)
+            init, update = grid_kernels.make_xpic_grid(prec, **moving)
             gather = xpic_kernels.make_xpic_gather(c.shape, prec)
             scatter = xpic_kernels.make_xpic_scatter(c.shape, prec, deterministic=c.deterministic)
             out = [Launch(init, grid_dim, [G, D, clock, float(m)])]
@@ -384,7 +388,7 @@ class MPMSolver(ClockedStage):
         kinds = {b.kind for b in self.scene.boundaries.values()}
         images = (self.mirror_in_g2p and kinds <= {"fixed", "slip", "free"} and c.damping == 0.0
                   and not self._obstacle_ghosts())
-        if FOLD_IN_GRID_UPDATE and n < IMAGES_IN_KERNELS_POINTS and not periodic:
+        if FOLD_IN_GRID_UPDATE and n < IMAGES_IN_KERNELS_POINTS and not periodic and not moving:
             # a fold launch right before a grid update that clears and re-maps nothing (or, with
             # images, the clearing one): the update folds its own node first
             for k in range(len(seq) - 1):

@@ -15,7 +15,7 @@ from typing import Literal
 import numpy as np
 
 from .bodies import ContactLaw, RigidBody, make_rigid_body
-from .boundaries import SIDES, Boundary, as_boundary, check_periodic_sides, check_walls_on_grid_lines
+from .boundaries import SIDES, Boundary, as_boundary, check_sides, check_walls_on_grid_lines
 from .errors import InputError
 from .grains import GrainSet, as_region, place_grains
 from .materials import Material
@@ -134,7 +134,7 @@ class Scene(SceneChecks):
         if unknown:
             raise InputError("boundaries", sorted(unknown), f"sides among {', '.join(SIDES)}")
         self.boundaries = {s: as_boundary(s, self.boundaries.get(s, "slip")) for s in SIDES}
-        check_periodic_sides(self.boundaries)
+        check_sides(self.boundaries)
         self._check_periodic_alone()
         if self.cell_size is not None:
             check_walls_on_grid_lines(self.domain, self.cell_size, self.boundaries)
@@ -586,7 +586,8 @@ class Scene(SceneChecks):
             **({"allow_initial_overlap": True} if self.allow_initial_overlap else {}),
             "rigid_bodies": [b.to_dict() for b in self.rigid_bodies],
             **({"grains": [g.to_dict() for g in self.grains]} if self.grains else {}),
-            "boundaries": {s: {"kind": b.kind, "friction": b.friction} for s, b in self.boundaries.items()},
+            "boundaries": {s: {"kind": b.kind, "friction": b.friction,
+                               **({"velocity": b.velocity} if b.velocity else {})} for s, b in self.boundaries.items()},
             "obstacles": [{"kind": o.kind, "shape": o.shape.to_dict()} for o in self.obstacles],
             **({"mass_probes": [{"name": p.name, "lo": p.lo, "hi": p.hi} for p in self.mass_probes]}
                if self.mass_probes else {}),
