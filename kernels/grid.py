@@ -61,7 +61,8 @@ def make_boundary_condition(precision: str):
 #: WORK_SLOTS addresses to keep atomics uncontended; the host sums the slots at output frames.
 WORK_TERMS = ("work_boundary", "work_damping", "work_plastic", "work_inflow")
 WORK_PLASTIC = 2
-WORK_INFLOW = 3  # energy (kinetic + gravity) that released points bring into the scene
+WORK_INFLOW = 3  # energy (kinetic + gravity) that released points bring into the scene, and the
+# potential energy of points crossing a periodic side (``transfer.make_g2p``'s ``periodic_x``)
 WORK_SLOTS = 1024
 
 

@@ -370,7 +370,8 @@ def make_g2p(
     point's nodes (copies), the terms ``make_p2g(mass=False, momentum=True, remap=True)`` adds, in
     the same order per node (one launch fewer: a small scene's step is paid per launch).
     periodic_x (with position): a point that left [x0, x1) moves back by a period
-    (``periodic.make_wrap_x``); the grid's ghost columns hold the periodic images
+    (``periodic.make_wrap_x``), and the potential energy that move adds is booked as
+    "work_inflow"; the grid's ghost columns hold the periodic images
     (``periodic.make_periodic_copy``), so the stencil loop is unchanged.
     """
     t = scalar_types(precision)
@@ -582,7 +583,14 @@ def make_g2p(
         if wp.static(position):
             P.x[p] = keep_inside_walls(P.x[p], D)  # no material past a wall, not even by round-off
             if wp.static(periodic_x):
-                P.x[p] = wrap_x(P.x[p], D)  # back into the period [x0, x1)
+                x_out = P.x[p]
+                x_in = wrap_x(x_out, D)  # back into the period [x0, x1)
+                if x_in[0] != x_out[0]:
+                    # the potential energy m g·(x_out − x_in) the point brings back across the seam,
+                    # booked as inflow so that the energy balance holds
+                    wp.atomic_add(work, work_slot(WORK_INFLOW, p, 0), wp.float64(P.mass[p]) * wp.float64(D.gravity[0])
+                                  * wp.float64(x_out[0] - x_in[0]))
+                    P.x[p] = x_in
         vol = T(0.0)
         if wp.static(has_stress):
             diss, vol = point_update(P, p, materials[P.material[p]], L, dt * T(stress_dt))
