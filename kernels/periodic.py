@@ -12,7 +12,9 @@ the left one.
   whole mass, momentum and force at the canonical node and nothing at the images;
 * ``make_periodic_copy``: after a grid update, every image takes its canonical node's velocities,
   so that G2P reads the same field on both sides of the seam;
-* ``make_wrap_x``: after G2P moved a point, its x goes back into [x0, x1).
+* ``make_wrap_point``: after G2P moved a point, its x goes back into [x0, x1), and the potential
+  energy m g·Δx that this move adds is booked as the work term "work_inflow" (the energy a point
+  brings in), so that the energy balance holds with gravity along x.
 """
 
 import functools
@@ -20,10 +22,11 @@ import functools
 import warp as wp
 
 from .clock import CLOCK_DT
+from .grid import WORK_INFLOW, work_slot
 from .state import make_state_structs
 from .types import kernel, scalar_types
 
-__all__ = ["make_periodic_copy", "make_periodic_fold", "make_wrap_x"]
+__all__ = ["make_periodic_copy", "make_periodic_fold", "make_wrap_point", "make_wrap_x"]
 
 
 @wp.func
@@ -136,3 +139,23 @@ def make_wrap_x(precision: str):
         return t.vec2(y, x[1])
 
     return wrap_x
+
+
+@functools.cache
+def make_wrap_point(precision: str):
+    """``wrap_point(P, D, p, work)``: point p's position back into the period (``make_wrap_x``);
+    when it moved, m g·(x_out − x_in) [J/m] (the potential energy its move adds to the diagnostics'
+    energy_gravity) goes to the "work_inflow" slots of ``work``."""
+    Particles, Grid, Domain = make_state_structs(precision)
+    wrap_x = make_wrap_x(precision)
+
+    @wp.func
+    def wrap_point(P: Particles, D: Domain, p: int, work: wp.array(dtype=wp.float64)):
+        x_out = P.x[p]
+        x_in = wrap_x(x_out, D)
+        if x_in[0] != x_out[0]:
+            wp.atomic_add(work, work_slot(WORK_INFLOW, p, 0),
+                          wp.float64(P.mass[p]) * wp.float64(D.gravity[0]) * wp.float64(x_out[0] - x_in[0]))
+            P.x[p] = x_in
+
+    return wrap_point

@@ -14,7 +14,7 @@ from .constitutive import make_derived_state, make_point_update
 from .granular import NO_LAYER, STATUS_DEEP_CLAIM, STATUS_LAYER_OVERFLOW, make_layer_row, slot_words
 from .granular.cells import make_cells
 from .grid import WORK_INFLOW, WORK_PLASTIC, make_keep_inside_walls, work_slot
-from .periodic import make_wrap_x
+from .periodic import make_wrap_point
 from .reductions import make_speed_check
 from .shape_functions import CORNERS, SUPPORT_NODES, make_stencil
 from .state import make_state_structs
@@ -369,10 +369,7 @@ def make_g2p(
     point's new V_p and C_p are stored: m_p (V_p + C_p (x_i − x_p)) N_i into ``Grid.vm`` at the
     point's nodes (copies), the terms ``make_p2g(mass=False, momentum=True, remap=True)`` adds, in
     the same order per node (one launch fewer: a small scene's step is paid per launch).
-    periodic_x (with position): a point that left [x0, x1) moves back by a period
-    (``periodic.make_wrap_x``), and the potential energy that move adds is booked as
-    "work_inflow"; the grid's ghost columns hold the periodic images
-    (``periodic.make_periodic_copy``), so the stencil loop is unchanged.
+    periodic_x (with position): a point that left [x0, x1) wraps back (``periodic.make_wrap_point``).
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -401,7 +398,7 @@ def make_g2p(
     has_stress = stress != "none"
     speed_check = make_speed_check(precision)
     keep_inside_walls = make_keep_inside_walls(precision)
-    wrap_x = make_wrap_x(precision)
+    wrap_point = make_wrap_point(precision)
     if remap and (position or not velocity):
         raise ValueError("a G2P re-maps the momentum only after a velocity update that moves no point (MUSL)")
     remap_affine = remap and affine != "none"
@@ -583,14 +580,7 @@ def make_g2p(
         if wp.static(position):
             P.x[p] = keep_inside_walls(P.x[p], D)  # no material past a wall, not even by round-off
             if wp.static(periodic_x):
-                x_out = P.x[p]
-                x_in = wrap_x(x_out, D)  # back into the period [x0, x1)
-                if x_in[0] != x_out[0]:
-                    # the potential energy m g·(x_out − x_in) the point brings back across the seam,
-                    # booked as inflow so that the energy balance holds
-                    wp.atomic_add(work, work_slot(WORK_INFLOW, p, 0), wp.float64(P.mass[p]) * wp.float64(D.gravity[0])
-                                  * wp.float64(x_out[0] - x_in[0]))
-                    P.x[p] = x_in
+                wrap_point(P, D, p, work)  # back into [x0, x1) (``periodic.make_wrap_point``)
         vol = T(0.0)
         if wp.static(has_stress):
             diss, vol = point_update(P, p, materials[P.material[p]], L, dt * T(stress_dt))

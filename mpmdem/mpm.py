@@ -22,20 +22,19 @@ from .cell_sort import PointSorter, device_order
 from .checks import check_time_step
 from .config import SolverConfig
 from .errors import InputError
+from .grid_edges import GridEdges
 from .kernels import clock as clock_kernels
 from .kernels import constitutive as constitutive_kernels
 from .kernels import contact_scatter as contact_scatter_kernels
 from .kernels import granular as granular_kernels
 from .kernels import grid as grid_kernels
-from .kernels import periodic as periodic_kernels
 from .kernels import reductions as reduction_kernels
 from .kernels import transfer as transfer_kernels
-from .kernels import wall_images as wall_image_kernels
 from .kernels import xpic as xpic_kernels
 from .kernels.shape_functions import SUPPORT_NODES
 from .kernels.types import scalar_types
 from .launch_plan import ExtensionPoint, Launch, Zero, plan_blocks, plan_kernels, run_plan
-from .mpm_state import GHOST_NODES, STATE_FIELDS, initial_dt_bound, make_domain, make_grid, make_points, wall_band
+from .mpm_state import GHOST_NODES, STATE_FIELDS, initial_dt_bound, make_domain, make_grid, make_points
 from .scene import Scene
 from .stage import Clock, ClockedStage
 
@@ -103,9 +102,6 @@ class MPMSolver(ClockedStage):
         self.dt_bound0 = initial_dt_bound(scene, host)
         check_time_step(config, self.dt_bound0, f"h/max(c+|v|) = {self.dt_bound0:.6g} s of this scene "
                         f"(h = {scene.cell_size:g} m)", use="the CFL policy")
-        if scene.periodic_x and config.granular:
-            raise InputError("granular", True, "False with periodic x boundaries (the domains of interaction and the "
-                             "component grids know no periodic image yet)")
         if config.shape == "ugimp" and (host["half"] > 0.5 * scene.cell_size + 1e-12).any():
             raise InputError("shape", config.shape, "uGIMP needs points_per_cell >= 1 (half-lengths <= h/2)")
         self.body = host["body"]
@@ -207,54 +203,17 @@ class MPMSolver(ClockedStage):
         # grid kernels run over the nodes of one layer (in granular mode they loop over the copies)
         grid_dim = (self.D.layer_rows, self.grid_shape[1])
         points, G, D, clock, mats, work = self.points, self.G, self.D, self.clock, self.materials, self.work
-        # image points at walls (kernels/wall_images.py: fold_ghosts, mirror_ghosts)
-        mirror_walls = any(b.kind not in ("free", "periodic") for b in self.scene.boundaries.values())
-        #: x periodic (kernels/periodic.py): a fold after each P2G, a copy after each grid update,
-        #: the wrap in the G2P that moves the points; the launch fusions below are left out
-        periodic = self.scene.periodic_x
-        #: fixed walls moving along themselves (``Boundary.velocity``): their wall images reflect
-        #: about the wall's velocity; the launch fusions below are left out
-        moving = {"moving": True} if any(b.velocity != 0.0 for b in self.scene.boundaries.values()) else {}
-        layered = c.granular
-        grid_kernel_makers = {}
-        mirror = wall_image_kernels.make_mirror_ghosts(prec, layered=layered, **moving)
-        # the wall images touch only the nodes near the grid's edge: their kernels run over those
-        band = wall_band(self.D.layer_rows, self.grid_shape[1]) if mirror_walls else np.zeros((1, 2), np.int32)
-        self.wall_band = wp.array(band, dtype=wp.vec2i, device=self.device)
-        band_dim = len(band)
-        mirror_pair = wall_image_kernels.make_mirror_ghosts(prec, layered=layered, pair=True, **moving)
+        # the wall images and the periodic images at the grid's edges (mpmdem/grid_edges.py)
         #: G2P reads the wall images itself (``transfer.make_g2p``'s ``mirror``): USL and MUSL,
         #: where only G2P reads the mirrored velocities, not XPIC's passes or Liu's exchange
-        self.mirror_in_g2p = (mirror_walls and MIRROR_IN_G2P and c.update in ("USL", "MUSL") and not s.xpic
-                              and not (self.coupled and c.coupling == "liu") and n < IMAGES_IN_KERNELS_POINTS
-                              and not periodic and not moving)
-
-        fold_flags = {}  # id(fold kernel) -> its flags (for the fusion below)
+        edges = GridEdges(self, grid_dim, mirror_in_g2p=(
+            MIRROR_IN_G2P and c.update in ("USL", "MUSL") and not s.xpic and not (self.coupled and c.coupling == "liu")
+            and n < IMAGES_IN_KERNELS_POINTS))
+        self.wall_band, self.mirror_in_g2p = edges.wall_band, edges.mirror_in_g2p
+        fold, mirrored, fold_flags, moving = edges.fold, edges.mirrored, edges.fold_flags, edges.moving
+        layered = c.granular
+        grid_kernel_makers = {}
         remapping = set()  # ids of the re-mapping grid updates (MUSL's second)
-
-        period_dim = (self.scene.cell_counts[0], self.grid_shape[1])
-
-        def fold(**flags):
-            wrap = []
-            if periodic:  # (the periodic images first: the wall fold then sees whole columns)
-                wrap = [Launch(periodic_kernels.make_periodic_fold(prec, **flags), period_dim, [G, D, clock])]
-            if not mirror_walls:
-                return wrap
-            kernel = wall_image_kernels.make_fold_ghosts(prec, layered=layered, **flags, **moving)
-            fold_flags[id(kernel)] = flags
-            return wrap + [Launch(kernel, band_dim, [G, D, clock, self.wall_band])]
-
-        def mirrored(*fields):
-            wrap = []
-            if periodic:  # (before the wall images, which mirror the ghost rows of the image columns too)
-                copy = periodic_kernels.make_periodic_copy(prec, remap=c.update in ("MUSL", "USAVG"), xpic=s.xpic)
-                wrap = [Launch(copy, grid_dim, [G, D, clock])]
-            if not mirror_walls or not fields or self.mirror_in_g2p:
-                return wrap
-            if len(fields) == 2:  # (V and Ṽ in one launch)
-                return wrap + [Launch(mirror_pair, band_dim, [fields[0], fields[1], D, clock, G.owner,
-                                                              self.wall_band])]
-            return wrap + [Launch(mirror, band_dim, [f, f, D, clock, G.owner, self.wall_band]) for f in fields]
 
         tile = self.p2g_tile()
         rows = self.p2g_rows(tile)
@@ -302,7 +261,7 @@ class MPMSolver(ClockedStage):
                                           density_control=c.density_control, critical=self.critical,
                                           layered=layered, staged=self.staged, derived=self.derived_stress,
                                           mirror=self.mirror_in_g2p, **flags,
-                                          **({"periodic_x": True} if periodic and flags["position"] else {}))
+                                          **({"periodic_x": True} if edges.periodic and flags["position"] else {}))
             return [Launch(k, n, [points, G, D, clock, mats, self.max_speed, self.status, work])]
 
         def xpic_smoothing():
@@ -388,7 +347,7 @@ class MPMSolver(ClockedStage):
         kinds = {b.kind for b in self.scene.boundaries.values()}
         images = (self.mirror_in_g2p and kinds <= {"fixed", "slip", "free"} and c.damping == 0.0
                   and not self._obstacle_ghosts())
-        if FOLD_IN_GRID_UPDATE and n < IMAGES_IN_KERNELS_POINTS and not periodic and not moving:
+        if FOLD_IN_GRID_UPDATE and n < IMAGES_IN_KERNELS_POINTS and not edges.unfused:
             # a fold launch right before a grid update that clears and re-maps nothing (or, with
             # images, the clearing one): the update folds its own node first
             for k in range(len(seq) - 1):

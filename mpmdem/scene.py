@@ -135,7 +135,6 @@ class Scene(SceneChecks):
             raise InputError("boundaries", sorted(unknown), f"sides among {', '.join(SIDES)}")
         self.boundaries = {s: as_boundary(s, self.boundaries.get(s, "slip")) for s in SIDES}
         check_sides(self.boundaries)
-        self._check_periodic_alone()
         if self.cell_size is not None:
             check_walls_on_grid_lines(self.domain, self.cell_size, self.boundaries)
 
@@ -143,17 +142,6 @@ class Scene(SceneChecks):
     def periodic_x(self) -> bool:
         """Whether x is periodic (left and right sides "periodic"): the MPM grid wraps around."""
         return self.boundaries["left"].kind == "periodic"
-
-    def _check_periodic_alone(self, what: str = "") -> None:
-        """InputError for a periodic scene with rigid bodies, grains or obstacles (``what``: the one
-        being added): the DEM stage, the coupling and the obstacle nodes know no periodic image."""
-        if not (self.boundaries.get("left") and self.periodic_x):
-            return
-        found = what or next((name for name, items in (("rigid bodies", self.rigid_bodies), ("grains", self.grains),
-                                                       ("obstacles", self.obstacles)) if items), "")
-        if found:
-            raise InputError("boundaries", "periodic", f"a scene of MPM bodies only: periodic x has no {found} "
-                             "(the DEM stage, the coupling and obstacles know no periodic image)")
 
     @property
     def cell_counts(self) -> tuple[int, int]:
@@ -277,7 +265,6 @@ class Scene(SceneChecks):
                     raise InputError(f"rigid body {name!r} size", (float(f"{bw:.6g}"), float(f"{bh:.6g}")),
                                      f"a free body no larger than the domain, {dw:g} x {dh:g} m (the size is the "
                                      "bounding box width x height of the rounded body at its initial angle)")
-        self._check_periodic_alone("rigid bodies")
         self.rigid_bodies.append(body)
         return body
 
@@ -338,7 +325,6 @@ class Scene(SceneChecks):
         if bx1 < x0 or bx0 > x1 or by1 < y0 or by0 > y1:
             raise InputError("shape", shape.to_dict(), f"an obstacle overlapping the domain {self.domain}")
         obstacle = Obstacle(shape, kind)
-        self._check_periodic_alone("obstacles")
         self.obstacles.append(obstacle)
         return obstacle
 
@@ -400,7 +386,6 @@ class Scene(SceneChecks):
             raise InputError(what.split(" ")[0], what, f"grains inside the domain {self.domain}: {int(out.sum())} "
                              f"of {len(grains)} grains would reach past it")
         self._check_grains_clear(grains)
-        self._check_periodic_alone("grains")
         self.grains.append(grains)
         return grains
 

@@ -109,17 +109,26 @@ def test_period_is_whole_cells():
         Scene(domain=((0.0, 0.0), (L + 0.3 * H, 0.06)), cell_size=H, boundaries=PERIODIC)
 
 
+def periodic_layer() -> Scene:
+    scene = Scene(domain=((0.0, 0.0), (L, 0.06)), cell_size=H, boundaries=PERIODIC)
+    scene.add_mpm_body(rectangle(0.0, 0.0, L, 0.02), STEEL_ISH)
+    return scene
+
+
 def test_periodic_scene_rejects_rigid_bodies_obstacles_and_granular_mode():
+    """Verify what knows no periodic image is an InputError before any kernel runs."""
     from mpmdem import sphero_disk
 
-    scene = Scene(domain=((0.0, 0.0), (L, 0.06)), cell_size=H, boundaries=PERIODIC)
+    scene = periodic_layer()
+    scene.add_rigid_body(sphero_disk(0.005), density=1000.0, position=(0.04, 0.04))
     with pytest.raises(InputError, match="rigid bodies"):
-        scene.add_rigid_body(sphero_disk(0.005), density=1000.0, position=(0.04, 0.03))
+        Simulation(scene, config(), device="cpu")
+    scene = periodic_layer()
+    scene.add_obstacle(rectangle(0.0, 0.03, 0.02, 0.04))
     with pytest.raises(InputError, match="obstacles"):
-        scene.add_obstacle(rectangle(0.0, 0.0, 0.02, 0.01))
-    scene.add_mpm_body(rectangle(0.0, 0.0, L, 0.02), STEEL_ISH)
+        Simulation(scene, config(), device="cpu")
     with pytest.raises(InputError, match="granular"):
-        Simulation(scene, config(granular=True), device="cpu")
+        Simulation(periodic_layer(), config(granular=True), device="cpu")
 
 
 def test_block_falling_along_x_keeps_the_energy_balance():
