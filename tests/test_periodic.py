@@ -34,11 +34,11 @@ def config(**kw) -> SolverConfig:
 
 
 @pytest.mark.parametrize("update, transfer", [("USL", "APIC"), ("MUSL", "FLIP"), ("USF", "PIC")])
-def test_block_crosses_the_seam_unchanged(update, transfer):
+def test_block_crosses_the_seam_unchanged(update, transfer, device):
     """Verify a translating block keeps its velocity and shape while it crosses x1 ≡ x0."""
     scene = Scene(domain=((0.0, 0.0), (L, 0.06)), cell_size=H, boundaries=PERIODIC)
     scene.add_mpm_body(rectangle(0.05, 0.02, 0.075, 0.04), STEEL_ISH, velocity=(0.5, 0.0), points_per_cell=2)
-    sim = Simulation(scene, config(update=update, transfer=transfer), device="cpu")
+    sim = Simulation(scene, config(update=update, transfer=transfer), device=device)
     x0, d0 = sim.fields()["x"], sim.diagnostics()
     sim.advance_to(0.1)  # 5 cm: from [5, 7.5] cm to [10, 12.5] ≡ [2, 4.5] cm
     f, d = sim.fields(), sim.diagnostics()

@@ -63,13 +63,13 @@ def test_moving_wall_bad_input(sides, parameter):
         Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=0.1, boundaries=boundaries)
 
 
-def test_block_on_a_moving_floor_rides_along():
+def test_block_on_a_moving_floor_rides_along(device):
     """Verify a block moving with a moving no-slip floor keeps the floor's velocity exactly."""
     scene = Scene(domain=((0.0, 0.0), (0.2, 0.05)), cell_size=0.01,
                   boundaries={"bottom": Boundary("fixed", velocity=0.3), "left": "free", "right": "free",
                               "top": "free"})
     scene.add_mpm_body(rectangle(0.02, 0.0, 0.08, 0.02), LinearElastic(1.0e5, 0.3, 1000.0), velocity=(0.3, 0.0))
-    sim = Simulation(scene, SolverConfig(precision="f64"), device="cpu")
+    sim = Simulation(scene, SolverConfig(precision="f64"), device=device)
     x0 = sim.fields()["x"]
     sim.advance_to(0.1)
     f = sim.fields()
