@@ -143,8 +143,17 @@ def steady_profile(cells: int) -> dict:
     top = z > z.max() - 0.25 * DEPTH / cells  # the surface row of points
     p, tau = pressure_and_tau(sim)
     core = (z > 0.25 * DEPTH) & (z < 0.75 * DEPTH)
+    # the inertial number of the core: du/dz between rows of points (2 a cell) and their pressure
+    mat = beads()
+    rows = np.round(z / (0.5 * DEPTH / cells) - 0.5).astype(int)
+    zr, ur, pr = (np.array([a[rows == r].mean() for r in np.unique(rows)]) for a in (z, u, p))
+    mid, rate = 0.5 * (zr[1:] + zr[:-1]), np.diff(ur) / np.diff(zr)
+    inside = (mid > 0.25 * DEPTH) & (mid < 0.75 * DEPTH)
+    inertial = mat.inertial_number(rate, 0.5 * (pr[1:] + pr[:-1]))[inside].mean()
+    mu = math.tan(math.radians(THETA))
     return {"mean": u.mean(), "mean_exact": exact.mean(), "surface": u[top].mean(),
-            "surface_exact": exact[top].mean(), "ratio": np.mean(tau[core]) / np.mean(p[core])}
+            "surface_exact": exact[top].mean(), "ratio": np.mean(tau[core]) / np.mean(p[core]),
+            "inertial": inertial, "inertial_exact": mat.i0 * (mu - mat.mu_s) / (mat.mu_2 - mu)}
 
 
 @pytest.fixture(scope="module")
@@ -152,9 +161,10 @@ def profiles() -> dict:
     return {cells: steady_profile(cells) for cells in (8, 16)}
 
 
-@pytest.mark.parametrize("what", ["mean", "surface"])
+@pytest.mark.parametrize("what", ["mean", "surface", "inertial"])
 def test_incline_converges_to_the_bagnold_profile(profiles, what):
-    """Verify the depth-averaged and surface velocities converge with the grid to Bagnold's."""
+    """Verify the depth-averaged and surface velocities, and the core's I (μ(I_θ) = tan θ), converge
+    with the grid to Bagnold's."""
     coarse, fine = profiles[8], profiles[16]
     e_coarse = coarse[what] / coarse[f"{what}_exact"] - 1.0
     e_fine = fine[what] / fine[f"{what}_exact"] - 1.0
