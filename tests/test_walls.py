@@ -63,17 +63,22 @@ def test_moving_wall_bad_input(sides, parameter):
         Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=0.1, boundaries=boundaries)
 
 
-def test_block_on_a_moving_floor_rides_along(device):
-    """Verify a block moving with a moving no-slip floor keeps the floor's velocity exactly."""
-    scene = Scene(domain=((0.0, 0.0), (0.2, 0.05)), cell_size=0.01,
-                  boundaries={"bottom": Boundary("fixed", velocity=0.3), "left": "free", "right": "free",
-                              "top": "free"})
-    scene.add_mpm_body(rectangle(0.02, 0.0, 0.08, 0.02), LinearElastic(1.0e5, 0.3, 1000.0), velocity=(0.3, 0.0))
-    sim = Simulation(scene, SolverConfig(precision="f64"), device=device)
+@pytest.mark.parametrize("side, update, transfer", [("bottom", "USL", "APIC"), ("left", "USL", "APIC"),
+                                                    ("right", "MUSL", "FLIP")])
+def test_block_on_a_moving_wall_rides_along(side, update, transfer, device):
+    """Verify a block moving with a moving no-slip wall (touching it) keeps the wall's velocity exactly."""
+    speed = 0.3 if side != "right" else -0.3
+    along = np.array([1.0, 0.0]) if side == "bottom" else np.array([0.0, 1.0])
+    block = {"bottom": (0.08, 0.0, 0.14, 0.02), "left": (0.0, 0.08, 0.02, 0.14), "right": (0.18, 0.08, 0.2, 0.14)}[side]
+    boundaries = {s: "free" for s in ("left", "right", "bottom", "top")}
+    boundaries[side] = Boundary("fixed", velocity=speed)
+    scene = Scene(domain=((0.0, 0.0), (0.2, 0.2)), cell_size=0.01, boundaries=boundaries)
+    scene.add_mpm_body(rectangle(*block), LinearElastic(1.0e5, 0.3, 1000.0), velocity=tuple(speed * along))
+    sim = Simulation(scene, SolverConfig(precision="f64", update=update, transfer=transfer), device=device)
     x0 = sim.fields()["x"]
     sim.advance_to(0.1)
     f = sim.fields()
     # a rigid translation at the wall's velocity meets the no-slip condition: the images reflect a
     # uniform U about U to U, so no shear reaches the block (a wall at rest would brake it)
-    np.testing.assert_allclose(f["v"][:, 0], 0.3, atol=1e-9)
-    np.testing.assert_allclose(f["x"][:, 0] - x0[:, 0], 0.03, atol=1e-9)
+    np.testing.assert_allclose(f["v"], np.tile(speed * along, (len(x0), 1)), atol=1e-9)
+    np.testing.assert_allclose(f["x"] - x0, np.tile(0.1 * speed * along, (len(x0), 1)), atol=1e-9)
