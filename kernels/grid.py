@@ -61,7 +61,8 @@ def make_boundary_condition(precision: str):
 #: WORK_SLOTS addresses to keep atomics uncontended; the host sums the slots at output frames.
 WORK_TERMS = ("work_boundary", "work_damping", "work_plastic", "work_inflow")
 WORK_PLASTIC = 2
-WORK_INFLOW = 3  # energy (kinetic + gravity) that released points bring into the scene
+WORK_INFLOW = 3  # energy (kinetic + gravity) that released points bring into the scene, and the
+# potential energy of points crossing a periodic side (``transfer.make_g2p``'s ``periodic_x``)
 WORK_SLOTS = 1024
 
 
@@ -114,11 +115,13 @@ def work_slot(term: int, i: int, j: int) -> int:
 
 
 @functools.cache
-def make_boundary(precision: str, bilateral_only: bool = False):
+def make_boundary(precision: str, bilateral_only: bool = False, moving: bool = False):
     """``boundary(v, D, i, j)``: the wall conditions of every side the node (i, j) is on or beyond.
 
     bilateral_only: apply only the fixed and slip (Dirichlet) conditions, not the unilateral
     Coulomb walls; used for the start-of-step velocity V (see make_grid_update).
+    moving: a fixed wall moves along itself at ``D.bc_speed`` [m/s] (along +x for bottom and top,
+    +y for left and right): its nodes take that velocity instead of zero.
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -126,7 +129,10 @@ def make_boundary(precision: str, bilateral_only: bool = False):
     apply_bc = make_boundary_condition(precision)
 
     @wp.func
-    def side(v: t.vec2, kind: int, mu: T, n: t.vec2):
+    def side(v: t.vec2, kind: int, mu: T, n: t.vec2, speed: T):
+        if wp.static(moving):
+            if kind == BC_FIXED:
+                return speed * t.vec2(wp.abs(n[1]), wp.abs(n[0]))  # (the wall's own velocity)
         if wp.static(bilateral_only):
             if kind == BC_FRICTION:
                 return v
@@ -136,13 +142,13 @@ def make_boundary(precision: str, bilateral_only: bool = False):
     def boundary(v: t.vec2, D: Domain, i: int, j: int):
         out = v
         if i <= D.node_lo[0]:
-            out = side(out, D.bc_kind[0], D.bc_mu[0], t.vec2(T(-1.0), T(0.0)))
+            out = side(out, D.bc_kind[0], D.bc_mu[0], t.vec2(T(-1.0), T(0.0)), D.bc_speed[0])
         if i >= D.node_hi[0]:
-            out = side(out, D.bc_kind[1], D.bc_mu[1], t.vec2(T(1.0), T(0.0)))
+            out = side(out, D.bc_kind[1], D.bc_mu[1], t.vec2(T(1.0), T(0.0)), D.bc_speed[1])
         if j <= D.node_lo[1]:
-            out = side(out, D.bc_kind[2], D.bc_mu[2], t.vec2(T(0.0), T(-1.0)))
+            out = side(out, D.bc_kind[2], D.bc_mu[2], t.vec2(T(0.0), T(-1.0)), D.bc_speed[2])
         if j >= D.node_hi[1]:
-            out = side(out, D.bc_kind[3], D.bc_mu[3], t.vec2(T(0.0), T(1.0)))
+            out = side(out, D.bc_kind[3], D.bc_mu[3], t.vec2(T(0.0), T(1.0)), D.bc_speed[3])
         return out
 
     return boundary
@@ -151,7 +157,8 @@ def make_boundary(precision: str, bilateral_only: bool = False):
 @functools.cache
 def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impulse: bool = False,
                      remap: bool = False, damping: bool = False, layered: bool = False, obstacles: bool = False,
-                     clear: bool = False, zero_remap: bool = False, fold: tuple = (), images: bool = False):
+                     clear: bool = False, zero_remap: bool = False, fold: tuple = (), images: bool = False,
+                     moving: bool = False):
     """Nodal velocity V = p/m, and/or Ṽ = V + dt (f/m + g), both with the wall conditions.
 
     fused_impulse: the momentum already holds p + dt f (USL + PIC), so Ṽ = p/m + dt g.
@@ -175,6 +182,7 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     reads what the update would put there (G2P reads the wall images from the interior,
     ``transfer.make_g2p``'s ``mirror``, and such walls do no work); in a clearing update their
     copies are cleared by the node that folds them, or by their own thread where none does.
+    moving: fixed walls move along themselves (``make_boundary``'s ``moving``); not with fold.
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -189,8 +197,10 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         fold_node, leave_ghost = folding.fold_node, folding.leave_ghost
     elif images:
         raise ValueError("make_grid_update: images needs fold (the ghosts' values reach the interior by it)")
-    boundary = make_boundary(precision)
-    dirichlet = make_boundary(precision, bilateral_only=True)
+    if moving and fold:
+        raise ValueError("make_grid_update: moving walls fold in their own launch (``make_fold_ghosts``)")
+    boundary = make_boundary(precision, moving=moving)
+    dirichlet = make_boundary(precision, bilateral_only=True, moving=moving)
 
     @wp.func
     def push(work: wp.array(dtype=wp.float64), wall: int, axis: int, i: int, j: int, value: T):
@@ -354,18 +364,18 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
 
 
 @functools.cache
-def make_xpic_grid(precision: str):
+def make_xpic_grid(precision: str, moving: bool = False):
     """(xpic_init, xpic_update) grid kernels of XPIC(m) ("Motion integration" eq. 39-40).
 
     (I − (I − S)^m) V = Σ_{k=1..m} (−1)^{k+1} C(m,k) S^k V with S = G P_m, and S^k V = G v*_k where
     v*_1 = P_m V is the nodal velocity and v*_k = P_m G v*_{k−1}. xpic_init sets v*_1 and the sum
     m v*_1; each xpic_update (after an xpic gather/scatter pair) normalises v*_k and adds
-    coef · v*_k. G2P then interpolates the sum (``Grid.vs``).
+    coef · v*_k. G2P then interpolates the sum (``Grid.vs``). moving: see ``make_boundary``.
     """
     t = scalar_types(precision)
     T = t.scalar
     Particles, Grid, Domain = make_state_structs(precision)
-    boundary = make_boundary(precision)
+    boundary = make_boundary(precision, moving=moving)
 
     @kernel
     def xpic_init(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), coef: float):

@@ -62,6 +62,7 @@ def make_state_structs(precision: str):
         node_hi: wp.vec2i
         bc_kind: wp.vec4i  # left, right, bottom, top: 0 fixed, 1 slip, 2 friction, 3 free
         bc_mu: t.vec4  # Coulomb coefficient of friction walls
+        bc_speed: t.vec4  # tangential speed of fixed walls [m/s]: along +y (left, right), +x (bottom, top)
         gravity: t.vec2  # [m/s²]
         gravity_ramp: wp.float64  # gravity grows linearly from 0 over this time [s] (0 = at once)
         mass_eps: t.scalar  # nodes lighter than this carry no velocity [kg/m]

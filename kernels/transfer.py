@@ -14,6 +14,7 @@ from .constitutive import make_derived_state, make_point_update
 from .granular import NO_LAYER, STATUS_DEEP_CLAIM, STATUS_LAYER_OVERFLOW, make_layer_row, slot_words
 from .granular.cells import make_cells
 from .grid import WORK_INFLOW, WORK_PLASTIC, make_keep_inside_walls, work_slot
+from .periodic import make_wrap_point
 from .reductions import make_speed_check
 from .shape_functions import CORNERS, SUPPORT_NODES, make_stencil
 from .state import make_state_structs
@@ -343,6 +344,7 @@ def make_g2p(
     derived: bool = False,
     mirror: bool = False,
     remap: bool = False,
+    periodic_x: bool = False,
 ):
     """G2P: particle velocity, affine matrix, position, and (optionally fused) stress update.
 
@@ -367,6 +369,7 @@ def make_g2p(
     point's new V_p and C_p are stored: m_p (V_p + C_p (x_i − x_p)) N_i into ``Grid.vm`` at the
     point's nodes (copies), the terms ``make_p2g(mass=False, momentum=True, remap=True)`` adds, in
     the same order per node (one launch fewer: a small scene's step is paid per launch).
+    periodic_x (with position): a point that left [x0, x1) wraps back (``periodic.make_wrap_point``).
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -395,6 +398,7 @@ def make_g2p(
     has_stress = stress != "none"
     speed_check = make_speed_check(precision)
     keep_inside_walls = make_keep_inside_walls(precision)
+    wrap_point = make_wrap_point(precision)
     if remap and (position or not velocity):
         raise ValueError("a G2P re-maps the momentum only after a velocity update that moves no point (MUSL)")
     remap_affine = remap and affine != "none"
@@ -575,6 +579,8 @@ def make_g2p(
             P.x[p] = x_old + P.tmp[p]
         if wp.static(position):
             P.x[p] = keep_inside_walls(P.x[p], D)  # no material past a wall, not even by round-off
+            if wp.static(periodic_x):
+                wrap_point(P, D, p, work)  # back into [x0, x1) (``periodic.make_wrap_point``)
         vol = T(0.0)
         if wp.static(has_stress):
             diss, vol = point_update(P, p, materials[P.material[p]], L, dt * T(stress_dt))

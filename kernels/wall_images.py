@@ -7,6 +7,11 @@ a complete support, and giving the ghosts their mirrors' velocities, reflected
 (``make_mirror_ghosts``, or read by G2P: ``make_mirrored_source``), makes the interpolated
 velocity meet the wall condition at the wall itself. Wide stencils (B-splines, GIMP) so keep their
 order of accuracy at walls.
+
+A fixed wall moving along itself at speed U (``moving``, ``Domain.bc_speed``) reflects velocities
+about U: an image carries 2U − v, so the fold adds 2U × the ghost's mass to the momentum and the
+mirror adds 2U to the reflected velocity. A moving wall has no corner with another wall
+(``mpmdem.model.boundaries.check_moving_walls``), so corner images never carry an offset.
 """
 
 import functools
@@ -92,7 +97,7 @@ def make_mirrored_source(layered: bool):
 
 
 @functools.cache
-def make_mirror_ghosts(precision: str, layered: bool = False, pair: bool = False):
+def make_mirror_ghosts(precision: str, layered: bool = False, pair: bool = False, moving: bool = False):
     """Ghost nodes beyond a fixed or slip wall take the mirrored velocity of the interior:
     ``mirror_ghosts(field, second, D, clock, owner)`` mirrors ``field``, and with ``pair`` also
     ``second`` (two fields in one launch; without it ``second`` is not read). Launched over the
@@ -104,12 +109,35 @@ def make_mirror_ghosts(precision: str, layered: bool = False, pair: bool = False
     at the wall itself, instead of clamping a whole layer of material to it. Mirror sources are
     clamped to the interior (boundary nodes included), so no thread reads a node another writes.
     layered (granular mode): a ghost copy mirrors the interior copy of the same component
-    (``owner``), zero if that component has none there.
+    (``owner``), zero if that component has none there. moving: a ghost beyond a moving fixed wall
+    takes 2U − v (the module docstring).
     """
     t = scalar_types(precision)
     T = t.scalar
     Domain = make_state_structs(precision)[2]
     find_row = _layer_row_find()
+
+    @wp.func
+    def wall_offset(D: Domain, i: int, j: int):
+        # 2U [m/s] of the moving fixed wall that ghost node (i, j) lies beyond (zero if none)
+        ox = T(0.0)
+        oy = T(0.0)
+        if i < D.node_lo[0] and D.bc_kind[0] == BC_FIXED:
+            oy = T(2.0) * D.bc_speed[0]
+        elif i > D.node_hi[0] and D.bc_kind[1] == BC_FIXED:
+            oy = T(2.0) * D.bc_speed[1]
+        if j < D.node_lo[1] and D.bc_kind[2] == BC_FIXED:
+            ox = T(2.0) * D.bc_speed[2]
+        elif j > D.node_hi[1] and D.bc_kind[3] == BC_FIXED:
+            ox = T(2.0) * D.bc_speed[3]
+        return t.vec2(ox, oy)
+
+    @wp.func
+    def reflect(v: t.vec2, D: Domain, i: int, j: int, sx: float, sy: float):
+        u = t.vec2(T(sx) * v[0], T(sy) * v[1])
+        if wp.static(moving):
+            u = u + wall_offset(D, i, j)
+        return u
 
     @wp.func
     def mirror(field: wp.array2d(dtype=t.vec2), D: Domain, owner: wp.array2d(dtype=wp.int32), i: int, j: int,
@@ -124,10 +152,10 @@ def make_mirror_ghosts(precision: str, layered: bool = False, pair: bool = False
                 v = t.vec2()
                 if src >= 0:
                     v = field[src, sj]
-                field[r, j] = t.vec2(T(sx) * v[0], T(sy) * v[1])
+                field[r, j] = reflect(v, D, i, j, sx, sy)
         else:
             v = field[si, sj]
-            field[i, j] = t.vec2(T(sx) * v[0], T(sy) * v[1])
+            field[i, j] = reflect(v, D, i, j, sx, sy)
 
     @kernel
     def mirror_ghosts(field: wp.array2d(dtype=t.vec2), second: wp.array2d(dtype=t.vec2), D: Domain,
@@ -164,7 +192,8 @@ def _image(i: int, lo: int, hi: int, kind_lo: int, kind_hi: int, n: int):
 
 @functools.cache
 def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, remap: bool = False,
-                   xpic: bool = False, layered: bool = False, clear_images: bool = False, clear_force: bool = True):
+                   xpic: bool = False, layered: bool = False, clear_images: bool = False, clear_force: bool = True,
+                   moving: bool = False):
     """``fold_node(G, D, i, j)``: fold what points put on the ghost images of node (i, j) back onto
     it (all its copies in use, granular mode); nothing at a node no ghost mirrors. The body of
     ``make_fold_ghosts``, and of a grid update that folds its own node first (``make_grid_update``'s
@@ -176,6 +205,8 @@ def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, r
     clear_images (a clearing grid update that leaves the ghosts alone, ``make_grid_update``'s
     ``images``): the ghost copies read are cleared here after the read (mass, momentum and, with
     clear_force, force: what the update would clear there), each by the one node that folds it.
+    moving: momenta (and XPIC's ``pk``) gathered across a moving fixed wall gain 2U × the ghost's
+    mass (the module docstring).
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -207,7 +238,19 @@ def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, r
         a[r, j] = v
 
     @wp.func
-    def fold_copy(G: Grid, D: Domain, r: int, i: int, j: int, gi: int, gj: int, kx: int, ky: int):
+    def drag(a: wp.array2d(dtype=t.vec2), G: Grid, r: int, j: int, rx: int, ry: int, gj: int, kx: int, ky: int,
+             ux: T, uy: T):
+        # a moving fixed wall's images carry 2U − v: 2U × the ghost's mass on top of the reflection
+        v = a[r, j]
+        if rx >= 0 and kx == BC_FIXED:
+            v = v + t.vec2(T(0.0), T(2.0) * ux * G.mass[rx, j])
+        if ry >= 0 and ky == BC_FIXED:
+            v = v + t.vec2(T(2.0) * uy * G.mass[ry, gj], T(0.0))
+        a[r, j] = v
+
+    @wp.func
+    def fold_copy(G: Grid, D: Domain, r: int, i: int, j: int, gi: int, gj: int, kx: int, ky: int, ux: T,
+                  uy: T):
         # node (i, j) of the grid, stored in row r (its copy's row in granular mode), gathers from
         # its images: gi (same column), gj (same row), both (−1: none); kx, ky the walls' kinds
         rx = int(-1)
@@ -240,12 +283,18 @@ def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, r
         if wp.static(momentum):
             if wp.static(remap):
                 fold_vec(G.vm, r, j, rx, ry, gj, rxy, kx, ky)
+                if wp.static(moving):
+                    drag(G.vm, G, r, j, rx, ry, gj, kx, ky, ux, uy)
             else:
                 fold_vec(G.mom, r, j, rx, ry, gj, rxy, kx, ky)
+                if wp.static(moving):
+                    drag(G.mom, G, r, j, rx, ry, gj, kx, ky, ux, uy)
         if wp.static(force):
             fold_vec(G.force, r, j, rx, ry, gj, rxy, kx, ky)
         if wp.static(xpic):
             fold_vec(G.pk, r, j, rx, ry, gj, rxy, kx, ky)
+            if wp.static(moving):
+                drag(G.pk, G, r, j, rx, ry, gj, kx, ky, ux, uy)
         if wp.static(clear_images):
             if rx >= 0:
                 clear_copy(G, rx, j)
@@ -273,14 +322,16 @@ def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, r
             return  # (most nodes: no ghost mirrors them)
         kx = D.bc_kind[wx]
         ky = D.bc_kind[2 + wy]
+        ux = D.bc_speed[wx]
+        uy = D.bc_speed[2 + wy]
         if wp.static(layered):
             for s in range(D.layers):
                 r = s * D.layer_rows + i
                 if G.owner[r, j] < 0:
                     break
-                fold_copy(G, D, r, i, j, gi, gj, kx, ky)
+                fold_copy(G, D, r, i, j, gi, gj, kx, ky, ux, uy)
         else:
-            fold_copy(G, D, i, i, j, gi, gj, kx, ky)
+            fold_copy(G, D, i, i, j, gi, gj, kx, ky, ux, uy)
 
     @wp.func
     def folded_by(G: Grid, D: Domain, i: int, j: int, r: int):
@@ -348,7 +399,7 @@ def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, r
 
 @functools.cache
 def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool, remap: bool = False,
-                     xpic: bool = False, layered: bool = False):
+                     xpic: bool = False, layered: bool = False, moving: bool = False):
     """Fold what points put on ghost nodes back onto their interior mirrors.
 
     This is the image-point method: a point near a fixed or slip wall has a mirror image beyond
@@ -362,7 +413,7 @@ def make_fold_ghosts(precision: str, *, mass: bool, momentum: bool, force: bool,
     """
     Particles, Grid, Domain = make_state_structs(precision)
     fold_node = make_fold_node(precision, mass=mass, momentum=momentum, force=force, remap=remap, xpic=xpic,
-                               layered=layered).fold_node
+                               layered=layered, **({"moving": True} if moving else {})).fold_node
 
     @kernel
     def fold_ghosts(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), band: wp.array(dtype=wp.vec2i)):

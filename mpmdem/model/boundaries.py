@@ -1,5 +1,5 @@
-"""The sides of a scene's domain: the condition on each (fixed, slip, Coulomb friction or free) and
-where a wall may lie."""
+"""The sides of a scene's domain: the condition on each (fixed, slip, Coulomb friction, free or
+periodic) and where a wall may lie."""
 
 from __future__ import annotations
 
@@ -9,10 +9,11 @@ from typing import Literal
 
 from ..errors import InputError
 
-__all__ = ["BOUNDARY_KINDS", "SIDES", "Boundary", "as_boundary", "check_walls_on_grid_lines"]
+__all__ = ["BOUNDARY_KINDS", "SIDES", "Boundary", "as_boundary", "check_moving_walls", "check_periodic_sides",
+           "check_sides", "check_walls_on_grid_lines"]
 
 SIDES = ("left", "right", "bottom", "top")
-BOUNDARY_KINDS = ("fixed", "slip", "friction", "free")
+BOUNDARY_KINDS = ("fixed", "slip", "friction", "free", "periodic")
 
 
 @dataclass(frozen=True)
@@ -21,22 +22,33 @@ class Boundary:
 
     Attributes:
         kind: "fixed" (no-slip, v = 0), "slip" (roller: no normal motion), "friction" (a wall that
-            points may leave, with Coulomb friction μ while pressed against it) or "free" (none).
+            points may leave, with Coulomb friction μ while pressed against it), "free" (none) or
+            "periodic" (left and right together: material leaving one side enters by the other,
+            ``kernels/periodic.py``).
         friction: Coulomb coefficient μ ≥ 0 of a "friction" wall.
+        velocity: speed [m/s] at which a "fixed" wall moves along itself (along +x for bottom and
+            top, +y for left and right): its nodes take that velocity, and the wall images reflect
+            about it (``kernels/wall_images.py``). A rough wall driving a shear flow; 0: at rest.
     """
 
-    kind: Literal["fixed", "slip", "friction", "free"] = "slip"
+    kind: Literal["fixed", "slip", "friction", "free", "periodic"] = "slip"
     friction: float = 0.0
+    velocity: float = 0.0
 
     def __post_init__(self):
         if self.kind not in BOUNDARY_KINDS:
             raise InputError("boundary kind", self.kind, f"one of {', '.join(BOUNDARY_KINDS)}")
         if not (math.isfinite(self.friction) and self.friction >= 0.0):
             raise InputError("friction", self.friction, "a coefficient of friction >= 0")
+        if not math.isfinite(self.velocity) or (self.velocity != 0.0 and self.kind != "fixed"):
+            raise InputError("velocity", self.velocity, "a finite wall speed [m/s], non-zero only on a fixed wall")
 
     @property
     def kind_id(self) -> int:
-        return BOUNDARY_KINDS.index(self.kind)
+        """The side's kind as the kernels number it (``kernels/wall_kinds.py``). A periodic side is
+        open to the grid update and the wall images (free); the periodic fold and copy
+        (``kernels/periodic.py``) join it to the opposite side."""
+        return BOUNDARY_KINDS.index("free" if self.kind == "periodic" else self.kind)
 
 
 def as_boundary(side: str, b) -> Boundary:
@@ -47,10 +59,43 @@ def as_boundary(side: str, b) -> Boundary:
     raise InputError(f"boundaries[{side!r}]", b, "a Boundary or one of " + ", ".join(BOUNDARY_KINDS))
 
 
+def check_sides(boundaries: dict) -> None:
+    """The checks of the four sides together: periodic pairs, moving walls' corners."""
+    check_periodic_sides(boundaries)
+    check_moving_walls(boundaries)
+
+
+def check_periodic_sides(boundaries: dict) -> None:
+    """Periodic sides come as the pair left and right (periodic in x); y is not periodic."""
+    left, right = (boundaries[s].kind == "periodic" for s in ("left", "right"))
+    for side in ("bottom", "top"):
+        if boundaries[side].kind == "periodic":
+            raise InputError(f"boundaries[{side!r}]", "periodic", "fixed, slip, friction or free (only x is periodic: "
+                             "left and right)")
+    if left != right:
+        side = "right" if left else "left"
+        raise InputError(f"boundaries[{side!r}]", boundaries[side].kind,
+                         "periodic, as the opposite side (periodic in x needs left and right both periodic)")
+
+
+def check_moving_walls(boundaries: dict) -> None:
+    """A moving wall's two neighbouring sides must be free or periodic: a corner image would
+    reflect about two wall velocities at once (``kernels/wall_images.py``)."""
+    for side, across in (("left", ("bottom", "top")), ("right", ("bottom", "top")), ("bottom", ("left", "right")),
+                         ("top", ("left", "right"))):
+        if boundaries[side].velocity == 0.0:
+            continue
+        for other in across:
+            if boundaries[other].kind not in ("free", "periodic"):
+                raise InputError(f"boundaries[{other!r}]", boundaries[other].kind,
+                                 f"free or periodic beside the moving {side} wall (no corner of two walls)")
+
+
 def check_walls_on_grid_lines(domain, cell_size: float, boundaries: dict) -> None:
     """A wall (fixed, slip or friction side) must lie on a grid line: the grid starts at the
     lower corner, so the right and top walls need a whole number of cells across. Rounding the
-    grid up instead would put the wall up to a cell beyond the side the user gave."""
+    grid up instead would put the wall up to a cell beyond the side the user gave. A periodic x
+    needs it too: the period is a whole number of cells."""
     (x0, y0), (x1, y1) = domain
     h = cell_size
     for side, lo, hi, axis in (("right", x0, x1, "x"), ("top", y0, y1, "y")):

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import InputError
 from .bodies import ContactLaw, RigidBody, make_rigid_body
-from .boundaries import SIDES, Boundary, as_boundary, check_walls_on_grid_lines
+from .boundaries import SIDES, Boundary, as_boundary, check_sides, check_walls_on_grid_lines
 from .grains import GrainSet, as_region, place_grains
 from .materials import Material
 from .probes import MassProbe, make_mass_probe
@@ -74,7 +74,8 @@ class Scene(SceneChecks):
         gravity: body acceleration (gx, gy) [m/s²].
         boundaries: side ("left", "right", "bottom", "top") → Boundary or kind name, the grid
             conditions of the MPM stage; sides not given are "slip". Rigid bodies meet walls
-            only as fixed bodies (``add_walls``).
+            only as fixed bodies (``add_walls``). "periodic" on left and right makes x periodic
+            (period x1 − x0, whole cells; MPM bodies only: no rigid bodies, grains or obstacles).
         gravity_ramp: gravity grows linearly from zero to its value over this time [s]
             (quasi-static loading; 0 applies it at once).
         contact: the DEM contact law (needed once there are rigid bodies).
@@ -133,8 +134,14 @@ class Scene(SceneChecks):
         if unknown:
             raise InputError("boundaries", sorted(unknown), f"sides among {', '.join(SIDES)}")
         self.boundaries = {s: as_boundary(s, self.boundaries.get(s, "slip")) for s in SIDES}
+        check_sides(self.boundaries)
         if self.cell_size is not None:
             check_walls_on_grid_lines(self.domain, self.cell_size, self.boundaries)
+
+    @property
+    def periodic_x(self) -> bool:
+        """Whether x is periodic (left and right sides "periodic"): the MPM grid wraps around."""
+        return self.boundaries["left"].kind == "periodic"
 
     @property
     def cell_counts(self) -> tuple[int, int]:
@@ -564,7 +571,8 @@ class Scene(SceneChecks):
             **({"allow_initial_overlap": True} if self.allow_initial_overlap else {}),
             "rigid_bodies": [b.to_dict() for b in self.rigid_bodies],
             **({"grains": [g.to_dict() for g in self.grains]} if self.grains else {}),
-            "boundaries": {s: {"kind": b.kind, "friction": b.friction} for s, b in self.boundaries.items()},
+            "boundaries": {s: {"kind": b.kind, "friction": b.friction,
+                               **({"velocity": b.velocity} if b.velocity else {})} for s, b in self.boundaries.items()},
             "obstacles": [{"kind": o.kind, "shape": o.shape.to_dict()} for o in self.obstacles],
             **({"mass_probes": [{"name": p.name, "lo": p.lo, "hi": p.hi} for p in self.mass_probes]}
                if self.mass_probes else {}),

@@ -72,12 +72,22 @@ class SceneChecks:
         names the deepest pair and its overlap; ``Scene(allow_initial_overlap=True)`` lets a
         deliberately pre-stressed pack through.
         """
+        self._check_periodic_alone()
         arrays = self.body_arrays()
         overlaps = self._initial_overlaps(arrays)
         if not self.allow_initial_overlap:
             self._check_initial_overlaps(*overlaps)
         self._check_points_outside_bodies(arrays)
         return self._named(*overlaps[:3])
+
+    def _check_periodic_alone(self) -> None:
+        """``validate``'s check that a periodic scene has MPM bodies only: the DEM stage, the coupling
+        and the obstacle nodes know no periodic image."""
+        found = [name for name, items in (("rigid bodies", self.rigid_bodies), ("grains", self.grains),
+                                          ("obstacles", self.obstacles)) if items]
+        if self.periodic_x and found:
+            raise InputError("boundaries", "periodic", f"a scene of MPM bodies only: periodic x has no {found[0]} "
+                             "(the DEM stage, the coupling and obstacles know no periodic image)")
 
     def _check_points_outside_bodies(self, arrays: RigidArrays) -> None:
         """``validate``'s check that no material point starts inside a rigid body."""

@@ -145,9 +145,12 @@ def check_energy(scene, config, t: float, d: dict, e0: dict, cause) -> None:
     # none); the whole fall would hide a gain of many impact energies of a short drop
     released = max(e0["energy_gravity"] - d["energy_gravity"], 0.0)
     scale = e0["energy_kinetic"] + stored + released + 0.05 * e0["mass"] * fall
-    # energy put in by driven (kinematic) bodies or brought by released points is not growth,
-    # and sets a scale of its own (the released mass falling through the domain, at most)
+    # energy put in by driven (kinematic) bodies or moving walls, or brought by released points (or
+    # across a periodic side) is not growth, and sets a scale of its own (the released mass falling
+    # through the domain, at most)
     driven = d.get("work_driven", 0.0) + d.get("work_inflow", 0.0)
+    if any(b.velocity != 0.0 for b in scene.boundaries.values()):
+        driven += d.get("work_boundary", 0.0)  # (moving walls drive the material too)
     inflow = max(d.get("mass", 0.0) - e0.get("mass", 0.0), 0.0) * fall
     scale = max(scale + abs(driven) + inflow, 1e-30)
     growth = d["energy_total"] - e0["energy_total"] - driven

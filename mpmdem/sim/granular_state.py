@@ -75,6 +75,9 @@ def static_extent(scene, config, host: dict, mats: list) -> np.ndarray:
 def make_interaction(scene, config, host: dict, mats: list, points, grid_shape, layer_rows: int, types, *,
                      staged: bool, device):
     """The interaction-graph struct of ``kernels/granular.py`` and the scan's tile totals."""
+    if scene.periodic_x:
+        raise InputError("granular", True, "False with periodic x boundaries (the domains of interaction and the "
+                         "component grids know no periodic image yet)")
     T = np.float32 if config.precision == "f32" else np.float64
     t = types
     n = len(host["mass"])

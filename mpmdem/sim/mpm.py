@@ -23,7 +23,6 @@ from ..kernels import granular as granular_kernels
 from ..kernels import grid as grid_kernels
 from ..kernels import reductions as reduction_kernels
 from ..kernels import transfer as transfer_kernels
-from ..kernels import wall_images as wall_image_kernels
 from ..kernels import xpic as xpic_kernels
 from ..kernels.shape_functions import SUPPORT_NODES
 from ..kernels.types import scalar_types
@@ -33,9 +32,10 @@ from . import diagnostics as diagnostics_
 from . import granular_state
 from .block_layout import BlockLayout
 from .cell_sort import PointSorter, device_order
+from .grid_edges import GridEdges
 from .launch_plan import ExtensionPoint, Launch, Zero, plan_blocks, plan_kernels, run_plan
 from .mpm_roles import GridUpdate, WallFold, last_grid_update, launches
-from .mpm_state import GHOST_NODES, STATE_FIELDS, initial_dt_bound, make_domain, make_grid, make_points, wall_band
+from .mpm_state import GHOST_NODES, STATE_FIELDS, initial_dt_bound, make_domain, make_grid, make_points
 from .stage import Clock, ClockedStage
 
 __all__ = ["AFTER_FORCE_UPDATE", "GHOST_NODES", "MPMSolver", "device_order", "initial_dt_bound"]
@@ -203,32 +203,15 @@ class MPMSolver(ClockedStage):
         # grid kernels run over the nodes of one layer (in granular mode they loop over the copies)
         grid_dim = (self.D.layer_rows, self.grid_shape[1])
         points, G, D, clock, mats, work = self.points, self.G, self.D, self.clock, self.materials, self.work
-        # image points at walls (kernels/wall_images.py: fold_ghosts, mirror_ghosts)
-        mirror_walls = any(b.kind != "free" for b in self.scene.boundaries.values())
-        layered = c.granular
-        mirror = wall_image_kernels.make_mirror_ghosts(prec, layered=layered)
-        # the wall images touch only the nodes near the grid's edge: their kernels run over those
-        band = wall_band(self.D.layer_rows, self.grid_shape[1]) if mirror_walls else np.zeros((1, 2), np.int32)
-        self.wall_band = wp.array(band, dtype=wp.vec2i, device=self.device)
-        band_dim = len(band)
-        mirror_pair = wall_image_kernels.make_mirror_ghosts(prec, layered=layered, pair=True)
+        # the wall images and the periodic images at the grid's edges (mpmdem/sim/grid_edges.py)
         #: G2P reads the wall images itself (``transfer.make_g2p``'s ``mirror``): USL and MUSL,
         #: where only G2P reads the mirrored velocities, not XPIC's passes or Liu's exchange
-        self.mirror_in_g2p = (mirror_walls and MIRROR_IN_G2P and c.update in ("USL", "MUSL") and not s.xpic
-                              and not (self.coupled and c.coupling == "liu") and n < IMAGES_IN_KERNELS_POINTS)
-
-        def fold(**flags):
-            if not mirror_walls:
-                return []
-            kernel = wall_image_kernels.make_fold_ghosts(prec, layered=layered, **flags)
-            return [WallFold(Launch(kernel, band_dim, [G, D, clock, self.wall_band]), flags)]
-
-        def mirrored(*fields):
-            if not mirror_walls or not fields or self.mirror_in_g2p:
-                return []
-            if len(fields) == 2:  # (V and Ṽ in one launch)
-                return [Launch(mirror_pair, band_dim, [fields[0], fields[1], D, clock, G.owner, self.wall_band])]
-            return [Launch(mirror, band_dim, [f, f, D, clock, G.owner, self.wall_band]) for f in fields]
+        edges = GridEdges(self, grid_dim, mirror_in_g2p=(
+            MIRROR_IN_G2P and c.update in ("USL", "MUSL") and not s.xpic and not (self.coupled and c.coupling == "liu")
+            and n < IMAGES_IN_KERNELS_POINTS))
+        self.wall_band, self.mirror_in_g2p = edges.wall_band, edges.mirror_in_g2p
+        fold, mirrored, moving = edges.fold, edges.mirrored, edges.moving
+        layered = c.granular
 
         tile = self.p2g_tile()
         rows = self.p2g_rows(tile)
@@ -256,7 +239,8 @@ class MPMSolver(ClockedStage):
             def make(clear=False, zero_remap=False, fold=(), images=False):
                 return grid_kernels.make_grid_update(prec, damping=c.damping > 0.0, layered=layered,
                                                      obstacles=bool(self.scene.obstacles), clear=clear,
-                                                     zero_remap=zero_remap, fold=fold, images=images, **flags)
+                                                     zero_remap=zero_remap, fold=fold, images=images, **flags,
+                                                     **moving)
 
             if flags.get("remap"):
                 fields = [G.vm]
@@ -271,7 +255,8 @@ class MPMSolver(ClockedStage):
             k = transfer_kernels.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds,
                                           density_control=c.density_control, critical=self.critical,
                                           layered=layered, staged=self.staged, derived=self.derived_stress,
-                                          mirror=self.mirror_in_g2p, **flags)
+                                          mirror=self.mirror_in_g2p, **flags,
+                                          **({"periodic_x": True} if edges.periodic and flags["position"] else {}))
             return [Launch(k, n, [points, G, D, clock, mats, self.max_speed, self.status, work])]
 
         def xpic_smoothing():
@@ -279,7 +264,7 @@ class MPMSolver(ClockedStage):
             if not s.xpic:
                 return []
             m = c.xpic_order
-            init, update = grid_kernels.make_xpic_grid(prec)
+            init, update = grid_kernels.make_xpic_grid(prec, **moving)
             gather = xpic_kernels.make_xpic_gather(c.shape, prec)
             scatter = xpic_kernels.make_xpic_scatter(c.shape, prec, deterministic=c.deterministic)
             out = [Launch(init, grid_dim, [G, D, clock, float(m)])]
@@ -348,7 +333,7 @@ class MPMSolver(ClockedStage):
         kinds = {b.kind for b in self.scene.boundaries.values()}
         images = (self.mirror_in_g2p and kinds <= {"fixed", "slip", "free"} and c.damping == 0.0
                   and not self._obstacle_ghosts())
-        if FOLD_IN_GRID_UPDATE and n < IMAGES_IN_KERNELS_POINTS:
+        if FOLD_IN_GRID_UPDATE and n < IMAGES_IN_KERNELS_POINTS and not edges.unfused:
             # a fold launch right before a grid update that clears and re-maps nothing (or, with
             # images, the clearing one): the update folds its own node first
             for k in range(len(seq) - 1):

@@ -126,6 +126,7 @@ def make_domain(scene: Scene, config: SolverConfig, layers: int, min_mass: float
     bcs = [scene.boundaries[s] for s in ("left", "right", "bottom", "top")]
     domain.bc_kind = wp.vec4i(*[b.kind_id for b in bcs])
     domain.bc_mu = t.vec4(*[b.friction for b in bcs])
+    domain.bc_speed = t.vec4(*[b.velocity for b in bcs])
     domain.gravity = t.vec2(*scene.gravity)
     domain.gravity_ramp = float(scene.gravity_ramp)
     domain.mass_eps = t.scalar(1.0e-12 * min_mass)
