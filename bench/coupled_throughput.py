@@ -47,8 +47,8 @@ split (``split_imp_rebuilds``, ``split_dem_rebuilds``). ``--granular`` runs both
 Nothing about time is asserted.
 
     python bench/coupled_throughput.py --device cpu --steps 5
-    python bench/coupled_throughput.py --device cuda --out bench/results/coupled_throughput.jsonl
-    python bench/coupled_throughput.py --device cuda --granular --out bench/results/coupled_throughput.jsonl
+    python bench/coupled_throughput.py --device cuda --out bench/results/coupled_throughput/h100.jsonl
+    python bench/coupled_throughput.py --device cuda --granular --out bench/results/coupled_throughput/h100.jsonl
 """
 
 from __future__ import annotations
