@@ -3,7 +3,7 @@
 * ``on_config``: the Gallery section of the navigation gets one page per case of
   ``cases/__init__.py``'s ``CASES``, in its order.
 * ``on_files``: adds, without copying them into docs/,
-  - ``bench/README.md`` (the benchmark scripts and their tables) and ``bench/results/validation/h100.md``
+  - ``bench/README.md`` (how to run the benchmark scripts) and ``bench/results/validation/h100.md``
     (the committed ``mpmdem validate`` table) as pages, and every PNG under
     ``bench/results/`` as a picture at the same path (``bench/results/...``), so pages link to the
     committed charts where they are;
