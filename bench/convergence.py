@@ -8,7 +8,7 @@ the centre-of-mass velocity from the analytic one over 40 frames, relative to it
 Warp's kernel compilation (or its cache load).
 
 Prints one JSON line per run, then a table of the observed order log2(e_h / e_{h/2}) per
-refinement; writes the lines to bench/results/convergence.jsonl and a log-log plot of error
+refinement; writes the lines to bench/results/convergence/cpu.jsonl (whatever the device) and a log-log plot of error
 against h (one line per shape, a slope-2 guide) to ``--png``.
 
     python bench/convergence.py                      # cpu, cells 8,16,32,64
@@ -92,13 +92,13 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--device", default="cpu", help="cpu, cuda or cuda:N (default cpu)")
     parser.add_argument("--cells", default="8,16,32,64", help="comma-separated cells along the bar")
-    parser.add_argument("--png", type=Path, default=RESULTS / "convergence.png", help="plot file")
+    parser.add_argument("--png", type=Path, default=RESULTS / "convergence" / "cpu.png", help="plot file")
     args = parser.parse_args(argv)
     cells = sorted(int(c) for c in args.cells.split(","))
 
     RESULTS.mkdir(parents=True, exist_ok=True)
     rows = []
-    with (RESULTS / "convergence.jsonl").open("w") as out:
+    with (RESULTS / "convergence" / "cpu.jsonl").open("w") as out:
         for shape in SHAPE_FUNCTIONS:
             for c in cells:
                 row = run_one(shape, c, args.device)

@@ -28,9 +28,9 @@ family, its floor dashed, its roofline dotted). One JSON line per run on stdout 
 appends them). Nothing about time is asserted.
 
     python bench/cost_vs_size.py --device cpu --sizes 1000,10000,100000 --steps 30 --warmup 5 \
-        --out bench/results/cost_vs_size_cpu.jsonl
-    python bench/cost_vs_size.py --plot bench/results/cost_vs_size_cpu.jsonl --png bench/results/cost_vs_size_cpu.png
-    python bench/cost_vs_size.py --device cuda --out bench/results/cost_vs_size_h100.jsonl
+        --out bench/results/cost_vs_size/cpu.jsonl
+    python bench/cost_vs_size.py --plot bench/results/cost_vs_size/cpu.jsonl --png bench/results/cost_vs_size/cpu.png
+    python bench/cost_vs_size.py --device cuda --out bench/results/cost_vs_size/h100.jsonl
 """
 
 from __future__ import annotations

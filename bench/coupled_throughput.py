@@ -12,7 +12,7 @@ the grid walls hold the points, the points hold the bodies. That is what a user 
 ``--walls`` adds what a user who also wants the bodies kept in the box would add: fixed wall bodies
 on the left, right and bottom (``Scene.add_walls``, thickness 3.5h), with the sand then kept one
 cell off them. It is off by default: a wall's bounding circle spans the box, so in each point–body
-list rebuild its 32 lanes scan every grid cell (see bench/README.md). Gravity (0, −9.81) m/s².
+list rebuild its 32 lanes scan every grid cell (see docs/bench-history.md). Gravity (0, −9.81) m/s².
 
 For each (size N, bodies B) two runs: "plain" (the same points, material, config and fixed dt, no
 rigid body at all) and "coupled". Both use the same fixed dt, a quarter of the smallest of the
@@ -47,8 +47,8 @@ split (``split_imp_rebuilds``, ``split_dem_rebuilds``). ``--granular`` runs both
 Nothing about time is asserted.
 
     python bench/coupled_throughput.py --device cpu --steps 5
-    python bench/coupled_throughput.py --device cuda --out bench/results/coupled_throughput.jsonl
-    python bench/coupled_throughput.py --device cuda --granular --out bench/results/coupled_throughput.jsonl
+    python bench/coupled_throughput.py --device cuda --out bench/results/coupled_throughput/h100.jsonl
+    python bench/coupled_throughput.py --device cuda --granular --out bench/results/coupled_throughput/h100.jsonl
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ steps between two device synchronisations. One JSON line per (size, mode) on std
 (``--out FILE`` appends them). Nothing about time is asserted.
 
     python bench/coupling_overhead.py --device cpu --sizes 4096 --steps 5
-    python bench/coupling_overhead.py --device cuda --out bench/results/coupling_overhead.jsonl
+    python bench/coupling_overhead.py --device cuda --out bench/results/coupling_overhead/h100.jsonl
 """
 
 from __future__ import annotations

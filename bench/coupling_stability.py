@@ -57,11 +57,11 @@ The default sweep (2 scenes × 2 ppc × 2 r_p × 7 k_n × 11 dt + 56 refinements
 about 3 min on 2 CPU cores (``--jobs 2``, one process per core); ``--quick`` (2 × 1 × 1 × 4 × 5
 + refinements) about 15 s.
 
-    python bench/coupling_stability.py                       # default sweep, cpu, writes bench/results/
+    python bench/coupling_stability.py           # default sweep, cpu, writes bench/results/coupling_stability/
     python bench/coupling_stability.py --quick --out /tmp/cs.json --png /tmp/cs.png
     python bench/coupling_stability.py --scenes lone-point --ppc 2 --out /tmp/lp.json --png /tmp/lp.png
     python bench/coupling_stability.py --device cuda --cells-per-radius 8 --ppc 2,4,6
-    python bench/coupling_stability.py --replot bench/results/coupling_stability.json
+    python bench/coupling_stability.py --replot bench/results/coupling_stability/cpu.json
 """
 
 from __future__ import annotations
@@ -520,8 +520,8 @@ def main(argv=None) -> int:
     p.add_argument("--jobs", type=int, default=None, help="CPU processes (default: 2 on cpu, 1 on cuda)")
     p.add_argument("--gpus", type=int, default=0, help="one worker per GPU, pinned (the study runner's cluster)")
     p.add_argument("--scheduler", default=None, help="a running Dask cluster's address (e.g. dask-jobqueue)")
-    p.add_argument("--out", type=Path, default=RESULTS / "coupling_stability.json")
-    p.add_argument("--png", type=Path, default=RESULTS / "coupling_stability.png")
+    p.add_argument("--out", type=Path, default=RESULTS / "coupling_stability" / "cpu.json")
+    p.add_argument("--png", type=Path, default=RESULTS / "coupling_stability" / "cpu.png")
     p.add_argument("--replot", type=Path, default=None, help="draw the map from this JSON; run nothing")
     args = p.parse_args(argv)
     if args.replot:

@@ -15,7 +15,7 @@ explicit-dashpot factor, see mpmdem.sim.dem.dem_time_step_bound), each run is cl
 ``r_paper`` is the same dt over eq. 51 taken literally (with the smallest body mass m_min).
 Writes JSON lines to --out and a map PNG to --png. CPU, f64; about a minute on 2 cores.
 
-    python bench/dem_stability.py --out bench/results/dem_stability.jsonl --png bench/results/dem_stability.png
+    python bench/dem_stability.py --out bench/results/dem_stability/cpu.jsonl --png bench/results/dem_stability/cpu.png
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ are compiled. Only datasets are hashed (attributes hold dates), less the wall-ti
 diagnostic and the counts of list rebuilds and relabels (``*_rebuilds``, ``*_relabels``): how often
 a step rebuilt what it reuses is how it was computed, not what it computed, and a change of the
 reuse that keeps every result (the node-range moves of Granular MPM) changes them. Fingerprints
-taken before that rule (``results/fingerprint_d0820bc.jsonl``) hash them too.
+taken before that rule (``results/fingerprint/cpu_d0820bc.jsonl``) hash them too.
 """
 
 from __future__ import annotations

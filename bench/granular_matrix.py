@@ -19,7 +19,7 @@ of the full-rate one, and ``rate_modulus_ratio`` (half-rate modulus / full-rate 
 PREFIX.png: left, force against settlement per fines content (half-rate runs dashed); right, the
 modulus against the fines content (half-rate runs as open markers).
 
-    python bench/granular_matrix.py --device cuda          # the study: bench/results/granular_matrix.*
+    python bench/granular_matrix.py --device cuda --out bench/results/granular_matrix/h200   # the study (H200)
     python bench/granular_matrix.py --quick --device cpu   # the quick size, about 15 s on 2 CPU cores
 
 Each run's own files (HDF5, summary.json) go to results/<name>_runs/<label>/ (PREFIX_runs/<label>/
@@ -140,13 +140,13 @@ def main(argv=None) -> int:
     p.add_argument("--half-rate", choices=("ends", "all", "none"), default="ends",
                    help="which contents run again at half the bar speed")
     p.add_argument("--out", default=None,
-                   help="PREFIX of PREFIX.jsonl / PREFIX.png (default bench/results/granular_matrix, "
-                        "_quick with --quick)")
+                   help="PREFIX of PREFIX.jsonl / PREFIX.png (default bench/results/granular_matrix/full, "
+                        "quick with --quick)")
     p.add_argument("case_args", nargs="*", help="more flags for the case, after --")
     args = p.parse_args(argv)
     fines = [float(v) for v in args.fines.split(",") if v.strip()]
     name = "granular_matrix_quick" if args.quick else "granular_matrix"
-    prefix = Path(args.out or ROOT / "bench" / "results" / name)
+    prefix = Path(args.out or ROOT / "bench" / "results" / "granular_matrix" / ("quick" if args.quick else "full"))
     prefix.parent.mkdir(parents=True, exist_ok=True)
     # the runs' own files (HDF5, summary.json, energy.csv): beside --out, else in the ignored results/
     runs = prefix.parent / f"{prefix.name}_runs" if args.out else ROOT / "results" / f"{name}_runs"

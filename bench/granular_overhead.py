@@ -40,7 +40,7 @@ take the same steps. Each run is warmed up (kernel compilation, CUDA-graph captu
 then ``--steps`` steps run between two device synchronisations. Nothing about time is asserted.
 
 Issue targets (on the GPU, 262k and 1M points): granular ≤ 1.5 × plain on the dense column and ≤ 3 ×
-plain on the dispersed cloud. The GPU figures go to ``bench/results/granular_overhead.jsonl``.
+plain on the dispersed cloud. The GPU figures go to ``bench/results/granular_overhead/h100.jsonl``.
 
 One JSON line per (scene, size, mode) on stdout (``--out FILE`` appends them to FILE), plain
 first; the granular line carries ``components`` (``components_start`` before the timed steps),
@@ -50,7 +50,7 @@ stderr at the end.
 
     python bench/granular_overhead.py --device cpu --sizes 4096 --steps 5
     python bench/granular_overhead.py --device cpu --check
-    python bench/granular_overhead.py --device cuda --out bench/results/granular_overhead.jsonl
+    python bench/granular_overhead.py --device cuda --out bench/results/granular_overhead/h100.jsonl
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ The µs per node of a chain times a scene's nodes per step is the least its step
 GPU whatever each kernel does; bench/step_profile.py gives the nodes and the kernels' own times.
 One JSON line per chain (case, device, nodes, threads, replays, us_per_node). Nothing is asserted.
 
-    python bench/launch_floor.py --device cuda --out bench/results/launch_floor_h100.jsonl
+    python bench/launch_floor.py --device cuda --out bench/results/launch_floor/h100.jsonl
 """
 
 from __future__ import annotations

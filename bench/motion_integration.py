@@ -37,7 +37,7 @@ Warp's CPU kernels are single-threaded; each run is timed inside its own process
 compiled; 22.6 min with one process on a first run that also compiled the kernels and wrote
 frames for both cases (about a quarter of its time went to the writes). The
 first compile of each new kernel variant adds ~1-5 s (``warmup_seconds``). ``--smoke`` runs
-2 schemes × 2 orders × κ 0.5, 2.5 × quick only (~6 s) and writes ``*_smoke`` files.
+2 schemes × 2 orders × κ 0.5, 2.5 × quick only (~6 s) and writes ``cpu_smoke*`` files.
 
 Writes one JSON line per run to stdout and ``--out``, a Pareto chart (error vs wall time of the
 stable runs, each scheme's Pareto front highlighted; per case one panel for its own error and one for
@@ -47,8 +47,11 @@ filled and its band of wall times shaded as the stable region) to ``--pareto`` a
 
     python bench/motion_integration.py --smoke                    # ~6 s on a CPU
     python bench/motion_integration.py                            # the full sweep, cpu, ~9 min
-    python bench/motion_integration.py --device cuda --default-cfl all
-    python bench/motion_integration.py --replot bench/results/motion_integration.jsonl
+    python bench/motion_integration.py --device cuda --default-cfl all \
+        --out bench/results/motion_integration/h100.jsonl \
+        --pareto bench/results/motion_integration/h100_pareto.png \
+        --stability bench/results/motion_integration/h100_stability.png
+    python bench/motion_integration.py --replot bench/results/motion_integration/cpu.jsonl
 """
 
 from __future__ import annotations
@@ -605,19 +608,21 @@ def main(argv=None) -> None:
     parser.add_argument("--scheduler", default=None, help="a running Dask cluster's address (e.g. dask-jobqueue)")
     parser.add_argument("--end-time-scale", type=float, default=1.0, help="multiplies the cases' end times")
     parser.add_argument("--smoke", action="store_true",
-                        help="2 schemes × 2 orders × κ 0.5, 2.5 × quick only (writes *_smoke files)")
+                        help="2 schemes × 2 orders × κ 0.5, 2.5 × quick only (writes cpu_smoke* files)")
     parser.add_argument("--out", type=Path, default=None,
-                        help="JSON lines file (default bench/results/motion_integration.jsonl)")
-    parser.add_argument("--pareto", type=Path, default=None, help="default bench/results/motion_pareto.png")
-    parser.add_argument("--stability", type=Path, default=None, help="default bench/results/motion_stability.png")
+                        help="JSON lines file (default bench/results/motion_integration/cpu.jsonl)")
+    parser.add_argument("--pareto", type=Path, default=None,
+                        help="default bench/results/motion_integration/cpu_pareto.png")
+    parser.add_argument("--stability", type=Path, default=None,
+                        help="default bench/results/motion_integration/cpu_stability.png")
     parser.add_argument("--replot", type=Path, default=None, help="draw the charts from this JSONL; run nothing")
     args = parser.parse_args(argv)
     if args.jobs is None:
         args.jobs = min(2, os.cpu_count() or 1) if args.device == "cpu" else 1
     suffix = "_smoke" if args.smoke else ""
-    args.out = args.out or RESULTS / f"motion_integration{suffix}.jsonl"
-    args.pareto = args.pareto or RESULTS / f"motion_pareto{suffix}.png"
-    args.stability = args.stability or RESULTS / f"motion_stability{suffix}.png"
+    args.out = args.out or RESULTS / "motion_integration" / f"cpu{suffix}.jsonl"
+    args.pareto = args.pareto or RESULTS / "motion_integration" / f"cpu{suffix}_pareto.png"
+    args.stability = args.stability or RESULTS / "motion_integration" / f"cpu{suffix}_stability.png"
     if args.smoke:
         names = list(mpmdem.TRANSFER_SCHEMES)
         args.schemes = args.schemes or ",".join([s for s in ("APIC", "FLIP") if s in names] or names[:2])

@@ -19,7 +19,7 @@ Neo-Hookean stress fused; grid update; G2P), f32, fixed dt equal to mpmdem's fir
 (κ h / c). On CUDA its step is captured as a graph too, as mpmdem's is.
 
     python bench/mpm_throughput.py --device cpu
-    python bench/mpm_throughput.py --device cuda --out bench/results/throughput.jsonl
+    python bench/mpm_throughput.py --device cuda --out bench/results/mpm_throughput/h100.jsonl
 """
 
 from __future__ import annotations

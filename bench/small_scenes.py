@@ -12,13 +12,14 @@ STEPS_PER_GRAPH steps on CUDA, no output, no host reads). The
 targets of issue 27 are per step, so a fixed number of steps measures them; a case's full run is
 ``steps`` of its own end time.
 
-One JSON line per case to stdout and to ``--out`` (default bench/results/small_scenes.jsonl,
+One JSON line per case to stdout and to ``--out`` (default bench/results/small_scenes/h100.jsonl,
 appended): case, device, points, bodies, granular, steps, seconds (stepping only), us_per_step,
 the case's end time and dt (so its full run is end_time / dt steps), and how often the step's
 conditional parts ran (``list_rebuilds_per_step``, ``imp_rebuilds_per_step``, ``granular_rebuilds_per_step``,
 ``granular_relabels_per_step``, where the scene has them). Nothing is asserted.
 
     python bench/small_scenes.py --device cuda
+    python bench/small_scenes.py --device cuda --out bench/results/small_scenes/h200.jsonl   # another machine
     python bench/small_scenes.py --device cpu --steps 200 --cases silo-discharge
 """
 
@@ -105,7 +106,7 @@ def main(argv=None) -> int:
     p.add_argument("--steps", type=int, default=5000, help="timed steps per case")
     p.add_argument("--steps-per-graph", type=int, default=None,
                    help="steps per CUDA-graph launch (default mpmdem.sim.simulation.STEPS_PER_GRAPH; 1: one per step)")
-    p.add_argument("--out", type=Path, default=RESULTS / "small_scenes.jsonl")
+    p.add_argument("--out", type=Path, default=RESULTS / "small_scenes" / "h100.jsonl")
     args, flags = p.parse_known_args(argv)
     if args.steps_per_graph is not None:
         simulation.STEPS_PER_GRAPH = args.steps_per_graph

@@ -16,7 +16,7 @@ others run, on a state that no longer changes): the drop is what those kernels a
 overlaps included. Also written: ``emptied``, ``launches_per_step`` (kernel launches emptied in one
 step as recorded; those inside a conditional node count whether or not it runs) and those kernels
 by name. One JSON line per case on
-stdout and to ``--out`` (appended). Nothing is asserted.
+stdout and to ``--out`` (appended; default bench/results/step_floor/h100.jsonl). Nothing is asserted.
 
     python bench/step_floor.py --device cuda --cases normal-force,silo-filling
 """
@@ -96,7 +96,7 @@ def main(argv=None) -> int:
     p.add_argument("--steps", type=int, default=5000, help="timed steps per case")
     p.add_argument("--empty", default="", help="empty only the kernels whose Warp key this regular expression "
                    "finds (default: every kernel); the time then falls by what those kernels add")
-    p.add_argument("--out", type=Path, default=RESULTS / "step_floor.jsonl")
+    p.add_argument("--out", type=Path, default=RESULTS / "step_floor" / "h100.jsonl")
     args, flags = p.parse_known_args(argv)
     if not wp.get_device(args.device).is_cuda:
         p.error("--device: the floor is that of a CUDA graph; give a CUDA device")

@@ -69,7 +69,7 @@
 # the floor at first contact), the least-squares slope over MODULUS_STRAIN = 1-4 % after contact (past
 # the seating on the highest pentagons, before the overlaps approach r_d).
 #
-# What it gives (2 CPU cores; bench/results/granular_matrix_cpu.jsonl/.png, `bench/granular_matrix.py
+# What it gives (2 CPU cores; bench/results/granular_matrix/cpu.jsonl/.png, `bench/granular_matrix.py
 # --device cpu`): modulus 263, 342, 445, 602 kPa for F = 0, 0.1, 0.2, 0.3 (fines 0, 1.9, 3.7, 5.5 % of
 # the solid mass): more fines, stiffer, as the paper finds; force at 3 cm 12.9-24.8 kN/m. Half rate
 # (2.5 cm/s): curves within 2.4 % (F = 0) and 1.3 % (F = 0.3) RMS, modulus ratio 1.10 and 1.00; kinetic

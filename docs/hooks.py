@@ -3,7 +3,7 @@
 * ``on_config``: the Gallery section of the navigation gets one page per case of
   ``cases/__init__.py``'s ``CASES``, in its order.
 * ``on_files``: adds, without copying them into docs/,
-  - ``bench/README.md`` (the benchmark scripts and their tables) and ``bench/results/validation.md``
+  - ``bench/README.md`` (how to run the benchmark scripts) and ``bench/results/validation/h100.md``
     (the committed ``mpmdem validate`` table) as pages, and every PNG under
     ``bench/results/`` as a picture at the same path (``bench/results/...``), so pages link to the
     committed charts where they are;
@@ -29,10 +29,11 @@ DOCS = ROOT / "docs"
 
 # Full-size results of a case elsewhere in the site: (text, link from a gallery page, chart or None).
 RESULTS = {
-    "slope-flow": ("The full-length CPU run", None, "bench/results/slope_flow.png"),
-    "avalanche": ("The full-length CPU run", None, "bench/results/avalanche.png"),
-    "silo-filling": ("The full-length CPU run", None, "bench/results/silo_filling.png"),
-    "toyoura-flume": ("The full-length CPU run (load-cell force history)", None, "bench/results/toyoura_flume.png"),
+    "slope-flow": ("The full-length CPU run", None, "bench/results/cases/slope_flow/cpu.png"),
+    "avalanche": ("The full-length CPU run", None, "bench/results/cases/avalanche/cpu.png"),
+    "silo-filling": ("The full-length CPU run", None, "bench/results/cases/silo_filling/cpu.png"),
+    "toyoura-flume": ("The full-length CPU run (load-cell force history)", None,
+                      "bench/results/cases/toyoura_flume/cpu.png"),
     "silo-discharge": ("The GPU study `mpmdem study beverloo`",
                        "../studies/index.md#silo-discharge-mpm-sdem-53-fig-16",
                        "bench/results/studies/beverloo/beverloo_rate.png"),
@@ -43,15 +44,15 @@ RESULTS = {
                         "../studies/index.md#column-collapse-motion-integration-5",
                         "bench/results/studies/column-collapse/column_collapse_runout.png"),
     "granular-matrix": ("The fines study `bench/granular_matrix.py` (H200)",
-                        "../studies/index.md#granular-matrix-mpm-sdem-7", "bench/results/granular_matrix.png"),
+                        "../studies/index.md#granular-matrix-mpm-sdem-7", "bench/results/granular_matrix/h200.png"),
     "axial-bar": ("Spatial convergence per shape function, `bench/convergence.py`",
-                  "../benchmarks.md", "bench/results/convergence.png"),
+                  "../benchmarks.md", "bench/results/convergence/cpu.png"),
     "rotating-disk": ("Every transfer scheme and update order, `bench/motion_integration.py`",
-                      "../benchmarks.md", "bench/results/motion_pareto_h100.png"),
+                      "../benchmarks.md", "bench/results/motion_integration/h100_pareto.png"),
     "bouncing-disk": ("Every transfer scheme and update order, `bench/motion_integration.py`",
-                      "../benchmarks.md", "bench/results/motion_pareto_h100.png"),
+                      "../benchmarks.md", "bench/results/motion_integration/h100_pareto.png"),
     "disk-drop": ("The coupled time step's stability map, `bench/coupling_stability.py`",
-                  "../benchmarks.md", "bench/results/coupling_stability.png"),
+                  "../benchmarks.md", "bench/results/coupling_stability/cpu.png"),
 }
 
 
@@ -150,7 +151,7 @@ def case_page(name: str, module: str, checks: dict[str, str], gallery: dict) -> 
 
 
 def on_files(files, config, **kwargs):
-    pages = [ROOT / "bench" / "README.md", ROOT / "bench" / "results" / "validation.md"]
+    pages = [ROOT / "bench" / "README.md", ROOT / "bench" / "results" / "validation" / "h100.md"]
     for path in [*pages, *sorted((ROOT / "bench" / "results").rglob("*.png"))]:
         uri = path.relative_to(ROOT).as_posix()
         files.append(File.generated(config, uri, abs_src_path=str(path), inclusion=InclusionLevel.INCLUDED))

@@ -39,14 +39,14 @@ PREFERRED = {
 }
 # Committed charts for cases that cannot run in the time limit on a CPU (or that fail).
 FALLBACKS = {
-    "slope-flow": "bench/results/slope_flow.png",
-    "avalanche": "bench/results/avalanche.png",
-    "silo-filling": "bench/results/silo_filling.png",
-    "toyoura-flume": "bench/results/toyoura_flume.png",
+    "slope-flow": "bench/results/cases/slope_flow/cpu.png",
+    "avalanche": "bench/results/cases/avalanche/cpu.png",
+    "silo-filling": "bench/results/cases/silo_filling/cpu.png",
+    "toyoura-flume": "bench/results/cases/toyoura_flume/cpu.png",
     "column-collapse": "bench/results/studies/column-collapse/column_collapse_runout.png",
     "sand-blocks": "bench/results/studies/block-impact/block_impact_orientation.png",
     "silo-discharge": "bench/results/studies/beverloo/beverloo_rate.png",
-    "granular-matrix": "bench/results/granular_matrix.png",
+    "granular-matrix": "bench/results/granular_matrix/h200.png",
 }
 
 

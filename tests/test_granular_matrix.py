@@ -135,7 +135,7 @@ def test_bench_script_quick(tmp_path):
     assert (tmp_path / "gm.png").stat().st_size > 0
 
 
-@pytest.mark.parametrize("table", ["granular_matrix.jsonl", "granular_matrix_cpu.jsonl"])
+@pytest.mark.parametrize("table", ["granular_matrix/h200.jsonl", "granular_matrix/cpu.jsonl"])
 def test_more_fines_a_stiffer_matrix(table):
     """MPM-SDEM §7: a higher fine percentage makes the matrix less compressible. On the committed full
     runs (bench/granular_matrix.py, F = 0, 0.1, 0.2, 0.3 of the voids) the apparent modulus rises at

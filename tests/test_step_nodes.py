@@ -1,10 +1,10 @@
 """A step's graph nodes (issue 27): small scenes are paid per node, so their count is guarded.
 
 On an H100 every dependent node of a captured step costs at least 1.2 µs and a skipped conditional
-node 4.8 µs (bench/launch_floor.py, bench/results/launch_floor_h100.jsonl), whatever it computes; a
+node 4.8 µs (bench/launch_floor.py, bench/results/launch_floor/h100.jsonl), whatever it computes; a
 small scene's step (bench/small_scenes.py) is a few tens of such nodes. The counts below are those
 of this code (bench/step_nodes.py, listed on the CPU as a CUDA graph records them); a change that
-adds a node to these steps must show its H100 figure in bench/README.md and raise the bound here.
+adds a node to these steps must show its H100 figure in docs/bench-history.md and raise the bound here.
 """
 
 from __future__ import annotations

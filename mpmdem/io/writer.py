@@ -59,7 +59,7 @@ class _Appender:
     """Appends frames to one frame-stacked dataset (first axis: frames) with h5py's low-level calls:
     the same bytes as ``ds.resize`` and ``ds[i] = value``, without their selection machinery
     (about 80 µs a call, which a frame of ~100 diagnostics paid twice each: most of a small scene's
-    frame writing, bench/README.md)."""
+    frame writing, docs/bench-history.md)."""
 
     def __init__(self, ds: h5py.Dataset):
         self.id = ds.id

@@ -34,10 +34,10 @@ FILE_OVERHEAD_BYTES = 200_000
 #: the world outline of a body in the XDMF view of each frame: ~64 points × 3 float64
 OUTLINE_BYTES_PER_BODY = 64 * 3 * 8
 #: a lower bound for any scene's GPU step [s], under the fastest step measured (normal-force,
-#: bench/results/small_scenes.jsonl; docs/benchmarks.md)
+#: bench/results/small_scenes/h100.jsonl; docs/benchmarks.md)
 GPU_STEP_FLOOR_S = 25e-6
 #: the fastest CPU rate measured: 4.3e6 point-steps per second, plain MPM on a dense column of
-#: 16,200 points (bench/results/granular_overhead_cpu.jsonl)
+#: 16,200 points (bench/results/granular_overhead/cpu.jsonl)
 CPU_POINT_STEPS_PER_S = 4.3e6
 #: a run is announced when even its fastest step takes longer than this in all [s]
 LONG_RUN_S = 3600.0
