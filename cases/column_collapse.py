@@ -73,6 +73,7 @@ import numpy as np
 
 from mpmdem import Boundary, MohrCoulomb, MuI, Scene, rectangle
 from mpmdem.case import CaseSetup
+from mpmdem.cases import _column_grains
 from mpmdem.flag_types import count_at_least, given, interval, positive
 from mpmdem.validation import Check
 
@@ -110,6 +111,8 @@ POINTS_PER_CELL = 2  # per direction: 2 × 2 points per cell, as the paper's N_m
 #: d of --material mu-i [m]: millimetre grains, the order of the channel experiments' (not read from
 #: Lube et al. or Lajeunesse et al. here); ρs = ρ / SOLID_FRACTION
 GRAIN_DIAMETER = 1.0e-3
+#: --sand dem: mean grain radius [m], d = GRAIN_DIAMETER (the header)
+GRAIN_RADIUS = 0.5 * GRAIN_DIAMETER
 SOLID_FRACTION = 0.6
 STOP_FRACTION = 0.01  # the flow has stopped once E_k stays below this fraction of its peak
 
@@ -157,8 +160,9 @@ def add_arguments(parser):
     parser.add_argument("--width", type=positive("m"), default=0.2, help="initial width L0 of the column [m]")
     parser.add_argument("--cells-per-width", type=count_at_least(2), default=None,
                         help="grid cells across L0 (default 10; 8 with --quick)")
-    parser.add_argument("--floor", choices=("friction", "fixed"), default="friction",
-                        help="friction: Coulomb floor with mu = tan(phi) (default); fixed: no-slip floor")
+    parser.add_argument("--floor", choices=("friction", "fixed", "rough"), default=None,
+                        help="friction: Coulomb floor with mu = tan(phi) (default with --sand mpm); fixed: no-slip "
+                             "floor (mpm only); rough: a row of glued grains (dem only, its default)")
     parser.add_argument("--youngs-modulus", type=positive("Pa"), default=YOUNGS_MODULUS,
                         help="E of the grains' continuum [Pa]")
     parser.add_argument("--critical-density-ratio", type=interval(0.0, 1.0), default=CRITICAL_DENSITY_RATIO,
@@ -168,6 +172,16 @@ def add_arguments(parser):
                              "mu_s, mu_2, I0 with --grain-diameter)")
     parser.add_argument("--grain-diameter", type=positive("m"), default=GRAIN_DIAMETER,
                         help=f"d of --material mu-i [m] (default {GRAIN_DIAMETER})")
+    parser.add_argument("--sand", default="mpm", choices=("mpm", "dem"),
+                        help="the column as Granular MPM points (mpm, the default) or as DEM grains (dem)")
+    parser.add_argument("--grain-radius", type=positive("m"), default=GRAIN_RADIUS,
+                        help=f"--sand dem: mean grain radius [m] (default {GRAIN_RADIUS}: d of --material mu-i)")
+    parser.add_argument("--grain-shape", default="disk", choices=("disk", "polygon"),
+                        help="--sand dem: sphero-disks (default) or rounded random pentagons")
+    parser.add_argument("--seed", type=count_at_least(0), default=1, help="--sand dem: seed of the grains")
+    parser.add_argument("--settle-max", type=positive("s"), default=None,
+                        help="--sand dem: the longest the grains settle behind the gate [s] (default 8 free falls "
+                             "through the lattice they start on; they stop earlier once at rest)")
 
 
 def _check(args):
@@ -183,6 +197,10 @@ def _check(args):
         raise InputError("--youngs-modulus", args.youngs_modulus, "E > 0 [Pa]")
     if not (math.isfinite(args.critical_density_ratio) and 0.0 <= args.critical_density_ratio <= 1.0):
         raise InputError("--critical-density-ratio", args.critical_density_ratio, "a ratio in (0, 1], or 0 for none")
+    dem = getattr(args, "sand", "mpm") == "dem"
+    args.floor = given(getattr(args, "floor", None), "rough" if dem else "friction")
+    if args.floor == "rough" and not dem:
+        raise InputError("--floor", "rough", "friction or fixed with --sand mpm: rough (glued grains) needs --sand dem")
 
 
 def _cells(args) -> int:
@@ -208,6 +226,8 @@ def material(args) -> MohrCoulomb | MuI:
 
 def build(args) -> CaseSetup:
     _check(args)
+    if args.sand == "dem":
+        return _column_grains.build(args)
     a, w = args.aspect_ratio, args.width
     h = w / _cells(args)
     height = a * w
@@ -279,6 +299,8 @@ def motion_energy(times: np.ndarray, positions: list[np.ndarray], mass: np.ndarr
 
 
 def summarize(sim, result, args) -> dict:
+    if getattr(args, "sand", "mpm") == "dem":
+        return _column_grains.summarize(sim, result, args)
     a, w = args.aspect_ratio, args.width
     h = sim.scene.cell_size
     half = 0.5 * h / POINTS_PER_CELL  # half the initial point spacing: a point's domain reaches that far
