@@ -14,9 +14,10 @@ from mpmdem.grain_deposit import connected_front, flank_angle, surface_profile
 
 KN = 1.0e6  # N/m per m, the silo's grains (cases/silo_discharge.py)
 KT = KN / 20.0  # the silo's k_t / k_n (MPM-SDEM Table 3's ratio)
-#: the loose lattice the grains are placed on, in units of the column's height a L0: tall enough to
-#: hold the grains of the settled column (φ 0.82 against the lattice's ~0.65), trimmed to them
-LATTICE = 1.5
+#: the loose lattice the grains are placed on, in units of the column's height a L0, per grain shape:
+#: tall enough to hold the grains of the settled column (φ 0.82 against the disks' lattice's ~0.65;
+#: a pentagon's lattice cell is its bounding circle's, ~1.4 × its area), trimmed to them
+LATTICE = {"disk": 1.5, "polygon": 2.2}
 #: the box's length beyond the column, in units of Lube's larger runout fit (as the MPM box, wider)
 BOX_RUNOUT = 2.0
 #: wall plates' thickness, in L0
@@ -40,7 +41,7 @@ def _box(args) -> tuple[float, float]:
     """(length, height) [m] of the grains' domain: the column's reach, and the lattice's height."""
     a, w = args.aspect_ratio, args.width
     reach = (1.0 + BOX_RUNOUT * max(1.2 * a, 1.9 * a ** (2.0 / 3.0))) * w
-    return reach, LATTICE * a * w + 4.0 * args.grain_radius
+    return reach, LATTICE[args.grain_shape] * a * w + 4.0 * args.grain_radius
 
 
 def _scene(args, gate: bool) -> Scene:

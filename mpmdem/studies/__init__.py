@@ -23,6 +23,8 @@ STUDIES = {
     "block-impact-ensemble": "block_impact:ENSEMBLE",
     "column-collapse": "column_collapse",
     "column-collapse-mu-i": "column_collapse:MU_I",
+    "column-collapse-dem": "column_collapse_dem",
+    "column-collapse-dem-seeds": "column_collapse_dem:SEEDS",
     "disk-restitution": "disk_restitution",
 }
 

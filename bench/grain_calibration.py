@@ -1,0 +1,112 @@
+"""The DEM grains as a continuum (issue 43 §2): friction angle, bulk density, packing fraction and
+coordination of the cases' sphero-disks, from the column-collapse-dem studies' runs.
+
+    python bench/grain_calibration.py [STUDY_DIR ...] [--out FILE] [--max-a A]
+
+Reads every completed run's summary.json under STUDY_DIR/runs/ (default: the committed
+bench/results/studies/column-collapse-dem-seeds and column-collapse-dem) and writes FILE (default
+bench/results/studies/grain-calibration/calibration.json), per grain radius:
+
+* friction_angle_deg: the angle of the collapse deposits' flank (``mpmdem.grain_deposit.flank_angle``,
+  a least-squares line between 80 % and 20 % of the deposit's height at the wall) over the runs with
+  a ≤ --max-a (default 0.5: a short column's deposit is a heap left by a slide, not spread by a
+  flow); its value is the mean over runs (seeds), its uncertainty the runs' standard deviation and
+  the standard error of the mean. For a cohesionless material the angle of repose stands for the
+  Mohr–Coulomb / Drucker–Prager φ (Coulomb's infinite slope). A deposit that stops after flowing
+  sets its flank at the angle at which a flow stops, at or below the static angle at which a heap
+  starts to flow, so this φ is a lower bound on the static one. The flank angle at every a is kept
+  (``flank_angle_by_a``): taller columns spread flatter deposits.
+* packing_fraction, bulk_density [kg/m³], coordination: the settled columns' (``mpmdem.packing``),
+  mean ± standard deviation over every run.
+* cost: per run, grains, steps, the run's and the settling's wall time [s], the device, and
+  body-steps per second.
+
+Prints the JSON. Needs no GPU (it reads results).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from mpmdem.studies.run_summaries import load_runs  # noqa: E402
+
+STUDIES = ("column-collapse-dem-seeds", "column-collapse-dem")
+OUT = ROOT / "bench" / "results" / "studies" / "grain-calibration" / "calibration.json"
+
+
+def spread(values) -> dict | None:
+    """mean, standard deviation (ddof 1; None for one value), standard error of the mean and count."""
+    v = np.asarray([x for x in values if x is not None], dtype=float)
+    if not len(v):
+        return None
+    sd = float(v.std(ddof=1)) if len(v) > 1 else None
+    return {"mean": float(v.mean()), "std": sd, "stderr": sd / math.sqrt(len(v)) if sd is not None else None,
+            "n": len(v)}
+
+
+def calibrate(runs: list[dict], max_a: float = 0.5) -> dict:
+    """The calibration of the module docstring from the runs' summaries (completed --sand dem runs)."""
+    done = [r for r in runs if r.get("status") == "completed" and r.get("sand") == "dem"]
+    out = {}
+    for radius in sorted({r["grain_radius_m"] for r in done}):
+        at = [r for r in done if r["grain_radius_m"] == radius]
+        short = [r for r in at if r["aspect_ratio"] <= max_a + 1e-12 and r["flank_angle_deg"] is not None]
+        angle = spread(r["flank_angle_deg"] for r in short)
+        settled = [r["settled"] for r in at]
+        cost = [{"run": r["run"], "a": r["aspect_ratio"], "grains": r["grains"], "steps": r["steps"],
+                 "wall_seconds": r["wall_seconds"], "settle_wall_seconds": r["settled"].get("wall_seconds"),
+                 "settle_time_s": r["settled"]["time"], "simulated_s": r["end_time"], "device": r["device"],
+                 "body_steps_per_second": r["bodies"] * r["steps"] / r["wall_seconds"]} for r in at]
+        by_a = {}
+        for a in sorted({r["aspect_ratio"] for r in at}):
+            by_a[str(a)] = spread(r["flank_angle_deg"] for r in at if r["aspect_ratio"] == a)
+        out[f"{radius:g}"] = {
+            "grain_radius_m": radius, "grain_diameter_mean_m": at[0]["grain_diameter_mean_m"],
+            "width_in_diameters": sorted({round(r["width_in_diameters"], 1) for r in at}),
+            "grain_density": at[0]["grain_density"], "grain_friction": at[0]["grain_friction"],
+            "restitution": at[0]["restitution"], "normal_stiffness": at[0]["normal_stiffness"],
+            "tangential_stiffness": at[0]["tangential_stiffness"], "shape": at[0]["grain_shape"],
+            "friction_angle_deg": angle, "friction_angle_runs": [r["run"] for r in short],
+            "friction_angle_fit_stderr_deg": spread(r["flank_angle_stderr_deg"] for r in short),
+            "tan_friction_angle": math.tan(math.radians(angle["mean"])) if angle else None,
+            "flank_angle_by_a": by_a,
+            "packing_fraction": spread(s["packing_fraction"] for s in settled),
+            "bulk_density": spread(s["bulk_density"] for s in settled),
+            "coordination": spread(s["coordination"] for s in settled),
+            "cost": cost,
+        }
+    return out
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("studies", nargs="*", help="study folders (default: the committed column-collapse-dem ones)")
+    p.add_argument("--out", default=str(OUT), help=f"the JSON to write (default {OUT.relative_to(ROOT)})")
+    p.add_argument("--max-a", type=float, default=0.5, help="the tallest column whose deposit gives the angle")
+    args = p.parse_args(argv)
+    folders = [Path(s) for s in args.studies] or [ROOT / "bench" / "results" / "studies" / s for s in STUDIES]
+    runs = [r | {"study": str(f)} for f in folders if f.is_dir() for r in load_runs(f)]
+    if not runs:
+        print(f"grain_calibration: no runs under {', '.join(map(str, folders))}", file=sys.stderr)
+        return 2
+    result = {"source": [str(f) for f in folders if f.is_dir()], "max_aspect_ratio_for_angle": args.max_a,
+              "method": __doc__.split("\n\n", 2)[2].split("\n\nPrints")[0],
+              "per_grain_radius": calibrate(runs, args.max_a)}
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=2) + "\n")
+    print(json.dumps(result["per_grain_radius"], indent=1)[:4000])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
