@@ -104,7 +104,11 @@ def main(argv=None) -> int:
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result, indent=2) + "\n")
-    print(json.dumps(result["per_grain_radius"], indent=1)[:4000])
+    for key, c in result["per_grain_radius"].items():
+        angle, phi = c["friction_angle_deg"], c["packing_fraction"]
+        print(json.dumps({"grain_radius_m": key, "friction_angle_deg": angle and [angle["mean"], angle["std"]],
+                          "packing_fraction": [phi["mean"], phi["std"]], "bulk_density": c["bulk_density"]["mean"],
+                          "coordination": c["coordination"]["mean"], "runs": len(c["cost"])}))
     return 0
 
 

@@ -64,6 +64,26 @@
 # Lajeunesse et al. at a = 3). The final height converges too and matches Lube for a ≤ 1, but stays
 # at 1.2-1.5 L0 for a ≥ 2, where Lube has a^(2/5) (1.74 at a = 4, 2.30 at a = 8): the deposits are
 # flatter than the experiments'.
+#
+# --sand dem (cases/_column_grains.py; issue 43): the column as free DEM sphero-disks (Scene.add_grains)
+# of mean radius --grain-radius, ±15 %; the default 0.5 mm makes d = GRAIN_DIAMETER = 1 mm, the grain of
+# --material mu-i (millimetre grains, the order of the channel experiments'; their sizes were not read).
+# The grain material is the silo's (mpmdem.gated_grains: μ = 0.5, e = 0.5, k_n = 1e6 N/m per m,
+# k_t = k_n/20), with ρ_s = ρ / 0.82 so that the settled column has the continuum's bulk density ρ. The
+# grains are placed on a loose lattice 1.5 a L0 tall, trimmed to the lowest ones whose area is
+# 0.82 a L0² (those settle to a L0), settled behind a frictionless gate at x = L0 and released at t = 0
+# (the gate gone at once, as the continuum starts). The wall at x = 0 is frictionless (the symmetry
+# plane); the floor is a row of glued disks of the mean radius, touching (--floor rough, the default:
+# a rough floor, as the experiments'), or a flat plate with μ = tan φ (--floor friction).
+# The summary has the MPM run's fields, read from the grains: the front is ``deposit_front`` on the
+# grains' masses in bins of two mean diameters (the same threshold thickness), beside the connected
+# front (the last grain reached from the wall through gaps under two diameters) and the farthest
+# grain; H_f is the top of the grains within two diameters of the wall; the stop time is read from
+# the motion of the grains inside the connected front (a disk thrown past it rolls on: disks have no
+# rolling resistance). Beside them: the settled column's packing fraction, bulk density and mean
+# coordination number, and the angle of the deposit's flank (mpmdem.grain_deposit.flank_angle: the
+# angle of repose of the grain calibration, bench/grain_calibration.py). What it gives:
+# bench/results/studies/column-collapse-dem/ and grain-calibration/.
 """Granular column collapse (Motion integration §5): runout, final height and stop time against Lube et al. 2005."""
 
 import math
