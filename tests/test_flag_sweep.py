@@ -17,6 +17,7 @@ ALLOWED = {
     ("*", "--flip-fraction", "0"): "the blended schemes at pure PIC",
     ("block-on-incline", "--friction", "0"): "a frictionless incline",
     ("column-collapse", "--critical-density-ratio", "0"): "no critical density",
+    ("column-collapse", "--seed", "0"): "a random seed",
     ("disk-collision", "--restitution", "0"): "a perfectly plastic impact",
     ("disk-collision", "--friction", "0"): "a frictionless pair",
     ("friction-force", "--grid-index", "0"): "the first of the paper's four grids",
