@@ -20,6 +20,11 @@ KT = KN / 20.0  # the silo's k_t / k_n (MPM-SDEM Table 3's ratio)
 LATTICE = {"disk": 1.5, "polygon": 2.2}
 #: the box's length beyond the column, in units of Lube's larger runout fit (as the MPM box, wider)
 BOX_RUNOUT = 2.0
+#: --floor ledge: the box's length (to the pit's far wall), in L0
+PIT_LENGTH = 2.5
+#: --floor ledge: the run is this many times the collapse's (the heap left on the ledge creeps to rest in
+#: ~20 sqrt(a L0 / g): disks roll without resistance)
+HEAP_RUN = 5.0
 #: wall plates' thickness, in L0
 WALL = 0.1
 #: --sand dem: the solver's choices (no grid)
@@ -38,17 +43,24 @@ def check(args) -> None:
 
 
 def _box(args) -> tuple[float, float]:
-    """(length, height) [m] of the grains' domain: the column's reach, and the lattice's height."""
+    """(length, height) [m] of the grains' domain above the floor: the column's reach (the pit's far
+    wall with --floor ledge), and the lattice's height."""
     a, w = args.aspect_ratio, args.width
-    reach = (1.0 + BOX_RUNOUT * max(1.2 * a, 1.9 * a ** (2.0 / 3.0))) * w
+    reach = PIT_LENGTH * w if args.floor == "ledge" else (1.0 + BOX_RUNOUT * max(1.2 * a, 1.9 * a ** (2.0 / 3.0))) * w
     return reach, LATTICE[args.grain_shape] * a * w + 4.0 * args.grain_radius
+
+
+def pit_depth(args) -> float:
+    """Depth [m] of the pit beyond the ledge (--floor ledge; 0 otherwise): twice the column's height, at
+    least 0.3 L0; the grains that fall in (at most the column's area) pile up lower than the ledge."""
+    return max(2.0 * args.aspect_ratio, 0.3) * args.width if args.floor == "ledge" else 0.0
 
 
 def _scene(args, gate: bool) -> Scene:
     """The box for grains: a frictionless wall at x = 0 (the symmetry plane, as the MPM case's slip
     wall), a frictionless lid and far wall, and the floor: a row of fixed disks of the mean grain
-    radius, touching, centred on y = 0 (rough), or a flat plate with μ = tan φ (friction); ``gate``:
-    a frictionless plate at x = L0 holds the column."""
+    radius, touching, centred on y = 0 (rough), or a flat plate with μ = tan φ (friction), or the rough
+    floor ending at x = L0 over a pit (ledge); ``gate``: a frictionless plate at x = L0 holds the column."""
     from mpmdem.cases.column_collapse import FRICTION_ANGLE
 
     length, height = _box(args)
@@ -56,15 +68,20 @@ def _scene(args, gate: bool) -> Scene:
     t = WALL * w
     contact = ContactLaw(KN, KT, restitution=gated_grains.RESTITUTION)
     # (the domain reaches a grain radius past the walls: a grain pressed on a wall overlaps it a little)
-    scene = Scene(domain=((-r, -r), (length + r, height + r)), gravity=(0.0, -9.81), contact=contact)
+    pit = pit_depth(args)
+    scene = Scene(domain=((-r, -r - pit), (length + r, height + r)), gravity=(0.0, -9.81), contact=contact)
     plates = [("left", t, height + 2 * t, (-0.5 * t, 0.5 * height), 0.0),
-              ("right", t, height + 2 * t, (length + 0.5 * t, 0.5 * height), 0.0),
+              ("right", t, height + pit + 2 * t, (length + 0.5 * t, 0.5 * (height - pit)), 0.0),
               ("lid", length + 2 * t, t, (0.5 * length, height + 0.5 * t), 0.0)]
+    if args.floor == "ledge":  # the ledge's face under the last glued disk, and the pit's floor
+        plates += [("ledge", t, pit - r, (w - 0.5 * t, -0.5 * (pit + r)), 0.0),
+                   ("pit", length - w + 2 * t, t, (0.5 * (w + length), -pit - 0.5 * t), gated_grains.GRAIN_FRICTION)]
     if args.floor == "friction":
         plates.append(("floor", length + 2 * t, t, (0.5 * length, -0.5 * t), math.tan(math.radians(FRICTION_ANGLE))))
     else:
         disk = sphero_disk(r)
-        for k in range(int(math.ceil(length / (2.0 * r))) + 1):
+        end = w - r if args.floor == "ledge" else length
+        for k in range(int(math.floor(end / (2.0 * r) + 1e-9)) + 1):
             scene.add_rigid_body(disk, density=1000.0, position=(2.0 * r * k, 0.0), motion="fixed",
                                  friction=gated_grains.GRAIN_FRICTION, name=f"floor{k}")
     if gate:
@@ -76,8 +93,8 @@ def _scene(args, gate: bool) -> Scene:
 
 
 def floor_top(args) -> float:
-    """y [m] of the floor's top: the glued disks' top r (rough), 0 (friction)."""
-    return args.grain_radius if args.floor == "rough" else 0.0
+    """y [m] of the floor's top: the glued disks' top r (rough, ledge), 0 (friction)."""
+    return 0.0 if args.floor == "friction" else args.grain_radius
 
 
 def build(args) -> CaseSetup:
@@ -114,7 +131,7 @@ def build(args) -> CaseSetup:
               f"packing fraction {packing.packing_fraction:.3f}, bulk density {packing.bulk_density:.0f} kg/m^3, "
               f"height {top - y0:.4g} m (a = {(top - y0) / w:.3g})", file=sys.stderr)
     tau = collapse_time(args)
-    end = (6.0 if args.quick else 7.0) * tau
+    end = (6.0 if args.quick else 7.0) * tau * (HEAP_RUN if args.floor == "ledge" else 1.0)
     return CaseSetup(scene, end_time=end, frames=60 if args.quick else 70, config=dict(DEFAULTS_DEM))
 
 
@@ -143,20 +160,23 @@ def summarize(sim, result, args) -> dict:
         positions = [np.asarray(rf.body_field("x", k), dtype=float)[k0:] for k in range(rf.frame_count)]
     x0, x1 = positions[0], positions[-1]
     y0 = floor_top(args)
+    # --floor ledge: the heap is what stays on the ledge (the grains in the pit lie below y = 0)
+    kept = x1[:, 1] > 0.0 if args.floor == "ledge" else np.ones(len(x1), bool)
+    xk, mk, rk = x1[kept], mass[kept], r[kept]
     # the front as the MPM summary reads it (cc.deposit_front), on bins of two grain diameters
-    length = cc.deposit_front(x1, mass, cc.DENSITY, 2.0 * d, 0.0, cc.FRONT_THICKNESS * w)
-    connected = connected_front(x1, r, 0.0, 2.0 * d)
-    farthest = float((x1[:, 0] + r).max())
-    near_wall = x1[:, 0] < 2.0 * d
-    height = float((x1[near_wall, 1] + r[near_wall]).max()) - y0 if near_wall.any() else 0.0
+    length = cc.deposit_front(xk, mk, cc.DENSITY, 2.0 * d, 0.0, cc.FRONT_THICKNESS * w)
+    connected = connected_front(xk, rk, 0.0, 2.0 * d)
+    farthest = float((xk[:, 0] + rk).max())
+    near_wall = xk[:, 0] < 2.0 * d
+    height = float((xk[near_wall, 1] + rk[near_wall]).max()) - y0 if near_wall.any() else 0.0
     kinetic = cc.motion_energy(times, positions, mass)
     # the flow has stopped when the deposit (the grains inside its connected front) is at rest: a
     # thrown disk rolls on along the floor (no rolling resistance) long after
-    deposit = x1[:, 0] - r <= connected
+    deposit = kept & (x1[:, 0] - r <= connected)
     stop = cc.stop_time(times, cc.motion_energy(times, [p[deposit] for p in positions], mass[deposit]))
     stop_all = cc.stop_time(times, kinetic)
     tau = cc.collapse_time(args)
-    centres, top = surface_profile(x1, r, 0.0, 2.0 * d, end=connected)
+    centres, top = surface_profile(xk, rk, 0.0, 2.0 * d, end=min(connected, w) if args.floor == "ledge" else connected)
     flank = flank_angle(centres, top, floor=y0)
     pred_runout, pred_height = cc.lube_runout(a), cc.lube_height(a)
     runout = (length - w) / w
@@ -177,6 +197,7 @@ def summarize(sim, result, args) -> dict:
         "final_height_max_m": float((x1[:, 1] + r).max()) - y0,
         "flank_angle_deg": flank["angle_deg"], "flank_angle_stderr_deg": flank["angle_stderr_deg"],
         "flank_bins": flank["bins"], "flank_x_range_m": flank["x_range_m"],
+        "heap_mass_fraction": float(mk.sum() / mass.sum()),
         "stop_time_s": stop, "stop_time_normalized": stop / tau if stop is not None else None,
         "stop_time_all_grains_s": stop_all, "grains_beyond_front": int(np.count_nonzero(~deposit)),
         "collapse_time_scale_s": tau, "kinetic_energy_peak": float(kinetic.max()),

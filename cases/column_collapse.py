@@ -180,9 +180,10 @@ def add_arguments(parser):
     parser.add_argument("--width", type=positive("m"), default=0.2, help="initial width L0 of the column [m]")
     parser.add_argument("--cells-per-width", type=count_at_least(2), default=None,
                         help="grid cells across L0 (default 10; 8 with --quick)")
-    parser.add_argument("--floor", choices=("friction", "fixed", "rough"), default=None,
+    parser.add_argument("--floor", choices=("friction", "fixed", "rough", "ledge"), default=None,
                         help="friction: Coulomb floor with mu = tan(phi) (default with --sand mpm); fixed: no-slip "
-                             "floor (mpm only); rough: a row of glued grains (dem only, its default)")
+                             "floor (mpm only); rough: a row of glued grains (dem only, its default); ledge: the rough "
+                             "floor ends at the gate, over a pit (dem only: the heap left is the angle of repose)")
     parser.add_argument("--youngs-modulus", type=positive("Pa"), default=YOUNGS_MODULUS,
                         help="E of the grains' continuum [Pa]")
     parser.add_argument("--critical-density-ratio", type=interval(0.0, 1.0), default=CRITICAL_DENSITY_RATIO,
@@ -219,8 +220,9 @@ def _check(args):
         raise InputError("--critical-density-ratio", args.critical_density_ratio, "a ratio in (0, 1], or 0 for none")
     dem = getattr(args, "sand", "mpm") == "dem"
     args.floor = given(getattr(args, "floor", None), "rough" if dem else "friction")
-    if args.floor == "rough" and not dem:
-        raise InputError("--floor", "rough", "friction or fixed with --sand mpm: rough (glued grains) needs --sand dem")
+    if args.floor in ("rough", "ledge") and not dem:
+        raise InputError("--floor", args.floor, "friction or fixed with --sand mpm: rough and ledge (glued grains) "
+                         "need --sand dem")
 
 
 def _cells(args) -> int:

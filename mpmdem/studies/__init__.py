@@ -25,6 +25,7 @@ STUDIES = {
     "column-collapse-mu-i": "column_collapse:MU_I",
     "column-collapse-dem": "column_collapse_dem",
     "column-collapse-dem-seeds": "column_collapse_dem:SEEDS",
+    "column-collapse-dem-heap": "column_collapse_dem:HEAP",
     "disk-restitution": "disk_restitution",
 }
 

@@ -17,7 +17,9 @@ coefficients circulate in what is held, none from the primary text:
 ``STUDY``: a = 0.5, 1, 2, 4, 8 × r = 0.5 mm (d = 1 mm, the case's default and its μ(I) grain) and 1 mm
 (the seed's r_p), L0 = 0.2 m (L0/d = 200 and 100). ``SEEDS``: a = 0.5 and 1 at r = 1 mm, five seeds of
 the grains' sizes and places: the scatter of the deposit's flank angle and of the settled pack, for the
-calibration (bench/grain_calibration.py).
+calibration (bench/grain_calibration.py). ``HEAP``: the angle of repose by the discharge method
+(--floor ledge: the column's floor ends at the gate over a pit; the heap left on the ledge), a = 0.3,
+five seeds at each grain size.
 """
 
 from __future__ import annotations
@@ -152,6 +154,15 @@ STUDY = Study(
     grid={"--aspect-ratio": [0.5, 1.0, 2.0, 4.0, 8.0], "--grain-radius": [0.0005, 0.001]},
     fixed={"--sand": "dem"},
     analyze=analyze,
+)
+
+HEAP = Study(
+    name="column-collapse-dem-heap",
+    case="column-collapse",
+    description="the angle of repose of the DEM grains (r = 0.5 and 1 mm), five seeds each: a column with a = 0.3 "
+                "behind a gate over a ledge; the heap left on the ledge (grain calibration)",
+    grid={"--grain-radius": [0.0005, 0.001], "--seed": [1, 2, 3, 4, 5]},
+    fixed={"--sand": "dem", "--floor": "ledge", "--aspect-ratio": 0.3},
 )
 
 SEEDS = Study(
