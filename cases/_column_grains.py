@@ -18,8 +18,9 @@ KT = KN / 20.0  # the silo's k_t / k_n (MPM-SDEM Table 3's ratio)
 #: tall enough to hold the grains of the settled column (φ 0.82 against the disks' lattice's ~0.65;
 #: a pentagon's lattice cell is its bounding circle's, ~1.4 × its area), trimmed to them
 LATTICE = {"disk": 1.5, "polygon": 2.2}
-#: the box's length beyond the column, in units of Lube's larger runout fit (as the MPM box, wider)
-BOX_RUNOUT = 2.0
+#: the box's length beyond the column, in units of Lube's larger runout fit (the MPM box's 1.5, doubled: disks
+#: run out farther than sand, and farther with L0 / d)
+BOX_RUNOUT = 3.0
 #: --floor ledge: the box's length (to the pit's far wall), in L0
 PIT_LENGTH = 2.5
 #: --floor ledge: the run is this many times the collapse's (the heap left on the ledge creeps to rest in

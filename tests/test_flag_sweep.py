@@ -30,6 +30,7 @@ ALLOWED = {
     ("rotating-disk", "--omega", "-1e-05"): "a clockwise spin",
     ("sand-blocks", "--sphero-radius", "0"): "sharp corners",
     ("sand-blocks", "--ensemble-seed", "0"): "a random seed",
+    ("sand-blocks", "--seed", "0"): "a random seed",
     ("silo-discharge", "--seed", "0"): "a random seed",
     ("silo-filling", "--settle", "0"): "the paper's run length (the default)",
     ("silo-filling", "--jitter", "0"): "release positions on the axis",
