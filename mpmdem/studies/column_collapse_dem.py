@@ -32,6 +32,7 @@ import numpy as np
 from mpmdem.study import Study
 
 from ..cases.column_collapse import lube_height, lube_runout, runout_band
+from .grain_calibration import analyze_heap
 from .run_summaries import load_runs
 
 #: the committed continuum studies the chart reads (repository-relative)
@@ -163,6 +164,7 @@ HEAP = Study(
                 "behind a gate over a ledge; the heap left on the ledge (grain calibration)",
     grid={"--grain-radius": [0.0005, 0.001], "--seed": [1, 2, 3, 4, 5]},
     fixed={"--sand": "dem", "--floor": "ledge", "--aspect-ratio": 0.3},
+    analyze=analyze_heap,
 )
 
 SEEDS = Study(
