@@ -62,7 +62,7 @@ def _scene(args, gate: bool) -> Scene:
     wall), a frictionless lid and far wall, and the floor: a row of fixed disks of the mean grain
     radius, touching, centred on y = 0 (rough), or a flat plate with μ = tan φ (friction), or the rough
     floor ending at x = L0 over a pit (ledge); ``gate``: a frictionless plate at x = L0 holds the column."""
-    from mpmdem.cases.column_collapse import FRICTION_ANGLE
+    from mpmdem.cases.column_collapse import friction_angle
 
     length, height = _box(args)
     w, r = args.width, args.grain_radius
@@ -78,7 +78,8 @@ def _scene(args, gate: bool) -> Scene:
         plates += [("ledge", t, pit - r, (w - 0.5 * t, -0.5 * (pit + r)), 0.0),
                    ("pit", length - w + 2 * t, t, (0.5 * (w + length), -pit - 0.5 * t), gated_grains.GRAIN_FRICTION)]
     if args.floor == "friction":
-        plates.append(("floor", length + 2 * t, t, (0.5 * length, -0.5 * t), math.tan(math.radians(FRICTION_ANGLE))))
+        mu = math.tan(math.radians(friction_angle(args)))
+        plates.append(("floor", length + 2 * t, t, (0.5 * length, -0.5 * t), mu))
     else:
         disk = sphero_disk(r)
         end = w - r if args.floor == "ledge" else length

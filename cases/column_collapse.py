@@ -193,6 +193,9 @@ def add_arguments(parser):
                              "mu_s, mu_2, I0 with --grain-diameter)")
     parser.add_argument("--grain-diameter", type=positive("m"), default=GRAIN_DIAMETER,
                         help=f"d of --material mu-i [m] (default {GRAIN_DIAMETER})")
+    parser.add_argument("--friction-angle", type=positive("deg"), default=None,
+                        help=f"phi of the Mohr-Coulomb sand and of the floor's mu = tan(phi) [deg] (default "
+                             f"{FRICTION_ANGLE}; the grains' angle of repose: bench/results/studies/grain-calibration)")
     parser.add_argument("--sand", default="mpm", choices=("mpm", "dem"),
                         help="the column as Granular MPM points (mpm, the default) or as DEM grains (dem)")
     parser.add_argument("--grain-radius", type=positive("m"), default=GRAIN_RADIUS,
@@ -218,6 +221,9 @@ def _check(args):
         raise InputError("--youngs-modulus", args.youngs_modulus, "E > 0 [Pa]")
     if not (math.isfinite(args.critical_density_ratio) and 0.0 <= args.critical_density_ratio <= 1.0):
         raise InputError("--critical-density-ratio", args.critical_density_ratio, "a ratio in (0, 1], or 0 for none")
+    phi = friction_angle(args)
+    if not (math.isfinite(phi) and 0.0 < phi < 60.0):
+        raise InputError("--friction-angle", phi, "a friction angle in (0, 60) deg")
     dem = getattr(args, "sand", "mpm") == "dem"
     args.floor = given(getattr(args, "floor", None), "rough" if dem else "friction")
     if args.floor in ("rough", "ledge") and not dem:
@@ -229,21 +235,26 @@ def _cells(args) -> int:
     return given(args.cells_per_width, 8 if args.quick else 10)
 
 
+def friction_angle(args) -> float:
+    """φ [deg] of the Mohr–Coulomb sand and of the floor's μ = tan φ: --friction-angle, else FRICTION_ANGLE."""
+    return given(getattr(args, "friction_angle", None), FRICTION_ANGLE)
+
+
 def collapse_time(args) -> float:
     """sqrt(a L0 / g) [s], the time scale of eq. 73."""
     return math.sqrt(args.aspect_ratio * args.width / GRAVITY)
 
 
 def material(args) -> MohrCoulomb | MuI:
-    """Mohr–Coulomb (φ = FRICTION_ANGLE), or μ(I) with Jop et al. 2006's glass-bead friction law, the
-    same elasticity and density, d = --grain-diameter and ρs = ρ / SOLID_FRACTION."""
+    """Mohr–Coulomb (φ = --friction-angle, FRICTION_ANGLE by default), or μ(I) with Jop et al. 2006's
+    glass-bead friction law, the same elasticity and density, d = --grain-diameter and ρs = ρ / SOLID_FRACTION."""
     ratio = args.critical_density_ratio
     rho_cr = ratio * DENSITY if ratio > 0.0 else None
     if getattr(args, "material", "mohr-coulomb") == "mu-i":
         beads = MuI.glass_beads()
         return MuI(args.youngs_modulus, POISSON, DENSITY, mu_s=beads.mu_s, mu_2=beads.mu_2, i0=beads.i0,
                    grain_diameter=args.grain_diameter, grain_density=DENSITY / SOLID_FRACTION, critical_density=rho_cr)
-    return MohrCoulomb(args.youngs_modulus, POISSON, DENSITY, FRICTION_ANGLE, 0.0, 0.0, critical_density=rho_cr)
+    return MohrCoulomb(args.youngs_modulus, POISSON, DENSITY, friction_angle(args), 0.0, 0.0, critical_density=rho_cr)
 
 
 def build(args) -> CaseSetup:
@@ -258,7 +269,7 @@ def build(args) -> CaseSetup:
     reach = (1.0 + 1.5 * max(1.2 * a, 1.9 * a ** (2.0 / 3.0))) * w
     nx = math.ceil(reach / h) + 4
     ny = math.ceil(height / h - 1e-9) + 2
-    floor = (Boundary("friction", friction=math.tan(math.radians(FRICTION_ANGLE))) if args.floor == "friction"
+    floor = (Boundary("friction", friction=math.tan(math.radians(friction_angle(args)))) if args.floor == "friction"
              else Boundary("fixed"))
     scene = Scene(domain=((0.0, 0.0), (nx * h, ny * h)), cell_size=h, gravity=(0.0, -GRAVITY),
                   boundaries={"left": "slip", "right": "slip", "bottom": floor, "top": "slip"})
@@ -373,7 +384,7 @@ def summarize(sim, result, args) -> dict:
         "cells_per_width": _cells(args),
         "floor": args.floor,
         "youngs_modulus_pa": args.youngs_modulus,
-        "friction_angle_deg": FRICTION_ANGLE,
+        "friction_angle_deg": friction_angle(args),
         "material": getattr(args, "material", "mohr-coulomb"),
         "runout_m": length - w,
         "normalized_runout": runout,
