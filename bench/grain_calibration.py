@@ -39,13 +39,13 @@ def main(argv=None) -> int:
         return 2
     result = {"source": [str(f) for f in folders if f.is_dir()], "max_aspect_ratio_for_angle": args.max_a,
               "method": METHOD,
-              "per_grain_radius": calibrate(runs, args.max_a)}
+              "per_grain": calibrate(runs, args.max_a)}
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result, indent=2) + "\n")
-    for key, c in result["per_grain_radius"].items():
+    for key, c in result["per_grain"].items():
         angle, phi = c["friction_angle_deg"], c["packing_fraction"]
-        print(json.dumps({"grain_radius_m": key, "friction_angle_deg": angle and [angle["mean"], angle["std"]],
+        print(json.dumps({"grain": key, "friction_angle_deg": angle and [angle["mean"], angle["std"]],
                           "packing_fraction": [phi["mean"], phi["std"]], "bulk_density": c["bulk_density"]["mean"],
                           "coordination": c["coordination"]["mean"], "runs": len(c["cost"])}))
     return 0

@@ -30,20 +30,20 @@ def test_the_heap_gives_the_angle_and_the_short_collapses_stand_beside_it():
     heap runs; one value has no standard deviation."""
     runs = [run("h1", 0.3, 20.0, "ledge"), run("h2", 0.3, 24.0, "ledge"), run("c1", 0.5, 15.0),
             run("c2", 2.0, 8.0), {"run": "broken", "status": "blown-up"}]
-    c = calibrate(runs)["0.001"]
+    c = calibrate(runs)["disk:0.001"]
     assert c["friction_angle_deg"]["mean"] == pytest.approx(22.0)
     assert c["friction_angle_deg"]["std"] == pytest.approx(math.sqrt(8.0))
     assert c["friction_angle_method"].startswith("heap")
     assert c["collapse_flank_angle_deg"] == {"mean": 15.0, "std": None, "stderr": None, "n": 1}
     assert set(c["flank_angle_by_a"]) == {"0.5", "2.0"}
-    without = calibrate([r for r in runs if r.get("floor") != "ledge"])["0.001"]
+    without = calibrate([r for r in runs if r.get("floor") != "ledge"])["disk:0.001"]
     assert without["friction_angle_deg"]["mean"] == pytest.approx(15.0)
     assert without["friction_angle_method"].startswith("collapse")
 
 
 @pytest.fixture(scope="module")
 def committed():
-    return json.loads((RESULTS / "calibration.json").read_text())["per_grain_radius"]
+    return json.loads((RESULTS / "calibration.json").read_text())["per_grain"]
 
 
 def test_committed_packing_is_a_2d_random_close_packing(committed):

@@ -26,6 +26,7 @@ STUDIES = {
     "column-collapse-dem": "column_collapse_dem",
     "column-collapse-dem-seeds": "column_collapse_dem:SEEDS",
     "column-collapse-dem-heap": "column_collapse_dem:HEAP",
+    "column-collapse-dem-polygon": "column_collapse_dem:POLYGON",
     "disk-restitution": "disk_restitution",
 }
 

@@ -19,7 +19,8 @@ coefficients circulate in what is held, none from the primary text:
 the grains' sizes and places: the scatter of the deposit's flank angle and of the settled pack, for the
 calibration (bench/grain_calibration.py). ``HEAP``: the angle of repose by the discharge method
 (--floor ledge: the column's floor ends at the gate over a pit; the heap left on the ledge), a = 0.3,
-five seeds at each grain size.
+five seeds at each grain size and shape (disks, rounded random pentagons). ``POLYGON``: the sweep of
+``STUDY`` with pentagons at r = 1 mm.
 """
 
 from __future__ import annotations
@@ -38,6 +39,8 @@ from .run_summaries import load_runs
 #: the committed continuum studies the chart reads (repository-relative)
 CONTINUUM = {"Mohr-Coulomb (phi = 30 deg)": "bench/results/studies/column-collapse/column_collapse_runout.json",
              "mu(I) (d = 1 mm)": "bench/results/studies/column-collapse-mu-i/column_collapse_runout.json"}
+#: sweeps whose runs share a chart when they lie side by side (each study's own folder name)
+SIBLINGS = ("column-collapse-dem", "column-collapse-dem-polygon")
 #: set C (module docstring): (linear prefactor, upper a of the linear regime, power prefactor, exponent)
 RESTATED = {"Lube et al. 2005 as restated by Kumar 2015": (1.24, 1.7, 1.6, 1.2),
             "Lajeunesse et al. 2005 as restated by Kumar 2015": (1.35, 0.74, 2.0, 1.2)}
@@ -75,7 +78,8 @@ def grain_table(runs: list[dict]) -> list[dict]:
             continue
         s = r.get("settled", {})
         rows.append({"run": r["run"], "a": r["aspect_ratio"], "settled_a": r.get("settled_aspect_ratio"),
-                     "grain_radius_m": r["grain_radius_m"], "seed": r.get("seed"), "grains": r["grains"],
+                     "grain_radius_m": r["grain_radius_m"], "shape": r.get("grain_shape", "disk"),
+                     "seed": r.get("seed"), "grains": r["grains"],
                      "width_in_diameters": r["width_in_diameters"], "runout": r["normalized_runout"],
                      "runout_connected": r["normalized_runout_connected"],
                      "runout_farthest_grain": r["normalized_runout_farthest_point"],
@@ -86,7 +90,7 @@ def grain_table(runs: list[dict]) -> list[dict]:
                      "coordination": s.get("coordination"), "settle_wall_seconds": s.get("wall_seconds"),
                      "wall_seconds": r.get("wall_seconds"), "steps": r.get("steps"), "device": r.get("device"),
                      "lube_band": r["reference_runout_band"]})
-    return sorted(rows, key=lambda x: (x["grain_radius_m"], x["a"], x["seed"] or 0))
+    return sorted(rows, key=lambda x: (x["shape"], x["grain_radius_m"], x["a"], x["seed"] or 0))
 
 
 def analyze(rows: list[dict], out: Path, root: Path | None = None) -> dict:
@@ -101,6 +105,11 @@ def analyze(rows: list[dict], out: Path, root: Path | None = None) -> dict:
     out = Path(out)
     root = Path(root) if root is not None else Path(__file__).resolve().parents[2]
     runs = load_runs(out)
+    # the sibling sweeps beside this one (disks and pentagons) go on the same chart
+    for name in SIBLINGS:
+        other = out.parent / name
+        if other.resolve() != out.resolve() and (other / "runs").is_dir():
+            runs += [r | {"run": f"{name}/{r['run']}"} for r in load_runs(other)]
     table = grain_table(runs)
     failed = [{"run": r["run"], "status": r.get("status"), "message": r.get("message", "")}
               for r in runs if r.get("status") != "completed"]
@@ -129,12 +138,14 @@ def analyze(rows: list[dict], out: Path, root: Path | None = None) -> dict:
             axis.errorbar([r["a"] for r in rows_c], [r[key] for r in rows_c], yerr=[r[err] or 0.0 for r in rows_c],
                           fmt="s", color=colour, mfc="none", capsize=3, label=f"MPM {name}, {rows_c[-1]['cells']} "
                           "cells (bar: change from the next grid)")
-    for radius, colour in zip(sorted({r["grain_radius_m"] for r in table}), ("C3", "C0", "C1"), strict=False):
-        sel = [r for r in table if r["grain_radius_m"] == radius]
+    kinds = sorted({(r["shape"], r["grain_radius_m"]) for r in table})
+    for (shape, radius), colour in zip(kinds, ("C3", "C0", "C1", "C5", "C6", "C7"), strict=False):
+        sel = [r for r in table if r["grain_radius_m"] == radius and r["shape"] == shape]
         d = 2e3 * radius
         for key, axis in (("runout", ax), ("final_height", ax2)):
             axis.plot([r["a"] for r in sel], [r[key] for r in sel], "o", color=colour,
-                      label=f"DEM disks, d = {d:g} mm (L0/d = {sel[0]['width_in_diameters']:.0f})")
+                      mfc="none" if shape == "polygon" else None,
+                      label=f"DEM {shape}s, d = {d:g} mm (L0/d = {sel[0]['width_in_diameters']:.0f})")
     for axis, label in ((ax, "(L_f − L0) / L0"), (ax2, "H_f / L0")):
         axis.set(xscale="log", yscale="log", xlabel="aspect ratio a", ylabel=label)
         axis.grid(alpha=0.3, which="both")
@@ -160,11 +171,21 @@ STUDY = Study(
 HEAP = Study(
     name="column-collapse-dem-heap",
     case="column-collapse",
-    description="the angle of repose of the DEM grains (r = 0.5 and 1 mm), five seeds each: a column with a = 0.3 "
-                "behind a gate over a ledge; the heap left on the ledge (grain calibration)",
-    grid={"--grain-radius": [0.0005, 0.001], "--seed": [1, 2, 3, 4, 5]},
+    description="the angle of repose of the DEM grains (disks and pentagons, r = 0.5 and 1 mm), five seeds each: a "
+                "column with a = 0.3 behind a gate over a ledge; the heap left on the ledge (grain calibration)",
+    grid={"--grain-shape": ["disk", "polygon"], "--grain-radius": [0.0005, 0.001], "--seed": [1, 2, 3, 4, 5]},
     fixed={"--sand": "dem", "--floor": "ledge", "--aspect-ratio": 0.3},
     analyze=analyze_heap,
+)
+
+POLYGON = Study(
+    name="column-collapse-dem-polygon",
+    case="column-collapse",
+    description="column collapse with rounded random pentagons (r = 1 mm) at a = 0.5-8: runout and final height "
+                "against the disks, the continuum and the experiments",
+    grid={"--aspect-ratio": [0.5, 1.0, 2.0, 4.0, 8.0]},
+    fixed={"--sand": "dem", "--grain-radius": 0.001, "--grain-shape": "polygon"},
+    analyze=analyze,
 )
 
 SEEDS = Study(

@@ -1,7 +1,8 @@
 """The DEM grains as a continuum (issue 43 §2): friction angle, bulk density, packing fraction and mean
 coordination number of the cases' grains, from the runs of the column-collapse-dem studies
 (``bench/grain_calibration.py`` writes bench/results/studies/grain-calibration/calibration.json; the
-study column-collapse-dem-heap writes OUT/grain_calibration.json). Per grain radius:
+study column-collapse-dem-heap writes OUT/grain_calibration.json). Per grain shape and radius (the key
+"disk:0.001" is sphero-disks of mean radius 1 mm):
 
 * friction_angle_deg: the angle of repose by the discharge method, from the heap runs
   (``column-collapse --sand dem --floor ledge``, study column-collapse-dem-heap): a column behind a
@@ -51,8 +52,8 @@ def calibrate(runs: list[dict], max_a: float = 0.5) -> dict:
     """The calibration of the module docstring from the runs' summaries (completed --sand dem runs)."""
     done = [r for r in runs if r.get("status") == "completed" and r.get("sand") == "dem"]
     out = {}
-    for radius in sorted({r["grain_radius_m"] for r in done}):
-        at = [r for r in done if r["grain_radius_m"] == radius]
+    for shape, radius in sorted({(r.get("grain_shape", "disk"), r["grain_radius_m"]) for r in done}):
+        at = [r for r in done if r["grain_radius_m"] == radius and r.get("grain_shape", "disk") == shape]
         heap = [r for r in at if r.get("floor") == "ledge" and r["flank_angle_deg"] is not None]
         spread_runs = [r for r in at if r.get("floor") != "ledge"]
         short = [r for r in spread_runs if r["aspect_ratio"] <= max_a + 1e-12 and r["flank_angle_deg"] is not None]
@@ -66,7 +67,7 @@ def calibrate(runs: list[dict], max_a: float = 0.5) -> dict:
         by_a = {}
         for a in sorted({r["aspect_ratio"] for r in spread_runs}):
             by_a[str(a)] = spread(r["flank_angle_deg"] for r in spread_runs if r["aspect_ratio"] == a)
-        out[f"{radius:g}"] = {
+        out[f"{shape}:{radius:g}"] = {
             "grain_radius_m": radius, "grain_diameter_mean_m": at[0]["grain_diameter_mean_m"],
             "width_in_diameters": sorted({round(r["width_in_diameters"], 1) for r in at}),
             "grain_density": at[0]["grain_density"], "grain_friction": at[0]["grain_friction"],
@@ -90,6 +91,6 @@ def calibrate(runs: list[dict], max_a: float = 0.5) -> dict:
 
 def analyze_heap(rows: list[dict], out: Path) -> dict:
     """The column-collapse-dem-heap study's analysis: the calibration of its runs, OUT/grain_calibration.json."""
-    result = {"source": [str(out)], "method": METHOD, "per_grain_radius": calibrate(load_runs(out))}
+    result = {"source": [str(out)], "method": METHOD, "per_grain": calibrate(load_runs(out))}
     (Path(out) / "grain_calibration.json").write_text(json.dumps(result, indent=2) + "\n")
     return result
