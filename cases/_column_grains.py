@@ -62,7 +62,7 @@ def _scene(args, gate: bool) -> Scene:
     wall), a frictionless lid and far wall, and the floor: a row of fixed disks of the mean grain
     radius, touching, centred on y = 0 (rough), or a flat plate with μ = tan φ (friction), or the rough
     floor ending at x = L0 over a pit (ledge); ``gate``: a frictionless plate at x = L0 holds the column."""
-    from mpmdem.cases.column_collapse import friction_angle
+    from mpmdem.cases.column_collapse import GRAVITY, friction_angle
 
     length, height = _box(args)
     w, r = args.width, args.grain_radius
@@ -70,7 +70,7 @@ def _scene(args, gate: bool) -> Scene:
     contact = ContactLaw(KN, KT, restitution=gated_grains.RESTITUTION)
     # (the domain reaches a grain radius past the walls: a grain pressed on a wall overlaps it a little)
     pit = pit_depth(args)
-    scene = Scene(domain=((-r, -r - pit), (length + r, height + r)), gravity=(0.0, -9.81), contact=contact)
+    scene = Scene(domain=((-r, -r - pit), (length + r, height + r)), gravity=(0.0, -GRAVITY), contact=contact)
     plates = [("left", t, height + 2 * t, (-0.5 * t, 0.5 * height), 0.0),
               ("right", t, height + pit + 2 * t, (length + 0.5 * t, 0.5 * (height - pit)), 0.0),
               ("lid", length + 2 * t, t, (0.5 * length, height + 0.5 * t), 0.0)]
@@ -102,7 +102,7 @@ def floor_top(args) -> float:
 def build(args) -> CaseSetup:
     """Grains on a loose lattice over the column's place, trimmed to those that settle to a L0,
     settled behind the gate, then moved into the box without it (mpmdem.gated_grains)."""
-    from mpmdem.cases.column_collapse import DENSITY, collapse_time
+    from mpmdem.cases.column_collapse import DENSITY, GRAVITY, collapse_time
     from mpmdem.grains import place_grains
     from mpmdem.simulation import default_device
 
@@ -119,7 +119,8 @@ def build(args) -> CaseSetup:
     device = args.device or default_device()
     precision = getattr(args, "precision", None) or DEFAULTS_DEM["precision"]
     packing, seconds = gated_grains.settle_behind_gate(closed, precision=precision, device=device,
-                                                       height=height - y0, gravity=9.81, settle_max=args.settle_max)
+                                                       height=height - y0, gravity=GRAVITY,
+                                                       settle_max=args.settle_max)
     scene = _scene(args, gate=False)
     grains = scene.add_grain_set(packing.grains[0])
     scene.add_mass_probe("all")
