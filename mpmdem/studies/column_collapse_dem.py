@@ -3,16 +3,23 @@ a = 0.5-8 at two grain sizes, on one chart with the continuum's (the committed `
 `column-collapse-mu-i` studies, their finest grid) and the experiments' formulas.
 
 What was read of the experiments (the search corpora, November 2026): neither Lube et al. 2005 (PRE 72,
-041301) nor Lajeunesse et al. 2005 (Phys. Fluids 17, 103302) is held in them. Three sets of runout
-coefficients circulate in what is held, none from the primary text:
+041301) nor Lajeunesse et al. 2005 (Phys. Fluids 17, 103302) is held in them, nor Staron & Hinch 2005
+(JFM 545) beyond its abstract. Besides sets A and B of cases/column_collapse.py (its header), one
+secondary source was read: K. Kumar's PhD thesis (Cambridge 2015, github.com/kks32/phd-thesis, LaTeX
+source). What it states, none of it checked against the primary papers:
 
-* sets A and B of cases/column_collapse.py (its header), attributed to Lube et al. 2005;
-* set C, a PhD thesis's restatement (K. Kumar 2015, Cambridge, github.com/kks32/phd-thesis,
-  Chapter2/chapter2.tex, its eq. for the quasi-2D runout): Lube et al. 2005, (L_f − L0)/L0 ≈ 1.24 a for
-  a ≲ 1.7 and 1.6 a^1.2 above; Lajeunesse et al. 2005, 1.35 a for a ≲ 0.74 and 2.0 a^1.2 above; the 2D
-  final height H_f/L0 ≈ a for a ≲ 0.7 and a^(1/3) above. Its exponent 1.2 does not match the 2/3 of
-  sets A and B, which Staron & Hinch 2005 (JFM 545, abstract read) also describe as a power law; the
-  chart draws set C as the thesis gives it, labelled as a restatement.
+* Chapter2/chapter2.tex, §"Axisymmetric versus two-dimensional collapse": in a rectangular channel
+  (the quasi-2D collapse, in the context of Lajeunesse et al. 2005) (L_f − L0)/L0 ≈ 1.2 a for a ≲ 2.3
+  and 1.9 a^(2/3) for a ≳ 2.3: set A's prefactors with one split at 2.3 instead of 1.8 and 2.8. This
+  is set C on the chart.
+* the same chapter, earlier, beside a figure of plane-strain and axisymmetric data: 1.24 a (a ≲ 1.7),
+  1.6 a^1.2 above, for Lube et al. 2005, and 1.35 a (a ≲ 0.74), 2.0 a^1.2 above, for Lajeunesse et al.
+  2005. An exponent above 1 matches no quasi-2D description read here (2/3 above; 0.65-0.9 in
+  Balmforth & Kerswell 2005's abstract), so these are not drawn.
+* the final height in 2D: a for a ≲ 0.7, then a^(1/3) (chapter 2) or a^(2/3) (chapter 4): the two
+  chapters disagree, so neither is drawn; Lube's a^(2/5) of the case is.
+* Chapter4/chapter4.tex: its own 2D DEM runs (disks, randomly packed) give 1.67 a for a ≲ 2.7 and
+  2.7 a^(2/3) above: a grain-scale simulation, not an experiment, drawn as such.
 
 ``STUDY``: a = 0.5, 1, 2, 4, 8 × r = 0.5 mm (d = 1 mm, the case's default and its μ(I) grain) and 1 mm
 (the seed's r_p), L0 = 0.2 m (L0/d = 200 and 100). ``SEEDS``: a = 0.5 and 1 at r = 1 mm, five seeds of
@@ -41,14 +48,15 @@ CONTINUUM = {"Mohr-Coulomb (phi = 30 deg)": "bench/results/studies/column-collap
              "mu(I) (d = 1 mm)": "bench/results/studies/column-collapse-mu-i/column_collapse_runout.json"}
 #: sweeps whose runs share a chart when they lie side by side (each study's own folder name)
 SIBLINGS = ("column-collapse-dem", "column-collapse-dem-polygon")
-#: set C (module docstring): (linear prefactor, upper a of the linear regime, power prefactor, exponent)
-RESTATED = {"Lube et al. 2005 as restated by Kumar 2015": (1.24, 1.7, 1.6, 1.2),
-            "Lajeunesse et al. 2005 as restated by Kumar 2015": (1.35, 0.74, 2.0, 1.2)}
-RESTATED_HEIGHT = (0.7, 1.0 / 3.0)  # H_f/L0 = a below 0.7, a^(1/3) above (Kumar 2015's restatement)
+#: drawn besides sets A and B (module docstring): (linear prefactor, upper a of the linear regime, power
+#: prefactor, exponent), as the secondary source states them
+RESTATED = {"set C: quasi-2D channel, Kumar 2015's restatement (1.2 a, 1.9 a^2/3, split 2.3)":
+            (1.2, 2.3, 1.9, 2.0 / 3.0),
+            "2D DEM disks of Kumar 2015, ch. 4 (1.67 a, 2.7 a^2/3)": (1.67, 2.7, 2.7, 2.0 / 3.0)}
 
 
 def restated_runout(a: float, name: str) -> float:
-    """(L_f − L0)/L0 of one of set C's formulas (``RESTATED``) at aspect ratio a."""
+    """(L_f − L0)/L0 of one of the ``RESTATED`` formulas at aspect ratio a."""
     k1, split, k2, n = RESTATED[name]
     return k1 * a if a <= split else k2 * a**n
 
@@ -116,10 +124,8 @@ def analyze(rows: list[dict], out: Path, root: Path | None = None) -> dict:
     continuum = {name: continuum_finest(root / p) for name, p in CONTINUUM.items() if (root / p).is_file()}
     result = {"grains": table, "failed": failed, "continuum": continuum,
               "experiments": {"sets A and B": "cases/column_collapse.py header (not read from the papers)",
-                              "set C": {k: dict(zip(("linear", "linear_upper_a", "power", "exponent"), v, strict=False))
-                                        for k, v in RESTATED.items()},
-                              "set C final height": {"linear_upper_a": RESTATED_HEIGHT[0],
-                                                     "exponent": RESTATED_HEIGHT[1]}}}
+                              "restated": {k: dict(zip(("linear", "linear_upper_a", "power", "exponent"), v,
+                                                       strict=True)) for k, v in RESTATED.items()}}}
     (out / "column_collapse_dem.json").write_text(json.dumps(result, indent=2) + "\n")
 
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.8))
@@ -128,11 +134,9 @@ def analyze(rows: list[dict], out: Path, root: Path | None = None) -> dict:
     ax.fill_between(aa, band[:, 0], band[:, 1], color="0.85", zorder=0, label="Lube 2005, between sets A and B")
     ax.plot(aa, [lube_runout(v, "A") for v in aa], "k--", lw=1, label="set A (1.2 a, 1.9 a^2/3)")
     ax.plot(aa, [lube_runout(v, "B") for v in aa], "k:", lw=1, label="set B (1.6 a, 2.2 a^2/3)")
-    for (name, style) in zip(RESTATED, ("-.", (0, (5, 1, 1, 1, 1, 1))), strict=False):
-        ax.plot(aa, [restated_runout(v, name) for v in aa], color="0.4", ls=style, lw=1, label=f"set C: {name}")
-    ax2.plot(aa, [lube_height(v) for v in aa], "k--", lw=1, label="Lube 2005 (a, a^2/5)")
-    ax2.plot(aa, [v if v <= RESTATED_HEIGHT[0] else v ** RESTATED_HEIGHT[1] for v in aa], color="0.4", ls="-.",
-             lw=1, label="set C (a, a^1/3)")
+    for (name, style) in zip(RESTATED, ("-.", (0, (5, 1, 1, 1, 1, 1))), strict=True):
+        ax.plot(aa, [restated_runout(v, name) for v in aa], color="0.4", ls=style, lw=1, label=name)
+    ax2.plot(aa, [lube_height(v) for v in aa], "k--", lw=1, label="Lube 2005 as the case quotes it (a, a^2/5)")
     for (name, rows_c), colour in zip(continuum.items(), ("C2", "C4"), strict=False):
         for key, axis, err in (("runout", ax, "runout_error"), ("final_height", ax2, "height_error")):
             axis.errorbar([r["a"] for r in rows_c], [r[key] for r in rows_c], yerr=[r[err] or 0.0 for r in rows_c],
