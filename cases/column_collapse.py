@@ -22,6 +22,9 @@
 # read. Between 1.8 and 2.8 both sets leave a transition, bridged by a straight line in log-log. The
 # final height, H_f/L0 = a for a ≲ 1.15 and a^(2/5) above, is quoted from memory of Lube's abstract
 # as well (a ≲ 1.15: the top of the column does not move, which needs no coefficient).
+# Read later (issue 43; mpmdem/studies/column_collapse_dem.py says what and where): a secondary source,
+# K. Kumar's 2015 thesis, restates the quasi-2D channel law as 1.2 a for a ≲ 2.3 and 1.9 a^(2/3) above
+# (set A's prefactors, one split at 2.3); the primary papers are still unread.
 #
 # Choices, and differences from the paper's set-up:
 # - no settling phase: the column starts stress-free and collapses at once (gravity from t = 0).
