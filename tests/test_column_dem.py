@@ -128,3 +128,28 @@ def test_lowest_grains_fill_the_area_from_the_bottom():
 def test_bad_dem_flags_are_one_line(tmp_path, flags, name):
     code, lines = run_refused("column_collapse", tmp_path, *flags)
     assert code == 2 and len(lines) == 1 and name in lines[0]
+
+
+LEDGE = ("--sand", "dem", "--floor", "ledge", "--aspect-ratio", "0.3", "--width", "0.06", "--grain-radius", "0.001")
+
+
+@pytest.fixture(scope="module")
+def heap():
+    return quick_run("column_collapse", *LEDGE)[0]
+
+
+def test_the_heap_on_a_ledge_keeps_its_top_and_a_trapezoid(heap):
+    """--floor ledge (the angle of repose by discharge): a column a = 0.3 (9 grains tall) whose floor ends
+    at the gate. Grains slide off the ledge until the slope from the ledge's edge stands at the angle
+    of repose θ; if θ > atan(a) = 16.7° the slope meets the top inside the box, so the grains at the
+    wall keep the column's height (to 2 diameters: the pack rearranges by a grain) and the heap left is
+    a trapezoid holding 1 − a / (2 tan θ) of the column: between 0.5 (θ = atan a) and 0.85 (θ = 45°,
+    steeper than any cohesionless pack). The fitted flank is steeper than atan(a) (measured 24°), every
+    grain is kept (the pit holds those that fall) and the heap comes to rest before the end."""
+    d = heap["grain_diameter_mean_m"]
+    h0 = heap["settled_aspect_ratio"] * heap["initial_width_m"]
+    assert heap["mass_change_relative"] < 1e-6
+    assert heap["final_height_m"] >= h0 - 2.0 * d
+    assert 0.5 <= heap["heap_mass_fraction"] <= 0.85
+    assert heap["flank_angle_deg"] > math.degrees(math.atan(heap["aspect_ratio"]))
+    assert heap["stop_time_s"] is not None and heap["stop_time_s"] < heap["end_time"]
