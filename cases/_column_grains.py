@@ -215,11 +215,11 @@ def summarize(sim, result, args) -> dict:
         "reference_runout_band": list(cc.runout_band(a)), "height_ratio_to_prediction": (height / w) / pred_height,
         "dt": float(np.asarray(diag["dt"])[-1]),
     }
-    _plot(x0, x1, r, w, a, y0, result.path.parent / "profile.png")
+    _plot(x0, x1, r, w, a, y0, result.path.parent / "profile.png", heap=args.floor == "ledge")
     return out
 
 
-def _plot(x0, x1, r, w, a, y0, path) -> None:
+def _plot(x0, x1, r, w, a, y0, path, heap: bool = False) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -236,10 +236,12 @@ def _plot(x0, x1, r, w, a, y0, path) -> None:
     for colour, label in (("0.8", "settled"), ("C0", "final")):
         ax.plot([], [], "o", color=colour, label=label)
     xr = 1.0 + lube_runout(a)
-    ax.axvline(xr, color="C3", ls="--", lw=1, label="Lube et al. 2005 (set A): $L_f$")
-    ax.axhline(lube_height(a), color="C3", ls=":", lw=1, label="$H_f$")
+    if not heap:  # (a heap on a ledge is no collapse on a floor)
+        ax.axvline(xr, color="C3", ls="--", lw=1, label="Lube et al. 2005 (set A): $L_f$")
+        ax.axhline(lube_height(a), color="C3", ls=":", lw=1, label="$H_f$")
+    name = "heap on a ledge" if heap else "column collapse"
     ax.set(xlabel="x / L0", ylabel="y / L0", aspect="equal", xlim=(0.0, max(float(x1[:, 0].max()) / w, xr) + 0.05),
-           ylim=(0.0, 1.05 * max(a, float(x0[:, 1].max()) / w)), title=f"column collapse, grains, a = {a:g}")
+           ylim=(0.0, 1.05 * max(a, float(x0[:, 1].max()) / w)), title=f"{name}, grains, a = {a:g}")
     ax.legend(fontsize=7, loc="center right")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
