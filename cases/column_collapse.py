@@ -22,6 +22,9 @@
 # read. Between 1.8 and 2.8 both sets leave a transition, bridged by a straight line in log-log. The
 # final height, H_f/L0 = a for a ≲ 1.15 and a^(2/5) above, is quoted from memory of Lube's abstract
 # as well (a ≲ 1.15: the top of the column does not move, which needs no coefficient).
+# Read later (issue 43; mpmdem/studies/column_collapse_dem.py says what and where): a secondary source,
+# K. Kumar's 2015 thesis, restates the quasi-2D channel law as 1.2 a for a ≲ 2.3 and 1.9 a^(2/3) above
+# (set A's prefactors, one split at 2.3); the primary papers are still unread.
 #
 # Choices, and differences from the paper's set-up:
 # - no settling phase: the column starts stress-free and collapses at once (gravity from t = 0).
@@ -64,6 +67,26 @@
 # Lajeunesse et al. at a = 3). The final height converges too and matches Lube for a ≤ 1, but stays
 # at 1.2-1.5 L0 for a ≥ 2, where Lube has a^(2/5) (1.74 at a = 4, 2.30 at a = 8): the deposits are
 # flatter than the experiments'.
+#
+# --sand dem (cases/_column_grains.py; issue 43): the column as free DEM sphero-disks (Scene.add_grains)
+# of mean radius --grain-radius, ±15 %; the default 0.5 mm makes d = GRAIN_DIAMETER = 1 mm, the grain of
+# --material mu-i (millimetre grains, the order of the channel experiments'; their sizes were not read).
+# The grain material is the silo's (mpmdem.sim.gated_grains: μ = 0.5, e = 0.5, k_n = 1e6 N/m per m,
+# k_t = k_n/20), with ρ_s = ρ / 0.82 so that the settled column has the continuum's bulk density ρ. The
+# grains are placed on a loose lattice 1.5 a L0 tall, trimmed to the lowest ones whose area is
+# 0.82 a L0² (those settle to a L0), settled behind a frictionless gate at x = L0 and released at t = 0
+# (the gate gone at once, as the continuum starts). The wall at x = 0 is frictionless (the symmetry
+# plane); the floor is a row of glued disks of the mean radius, touching (--floor rough, the default:
+# a rough floor, as the experiments'), or a flat plate with μ = tan φ (--floor friction).
+# The summary has the MPM run's fields, read from the grains: the front is ``deposit_front`` on the
+# grains' masses in bins of two mean diameters (the same threshold thickness), beside the connected
+# front (the last grain reached from the wall through gaps under two diameters) and the farthest
+# grain; H_f is the top of the grains within two diameters of the wall; the stop time is read from
+# the motion of the grains inside the connected front (a disk thrown past it rolls on: disks have no
+# rolling resistance). Beside them: the settled column's packing fraction, bulk density and mean
+# coordination number, and the angle of the deposit's flank (mpmdem.study.grain_deposit.flank_angle: the
+# angle of repose of the grain calibration, bench/grain_calibration.py). What it gives:
+# bench/results/studies/column-collapse-dem/ and grain-calibration/.
 """Granular column collapse (Motion integration §5): runout, final height and stop time against Lube et al. 2005."""
 
 import math
@@ -72,6 +95,7 @@ import sys
 import numpy as np
 
 from mpmdem import Boundary, MohrCoulomb, MuI, Scene, rectangle
+from mpmdem.cases import _column_grains
 from mpmdem.study.case import CaseSetup
 from mpmdem.study.flag_types import count_at_least, given, interval, positive
 from mpmdem.study.references.lube2005 import (
@@ -118,6 +142,8 @@ POINTS_PER_CELL = 2  # per direction: 2 × 2 points per cell, as the paper's N_m
 #: d of --material mu-i [m]: millimetre grains, the order of the channel experiments' (not read from
 #: Lube et al. or Lajeunesse et al. here); ρs = ρ / SOLID_FRACTION
 GRAIN_DIAMETER = 1.0e-3
+#: --sand dem: mean grain radius [m], d = GRAIN_DIAMETER (the header)
+GRAIN_RADIUS = 0.5 * GRAIN_DIAMETER
 SOLID_FRACTION = 0.6
 STOP_FRACTION = 0.01  # the flow has stopped once E_k stays below this fraction of its peak
 
@@ -126,8 +152,10 @@ def add_arguments(parser):
     parser.add_argument("--width", type=positive("m"), default=0.2, help="initial width L0 of the column [m]")
     parser.add_argument("--cells-per-width", type=count_at_least(2), default=None,
                         help="grid cells across L0 (default 10; 8 with --quick)")
-    parser.add_argument("--floor", choices=("friction", "fixed"), default="friction",
-                        help="friction: Coulomb floor with mu = tan(phi) (default); fixed: no-slip floor")
+    parser.add_argument("--floor", choices=("friction", "fixed", "rough", "ledge"), default=None,
+                        help="friction: Coulomb floor with mu = tan(phi) (default with --sand mpm); fixed: no-slip "
+                             "floor (mpm only); rough: a row of glued grains (dem only, its default); ledge: the rough "
+                             "floor ends at the gate, over a pit (dem only: the heap left is the angle of repose)")
     parser.add_argument("--youngs-modulus", type=positive("Pa"), default=YOUNGS_MODULUS,
                         help="E of the grains' continuum [Pa]")
     parser.add_argument("--critical-density-ratio", type=interval(0.0, 1.0), default=CRITICAL_DENSITY_RATIO,
@@ -137,6 +165,19 @@ def add_arguments(parser):
                              "mu_s, mu_2, I0 with --grain-diameter)")
     parser.add_argument("--grain-diameter", type=positive("m"), default=GRAIN_DIAMETER,
                         help=f"d of --material mu-i [m] (default {GRAIN_DIAMETER})")
+    parser.add_argument("--friction-angle", type=positive("deg"), default=None,
+                        help=f"phi of the Mohr-Coulomb sand and of the floor's mu = tan(phi) [deg] (default "
+                             f"{FRICTION_ANGLE}; the grains' angle of repose: bench/results/studies/grain-calibration)")
+    parser.add_argument("--sand", default="mpm", choices=("mpm", "dem"),
+                        help="the column as Granular MPM points (mpm, the default) or as DEM grains (dem)")
+    parser.add_argument("--grain-radius", type=positive("m"), default=GRAIN_RADIUS,
+                        help=f"--sand dem: mean grain radius [m] (default {GRAIN_RADIUS}: d of --material mu-i)")
+    parser.add_argument("--grain-shape", default="disk", choices=("disk", "polygon"),
+                        help="--sand dem: sphero-disks (default) or rounded random pentagons")
+    parser.add_argument("--seed", type=count_at_least(0), default=1, help="--sand dem: seed of the grains")
+    parser.add_argument("--settle-max", type=positive("s"), default=None,
+                        help="--sand dem: the longest the grains settle behind the gate [s] (default 8 free falls "
+                             "through the lattice they start on; they stop earlier once at rest)")
 
 
 def _check(args):
@@ -152,10 +193,23 @@ def _check(args):
         raise InputError("--youngs-modulus", args.youngs_modulus, "E > 0 [Pa]")
     if not (math.isfinite(args.critical_density_ratio) and 0.0 <= args.critical_density_ratio <= 1.0):
         raise InputError("--critical-density-ratio", args.critical_density_ratio, "a ratio in (0, 1], or 0 for none")
+    phi = friction_angle(args)
+    if not (math.isfinite(phi) and 0.0 < phi < 60.0):
+        raise InputError("--friction-angle", phi, "a friction angle in (0, 60) deg")
+    dem = getattr(args, "sand", "mpm") == "dem"
+    args.floor = given(getattr(args, "floor", None), "rough" if dem else "friction")
+    if args.floor in ("rough", "ledge") and not dem:
+        raise InputError("--floor", args.floor, "friction or fixed with --sand mpm: rough and ledge (glued grains) "
+                         "need --sand dem")
 
 
 def _cells(args) -> int:
     return given(args.cells_per_width, 8 if args.quick else 10)
+
+
+def friction_angle(args) -> float:
+    """φ [deg] of the Mohr–Coulomb sand and of the floor's μ = tan φ: --friction-angle, else FRICTION_ANGLE."""
+    return given(getattr(args, "friction_angle", None), FRICTION_ANGLE)
 
 
 def collapse_time(args) -> float:
@@ -164,19 +218,21 @@ def collapse_time(args) -> float:
 
 
 def material(args) -> MohrCoulomb | MuI:
-    """Mohr–Coulomb (φ = FRICTION_ANGLE), or μ(I) with Jop et al. 2006's glass-bead friction law, the
-    same elasticity and density, d = --grain-diameter and ρs = ρ / SOLID_FRACTION."""
+    """Mohr–Coulomb (φ = --friction-angle, FRICTION_ANGLE by default), or μ(I) with Jop et al. 2006's
+    glass-bead friction law, the same elasticity and density, d = --grain-diameter and ρs = ρ / SOLID_FRACTION."""
     ratio = args.critical_density_ratio
     rho_cr = ratio * DENSITY if ratio > 0.0 else None
     if getattr(args, "material", "mohr-coulomb") == "mu-i":
         beads = MuI.glass_beads()
         return MuI(args.youngs_modulus, POISSON, DENSITY, mu_s=beads.mu_s, mu_2=beads.mu_2, i0=beads.i0,
                    grain_diameter=args.grain_diameter, grain_density=DENSITY / SOLID_FRACTION, critical_density=rho_cr)
-    return MohrCoulomb(args.youngs_modulus, POISSON, DENSITY, FRICTION_ANGLE, 0.0, 0.0, critical_density=rho_cr)
+    return MohrCoulomb(args.youngs_modulus, POISSON, DENSITY, friction_angle(args), 0.0, 0.0, critical_density=rho_cr)
 
 
 def build(args) -> CaseSetup:
     _check(args)
+    if args.sand == "dem":
+        return _column_grains.build(args)
     a, w = args.aspect_ratio, args.width
     h = w / _cells(args)
     height = a * w
@@ -185,7 +241,7 @@ def build(args) -> CaseSetup:
     reach = (1.0 + 1.5 * max(1.2 * a, 1.9 * a ** (2.0 / 3.0))) * w
     nx = math.ceil(reach / h) + 4
     ny = math.ceil(height / h - 1e-9) + 2
-    floor = (Boundary("friction", friction=math.tan(math.radians(FRICTION_ANGLE))) if args.floor == "friction"
+    floor = (Boundary("friction", friction=math.tan(math.radians(friction_angle(args)))) if args.floor == "friction"
              else Boundary("fixed"))
     scene = Scene(domain=((0.0, 0.0), (nx * h, ny * h)), cell_size=h, gravity=(0.0, -GRAVITY),
                   boundaries={"left": "slip", "right": "slip", "bottom": floor, "top": "slip"})
@@ -248,6 +304,8 @@ def motion_energy(times: np.ndarray, positions: list[np.ndarray], mass: np.ndarr
 
 
 def summarize(sim, result, args) -> dict:
+    if getattr(args, "sand", "mpm") == "dem":
+        return _column_grains.summarize(sim, result, args)
     a, w = args.aspect_ratio, args.width
     h = sim.scene.cell_size
     half = 0.5 * h / POINTS_PER_CELL  # half the initial point spacing: a point's domain reaches that far
@@ -298,7 +356,7 @@ def summarize(sim, result, args) -> dict:
         "cells_per_width": _cells(args),
         "floor": args.floor,
         "youngs_modulus_pa": args.youngs_modulus,
-        "friction_angle_deg": FRICTION_ANGLE,
+        "friction_angle_deg": friction_angle(args),
         "material": getattr(args, "material", "mohr-coulomb"),
         "runout_m": length - w,
         "normalized_runout": runout,

@@ -65,6 +65,21 @@
 # one frame at 0.40 s, then ends 4 mm up, inverted on the sand. Its final pose differs on all three
 # grids (upright, on its side, inverted). No sand point ever ends a frame inside a block. --quick
 # (CPU): reach 0.23 s, block 2 touches at 0.33 s and rests at 0.40 s, block 1 touches at 0.49 s.
+#
+# --sand dem (cases/_blocks_grains.py; issue 43): the sand column as free DEM sphero-disks of mean radius
+# --grain-radius (default the seed's r_p = 1 mm; Liu, Sun & Zhou's sand size was not read here, so d
+# is not matched to it), ±15 %, of the grain material the other cases share (mpmdem.sim.gated_grains:
+# grain-grain μ = 0.5, e = 0.5; k_n and k_t as here) with ρ_s = ρ / 0.82 (the settled column has
+# Table 3's bulk density). A pair's μ is the smaller of its two bodies' (the DEM's rule), so sand–block
+# and sand–floor take the blocks' and the floor's μ of --friction where those are below 0.5 (Table 3's
+# 0.2 everywhere: as the MPM run; the reproduction's set gives sand–floor 0.5, not 0.16, and
+# sand–block 0.5, not 0.55). The grains are placed on a loose lattice over the column, trimmed to
+# the lowest ones whose area is 0.82 × the column's (they settle to its height), settled behind a
+# frictionless gate at x = 0.1 m (the flume's floor and walls, no blocks), then moved into the flume
+# with the blocks at t = 0: the column starts at rest, as the MPM sand does (no gate). The left wall is
+# frictionless, as the grid's slip wall; a frictionless lid closes the top (the grains never reach
+# it). The summary has the MPM run's event fields, from the grains (the front: the farthest grain's
+# edge).
 """Block impact (MPM-SDEM §6 on the experiment's geometry): a sand column topples two of three stacked blocks."""
 
 import math
@@ -73,10 +88,11 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, DruckerPrager, InputError, Scene, rounded_rectangle
+from mpmdem.cases import _blocks_grains
 from mpmdem.study.case import CaseSetup
 from mpmdem.study.flag_types import count_at_least, given, non_negative, positive
 from mpmdem.study.references.block_impact import ENSEMBLE_STARTS, T_PAPER, T_PAPER_PRINTED, first_time, readings
-from mpmdem.study.references.table3 import GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, VERLET, sand
+from mpmdem.study.references.table3 import GRAVITY, KN_TABLE, KT_TABLE, MU_TABLE, R_P_TABLE, VERLET, sand
 from mpmdem.study.validation import Check
 
 NAME = "sand-blocks"
@@ -155,6 +171,16 @@ def add_arguments(parser):
                              "spacing, from this seed (default: none, the experiment's start)")
     parser.add_argument("--normal-stiffness", type=positive("N/m per m"), default=KN,
                         help=f"k_n of every contact [N/m per m] (default {KN:g}; Table 3: {KN_TABLE:g}); k_t = k_n/20")
+    parser.add_argument("--sand", default="mpm", choices=("mpm", "dem"),
+                        help="the sand column as Granular MPM points (mpm, the default) or as DEM grains (dem)")
+    parser.add_argument("--grain-radius", type=positive("m"), default=R_P_TABLE,
+                        help=f"--sand dem: mean grain radius [m] (default the seed's r_p = {R_P_TABLE})")
+    parser.add_argument("--grain-shape", default="disk", choices=("disk", "polygon"),
+                        help="--sand dem: sphero-disks (default) or rounded random pentagons")
+    parser.add_argument("--seed", type=count_at_least(0), default=1, help="--sand dem: seed of the grains")
+    parser.add_argument("--settle-max", type=positive("s"), default=None,
+                        help="--sand dem: the longest the grains settle behind the gate [s] (default 8 free falls "
+                             "through the lattice they start on; they stop earlier once at rest)")
 
 
 def _cell(args) -> float:
@@ -211,6 +237,8 @@ def contact_radius(h: float) -> float:
 
 def build(args) -> CaseSetup:
     _check(args)
+    if getattr(args, "sand", "mpm") == "dem":
+        return _blocks_grains.build(args)
     h = _cell(args)
     s = h / POINTS_PER_CELL
     mu = FRICTION_SETS[args.friction]
@@ -256,7 +284,43 @@ def block_penetration(x: np.ndarray, centre, angle: float, radius: float) -> flo
     return float(max(0.0, (radius - dist).max(initial=-np.inf)))
 
 
+def block_tracks(times: np.ndarray, bx: np.ndarray, ang: np.ndarray, idx: dict, r: float) -> dict:
+    """The summary's per-block fields from the bodies' tracks (positions bx (frames, bodies, 2) [m],
+    angles ang (frames, bodies) [rad], ``idx`` body name → index, corner rounding r [m]): the angle,
+    orientation, position and lowest point of blocks 1 and 2 per frame, both readings of their landing
+    (``readings``), when they first move, and how far block 3 (glued) moved and turned."""
+    out = {}
+    for n in ("block1", "block2"):
+        i = idx[n]
+        a = ang[:, i] - ang[0, i]
+        deg = np.degrees(a)
+        # lowest point of the rounded rectangle: centre height minus the half-extent along y
+        core = np.array([0.5 * BLOCK[0] - r, 0.5 * BLOCK[1] - r])
+        lowest = bx[:, i, 1] - (np.abs(np.sin(a)) * core[0] + np.abs(np.cos(a)) * core[1]) - r
+        wrapped = (deg + 180.0) % 360.0 - 180.0
+        out[f"{n}_angle_deg"] = deg.tolist()
+        # the reproduction's convention: 90° upright, 0° on its side
+        out[f"{n}_orientation_deg"] = (90.0 - np.abs(wrapped)).tolist()
+        out[f"{n}_final_orientation_deg"] = float(90.0 - abs(wrapped[-1]))
+        out[f"{n}_max_abs_angle_deg"] = float(np.abs(deg).max())
+        out[f"{n}_x_m"] = bx[:, i, 0].tolist()
+        out[f"{n}_y_m"] = bx[:, i, 1].tolist()
+        out[f"{n}_lowest_point_m"] = lowest.tolist()
+        # the two readings of "lands" (header): first touch of the floor, at rest on a face
+        read = readings(times, lowest, deg)
+        out[f"{n}_touch_time"] = read["touch"]
+        out[f"{n}_rest_time"] = read["rest"]
+        out[f"{n}_final_pose"] = read["pose"]
+        out[f"{n}_move_time"] = first_time(times, np.hypot(*(bx[:, i] - bx[0, i]).T) > 1.0e-3)
+    i3 = idx["block3"]
+    out["block3_displacement_m"] = float(np.abs(bx[:, i3] - bx[0, i3]).max())
+    out["block3_rotation_deg"] = float(np.degrees(np.abs(ang[:, i3] - ang[0, i3]).max()))
+    return out
+
+
 def summarize(sim, result, args) -> dict:
+    if getattr(args, "sand", "mpm") == "dem":
+        return _blocks_grains.summarize(sim, result, args)
     from mpmdem.io import RunFile
 
     with RunFile(result.path) as rf:
@@ -283,31 +347,7 @@ def summarize(sim, result, args) -> dict:
         "granular": sim.config.granular, "times": times.tolist(), "flow_front_x": front.tolist(),
         "reach_time": reach,
     }
-    for n in ("block1", "block2"):
-        i = idx[n]
-        a = ang[:, i] - ang[0, i]
-        deg = np.degrees(a)
-        # lowest point of the rounded rectangle: centre height minus the half-extent along y
-        core = np.array([0.5 * BLOCK[0] - r, 0.5 * BLOCK[1] - r])
-        lowest = bx[:, i, 1] - (np.abs(np.sin(a)) * core[0] + np.abs(np.cos(a)) * core[1]) - r
-        wrapped = (deg + 180.0) % 360.0 - 180.0
-        out[f"{n}_angle_deg"] = deg.tolist()
-        # the reproduction's convention: 90° upright, 0° on its side
-        out[f"{n}_orientation_deg"] = (90.0 - np.abs(wrapped)).tolist()
-        out[f"{n}_final_orientation_deg"] = float(90.0 - abs(wrapped[-1]))
-        out[f"{n}_max_abs_angle_deg"] = float(np.abs(deg).max())
-        out[f"{n}_x_m"] = bx[:, i, 0].tolist()
-        out[f"{n}_y_m"] = bx[:, i, 1].tolist()
-        out[f"{n}_lowest_point_m"] = lowest.tolist()
-        # the two readings of "lands" (header): first touch of the floor, at rest on a face
-        read = readings(times, lowest, deg)
-        out[f"{n}_touch_time"] = read["touch"]
-        out[f"{n}_rest_time"] = read["rest"]
-        out[f"{n}_final_pose"] = read["pose"]
-        out[f"{n}_move_time"] = first_time(times, np.hypot(*(bx[:, i] - bx[0, i]).T) > 1.0e-3)
-    i3 = idx["block3"]
-    out["block3_displacement_m"] = float(np.abs(bx[:, i3] - bx[0, i3]).max())
-    out["block3_rotation_deg"] = float(np.degrees(np.abs(ang[:, i3] - ang[0, i3]).max()))
+    out.update(block_tracks(times, bx, ang, idx, r))
     # no sand point may end a frame inside a block
     deepest = 0.0
     for k, x in enumerate(px):

@@ -76,7 +76,8 @@ import sys
 
 import numpy as np
 
-from mpmdem import ContactLaw, InputError, MuI, Scene, SolverConfig, rectangle, rounded_rectangle
+from mpmdem import ContactLaw, InputError, MuI, Scene, rectangle, rounded_rectangle
+from mpmdem.sim import gated_grains
 from mpmdem.study.case import CaseSetup
 from mpmdem.study.flag_types import count_at_least, given, positive
 from mpmdem.study.references.beverloo import beverloo
@@ -150,10 +151,11 @@ METHODS = {
     "obstacle-fixed": ("granular", None, "obstacle-fixed"),
 }
 SANDS = ("mpm", "dem")
-#: --sand dem: grain-grain Coulomb μ (a sand's; a pair with a plate takes the plates' Table 3 μ = 0.2)
-GRAIN_FRICTION = 0.5
-#: solid fraction of a settled pack of these grains (tests/test_grains.py; Berryman 1983: 0.82 ± 0.02)
-PACKING_FRACTION = 0.82
+#: --sand dem: grain-grain Coulomb μ (a sand's; a pair with a plate takes the plates' Table 3 μ = 0.2) and
+#: the solid fraction of a settled pack of these grains (tests/test_grains.py; Berryman 1983: 0.82 ± 0.02),
+#: shared with the other cases' grains (mpmdem.sim.gated_grains)
+GRAIN_FRICTION = gated_grains.GRAIN_FRICTION
+PACKING_FRACTION = gated_grains.PACKING_FRACTION
 #: the lattice the grains start on is loose (φ ≈ 0.6): it is this much taller than the fill it settles to
 LATTICE_HEIGHT = 1.4
 MPM_VARIANTS = {"granular": {"granular": True, "density_control": "revert"},
@@ -334,7 +336,6 @@ def grain_density() -> float:
 
 def build_dem(args, g: dict) -> CaseSetup:
     """--sand dem: grains settled behind a gate, then moved into the open silo (see the header)."""
-    from mpmdem.sim.packing import settle
     from mpmdem.sim.simulation import default_device
 
     xc, w, f = g["xc"], g["width"], g["floor"]
@@ -346,12 +347,9 @@ def build_dem(args, g: dict) -> CaseSetup:
     device = args.device or default_device()
     precision = getattr(args, "precision", None) or DEFAULTS_DEM["precision"]
     # at rest after a free fall through the lattice's height at the least, 8 of them at the most
-    fall = math.sqrt(2.0 * LATTICE_HEIGHT * g["fill"] / GRAVITY)
-    longest = given(args.settle_max, 8.0 * fall)
-    if not (math.isfinite(longest) and longest > 0.0):
-        raise InputError("--settle-max", args.settle_max, "a settling time > 0 [s]")
-    packing = settle(closed, SolverConfig(precision=precision), device=device, min_time=min(fall, longest),
-                     max_time=longest)
+    packing, seconds = gated_grains.settle_behind_gate(closed, precision=precision, device=device,
+                                                       height=LATTICE_HEIGHT * g["fill"], gravity=GRAVITY,
+                                                       settle_max=args.settle_max)
     scene = _dem_scene(g, args, gate=False)
     scene.add_grain_set(packing.grains[0])
     inf = math.inf
@@ -363,8 +361,7 @@ def build_dem(args, g: dict) -> CaseSetup:
         print(f"silo-discharge: {len(packing.grains[0])} grains settled in {packing.time:.3g} s (packing fraction "
               f"{packing.packing_fraction:.3f}, bulk density {packing.bulk_density:.0f} kg/m^3)", file=sys.stderr)
     # (for the summary: the case's functions share only the flags)
-    args.settled = {"time": packing.time, "rms_speed": packing.rms_speed, "packing_fraction": packing.packing_fraction,
-                    "bulk_density": packing.bulk_density, "coordination": packing.coordination}
+    args.settled = gated_grains.settled_record(packing, seconds)
     return CaseSetup(scene, end_time=end, frames=round(end / 0.02), config=dict(DEFAULTS_DEM))
 
 

@@ -23,6 +23,10 @@ STUDIES = {
     "block-impact-ensemble": "block_impact:ENSEMBLE",
     "column-collapse": "column_collapse",
     "column-collapse-mu-i": "column_collapse:MU_I",
+    "column-collapse-dem": "column_collapse_dem",
+    "column-collapse-dem-seeds": "column_collapse_dem:SEEDS",
+    "column-collapse-dem-heap": "column_collapse_dem:HEAP",
+    "column-collapse-dem-polygon": "column_collapse_dem:POLYGON",
     "disk-restitution": "disk_restitution",
 }
 
