@@ -185,6 +185,10 @@ def summarize(sim, result, args) -> dict:
     tau = cc.collapse_time(args)
     centres, top = surface_profile(xk, rk, 0.0, 2.0 * d, end=min(connected, w) if args.floor == "ledge" else connected)
     flank = flank_angle(centres, top, floor=y0)
+    # the steepest secant from the surface to the connected front: the deposit lies under the line of
+    # this slope that ends at the front (the bound of tests/test_column_dem.py's area argument)
+    ahead = [(t - y0) / (connected - c) for c, t in zip(centres, top, strict=True) if c < connected - d]
+    secant = math.degrees(math.atan(max(ahead))) if ahead else None
     pred_runout, pred_height = cc.lube_runout(a), cc.lube_height(a)
     runout = (length - w) / w
     total = np.asarray(diag["mass_all"])
@@ -203,7 +207,7 @@ def summarize(sim, result, args) -> dict:
         "final_height_m": height, "normalized_final_height": height / w,
         "final_height_max_m": float((x1[:, 1] + r).max()) - y0,
         "flank_angle_deg": flank["angle_deg"], "flank_angle_stderr_deg": flank["angle_stderr_deg"],
-        "flank_bins": flank["bins"], "flank_x_range_m": flank["x_range_m"],
+        "surface_secant_angle_deg": secant, "flank_bins": flank["bins"], "flank_x_range_m": flank["x_range_m"],
         "heap_mass_fraction": float(mk.sum() / mass.sum()),
         "stop_time_s": stop, "stop_time_normalized": stop / tau if stop is not None else None,
         "stop_time_all_grains_s": stop_all, "grains_beyond_front": int(np.count_nonzero(~deposit)),

@@ -57,13 +57,14 @@ def test_the_grains_keep_their_mass_and_stay_in_the_box(quick):
 
 def test_the_column_spreads_at_least_as_far_as_its_own_flank_allows(quick):
     """The deposit holds the column's area L0 H0 (grains keep their mass; a pack at rest is no denser
-    than the settled column), under a surface no higher than H0 and, between the wall and the front,
-    no steeper on average than its measured flank: the largest area under such a surface with its
-    front at L_f is H0 L_f − H0² / (2 tan θ), so L_f − L0 ≥ H0 / (2 tan θ) (the MPM case's test, with
-    the grains' own angle θ for the continuum's φ). One grain diameter of slack for the front's
-    reading. A column that stood or stopped short with a steep face fails it."""
+    than the settled column), under a surface no higher than H0 and under the line of slope tan θ
+    that ends at the front, θ the steepest secant from the deposit's surface to its front (measured
+    on the deposit: the fitted flank angle is a mean, and a deposit steeper near the wall than on its
+    flank can lie above the flank's line): the largest area under such a surface with its front at
+    L_f is H0 L_f − H0² / (2 tan θ), so L_f − L0 ≥ H0 / (2 tan θ). One grain diameter of slack for the
+    front's reading. A column that stood or stopped short with a steep face fails it."""
     a = quick["settled_aspect_ratio"]
-    theta = math.radians(quick["flank_angle_deg"] + 2.0 * quick["flank_angle_stderr_deg"])
+    theta = math.radians(quick["surface_secant_angle_deg"])
     slack = quick["grain_diameter_mean_m"] / quick["initial_width_m"]
     assert quick["normalized_runout"] >= a / (2.0 * math.tan(theta)) - slack
 
