@@ -189,7 +189,7 @@ def _check_number(name: str, value: object, kind: str, low, high) -> None:
     else:
         ok = (math.isfinite(value) and (low is None or value >= low) and (high is None or value <= high))
     if not ok:
-        rng = (f" in [{low}, {high}]" if low is not None and high is not None
-               else f" >= {low}" if low is not None else f" <= {high}" if high is not None else "")
+        rng = (f" in [{low:g}, {high:g}]" if low is not None and high is not None
+               else f" >= {low:g}" if low is not None else f" <= {high:g}" if high is not None else "")
         what = "an integer" if integer else "a finite number"
         raise InputError(name, value, what + rng + (", or None" if "None" in kind else ""))
