@@ -4,14 +4,14 @@
 Points start in cell order (``cell_sort.device_order``), so that consecutive threads of P2G add
 into neighbouring grid nodes and the atomics coalesce. As material flows that order degrades, and
 a large scene with shuffled points steps at about half its sorted speed (docs/benchmarks.md,
-"Tuning constants and their measured reasons"). ``Simulation``
-measures the drift of the order (``PointSorter.drift``: the fraction of consecutive pairs whose
-cells are not neighbours) after a batch of ``advance_to`` — where it already synchronises to read
-the clock, so ``advance`` stays free of host syncs — and re-sorts when it passes a threshold.
+"Tuning constants and their measured reasons"). ``Simulation`` measures the drift of the order
+(``PointSorter.drift``: the fraction of consecutive pairs whose cells are not neighbours) after a
+batch of ``advance_to`` — where it already synchronises to read the clock, so ``advance`` stays
+free of host syncs — and re-sorts when it passes a threshold.
 
 It runs only where it can pay: on CUDA devices, for at least ``Tuning.auto_sort_min_points``
-points, and not in coupled scenes (the point–body lists follow the memory order, so ``CoupledStage`` keeps
-the points where they are). Every CPU run and every small scene is thus unchanged bit for bit.
+points, and not in coupled scenes (the point–body lists follow the memory order, so
+``CoupledStage`` keeps the points where they are). Every CPU run and every small scene is thus unchanged bit for bit.
 """
 
 from __future__ import annotations
