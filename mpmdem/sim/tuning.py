@@ -124,10 +124,11 @@ class Tuning:
     split_hits_per_pair: int = _knob(4, 1)
     """Touching feature pairs recorded per listed pair by the split search; past them, searched whole."""
     split_threads_per_sm: int = _knob(2048, 1)
-    """Threads of the split search's kernels on CUDA (they stride over the listed pairs or the
-    candidates): at least this many per SM ..."""
+    """Threads per SM, at least, of the split search's kernels on CUDA (they stride over the listed
+    pairs or the candidates; a thread striding over several pairs runs them one after another)."""
     split_threads_per_body: int = _knob(4, 1)
-    """... and this many per body, about a thread per listed pair."""
+    """Threads per body, at least, of the split search's kernels on CUDA: about a thread per listed
+    pair (without the disk–disk pass; with it, the per-SM floor alone)."""
     split_assemble_registers: int | None = _knob(128, 16, 255)
     """Registers per thread of the split search's ``assemble`` on CUDA (None: the compiler's choice,
     which takes one block of 256 threads an SM)."""
