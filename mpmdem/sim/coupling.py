@@ -39,6 +39,7 @@ from .tuning import Tuning
 
 __all__ = ["CoupledStage", "contact_time_step_bound"]
 
+
 def contact_time_step_bound(scene: Scene, point_mass: float) -> float:
     """Largest stable step [s] of a material point of mass ``point_mass`` [kg/m] on one contact
     spring of the coupling law, 2 sqrt(m_p / k) (sqrt(1 + ζ²) − ζ), k = max(k_n, k_t): the bound

@@ -37,6 +37,7 @@ from .warp_init import check_device, init_warp
 
 __all__ = ["RunResult", "Simulation", "default_device"]
 
+
 def default_device() -> str:
     """"cuda" when a CUDA device is present, else "cpu"."""
     init_warp()
