@@ -68,7 +68,7 @@ class CoupledStage(ClockedStage):
         mpm, dem: the two stages, built for this scene on one ``Clock`` (the coordinator's); the
             MPM stage's dt policy (``MPMSolver.start_clock``), capped here each step.
         tuning: the list build's tile, the sifted and the static point–body lists
-            (``mpmdem.sim.tuning``; default ``Tuning()``).
+            (``mpmdem.sim.tuning``; default: the MPM stage's).
     """
 
     def __init__(self, scene: Scene, config: SolverConfig, device: str, mpm: MPMSolver, dem: DEMSolver, *,
@@ -80,7 +80,7 @@ class CoupledStage(ClockedStage):
                              "0 or None in a scene with rigid bodies and points (the point–body lists follow the "
                              "points' memory order; None re-sorts nothing here)")
         self.scene, self.config, self.mpm, self.dem = scene, config, mpm, dem
-        self.tuning = tuning or Tuning()
+        self.tuning = tuning or mpm.tuning
         self.device = wp.get_device(device)
         if mpm.sim_clock is not dem.sim_clock:
             raise ValueError("CoupledStage: build the MPM and DEM stages on one Clock (MPMSolver(..., clock=c), "
