@@ -15,7 +15,7 @@ graph. Each size and path is settled for --warmup steps (untimed), then timed.
 settle into). Ours runs every feature the probe leaves out: tangential history per pair, Verlet
 lists rebuilt on the device when needed, walls as bodies, energy and dissipation booked.
 
-Prints one JSON line per size and path (``path``: "disk-pass" or "general", ``mpmdem.sim.dem.DISK_PAIRS``)
+Prints one JSON line per size and path (``path``: "disk-pass" or "general", ``mpmdem.Tuning.disk_pairs``)
 and per probe run; ``--out FILE`` appends them to FILE.
 Usage: python bench/grain_throughput.py --sizes 10000,100000,1000000 --probe ../shared/bench/warp_dem2d.py
 """
@@ -33,8 +33,7 @@ import time
 import numpy as np
 import warp as wp
 
-import mpmdem.sim.dem as dem_module
-from mpmdem import ContactLaw, Scene, Simulation, SolverConfig
+from mpmdem import ContactLaw, Scene, Simulation, SolverConfig, Tuning
 from mpmdem.model.grains import GrainSet
 
 R = 0.5  # m, grain radius (the probe's)
@@ -68,9 +67,9 @@ def lattice_pack(n: int, polydispersity: float = 0.0, seed: int = 0) -> tuple[Sc
 def measure(scene: Scene, dt: float, n: int, disk_pass: bool, steps: int, warmup: int, device: str,
             seed: int = 0) -> dict:
     """Grain-steps/s of ``scene`` with the disk–disk pass on or off (see the module docstring)."""
-    dem_module.DISK_PAIRS = disk_pass
     t0 = time.perf_counter()
-    sim = Simulation(scene, SolverConfig(precision="f32", dt=dt), device=device)
+    sim = Simulation(scene, SolverConfig(precision="f32", dt=dt), device=device,
+                     tuning=Tuning(disk_pairs=disk_pass))
     setup = time.perf_counter() - t0
     dem = sim.dem
     if dem.disk_pairs != disk_pass:

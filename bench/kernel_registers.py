@@ -38,9 +38,11 @@ def kernels(name: str, cap: int | None):
 
         return make_dem_kernels("f32", False).make_contact_forces(cap)
     if name.startswith("dem_split_"):  # dem_split_candidates, dem_split_search, dem_split_assemble
+        from mpmdem import Tuning
         from mpmdem.kernels.dem_split import make_split_search
 
-        return getattr(make_split_search("f32", assemble_registers=cap), name.removeprefix("dem_split_"))
+        hits = Tuning().split_hits_per_pair
+        return getattr(make_split_search("f32", hits, assemble_registers=cap), name.removeprefix("dem_split_"))
     if name == "imp_forces":
         from mpmdem.kernels.coupling import make_coupling_kernels
 

@@ -8,7 +8,7 @@ steps it ``--warmup`` steps as a run does (``Simulation.advance_to``: kernel com
 CUDA-graph capture, the first list builds, the layout of the Granular MPM block chosen from how
 often it ran, ``mpmdem.sim.block_layout``: excluded), then times ``--steps`` steps between two device
 synchronisations, with the stepping ``Simulation.advance`` does (captured graphs of
-STEPS_PER_GRAPH steps on CUDA, no output, no host reads). The
+``Tuning.steps_per_graph`` steps on CUDA, no output, no host reads). The
 targets of issue 27 are per step, so a fixed number of steps measures them; a case's full run is
 ``steps`` of its own end time.
 
@@ -34,8 +34,7 @@ from pathlib import Path
 
 import warp as wp
 
-from mpmdem import Simulation
-from mpmdem.sim import simulation
+from mpmdem import Simulation, Tuning
 from mpmdem.study.runner import case_module, config_from_args, make_case_parser
 
 CASES = ("sand-blocks", "normal-force", "silo-filling", "silo-discharge")
@@ -52,13 +51,13 @@ def commit() -> str:
         return ""
 
 
-def build_case(name: str, device: str, flags: list[str]):
-    """(simulation, setup) of case ``name`` at its default size, built as ``mpmdem run`` does, its
-    step captured and its stop time set out of reach (every timed step steps)."""
+def build_case(name: str, device: str, flags: list[str], tuning: Tuning | None = None):
+    """(simulation, setup) of case ``name`` at its default size, built as ``mpmdem run`` does (with
+    ``tuning``, default ``Tuning()``), its step captured and its stop time set out of reach (every timed step steps)."""
     module = case_module(name)
     args = make_case_parser(module).parse_args(["--device", device, "--quiet", *flags])
     setup = module.build(args)
-    sim = Simulation(setup.scene, config_from_args(setup, module, args), device=device)
+    sim = Simulation(setup.scene, config_from_args(setup, module, args), device=device, tuning=tuning)
     sim._capture()
     sim.stage.set_stop_time(1.0e9)  # never reached: the timed steps all step
     return sim, setup
@@ -72,9 +71,10 @@ def layout(sim) -> dict:
     return {name: "inline" if b.inline else "conditional" for name, b in zip(names, layouts, strict=False)}
 
 
-def time_case(name: str, device: str, warmup: int, steps: int, flags: list[str]) -> dict:
+def time_case(name: str, device: str, warmup: int, steps: int, flags: list[str],
+              tuning: Tuning | None = None) -> dict:
     """µs per step of case ``name`` at its default size on ``device``."""
-    sim, setup = build_case(name, device, flags)
+    sim, setup = build_case(name, device, flags, tuning)
     sim.advance(1)  # (the first step sets dt)
     t, dt, *_ = sim.stage.read_clock()
     sim.advance_to(t + (warmup - 1) * dt)  # as a run steps: checks after each batch, the block layout chosen
@@ -93,7 +93,7 @@ def time_case(name: str, device: str, warmup: int, steps: int, flags: list[str])
     return {"case": name, "device": str(wp.get_device(device).name if device != "cpu" else "cpu"),
             "points": sim.particle_count, "bodies": sim.body_count, "granular": sim.config.granular,
             "steps": steps, "seconds": seconds, "us_per_step": 1e6 * seconds / steps,
-            "end_time": setup.end_time, "dt": dt, "steps_per_graph": simulation.STEPS_PER_GRAPH, **rates,
+            "end_time": setup.end_time, "dt": dt, "steps_per_graph": sim.tuning.steps_per_graph, **rates,
             **layout(sim),
             "commit": commit()}
 
@@ -105,12 +105,11 @@ def main(argv=None) -> int:
     p.add_argument("--warmup", type=int, default=1000, help="steps before timing (through advance_to, as a run)")
     p.add_argument("--steps", type=int, default=5000, help="timed steps per case")
     p.add_argument("--steps-per-graph", type=int, default=None,
-                   help="steps per CUDA-graph launch (default mpmdem.sim.simulation.STEPS_PER_GRAPH; 1: one per step)")
+                   help="steps per CUDA-graph launch (default Tuning().steps_per_graph; 1: one per step)")
     p.add_argument("--out", type=Path, default=RESULTS / "small_scenes" / "h100.jsonl")
     args, flags = p.parse_known_args(argv)
-    if args.steps_per_graph is not None:
-        simulation.STEPS_PER_GRAPH = args.steps_per_graph
-    run_cases(args.cases, args.out, lambda name: time_case(name, args.device, args.warmup, args.steps, flags))
+    tuning = Tuning() if args.steps_per_graph is None else Tuning(steps_per_graph=args.steps_per_graph)
+    run_cases(args.cases, args.out, lambda name: time_case(name, args.device, args.warmup, args.steps, flags, tuning))
     return 0
 
 

@@ -32,8 +32,6 @@ from pathlib import Path
 
 import warp as wp
 
-from mpmdem.sim import simulation
-
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from small_scenes import CASES, RESULTS, build_case, commit, run_cases  # noqa: E402
 
@@ -77,8 +75,8 @@ def floor_case(name: str, device: str, warmup: int, steps: int, flags: list[str]
         sim._record_graphs()
     finally:
         wp.launch = launch
-    # _record_graphs records one step, then STEPS_PER_GRAPH steps: 1 + STEPS_PER_GRAPH steps in all
-    recorded = 1 + simulation.STEPS_PER_GRAPH
+    # _record_graphs records one step, then steps_per_graph steps: 1 + steps_per_graph steps in all
+    recorded = 1 + sim.tuning.steps_per_graph
     floor = timed(sim, device, steps)
     return {"case": name, "device": str(wp.get_device(device).name), "points": sim.particle_count,
             "bodies": sim.body_count, "granular": sim.config.granular, "steps": steps, "us_per_step": real,

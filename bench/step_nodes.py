@@ -84,9 +84,10 @@ class StepRecorder:
         return False
 
 
-def step_nodes(name: str, device: str, flags: list[str]) -> dict:
-    """The items of one step of case ``name`` (outside a capture: conditional bodies all listed)."""
-    sim, _ = build_case(name, device, flags)
+def step_nodes(name: str, device: str, flags: list[str], tuning=None) -> dict:
+    """The items of one step of case ``name`` (outside a capture: conditional bodies all listed;
+    ``tuning``: a ``mpmdem.Tuning``, default ``Tuning()``)."""
+    sim, _ = build_case(name, device, flags, tuning)
     sim.advance(3)
     with StepRecorder() as rec:
         sim.stage.step()

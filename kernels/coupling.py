@@ -343,7 +343,7 @@ def make_coupling_kernels(precision: str, scheme: str = "imp", *, staged: bool =
         """The force kernel over the listed points, or (``sifted``) over those ``sift`` kept.
 
         static_bodies > 0: every point lists these bodies, slot s holding body s, for the whole run
-        (``mpmdem.sim.coupling.STATIC_IMP_BODIES``). The bodies' bounding circles are tested first, all
+        (``mpmdem.sim.tuning.Tuning.static_imp_bodies``). The bodies' bounding circles are tested first, all
         at once (an unrolled loop: their loads leave together, where the listed loop would wait on
         each body's in turn), and a body is searched only where the point is also within reach of
         its core's bounding box: a long wall's circle covers most of a scene, its box a strip. The

@@ -28,22 +28,22 @@ from .dem import make_dem_kernels
 from .scan import block_append
 from .types import Namespace, kernel, scalar_types
 
-__all__ = ["HITS_PER_PAIR", "MAX_VERTICES", "make_split_search"]
+__all__ = ["MAX_VERTICES", "make_split_search"]
 
 #: Vertices of a core the split search takes (5 bits of a candidate's code); scenes with more
 #: keep ``contact_forces``.
 MAX_VERTICES = 31
 _VERTEX_BITS = 5
 _FEATURE_BITS = 6  # features of a vertex's search: at most 2 × 31 + 1 < 64
-#: Touches recorded per pair (two pentagons touch at 1-2 spots; face on face at up to 4).
-HITS_PER_PAIR = 4
 
 
 @functools.cache
-def make_split_search(precision: str, hits: int = HITS_PER_PAIR, assemble_registers: int | None = None):
+def make_split_search(precision: str, hits: int, assemble_registers: int | None = None):
     """Struct ``Split`` and kernels ``candidates``, ``search``, ``assemble`` for one precision;
-    ``hits`` touches recorded per pair (more: that pair is searched whole); ``assemble`` built with
-    at most ``assemble_registers`` registers per thread on CUDA (None: the compiler's choice)."""
+    ``hits`` touches recorded per pair (more: that pair is searched whole; two pentagons touch at
+    1-2 spots, face on face at up to 4; the stage passes ``Tuning.split_hits_per_pair``);
+    ``assemble`` built with at most ``assemble_registers`` registers per thread on CUDA (None: the
+    compiler's choice)."""
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2

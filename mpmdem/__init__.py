@@ -43,6 +43,7 @@ from .model.spheropolygons import (
     spheropolygon_from_file,
 )
 from .sim.simulation import RunResult, Simulation, default_device
+from .sim.tuning import Tuning
 
 __all__ = [
     "SHAPE_FUNCTIONS",
@@ -68,6 +69,7 @@ __all__ = [
     "SolverConfig",
     "Spheropolygon",
     "TransferScheme",
+    "Tuning",
     "default_device",
     "disk",
     "polygon",

@@ -7,7 +7,6 @@ from helpers import free_disk_scene
 
 import mpmdem as m
 from mpmdem.model.spheropolygons import rounded_rectangle
-from mpmdem.sim import auto_sort
 from mpmdem.sim.auto_sort import AutoSort, auto_sort_applies
 
 H = 0.05  # a disk of radius 0.3 m at 2 × 2 points per cell of 0.05 m: about 450 points
@@ -24,9 +23,14 @@ def _far_pairs(cells: np.ndarray) -> np.ndarray:
     return (np.abs(np.diff(cells, axis=0)) > 1).any(axis=1)
 
 
-def _sim(scene=None, **config):
+#: the default knobs of the automatic re-sorting
+TUNING = m.Tuning()
+DRIFT = TUNING.auto_sort_drift
+
+
+def _sim(scene=None, tuning=None, **config):
     return m.Simulation(scene or free_disk_scene(cell_size=H), m.SolverConfig(precision="f64", **config),
-                        device="cpu")
+                        device="cpu", tuning=tuning)
 
 
 def test_drift_is_small_in_cell_order_and_matches_numpy_for_a_random_order():
@@ -56,7 +60,7 @@ def test_drift_is_small_in_cell_order_and_matches_numpy_for_a_random_order():
     assert 0.6 < expected < 0.95  # a small scene: a random order is far from cell order, but not 1
     # a sum of n − 1 nearly independent Bernoulli(expected) terms: sd ≈ sqrt(e (1 − e) / n) ≈ 0.015
     assert drift == pytest.approx(expected, abs=0.06)
-    assert drift > auto_sort.AUTO_SORT_DRIFT
+    assert drift > DRIFT
 
 
 def test_auto_sort_re_sorts_a_shuffled_scene_and_keeps_its_points():
@@ -69,7 +73,7 @@ def test_auto_sort_re_sorts_a_shuffled_scene_and_keeps_its_points():
         assert sim._auto_sort is None  # the CPU: off by default
         sim.mpm.shuffle_points(seed=1)
         if auto:
-            sim._auto_sort = AutoSort(sim.mpm, check_steps=5)
+            sim._auto_sort = AutoSort(sim.mpm, DRIFT, check_steps=5)
         result = sim.run(0.05, frames=2)
         return sim, result
 
@@ -77,8 +81,8 @@ def test_auto_sort_re_sorts_a_shuffled_scene_and_keeps_its_points():
     auto, result = run(True)
     assert result.status == "completed" and result.steps >= 10
     assert auto._auto_sort.sorts >= 1
-    assert auto.mpm.order_drift() < auto_sort.AUTO_SORT_DRIFT
-    assert plain.mpm.order_drift() > auto_sort.AUTO_SORT_DRIFT  # nothing re-sorted the plain run
+    assert auto.mpm.order_drift() < DRIFT
+    assert plain.mpm.order_drift() > DRIFT  # nothing re-sorted the plain run
     pid = auto.mpm.P.pid.numpy()
     assert sorted(pid.tolist()) == list(range(auto.particle_count))
     a, b = plain.fields(), auto.fields()
@@ -93,7 +97,7 @@ def test_auto_sort_checks_at_most_every_check_steps():
     """Verify a check is skipped until ``check_steps`` steps passed since the last one, and that
     an order below the threshold is left alone."""
     sim = _sim()
-    sorter = AutoSort(sim.mpm, check_steps=100)
+    sorter = AutoSort(sim.mpm, DRIFT, check_steps=100)
     assert not sorter.after_batch(0)  # starting (cell) order: checked, below the threshold
     first = sorter.drift
     assert first is not None and first < sorter.threshold
@@ -104,33 +108,31 @@ def test_auto_sort_checks_at_most_every_check_steps():
     assert sorter.sorts == 1 and sim.mpm.order_drift() < sorter.threshold
 
 
-def test_auto_sort_applies_only_on_cuda_to_large_uncoupled_scenes(monkeypatch):
-    """Verify the rule: automatic only for sort_interval None, on CUDA, at AUTO_SORT_MIN_POINTS
+def test_auto_sort_applies_only_on_cuda_to_large_uncoupled_scenes():
+    """Verify the rule: automatic only for sort_interval None, on CUDA, at ``auto_sort_min_points``
     points or more, without rigid bodies; and that a CPU run stays off even for a tiny minimum."""
-    big = auto_sort.AUTO_SORT_MIN_POINTS
+    big = TUNING.auto_sort_min_points
     auto = m.SolverConfig()
-    assert auto_sort_applies(auto, cuda=True, points=big, coupled=False)
-    assert not auto_sort_applies(auto, cuda=True, points=big - 1, coupled=False)
-    assert not auto_sort_applies(auto, cuda=False, points=big, coupled=False)
-    assert not auto_sort_applies(auto, cuda=True, points=big, coupled=True)
-    assert not auto_sort_applies(m.SolverConfig(sort_interval=0), cuda=True, points=big, coupled=False)
-    assert not auto_sort_applies(m.SolverConfig(sort_interval=50), cuda=True, points=big, coupled=False)
-    monkeypatch.setattr(auto_sort, "AUTO_SORT_MIN_POINTS", 1)
-    assert _sim()._auto_sort is None  # CPU
+    assert auto_sort_applies(auto, TUNING, cuda=True, points=big, coupled=False)
+    assert not auto_sort_applies(auto, TUNING, cuda=True, points=big - 1, coupled=False)
+    assert not auto_sort_applies(auto, TUNING, cuda=False, points=big, coupled=False)
+    assert not auto_sort_applies(auto, TUNING, cuda=True, points=big, coupled=True)
+    assert not auto_sort_applies(m.SolverConfig(sort_interval=0), TUNING, cuda=True, points=big, coupled=False)
+    assert not auto_sort_applies(m.SolverConfig(sort_interval=50), TUNING, cuda=True, points=big, coupled=False)
+    assert _sim(tuning=m.Tuning(auto_sort_min_points=1))._auto_sort is None  # CPU
 
 
-def test_coupled_scene_runs_with_the_default_and_never_auto_sorts(monkeypatch):
+def test_coupled_scene_runs_with_the_default_and_never_auto_sorts():
     """Verify a scene of points and rigid bodies builds and runs with sort_interval None (no error,
     the automatic re-sorting silently off), while an explicit interval is still refused."""
-    monkeypatch.setattr(auto_sort, "AUTO_SORT_MIN_POINTS", 1)
     h = 0.02
     scene = m.Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=h, contact=m.ContactLaw(1.0e6))
     mat = m.LinearElastic(youngs_modulus=1.0e5, poisson_ratio=0.3, density=1000.0)
     scene.add_mpm_body(m.disk(center=(0.5, 0.45), radius=0.1), mat)
     scene.add_rigid_body(rounded_rectangle(0.8, 0.1, 0.01), density=1000.0, position=(0.5, 0.2), motion="fixed")
-    sim = m.Simulation(scene, m.SolverConfig(), device="cpu")
+    sim = m.Simulation(scene, m.SolverConfig(), device="cpu", tuning=m.Tuning(auto_sort_min_points=1))
     assert sim._auto_sort is None
-    assert not auto_sort_applies(sim.config, cuda=True, points=sim.particle_count, coupled=True)
+    assert not auto_sort_applies(sim.config, sim.tuning, cuda=True, points=sim.particle_count, coupled=True)
     pid = sim.mpm.P.pid.numpy().copy()
     sim.advance_to(2.0e-4)
     np.testing.assert_array_equal(sim.mpm.P.pid.numpy(), pid)  # memory order untouched
@@ -152,7 +154,7 @@ def test_sort_interval_zero_never_sorts_and_n_sorts_every_n_steps():
     every = _sim(sort_interval=3)
     every.mpm.shuffle_points(seed=4)
     every.advance(2)
-    assert every.mpm.order_drift() > auto_sort.AUTO_SORT_DRIFT  # not yet
+    assert every.mpm.order_drift() > DRIFT  # not yet
     every.advance(1)
     assert every.mpm.order_drift() < 0.1  # the third step re-sorted
 

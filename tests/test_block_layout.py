@@ -18,20 +18,20 @@ import warp as wp
 from conftest import DEVICES
 from test_granular import assert_steps_label_as_brute_force, meeting_grains
 
+from mpmdem import Tuning
 from mpmdem.kernels import granular as kgran
-from mpmdem.sim import block_layout
 from mpmdem.sim.block_layout import BlockLayout
 from mpmdem.sim.launch_plan import IfFlag
 
 
-def test_layout_follows_the_rate(monkeypatch):
-    """Verify the layout goes in line from INLINE_ABOVE of a window's steps, stays there above
-    CONDITIONAL_BELOW, goes back at or below it, decides nothing on a window too short, and starts
-    a new window when the step count goes back (a checkpoint loaded)."""
-    monkeypatch.setattr(block_layout, "WINDOW_STEPS", 100)
+def test_layout_follows_the_rate():
+    """Verify the layout goes in line from ``inline_above`` (0.6) of a window's steps, stays there
+    above ``conditional_below`` (0.3), goes back at or below it, decides nothing on a window too
+    short (100 steps), and starts a new window when the step count goes back (a checkpoint loaded)."""
+    tuning = Tuning(inline_above=0.6, conditional_below=0.3, layout_window_steps=100)
     counts = wp.zeros(kgran.FLAG_SLOTS, dtype=wp.int32, device="cpu")
     block = IfFlag(wp.zeros(1, dtype=wp.int32, device="cpu"), [])
-    layout = BlockLayout(block, counts, (kgran.FLAG_COUNT, kgran.FLAG_RELABELS))
+    layout = BlockLayout(block, counts, (kgran.FLAG_COUNT, kgran.FLAG_RELABELS), tuning)
 
     def batch(steps, rebuilds, relabels):
         c = counts.numpy()
@@ -43,9 +43,9 @@ def test_layout_follows_the_rate(monkeypatch):
     assert not batch(99, 99, 0) and not layout.inline  # 99 steps: too short to decide
     assert batch(100, 40, 20) and layout.inline and layout.rate == pytest.approx(0.6)
     assert block.inline
-    assert not batch(200, 60, 31) and layout.inline  # 0.31 > CONDITIONAL_BELOW: stays
+    assert not batch(200, 60, 31) and layout.inline  # 0.31 > conditional_below: stays
     assert batch(300, 75, 46) and not layout.inline and not block.inline  # 0.30
-    assert not batch(400, 110, 56) and not layout.inline  # 0.45: below INLINE_ABOVE
+    assert not batch(400, 110, 56) and not layout.inline  # 0.45: below inline_above
     assert not batch(50, 0, 0) and not batch(149, 99, 0) and not layout.inline  # restarted at step 50
     assert batch(150, 100, 0) and layout.inline and layout.switches == 3
 
@@ -76,13 +76,13 @@ def test_in_line_block_replays_the_brute_force_labels(device):
 
 
 @pytest.mark.parametrize("device", DEVICES[1:])
-def test_switching_layouts_changes_no_bit(monkeypatch, device):
+def test_switching_layouts_changes_no_bit(device):
     """Verify a deterministic run whose block went in line is the same bits as one kept in
     conditional nodes throughout."""
-    monkeypatch.setattr(block_layout, "WINDOW_STEPS", 10)
-    kept = meeting_grains(device, deterministic=True)
+    short = Tuning(layout_window_steps=10)
+    kept = meeting_grains(device, deterministic=True, tuning=short)
     kept.block_layouts = []
-    switched = meeting_grains(device, deterministic=True)
+    switched = meeting_grains(device, deterministic=True, tuning=short)
     layouts = []
     for t in np.linspace(0.0, 4.0e-3, 21)[1:]:  # 200 steps, batches of 10
         kept.advance_to(t, max_batch=10)

@@ -12,10 +12,9 @@ brute-force shapely search and the contact laws in tests/test_dem.py.
 import numpy as np
 import pytest
 
-import mpmdem.sim.dem as dem_module
-from mpmdem import ContactLaw, Scene, Simulation, SolverConfig
+from mpmdem import ContactLaw, Scene, Simulation, SolverConfig, Tuning
 from mpmdem.kernels import dem_split
-from mpmdem.model.spheropolygons import random_convex_polygon, rod, rounded_rectangle, sphero_disk
+from mpmdem.model.spheropolygons import random_convex_polygon, regular_polygon, rod, rounded_rectangle, sphero_disk
 
 STEPS = 150
 
@@ -44,12 +43,14 @@ def pack(seed: int = 5) -> Scene:
     return scene
 
 
-def run(monkeypatch, device, split: bool, **records):
-    monkeypatch.setattr(dem_module, "SPLIT_SEARCH_BODIES", 1 if split else 10**9)
-    monkeypatch.setattr(dem_module, "SPLIT_SEARCH_DEVICES", ("cpu", "cuda"))
-    for name, value in records.items():
-        monkeypatch.setattr(*((dem_split, name) if name == "HITS_PER_PAIR" else (dem_module, name)), value)
-    sim = Simulation(pack(), SolverConfig(precision="f64"), device=device)
+def split_tuning(split: bool, **records) -> Tuning:
+    """The split search on every device from one body on (``split``), else never; ``records``: more
+    ``Tuning`` fields (its records and threads)."""
+    return Tuning(split_search_bodies=1 if split else 10**9, split_search_devices=("cpu", "cuda"), **records)
+
+
+def run(device, split: bool, **records):
+    sim = Simulation(pack(), SolverConfig(precision="f64"), device=device, tuning=split_tuning(split, **records))
     assert (sim.dem.split is not None) == split
     worst = {"touches": 0, "whole": 0}
     sim.stage.set_stop_time(1e30)
@@ -67,17 +68,17 @@ def run(monkeypatch, device, split: bool, **records):
 
 @pytest.mark.parametrize("records", [
     {},  # records for every pair and touch
-    {"SPLIT_CPU_THREADS": 3},  # candidates taken out of order: touches recorded out of order
-    {"SPLIT_PAIRS_PER_BODY": 1, "SPLIT_CANDIDATES_PER_BODY": 2, "HITS_PER_PAIR": 1},  # overflows: searched whole
+    {"split_cpu_threads": 3},  # candidates taken out of order: touches recorded out of order
+    {"split_pairs_per_body": 1, "split_candidates_per_body": 2, "split_hits_per_pair": 1},  # overflows: whole
 ], ids=["fits", "unordered", "overflows"])
-def test_split_search_is_the_one_kernel_search(monkeypatch, device, records):
+def test_split_search_is_the_one_kernel_search(device, records):
     """Verify the split search gives the one-kernel search's trajectory, forces and history: the same
     bits on the CPU; on a GPU both sum the bodies' forces with atomics in varying order, so they
     agree to round-off grown over the steps (1e-9 m on positions of order 1 m, in f64)."""
-    ref, ref_diag, _ = run(monkeypatch, device, False)
-    got, diag, worst = run(monkeypatch, device, True, **records)
+    ref, ref_diag, _ = run(device, False)
+    got, diag, worst = run(device, True, **records)
     assert (ref["key"] >= 0).sum() > 20  # contacts with history: the comparison means something
-    if "HITS_PER_PAIR" in records:
+    if "split_hits_per_pair" in records:
         assert worst["whole"] == 1 and worst["touches"] > 1  # the overflow paths were taken
     if device == "cpu":
         for name in ("x", "angle", "v", "omega", "force", "torque", "key", "slip", "energy", "dissipated"):
@@ -87,14 +88,13 @@ def test_split_search_is_the_one_kernel_search(monkeypatch, device, records):
         np.testing.assert_allclose(got["omega"], ref["omega"], rtol=0, atol=1e-6)
 
 
-def test_split_search_only_where_it_applies(monkeypatch):
+def test_split_search_only_where_it_applies():
     """Verify the one-kernel search stays for deterministic runs, small scenes and cores of more than
     MAX_VERTICES vertices."""
-    monkeypatch.setattr(dem_module, "SPLIT_SEARCH_DEVICES", ("cpu", "cuda"))
-    monkeypatch.setattr(dem_module, "SPLIT_SEARCH_BODIES", 1)
-    assert Simulation(pack(), SolverConfig(deterministic=True), device="cpu").dem.split is None
-    monkeypatch.setattr(dem_module, "SPLIT_SEARCH_BODIES", 10**9)
-    assert Simulation(pack(), SolverConfig(), device="cpu").dem.split is None
-    monkeypatch.setattr(dem_module, "SPLIT_SEARCH_BODIES", 1)
-    monkeypatch.setattr(dem_split, "MAX_VERTICES", 4)
-    assert Simulation(pack(), SolverConfig(), device="cpu").dem.split is None
+    split, whole = split_tuning(True), split_tuning(False)
+    assert Simulation(pack(), SolverConfig(), device="cpu", tuning=split).dem.split is not None
+    assert Simulation(pack(), SolverConfig(deterministic=True), device="cpu", tuning=split).dem.split is None
+    assert Simulation(pack(), SolverConfig(), device="cpu", tuning=whole).dem.split is None
+    many = pack()  # (one core of MAX_VERTICES + 1 vertices, above the pack)
+    many.add_rigid_body(regular_polygon(dem_split.MAX_VERTICES + 1, 0.04, 0.01), density=1000.0, position=(0.6, 1.08))
+    assert Simulation(many, SolverConfig(), device="cpu", tuning=split).dem.split is None

@@ -1,6 +1,6 @@
 """The DEM's disk–disk pass (``kernels.dem_disks``): pairs of two sphero-disks without the feature search.
 
-Verify it against the general vertex–edge search (``mpmdem.sim.dem.DISK_PAIRS = False``: the reference
+Verify it against the general vertex–edge search (``Tuning(disk_pairs=False)``: the reference
 for every other body pair, tested against shapely and the contact laws in tests/test_dem.py) and
 against the contact law itself (MPM-SDEM eq. 38-43): a head-on impact of two disks and a disk
 sliding on a disk at rest. f64 on the CPU, a few bodies, seconds once compiled.
@@ -15,8 +15,7 @@ import numpy as np
 import pytest
 from shapely.geometry import box
 
-import mpmdem.sim.dem as dem_module
-from mpmdem import ContactLaw, Scene, Simulation, SolverConfig, regular_polygon, sphero_disk
+from mpmdem import ContactLaw, Scene, Simulation, SolverConfig, Tuning, regular_polygon, sphero_disk
 from mpmdem.model.grains import GrainSet, place_grains
 
 F64 = SolverConfig(precision="f64")
@@ -34,10 +33,9 @@ def disk_set(name: str, positions, radius: float, *, density: float = 1000.0, fr
                     tuple(float(v) for v in velocity))
 
 
-def simulate(monkeypatch, scene: Scene, disk_pairs: bool, steps: int, config: SolverConfig = F64,
+def simulate(scene: Scene, disk_pairs: bool, steps: int, config: SolverConfig = F64,
              device: str = "cpu") -> Simulation:
-    monkeypatch.setattr(dem_module, "DISK_PAIRS", disk_pairs)
-    sim = Simulation(scene, config, device=device)
+    sim = Simulation(scene, config, device=device, tuning=Tuning(disk_pairs=disk_pairs))
     assert sim.dem.disk_pairs == disk_pairs
     sim.stage.set_stop_time(1e30)
     sim.advance(steps)
@@ -53,7 +51,7 @@ def pour() -> Scene:
     return s
 
 
-def test_disk_pass_is_the_general_search_to_the_bit(monkeypatch):
+def test_disk_pass_is_the_general_search_to_the_bit():
     """Verify a pour of disk grains onto walls (~1500 steps: contacts made, held with history,
     lists rebuilt) gives the same bits with the disk–disk pass as with the general search:
     positions, velocities, forces, torques, tangential history, contact energy and dissipated
@@ -62,7 +60,7 @@ def test_disk_pass_is_the_general_search_to_the_bit(monkeypatch):
     general search's atomics add them on a CPU. (A pack is chaotic: one ulp would grow to 1e-3 by then.)"""
     runs = []
     for disk_pairs in (True, False):
-        sim = simulate(monkeypatch, pour(), disk_pairs, 1500)
+        sim = simulate(pour(), disk_pairs, 1500)
         C = sim.dem.C
         runs.append({**sim.body_fields(), "slip": C.slip.numpy()[:, 0], "energy": C.energy.numpy(),
                      "dissipated": C.dissipated.numpy(), "rebuilds": sim.diagnostics()["list_rebuilds"]})
@@ -73,13 +71,13 @@ def test_disk_pass_is_the_general_search_to_the_bit(monkeypatch):
     assert fast["rebuilds"] > 10
 
 
-def test_disk_pass_restarts_bit_for_bit(monkeypatch, tmp_path):
+def test_disk_pass_restarts_bit_for_bit(tmp_path):
     """Verify a checkpoint of a pour with the disk–disk pass (its incoming lists and the partners'
     copies of δ_t included) continues bit for bit."""
-    ref = simulate(monkeypatch, pour(), True, 1000)  # (the pack lands at about step 900)
+    ref = simulate(pour(), True, 1000)  # (the pack lands at about step 900)
     ref.save_checkpoint(tmp_path / "disks.npz")
     assert any(name.startswith("D.") for name in ref.stage.state_arrays())
-    second = simulate(monkeypatch, pour(), True, 0)
+    second = simulate(pour(), True, 0)
     second.load_checkpoint(tmp_path / "disks.npz")
     for sim in (ref, second):
         sim.advance(500)
@@ -89,7 +87,7 @@ def test_disk_pass_restarts_bit_for_bit(monkeypatch, tmp_path):
     assert np.abs(a["torque"]).max() > 0.0
 
 
-def test_mixed_scene_forces_match_to_round_off(monkeypatch, device):
+def test_mixed_scene_forces_match_to_round_off(device):
     """Verify a first step of squeezed disk grains among free pentagons and free rigid disks (pairs of
     every kind touching at once) gives the general search's forces and torques. Each pair's force is
     the same expression (on a GPU the compiler may fuse it differently in the two kernels: an ulp);
@@ -110,7 +108,7 @@ def test_mixed_scene_forces_match_to_round_off(monkeypatch, device):
                          angle=float(rng.uniform(0, 6.3)), velocity=(0.01, -0.02), friction=0.5)
     forces = []
     for disk_pairs in (True, False):
-        sim = simulate(monkeypatch, s, disk_pairs, 1, device=device)
+        sim = simulate(s, disk_pairs, 1, device=device)
         forces.append(sim.body_fields())
     fast, general = forces
     for name in ("force", "torque"):
@@ -120,7 +118,7 @@ def test_mixed_scene_forces_match_to_round_off(monkeypatch, device):
 
 
 @pytest.mark.parametrize("restitution", [1.0, 0.4])
-def test_head_on_impact_of_two_disks_is_the_linear_spring_dashpot(monkeypatch, restitution, device):
+def test_head_on_impact_of_two_disks_is_the_linear_spring_dashpot(restitution, device):
     """Verify a head-on impact of two disks of different masses against the law's analytic solution:
     with the dashpot c = 2ζ sqrt(k_n m*) (m* = m1 m2 / (m1 + m2); the lever arms are 0 on the centre
     line) the overlap is a damped oscillator (MPM-SDEM eq. 43's normal part), in contact for π/ω_d,
@@ -138,7 +136,6 @@ def test_head_on_impact_of_two_disks_is_the_linear_spring_dashpot(monkeypatch, r
     assert e == pytest.approx(restitution, rel=1e-12)
     t_contact = math.pi / (math.sqrt(kn / m_eff) * math.sqrt(1.0 - zeta**2))
     dt = t_contact / 400.0
-    monkeypatch.setattr(dem_module, "DISK_PAIRS", True)
     sim = Simulation(s, SolverConfig(precision="f64", dt=dt), device=device)
     assert sim.dem.disk_pairs
     sim.stage.set_stop_time(1e30)
@@ -162,7 +159,7 @@ def test_head_on_impact_of_two_disks_is_the_linear_spring_dashpot(monkeypatch, r
     assert d1["momentum_x"] == pytest.approx(m1 * v1 + m2 * v2, rel=1e-12)  # equal and opposite, to the bit
 
 
-def test_disk_sliding_on_a_disk_at_rest_saturates_at_coulomb(monkeypatch, device):
+def test_disk_sliding_on_a_disk_at_rest_saturates_at_coulomb(device):
     """Verify the tangential spring with history and its Coulomb cap (MPM-SDEM eq. 43) on a disk grain
     sliding over the top of a fixed disk of its size under gravity: while it sticks, the tangential
     force is −k_t Σ v_t dt over its steps in contact (v_t the contact point's tangential velocity,
@@ -177,7 +174,6 @@ def test_disk_sliding_on_a_disk_at_rest_saturates_at_coulomb(monkeypatch, device
               contact=ContactLaw(kn, tangential_stiffness=kt, restitution=1.0), allow_initial_overlap=True)
     s.add_rigid_body(sphero_disk(r), density=rho, position=(0.0, 0.0), motion="fixed", friction=mu)
     s.add_grain_set(disk_set("g", [(0.0, 2.0 * r - delta0)], r, density=rho, friction=mu, velocity=(v0, 0.0)))
-    monkeypatch.setattr(dem_module, "DISK_PAIRS", True)
     sim = Simulation(s, SolverConfig(precision="f64", dt=dt), device=device)
     assert sim.dem.disk_pairs and int(sim.dem.B.disk.numpy().sum()) == 2  # the pair is the disk pass's
     sim.stage.set_stop_time(1e30)
@@ -210,7 +206,7 @@ def test_disk_sliding_on_a_disk_at_rest_saturates_at_coulomb(monkeypatch, device
     assert phases["stick"] >= 5 and phases["slide"] >= 50
 
 
-def test_disk_pass_compiles_for_sm90(monkeypatch, tmp_path):
+def test_disk_pass_compiles_for_sm90(tmp_path):
     """Verify the CUDA code of the disk–disk pass and of the kernels it specialises (the list build
     that packs only the general pairs, the general search that skips disk pairs) compiles for sm_90
     without a GPU (Warp's NVRTC, as tests/test_cuda_codegen.py)."""
@@ -218,7 +214,6 @@ def test_disk_pass_compiles_for_sm90(monkeypatch, tmp_path):
 
     from mpmdem.kernels import dem_disks, dem_lists
 
-    monkeypatch.setattr(dem_module, "DISK_PAIRS", True)
     sim = Simulation(pour(), SolverConfig(), device="cpu")
     dem = sim.dem
     assert dem.disk_pairs

@@ -12,9 +12,21 @@ from helpers import run_script
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from mpmdem import BlowUpError, InputError, LinearElastic, MohrCoulomb, Scene, Simulation, SolverConfig, rectangle
+from mpmdem import (
+    BlowUpError,
+    InputError,
+    LinearElastic,
+    MohrCoulomb,
+    Scene,
+    Simulation,
+    SolverConfig,
+    Tuning,
+    rectangle,
+)
 from mpmdem.kernels import granular as kgran
-from mpmdem.sim.granular_state import CRITICAL_BAND
+
+#: the band of overlap tests re-tested every step [cells] (its default)
+CRITICAL_BAND = Tuning().critical_band
 
 H = 0.01  # m
 
@@ -428,7 +440,7 @@ def test_reused_labels_see_continua_meet_through_a_node():
 @pytest.mark.parametrize("shape", ["linear", "ugimp"])
 def test_reused_labels_see_a_pair_at_the_threshold_meet(shape):
     """Two grains whose domains of interaction are 1 µm apart, a fifth of the band within which an
-    overlap test counts as about to flip (mpm.CRITICAL_BAND of a cell), drift together at 1 cm/s,
+    overlap test counts as about to flip (``Tuning.critical_band`` of a cell), drift together at 1 cm/s,
     inside one cell. Their pair is listed and re-tested at every step, so the margin of the label
     reuse stays open (nothing else limits it) and the labels are kept until the pair meets, 5 steps
     in; then the step relabels over the listed pairs, without a rebuild (uGIMP: its copies claimed
@@ -566,9 +578,9 @@ def test_a_dense_body_that_drifts_and_stretches_lists_by_its_relative_moves():
     assert rebuilds < 40 // 2 and relabels > 0
 
 
-def meeting_grains(device, shape: str = "linear", **config) -> Simulation:
+def meeting_grains(device, shape: str = "linear", tuning: Tuning | None = None, **config) -> Simulation:
     """100 grains flying apart and through each other (f64): with the tent, steps that rebuild,
-    relabel without a rebuild and keep the labels, in turn."""
+    relabel without a rebuild and keep the labels, in turn (``config``: more SolverConfig fields)."""
     rng = np.random.default_rng(3)
     x = 0.085 + rng.uniform(0.0, 0.03, (100, 2))
     angle = rng.uniform(0.0, 2.0 * np.pi, 100)
@@ -577,7 +589,7 @@ def meeting_grains(device, shape: str = "linear", **config) -> Simulation:
                   boundaries={s: "free" for s in ("left", "right", "bottom", "top")})
     scene.add_points(x, LinearElastic(1.0e5, 0.3, 1500.0, critical_density=1400.0), size=0.5 * H, velocity=v)
     return Simulation(scene, SolverConfig(granular=True, shape=shape, precision="f64", dt=2.0e-5, **config),
-                      device=device)
+                      device=device, tuning=tuning)
 
 
 def assert_steps_label_as_brute_force(sim: Simulation, steps: int = 40, relabels: bool = True) -> None:

@@ -13,10 +13,9 @@ import pytest
 
 import mpmdem as m
 from mpmdem.model.spheropolygons import rounded_rectangle
-from mpmdem.sim import coupling
 
 
-def disk_onto_a_spinning_square(device):
+def disk_onto_a_spinning_square(device, tuning=None):
     """A frictional, oblique disk–square impact (contacts made, held with history, and ended)."""
     scene = m.Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=0.02, contact=m.ContactLaw(1.0e6, restitution=0.5),
                     boundaries=dict.fromkeys(("left", "right", "bottom", "top"), "free"))
@@ -24,21 +23,20 @@ def disk_onto_a_spinning_square(device):
     scene.add_mpm_body(m.disk(center=(0.3, 0.45), radius=0.08), mat, points_per_cell=2, velocity=(2.0, 0.3))
     scene.add_rigid_body(rounded_rectangle(0.12, 0.12, 0.01), density=1000.0, position=(0.55, 0.55), angle=0.3,
                          friction=0.5)
-    return m.Simulation(scene, m.SolverConfig(transfer="APIC", precision="f64"), device=device)
+    return m.Simulation(scene, m.SolverConfig(transfer="APIC", precision="f64"), device=device, tuning=tuning)
 
 
-def run(device):
-    sim = disk_onto_a_spinning_square(device)
+def run(device, tuning=None):
+    sim = disk_onto_a_spinning_square(device, tuning)
     sim.advance_to(0.1)  # contact from ~0.05 s to ~0.08 s: made, held and ended
     return sim, sim.fields(), sim.body_fields(), sim.diagnostics()
 
 
-def test_sifted_force_search_changes_nothing(monkeypatch, device):
+def test_sifted_force_search_changes_nothing(device):
     """Verify the sifted IMP forces give the unsifted run's trajectory (the same bits on the CPU)."""
     plain, fields, bodies, diag = run(device)
     assert not plain.coupling.sifted  # a small scene: the force kernel over every listed point
-    monkeypatch.setattr(coupling, "SIFTED_IMP_POINTS", 0)
-    sifted, s_fields, s_bodies, s_diag = run(device)
+    sifted, s_fields, s_bodies, s_diag = run(device, m.Tuning(sifted_imp_points=0))
     assert sifted.coupling.sifted
     assert diag["work_imp_friction"] < -0.01  # the contact slid: history was made and used
     if device == "cpu":

@@ -1,8 +1,8 @@
-"""Scenes with few rigid bodies list every body for every point, once (``coupling.STATIC_IMP_BODIES``).
+"""Scenes with few rigid bodies list every body for every point, once (``Tuning.static_imp_bodies``).
 
 A small scene's step is paid per launch, and the Verlet lists cost two per step even when nothing
 is rebuilt: the check and a skipped conditional node (~4.8 µs on an H100). With at most
-STATIC_IMP_BODIES bodies, on the devices of STATIC_IMP_DEVICES (the GPU), slot s of every point
+``static_imp_bodies`` bodies, on the devices of ``static_imp_devices`` (the GPU), slot s of every point
 holds body s for the whole run, and the force kernel finds the bodies within reach of a point by
 their bounding circle and the core's bounding box. It must change no force: a touch is within
 reach of an edge or a vertex of the core, or inside it, and the box is never farther than those;
@@ -20,7 +20,6 @@ import pytest
 
 import mpmdem as m
 from mpmdem.model.spheropolygons import rounded_rectangle
-from mpmdem.sim import coupling
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 from step_nodes import step_nodes  # noqa: E402
@@ -29,7 +28,12 @@ from step_nodes import step_nodes  # noqa: E402
 LIST_COUNTS = ("imp_pairs", "imp_rebuilds")
 
 
-def block_on_a_floor_by_a_square(device):
+#: static lists on the CPU too (by default only on CUDA), and nowhere
+STATIC_EVERYWHERE = m.Tuning(static_imp_devices=("cpu", "cuda"))
+STATIC_NOWHERE = m.Tuning(static_imp_devices=())
+
+
+def block_on_a_floor_by_a_square(device, tuning):
     """An elastic block thrown along a long fixed floor (whose bounding circle covers the whole
     scene) into a free rounded square standing on it: contacts made, held with history (the
     block slides), ended; with a free body the DEM stage clears the loads each step."""
@@ -40,10 +44,10 @@ def block_on_a_floor_by_a_square(device):
                          motion="fixed")
     scene.add_mpm_body(m.rectangle(0.1, 0.08, 0.2, 0.16), mat, points_per_cell=2, velocity=(2.0, 0.0))
     scene.add_rigid_body(rounded_rectangle(0.1, 0.1, 0.005), density=500.0, position=(0.45, 0.125), friction=0.4)
-    return m.Simulation(scene, m.SolverConfig(transfer="APIC", precision="f64"), device=device)
+    return m.Simulation(scene, m.SolverConfig(transfer="APIC", precision="f64"), device=device, tuning=tuning)
 
 
-def disk_onto_fixed_squares(device):
+def disk_onto_fixed_squares(device, tuning):
     """An elastic disk dropped between two fixed squares tilted towards it: no free body, so
     the fixed bodies' loads (what a user reads as the reaction) are cleared by the coupling."""
     scene = m.Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=0.02, contact=m.ContactLaw(1.0e6, restitution=0.5),
@@ -53,25 +57,23 @@ def disk_onto_fixed_squares(device):
     for x, angle in ((0.36, 0.4), (0.64, -0.4)):
         scene.add_rigid_body(rounded_rectangle(0.16, 0.16, 0.01), density=1000.0, position=(x, 0.38), angle=angle,
                              friction=0.5, motion="fixed")
-    return m.Simulation(scene, m.SolverConfig(transfer="APIC", precision="f64"), device=device)
+    return m.Simulation(scene, m.SolverConfig(transfer="APIC", precision="f64"), device=device, tuning=tuning)
 
 
-def run(make, device, end):
-    sim = make(device)
+def run(make, device, end, tuning):
+    sim = make(device, tuning)
     sim.advance_to(end)
     return sim, sim.fields(), sim.body_fields(), sim.diagnostics()
 
 
 @pytest.mark.parametrize("make, end", [(block_on_a_floor_by_a_square, 0.11), (disk_onto_fixed_squares, 0.08)],
                          ids=["sliding-block-free-square", "disk-between-fixed-squares"])
-def test_every_body_listed_changes_no_force(monkeypatch, device, make, end):
+def test_every_body_listed_changes_no_force(device, make, end):
     """Verify the static lists give the Verlet lists' trajectory (the same bits on the CPU)."""
-    monkeypatch.setattr(coupling, "STATIC_IMP_DEVICES", ())
-    listed, fields, bodies, diag = run(make, device, end)
+    listed, fields, bodies, diag = run(make, device, end, STATIC_NOWHERE)
     assert not listed.coupling.static_lists
     assert diag["imp_rebuilds"] >= 2  # the points moved: the lists were rebuilt and carried history
-    monkeypatch.setattr(coupling, "STATIC_IMP_DEVICES", ("cpu", "cuda"))
-    static, s_fields, s_bodies, s_diag = run(make, device, end)
+    static, s_fields, s_bodies, s_diag = run(make, device, end, STATIC_EVERYWHERE)
     assert static.coupling.static_lists and s_diag["imp_rebuilds"] == 0
     assert diag["work_imp_friction"] < -1e-4  # the contacts slid: history was made and used
     # the end falls within an impact: touches on, the bodies loaded by them
@@ -91,20 +93,19 @@ def test_every_body_listed_changes_no_force(monkeypatch, device, make, end):
         assert s_diag["work_imp_friction"] == pytest.approx(diag["work_imp_friction"], rel=1e-6)
 
 
-def test_many_bodies_keep_the_lists(monkeypatch):
-    """Verify a scene past STATIC_IMP_BODIES keeps the Verlet lists, even where static lists are on."""
-    monkeypatch.setattr(coupling, "STATIC_IMP_DEVICES", ("cpu", "cuda"))
-    sim = disk_onto_fixed_squares("cpu")
+def test_many_bodies_keep_the_lists():
+    """Verify a scene past ``Tuning.static_imp_bodies`` keeps the Verlet lists, even where static
+    lists are on."""
+    sim = disk_onto_fixed_squares("cpu", STATIC_EVERYWHERE)
     assert sim.coupling.static_lists
-    monkeypatch.setattr(coupling, "STATIC_IMP_BODIES", 1)
-    assert not disk_onto_fixed_squares("cpu").coupling.static_lists
+    one = m.Tuning(static_imp_devices=("cpu", "cuda"), static_imp_bodies=1)
+    assert not disk_onto_fixed_squares("cpu", one).coupling.static_lists
 
 
-def test_static_lists_drop_the_check_and_the_conditional_node(monkeypatch):
+def test_static_lists_drop_the_check_and_the_conditional_node():
     """Verify normal-force's step with every body listed has no list check and no conditional node
     (6 nodes: the loads' clearing, forces, P2G, grid update, G2P, the clock), as on a GPU."""
-    monkeypatch.setattr(coupling, "STATIC_IMP_DEVICES", ("cpu", "cuda"))
-    row = step_nodes("normal-force", "cpu", [])
+    row = step_nodes("normal-force", "cpu", [], STATIC_EVERYWHERE)
     items = "\n".join(row["items"])
     assert row["conditional_nodes"] == 0, items
     assert row["nodes"] == 6, items

@@ -1,4 +1,4 @@
-"""MUSL's re-mapping P2G inside the velocity G2P (``mpm.REMAP_IN_G2P``, ``transfer.make_g2p``'s ``remap``).
+"""MUSL's re-mapping P2G inside the velocity G2P (``Tuning.remap_in_g2p``, ``transfer.make_g2p``'s ``remap``).
 
 A MUSL step re-maps the updated point velocities to the grid before it moves the points ("Motion
 integration" §3.3). The re-mapping used to be a P2G launch of its own; it now runs in the G2P that
@@ -18,13 +18,13 @@ import pytest
 
 import mpmdem as m
 from mpmdem.model.spheropolygons import rounded_rectangle
-from mpmdem.sim import mpm
 
 #: largest position difference [m] between the two paths on a GPU (see the module docstring)
 ROUNDING = 1.0e-9
 
 
-def disk_onto_a_square(device: str, shape: str, transfer: str, update: str, granular: bool):
+def disk_onto_a_square(device: str, shape: str, transfer: str, update: str, granular: bool,
+                       tuning: m.Tuning | None = None):
     """A disk (elastic, or granular sand) thrown at a fixed rounded square (IMP contact), with a
     fixed wall and a slip floor."""
     walls = {"left": "fixed", "bottom": "slip", "right": "free", "top": "free"}
@@ -36,7 +36,7 @@ def disk_onto_a_square(device: str, shape: str, transfer: str, update: str, gran
     scene.add_rigid_body(rounded_rectangle(0.12, 0.12, 0.01), density=1000.0, position=(0.55, 0.4), angle=0.3,
                          friction=0.5, motion="fixed")
     config = m.SolverConfig(shape=shape, transfer=transfer, update=update, precision="f64", granular=granular)
-    return m.Simulation(scene, config, device=device)
+    return m.Simulation(scene, config, device=device, tuning=tuning)
 
 
 VARIANTS = [
@@ -46,23 +46,21 @@ VARIANTS = [
 ]
 
 
-def run(monkeypatch, device, variant, fused: bool):
-    monkeypatch.setattr(mpm, "REMAP_IN_G2P", fused)
+def run(device, variant, fused: bool):
     # (small non-granular scenes take P2G by stencil rows on a GPU, which keeps its own re-mapping:
     # here a thread a point everywhere, so that both paths run on every device)
-    monkeypatch.setattr(mpm, "ROW_P2G_DEVICES", ())
-    sim = disk_onto_a_square(device, *variant)
+    sim = disk_onto_a_square(device, *variant, tuning=m.Tuning(remap_in_g2p=fused, row_p2g_devices=()))
     remaps = [item for item in sim.mpm._sequence if "p2g" in getattr(item.kernel, "key", "")]
     sim.advance_to(0.12)  # the disk reaches the square at ~0.06 s
     return len(remaps), sim.fields(), sim.diagnostics()
 
 
 @pytest.mark.parametrize("variant", VARIANTS, ids=lambda v: "-".join(str(x) for x in v))
-def test_remap_in_g2p_gives_the_separate_remap_trajectory(monkeypatch, device, variant):
+def test_remap_in_g2p_gives_the_separate_remap_trajectory(device, variant):
     """Verify the re-mapping in G2P gives the separate re-mapping P2G's trajectory (the same bits
     on the CPU), through an impact on a fixed body."""
-    p2g_apart, fields, diag = run(monkeypatch, device, variant, fused=False)
-    p2g_fused, fused_fields, fused_diag = run(monkeypatch, device, variant, fused=True)
+    p2g_apart, fields, diag = run(device, variant, fused=False)
+    p2g_fused, fused_fields, fused_diag = run(device, variant, fused=True)
     assert p2g_fused == p2g_apart - 1  # one P2G launch fewer a step
     assert diag["work_imp_friction"] < 0.0  # the disk slid on the square: the contact forces were used
     if device == "cpu":

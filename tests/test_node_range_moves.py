@@ -1,4 +1,4 @@
-"""Points that change node ranges without a rebuild (``granular_state.NODE_RANGE_MOVES``).
+"""Points that change node ranges without a rebuild (``Tuning.node_range_moves``).
 
 Where every domain of interaction is granular and under half a cell (and does not deform, outside
 staged scenes), two domains that overlap are less than a cell apart on each axis, and the stencils
@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mpmdem import Tuning
 from mpmdem.kernels import granular as kgran
-from mpmdem.sim import granular_state
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 from small_scenes import build_case  # noqa: E402
@@ -32,23 +32,22 @@ from small_scenes import build_case  # noqa: E402
 STEPS = 600
 
 
-def sand_flow(monkeypatch, moves: bool):
+def sand_flow(moves: bool):
     """sand-blocks (B-spline, granular) on the CPU for STEPS steps: (fields, diagnostics, labels at
     the end, rebuilds, whether the interaction allowed moves)."""
-    monkeypatch.setattr(granular_state, "NODE_RANGE_MOVES", moves)
-    sim, _ = build_case("sand-blocks", "cpu", [])
+    sim, _ = build_case("sand-blocks", "cpu", [], Tuning(node_range_moves=moves))
     sim.advance(STEPS)
     S = sim.mpm.interaction
     return (sim.fields(), sim.diagnostics(), sim.mpm.P.comp.numpy().copy(),
             int(S.flags.numpy()[kgran.FLAG_COUNT]), S.moves)
 
 
-def test_node_range_moves_change_no_bit_of_a_flow(monkeypatch):
+def test_node_range_moves_change_no_bit_of_a_flow():
     """Verify sand-blocks has the same positions, velocities, labels and diagnostics (but the
     rebuild counts) to the bit whether its new node ranges rebuild or relabel, and that relabels
     replaced most rebuilds."""
-    fields, diag, labels, rebuilds, moves = sand_flow(monkeypatch, False)
-    m_fields, m_diag, m_labels, m_rebuilds, m_moves = sand_flow(monkeypatch, True)
+    fields, diag, labels, rebuilds, moves = sand_flow(False)
+    m_fields, m_diag, m_labels, m_rebuilds, m_moves = sand_flow(True)
     assert (moves, m_moves) == (0, 1)
     np.testing.assert_array_equal(m_labels, labels)
     for name in ("x", "v"):

@@ -6,7 +6,7 @@ nothing a scene computes: every node still receives its points' terms in point o
 CPU the trajectory is the same bits as with a thread a point, for every single-stencil shape, the
 affine and force variants, USL's fused impulse, MUSL's re-mapping, and the IMP contact forces.
 Reference: the thread-a-point P2G, itself tested against the analytic cases of tests/test_mpm.py.
-On a GPU every small non-granular scene of the CUDA suite runs P2G by rows (``mpm.ROW_P2G_POINTS``)
+On a GPU every small non-granular scene of the CUDA suite runs P2G by rows (``Tuning.row_p2g_points``)
 and is checked against its own references there.
 """
 
@@ -15,10 +15,9 @@ import pytest
 
 import mpmdem as m
 from mpmdem.model.spheropolygons import rounded_rectangle
-from mpmdem.sim import mpm
 
 
-def disk_onto_a_square(shape: str, transfer: str, update: str, precision: str):
+def disk_onto_a_square(shape: str, transfer: str, update: str, precision: str, tuning: m.Tuning | None = None):
     """An elastic disk thrown at a fixed rounded square (IMP contact), walls on two sides."""
     scene = m.Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=0.04, contact=m.ContactLaw(1.0e6, restitution=0.5),
                     boundaries={"left": "fixed", "bottom": "slip", "right": "free", "top": "free"})
@@ -27,7 +26,7 @@ def disk_onto_a_square(shape: str, transfer: str, update: str, precision: str):
     scene.add_rigid_body(rounded_rectangle(0.12, 0.12, 0.01), density=1000.0, position=(0.55, 0.4), angle=0.3,
                          friction=0.5, motion="fixed")
     config = m.SolverConfig(shape=shape, transfer=transfer, update=update, precision=precision)
-    return m.Simulation(scene, config, device="cpu")
+    return m.Simulation(scene, config, device="cpu", tuning=tuning)
 
 
 @pytest.mark.parametrize("variant", [
@@ -36,12 +35,11 @@ def disk_onto_a_square(shape: str, transfer: str, update: str, precision: str):
     ("linear", "FLIP", "MUSL", "f64"),
     ("bspline3", "APIC", "USF", "f64"),
 ], ids="-".join)
-def test_p2g_by_rows_changes_nothing(monkeypatch, variant):
+def test_p2g_by_rows_changes_nothing(variant):
     """Verify P2G by stencil rows gives the thread-a-point trajectory, to the bit on the CPU."""
     runs = {}
     for rows in (False, True):
-        monkeypatch.setattr(mpm, "ROW_P2G_DEVICES", ("cpu", "cuda") if rows else ())
-        sim = disk_onto_a_square(*variant)
+        sim = disk_onto_a_square(*variant, tuning=m.Tuning(row_p2g_devices=("cpu", "cuda") if rows else ()))
         assert sim.mpm.p2g_rows(sim.mpm.p2g_tile()) == rows
         sim.advance_to(0.12)  # the disk reaches the square at ~0.06 s
         runs[rows] = sim.fields(), sim.diagnostics()

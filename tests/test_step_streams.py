@@ -8,7 +8,8 @@ its inputs before they were written: a body moved before the points' reactions (
 forces) were in its loads, loads cleared after a contact had added to them, or a P2G that read the
 last step's contact forces. Each misses the one-stream trajectory by a contact impulse over a step
 (dt² f / m ~ 1e-6 m in these runs). The granular run lays every Granular MPM block in line
-(``block_layout`` thresholds below any rate), so that its IMP forces take their branch.
+(``Tuning.inline_above`` and ``conditional_below`` at or below any rate), so that its IMP forces
+take their branch.
 
 Reference: the same scene in deterministic mode, which takes no branch (one stream, ordered
 atomics). The two differ otherwise only by the order of float atomics in the branched run, f64
@@ -22,13 +23,16 @@ from conftest import HAS_CUDA
 
 import mpmdem as m
 from mpmdem.model.spheropolygons import rounded_rectangle
-from mpmdem.sim import block_layout
 
 #: largest allowed position difference [m] (see the module docstring)
 ROUNDING = 1.0e-9
 
 pytestmark = [pytest.mark.cuda, pytest.mark.skipif(
     not HAS_CUDA, reason="no CUDA device here: the CUDA items run on the GPU machine (pytest -m cuda)")]
+
+
+#: every Granular MPM block laid in line, whatever its rate
+IN_LINE = m.Tuning(inline_above=0.0, conditional_below=-1.0)
 
 
 def disk_onto_a_square_on_a_floor(granular: bool, **config):
@@ -43,7 +47,8 @@ def disk_onto_a_square_on_a_floor(granular: bool, **config):
                          motion="fixed")
     scene.add_rigid_body(rounded_rectangle(0.12, 0.12, 0.005), density=500.0, position=(0.32, 0.135), friction=0.4)
     scene.add_mpm_body(m.disk(center=(0.3, 0.3), radius=0.06), mat, points_per_cell=2, velocity=(0.4, -2.5))
-    return m.Simulation(scene, m.SolverConfig(precision="f64", granular=granular, **config), device="cuda")
+    return m.Simulation(scene, m.SolverConfig(precision="f64", granular=granular, **config), device="cuda",
+                        tuning=IN_LINE)
 
 
 def run(granular: bool, end: float, **config):
@@ -53,11 +58,9 @@ def run(granular: bool, end: float, **config):
 
 
 @pytest.mark.parametrize("granular", [False, True], ids=["elastic", "granular"])
-def test_parallel_branches_of_a_coupled_graph_give_the_one_stream_trajectory(monkeypatch, granular):
+def test_parallel_branches_of_a_coupled_graph_give_the_one_stream_trajectory(granular):
     """Verify a CUDA run whose step graph has parallel branches gives the one-stream run's
     trajectory within rounding, through an impact on a free body resting on a fixed one."""
-    monkeypatch.setattr(block_layout, "INLINE_ABOVE", -1.0)
-    monkeypatch.setattr(block_layout, "CONDITIONAL_BELOW", -1.0)
     end = 0.025  # (within the impact: the disk touches the square from ~0.015 s to ~0.035 s)
     one, fields, bodies, diag = run(granular, end, deterministic=True)
     branched, b_fields, b_bodies, b_diag = run(granular, end)

@@ -10,10 +10,9 @@ differ by a few ε of the largest term; 1e-5 of the field's largest value bounds
 import numpy as np
 import pytest
 
-from mpmdem import NeoHookean, Scene, Simulation, SolverConfig, rectangle
+from mpmdem import NeoHookean, Scene, Simulation, SolverConfig, Tuning, rectangle
 from mpmdem.kernels import transfer
 from mpmdem.kernels.clock import CLOCK_DT
-from mpmdem.sim.mpm import TILED_P2G_BLOCK, TILED_P2G_POINTS
 
 BLOCK = 64
 
@@ -84,12 +83,13 @@ def test_tiles_only_where_they_pay(device):
     scene = Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=1 / 300)
     scene.add_mpm_body(rectangle(0.05, 0.05, 0.95, 0.95), NeoHookean(1e5, 0.3, 1000.0))  # 4 per cell
     sim = Simulation(scene, SolverConfig(precision="f32"), device=device)
-    assert sim.mpm.particle_count >= TILED_P2G_POINTS
+    assert sim.mpm.particle_count >= Tuning().tiled_p2g_points
     tile = sim.mpm.p2g_tile()
     if device == "cpu":
         assert tile == ()
         return
-    assert tile == (TILED_P2G_BLOCK, 4, TILED_P2G_BLOCK // 4 + 6)
+    block = Tuning().tiled_p2g_block
+    assert tile == (block, 4, block // 4 + 6)
     assert Simulation(scene, SolverConfig(precision="f32", shape="cpdi1"), device=device).mpm.p2g_tile() == ()
     assert Simulation(scene, SolverConfig(precision="f32", deterministic=True),
                       device=device).mpm.p2g_tile() == ()

@@ -127,7 +127,7 @@ class SolverConfig:
             automatic — ``Simulation.advance_to`` measures how far the memory order has drifted
             after its batches of steps and re-sorts when it passed a threshold
             (``mpmdem.sim.auto_sort``); it runs on CUDA devices only, for scenes of at least
-            ``AUTO_SORT_MIN_POINTS`` points without rigid bodies, and is off (silently) elsewhere,
+            ``Tuning.auto_sort_min_points`` points without rigid bodies, and is off (silently) elsewhere,
             so CPU runs, small scenes and coupled scenes never re-sort. 0: never re-sort. N > 0:
             re-sort every N steps, in ``advance`` too (not allowed in coupled scenes, whose
             point–body lists follow the memory order).

@@ -2,42 +2,30 @@
 ``SolverConfig(sort_interval=None)``.
 
 Points start in cell order (``cell_sort.device_order``), so that consecutive threads of P2G add
-into neighbouring grid nodes and the atomics coalesce. As material flows that order degrades: on
-an H100 a 1M-point block with shuffled points steps at 0.49x its sorted speed. ``Simulation``
-measures the drift of the order (``PointSorter.drift``: the fraction of consecutive pairs whose
-cells are not neighbours) after a batch of ``advance_to`` — where it already synchronises to read
-the clock, so ``advance`` stays free of host syncs — and re-sorts when it passes a threshold.
+into neighbouring grid nodes and the atomics coalesce. As material flows that order degrades, and
+a large scene with shuffled points steps at about half its sorted speed (docs/benchmarks.md,
+"Tuning constants and their measured reasons"). ``Simulation`` measures the drift of the order
+(``PointSorter.drift``: the fraction of consecutive pairs whose cells are not neighbours) after a
+batch of ``advance_to`` — where it already synchronises to read the clock, so ``advance`` stays
+free of host syncs — and re-sorts when it passes a threshold.
 
-It runs only where it can pay: on CUDA devices, for at least ``AUTO_SORT_MIN_POINTS`` points, and
-not in coupled scenes (the point–body lists follow the memory order, so ``CoupledStage`` keeps
-the points where they are). Every CPU run and every small scene is thus unchanged bit for bit.
+It runs only where it can pay: on CUDA devices, for at least ``Tuning.auto_sort_min_points``
+points, and not in coupled scenes (the point–body lists follow the memory order, so
+``CoupledStage`` keeps the points where they are). Every CPU run and every small scene is thus unchanged bit for bit.
 """
 
 from __future__ import annotations
 
 from ..model.config import SolverConfig
+from .tuning import Tuning
 
-__all__ = ["AUTO_SORT_CHECK_STEPS", "AUTO_SORT_DRIFT", "AUTO_SORT_MIN_POINTS", "AutoSort", "auto_sort_applies"]
-
-#: Re-sort when more than this fraction [-] of consecutive point pairs sit in cells that are not
-#: neighbours. A first choice, to be measured on the GPU (drift against step time): cell order
-#: gives about 1 / (points per cell column), a random order close to 1.
-AUTO_SORT_DRIFT = 0.25
-#: Fewest points for which the order is watched. Below it the points and the grid fit in a data-centre
-#: GPU's L2 cache, where memory order matters little (to be measured, as the threshold).
-AUTO_SORT_MIN_POINTS = 65536
-#: Fewest steps between two drift checks [steps]; 0: after every batch of ``advance_to`` (up to
-#: 400 steps on CUDA). A check is one kernel over the points and a 4-byte read back, a few per cent
-#: of a large step. Checking at most every 100 steps let a shuffled 1M-point block run most of a
-#: 1000-step window unsorted (about half the sorted throughput): every batch it is. Figures:
-#: docs/benchmarks.md, "Tuning constants and their measured reasons".
-AUTO_SORT_CHECK_STEPS = 0
+__all__ = ["AutoSort", "auto_sort_applies"]
 
 
-def auto_sort_applies(config: SolverConfig, *, cuda: bool, points: int, coupled: bool) -> bool:
+def auto_sort_applies(config: SolverConfig, tuning: Tuning, *, cuda: bool, points: int, coupled: bool) -> bool:
     """Whether the automatic re-sorting runs: sort_interval None (automatic), a CUDA device, at
-    least AUTO_SORT_MIN_POINTS points, and no rigid bodies coupled to them."""
-    return config.sort_interval is None and cuda and not coupled and points >= AUTO_SORT_MIN_POINTS
+    least ``tuning.auto_sort_min_points`` points, and no rigid bodies coupled to them."""
+    return config.sort_interval is None and cuda and not coupled and points >= tuning.auto_sort_min_points
 
 
 class AutoSort:
@@ -46,19 +34,18 @@ class AutoSort:
 
     Args:
         mpm: the ``MPMSolver`` whose points are watched.
-        threshold: drift fraction [-] above which to re-sort (None: AUTO_SORT_DRIFT).
-        check_steps: fewest steps between two checks (None: AUTO_SORT_CHECK_STEPS).
+        threshold: drift fraction [-] above which to re-sort (``Tuning.auto_sort_drift``).
+        check_steps: fewest steps between two checks (``Tuning.auto_sort_check_steps``).
 
     Attributes:
         drift: the drift [-] found by the last check (None before the first).
         sorts: re-sorts done so far.
     """
 
-    def __init__(self, mpm, *, threshold: float | None = None, check_steps: int | None = None):
+    def __init__(self, mpm, threshold: float, check_steps: int):
         self.mpm = mpm
-        # the module constants are read here, not bound as defaults, so tests may patch them
-        self.threshold = AUTO_SORT_DRIFT if threshold is None else threshold
-        self.check_steps = AUTO_SORT_CHECK_STEPS if check_steps is None else check_steps
+        self.threshold = threshold
+        self.check_steps = check_steps
         self.drift: float | None = None
         self.sorts = 0
         self._checked_at: int | None = None

@@ -2,26 +2,22 @@
 
 The interaction graph's rebuild and relabel (``granular_state.granular_plan``) run only in the
 steps whose flag asks for them: inside a CUDA graph, as conditional nodes (``launch_plan.IfFlag``).
-A skipped conditional node costs ~4.8 µs on an H100 (bench/launch_floor.py); a taken one costs
-more than the same kernels laid in line, where each reads its flag and returns at once in a
-step that needs nothing. Measured on one H100 (bench/README.md, "Conditional blocks laid in line"),
-µs a step, conditional nodes → in line:
-
-- sand-blocks (the block runs in 99 % of the steps): 153.7 → 142.3;
-- silo-discharge (99 %): 183.7 → 168.5;
-- silo-filling (0.04 %): 56.3 → 64.0, the other way.
+A skipped conditional node costs a few µs (bench/launch_floor.py); a taken one costs more than
+the same kernels laid in line, where each reads its flag and returns at once in a step that needs
+nothing: scenes whose block runs in nearly every step (sand-blocks, silo-discharge) are faster in
+line, one whose block rarely runs (silo-filling) the other way (the figures: docs/benchmarks.md,
+"Tuning constants and their measured reasons").
 
 Which layout is cheaper is known only from the run: a flowing scene rebuilds in nearly every
 step, one at rest almost never, and one scene can do both in turn. So a ``BlockLayout`` per block
 reads, after each batch of ``Simulation.advance_to`` (where the host reads the clock anyway), how
-many of the steps of the last window ran it. From INLINE_ABOVE of them it lays the block in line;
-at CONDITIONAL_BELOW or fewer it puts it back in its conditional node (the gap between the two
-keeps a rate near the break-even, ~0.4 by the figures above, from switching at every window). The
+many of the steps of the last window ran it. From ``Tuning.inline_above`` of them it lays the
+block in line; at ``Tuning.conditional_below`` or fewer it puts it back in its conditional node
+(the gap between the two keeps a rate near the break-even from switching at every window). The
 Simulation then records its step graphs again (a few ms). The relabel block and the rebuild nested
-in it are laid out each by its own rate: a 1M-point cloud relabels in every step but rebuilds in
-15 % of them, where the rebuild's kernels launched over every point in the other 85 % cost more
-than its conditional node (bench/README.md, "the rebuild as a conditional node inside the
-relabel's"). Both layouts launch the same kernels on the same data: the results are the same
+in it are laid out each by its own rate: a large cloud may relabel in every step but rebuild in
+few of them, where the rebuild's kernels launched over every point in the others cost more than
+its conditional node. Both layouts launch the same kernels on the same data: the results are the same
 bits, whichever layout ran when.
 """
 
@@ -31,15 +27,9 @@ import numpy as np
 import warp as wp
 
 from .launch_plan import IfFlag
+from .tuning import Tuning
 
-__all__ = ["CONDITIONAL_BELOW", "INLINE_ABOVE", "WINDOW_STEPS", "BlockLayout"]
-
-#: Fraction of a window's steps running the block from which it is laid in line.
-INLINE_ABOVE = 0.6
-#: Fraction at or below which an inline block goes back to its conditional nodes.
-CONDITIONAL_BELOW = 0.3
-#: Fewest steps a rate is taken over (the batches of ``advance_to`` are up to 400 steps on CUDA).
-WINDOW_STEPS = 100
+__all__ = ["BlockLayout"]
 
 
 class BlockLayout:
@@ -47,11 +37,13 @@ class BlockLayout:
 
     counters: an int32 device array whose ``slots`` count, summed, the steps that ran the block so
     far (Granular MPM: the relabel block, the rebuilds and the relabels without one; the rebuild
-    block, the rebuilds).
+    block, the rebuilds). tuning: its ``inline_above``, ``conditional_below`` and
+    ``layout_window_steps`` (the rates that switch the layout, the fewest steps a rate is taken over).
     """
 
-    def __init__(self, block: IfFlag, counters: wp.array, slots: tuple[int, ...]):
+    def __init__(self, block: IfFlag, counters: wp.array, slots: tuple[int, ...], tuning: Tuning):
         self.block = block
+        self.tuning = tuning
         self.counters = counters
         self.slots = tuple(slots)
         #: how many times the layout changed
@@ -80,11 +72,12 @@ class BlockLayout:
             self._window = (steps, runs)
             return False
         start, start_runs = self._window
-        if steps - start < WINDOW_STEPS:
+        tn = self.tuning
+        if steps - start < tn.layout_window_steps:
             return False
         self.rate = (runs - start_runs) / (steps - start)
         self._window = (steps, runs)
-        want = self.rate > CONDITIONAL_BELOW if self.inline else self.rate >= INLINE_ABOVE
+        want = self.rate > tn.conditional_below if self.inline else self.rate >= tn.inline_above
         if want == self.inline:
             return False
         self.set_inline(want)

@@ -35,22 +35,9 @@ from .launch_plan import IfAny, IfFlag, Launch, group_conditionals, run_plan, sp
 from .mpm import AFTER_FORCE_UPDATE, MPMSolver
 from .stage import ClockedStage
 from .step_streams import StepStreams
+from .tuning import Tuning
 
 __all__ = ["CoupledStage", "contact_time_step_bound"]
-
-#: Threads per body in the point–body list build (they share the cells the body covers).
-BUILD_TILE = 32
-#: From this many points (and not in deterministic mode) the listed points are sifted each step
-#: by a light kernel, and the force search runs only over those near a body (``imp_forces``).
-SIFTED_IMP_POINTS = 65536
-#: With at most this many rigid bodies, in scenes of fewer than SIFTED_IMP_POINTS points, on the
-#: devices of STATIC_IMP_DEVICES, every point lists every body once and for all (``static_lists``):
-#: the step then has no list check and no conditional rebuild, which a small scene pays per step
-#: (a skipped conditional node costs a few µs, bench/launch_floor.py), and the force
-#: kernel finds the bodies within reach by their bounding circle and box. The CPU keeps the
-#: Verlet lists (its steps are paid in work, not in launches); both give the same forces.
-STATIC_IMP_BODIES = 8
-STATIC_IMP_DEVICES = ("cuda",)
 
 
 def contact_time_step_bound(scene: Scene, point_mass: float) -> float:
@@ -80,9 +67,12 @@ class CoupledStage(ClockedStage):
         scene, config, device: as for ``Simulation``.
         mpm, dem: the two stages, built for this scene on one ``Clock`` (the coordinator's); the
             MPM stage's dt policy (``MPMSolver.start_clock``), capped here each step.
+        tuning: the list build's tile, the sifted and the static point–body lists
+            (``mpmdem.sim.tuning``; default: the MPM stage's).
     """
 
-    def __init__(self, scene: Scene, config: SolverConfig, device: str, mpm: MPMSolver, dem: DEMSolver):
+    def __init__(self, scene: Scene, config: SolverConfig, device: str, mpm: MPMSolver, dem: DEMSolver, *,
+                 tuning: Tuning | None = None):
         # the point–body lists follow the points' memory order: no re-sort on a schedule, and the
         # automatic re-sorting of sort_interval None is off in coupled scenes (mpmdem.sim.auto_sort)
         if config.sort_interval:
@@ -90,6 +80,7 @@ class CoupledStage(ClockedStage):
                              "0 or None in a scene with rigid bodies and points (the point–body lists follow the "
                              "points' memory order; None re-sorts nothing here)")
         self.scene, self.config, self.mpm, self.dem = scene, config, mpm, dem
+        self.tuning = tuning or mpm.tuning
         self.device = wp.get_device(device)
         if mpm.sim_clock is not dem.sim_clock:
             raise ValueError("CoupledStage: build the MPM and DEM stages on one Clock (MPMSolver(..., clock=c), "
@@ -133,9 +124,12 @@ class CoupledStage(ClockedStage):
 
         nb = dem.body_count
         device = "cuda" if dev.is_cuda else "cpu"
-        #: every point lists every body, for the whole run (STATIC_IMP_BODIES)
-        self.static_lists = (cfg.coupling != "liu" and nb <= STATIC_IMP_BODIES and n < SIFTED_IMP_POINTS
-                             and device in STATIC_IMP_DEVICES)
+        tn = self.tuning
+        #: every point lists every body, for the whole run (``tuning.static_imp_bodies``): no list check
+        #: and no conditional rebuild in the step; the force kernel finds the bodies within reach by
+        #: their bounding circle and box
+        self.static_lists = (cfg.coupling != "liu" and nb <= tn.static_imp_bodies and n < tn.sifted_imp_points
+                             and device in tn.static_imp_devices)
         if self.static_lists:
             S = nb
         L = k.Links()
@@ -167,7 +161,7 @@ class CoupledStage(ClockedStage):
             L.listed = wp.zeros(n, dtype=wp.int32, device=dev)
             L.listed_count = wp.zeros(1, dtype=wp.int32, device=dev)
         #: large scenes sift the listed points each step before the force search (``kernels.coupling.sift``)
-        self.sifted = not cfg.deterministic and n >= SIFTED_IMP_POINTS
+        self.sifted = not cfg.deterministic and n >= tn.sifted_imp_points
         L.near = wp.zeros(n if self.sifted else 1, dtype=wp.int32, device=dev)
         L.near_count = wp.zeros(1, dtype=wp.int32, device=dev)
         self.forces_kernel = k.make_forces(self.sifted, nb if self.static_lists else 0)
@@ -198,7 +192,7 @@ class CoupledStage(ClockedStage):
         params.cell_cap = self.cell_cap
         params.bodies = nb
         params.moving = dem.moving
-        params.tile = BUILD_TILE
+        params.tile = tn.imp_build_tile
         params.friction = wp.array(mu.ravel(), dtype=t.scalar, device=dev)
         self.params = params
 
@@ -313,7 +307,7 @@ class CoupledStage(ClockedStage):
         rebuild = [
             Launch(k.clear_cells, len(self.cell_count), [flags, self.cell_count]),
             Launch(k.bin_points, n, [points, L, params, clock, flags, self.cell_count, self.cell_items, self.status]),
-            Launch(k.build_lists, self.dem.body_count * BUILD_TILE,
+            Launch(k.build_lists, self.dem.body_count * self.tuning.imp_build_tile,
                    [points, B, L, params, self.dem.world, flags, self.cell_count, self.cell_items, self.status]),
             Launch(k.finish_lists, n, [L, flags]),
             Launch(k.finish_rebuild, 1, [flags, self.rebuilds]),

@@ -35,13 +35,9 @@ from ..model.rigid_arrays import RigidArrays
 from ..model.scene import Scene
 from .launch_plan import IfFlag, Launch, run_plan
 from .stage import Clock, ClockedStage
+from .tuning import Tuning
 
 __all__ = ["DEMSolver", "dem_time_step_bound", "spring_time_step_bound"]
-
-#: Bodies larger than this many times the median bounding radius are "large" (walls, gates):
-#: they are not binned in cells; every small body tests them directly. At most MAX_LARGE.
-LARGE_FACTOR = 4.0
-MAX_LARGE = 64
 
 _MOTION_IDS = {"free": dem_kernels.FREE, "fixed": dem_kernels.FIXED, "kinematic": dem_kernels.KINEMATIC}
 
@@ -96,34 +92,6 @@ def spring_time_step_bound(law: ContactLaw, mass: float) -> float:
     return 2.0 * math.sqrt(mass / k) * (math.sqrt(1.0 + zeta * zeta) - zeta)
 
 
-#: Bodies from which the pair search is split over candidate vertices (``kernels.dem_split``) on
-#: the devices of SPLIT_SEARCH_DEVICES, outside deterministic mode (bench/README.md, "DEM with
-#: real steps"). The results are the same to the bit as the one-kernel search's.
-SPLIT_SEARCH_BODIES = 65536
-SPLIT_SEARCH_DEVICES = ("cuda",)
-#: Listed pairs per body with records of the split search, and candidate vertices per body: a pair
-#: past them is searched whole (a body lists about 2 pairs, with about 4 candidate vertices each).
-SPLIT_PAIRS_PER_BODY = 4
-SPLIT_CANDIDATES_PER_BODY = 16
-#: Threads of the split search's kernels on CUDA (they stride over the listed pairs, or over the
-#: candidates): at least SPLIT_THREADS_PER_SM per SM, and SPLIT_THREADS_PER_BODY per body, about a
-#: thread per listed pair. A thread that strides over several pairs runs them one after another,
-#: so 1M pentagons ran at 4.96e8 body-steps/s with 2048 threads an SM and 6.12e8 with 32768 (4.3
-#: a body); 100k at 4.74e8 with 2048 (2.7 a body) and 4.62e8 with 8192 (11 a body) (bench/README.md,
-#: "DEM: one atomic a block, a thread a pair").
-SPLIT_THREADS_PER_SM = 2048
-SPLIT_THREADS_PER_BODY = 4
-#: Registers per thread of the split search's ``assemble`` on CUDA: the compiler takes 140 (the
-#: whole-pair search it falls back on), one block of 256 threads an SM; 128 spills 32 bytes.
-SPLIT_ASSEMBLE_REGISTERS = 128
-#: The same on a CPU (its threads run one after another: fewer take the candidates out of order).
-SPLIT_CPU_THREADS = 4096
-#: Scenes with disk grains compute the pairs of two small sphero-disks in the disk–disk pass
-#: (``kernels.dem_disks``: no feature search; the same forces as the general search). False: the
-#: general search for every pair (bench/grain_throughput.py compares the two).
-DISK_PAIRS = True
-
-
 class DEMSolver(ClockedStage):
     """Device state and step sequence of the DEM stage of one scene.
 
@@ -136,14 +104,17 @@ class DEMSolver(ClockedStage):
         initial_overlaps: ``scene.initial_overlaps()`` of the scene as it is now, when the caller
             has just computed them (``Simulation`` passes what ``scene.validate()`` returned);
             None computes them.
+        tuning: the broad phase's large bodies, the disk–disk pass and the split search
+            (``mpmdem.sim.tuning``; default ``Tuning()``).
     """
 
     def __init__(self, scene: Scene, config: SolverConfig, device: str, *, clock: Clock | None = None,
-                 initial_overlaps: list[tuple[str, str, float]] | None = None):
+                 initial_overlaps: list[tuple[str, str, float]] | None = None, tuning: Tuning | None = None):
         if scene.contact is None:
             raise InputError("contact", None, "a ContactLaw(normal_stiffness=...) in the Scene for rigid bodies")
         self.scene = scene
         self.config = config
+        self.tuning = tuning or Tuning()
         self.device = wp.get_device(device)
         self.k = dem_kernels.make_dem_kernels(config.precision, config.deterministic)
         #: the body–body contact kernel of the one-kernel search, built uncapped: a cap of 96
@@ -151,7 +122,7 @@ class DEMSolver(ClockedStage):
         #: search uncapped")
         self.contact_kernel = self.k.contact_forces
         #: the disk–disk pass (``kernels.dem_disks``): scenes with disk grains (``_disk_flags``)
-        self.disk_pairs = DISK_PAIRS and any(g.shape == "disk" for g in scene.grains)
+        self.disk_pairs = self.tuning.disk_pairs and any(g.shape == "disk" for g in scene.grains)
         #: columns of the scene's rigid bodies (scene order), then its grains
         self.arrays = scene.body_arrays()
         self.dt_bound = dem_time_step_bound(scene, self.arrays)
@@ -186,8 +157,10 @@ class DEMSolver(ClockedStage):
         if not len(ref):  # only fixed or driven bodies (under material points)
             ref = bound
         median = float(np.median(ref))
-        big = np.flatnonzero(bound > LARGE_FACTOR * median)
-        big = big[np.argsort(-bound[big])][:MAX_LARGE]
+        # bodies larger than tuning.large_factor × the median (walls, gates) are not binned in
+        # cells: every small body tests them directly
+        big = np.flatnonzero(bound > self.tuning.large_factor * median)
+        big = big[np.argsort(-bound[big])][:self.tuning.max_large]
         is_large = np.zeros(len(motion), bool)
         is_large[big] = True
         small_bound = bound[~is_large]
@@ -429,28 +402,30 @@ class DEMSolver(ClockedStage):
 
     def _split_search(self, n: int, max_vertices: int):
         """The kernels and records of the split pair search (``kernels.dem_split``) where this scene
-        takes it (SPLIT_SEARCH_BODIES, SPLIT_SEARCH_DEVICES, not deterministic, every core of at most
-        ``dem_split.MAX_VERTICES`` vertices), else None: the one-kernel search."""
+        takes it (``tuning.split_search_bodies`` and ``split_search_devices``, not deterministic, every
+        core of at most ``dem_split.MAX_VERTICES`` vertices), else None: the one-kernel search. The
+        same bits as the one-kernel search, whatever the split's ``tuning``."""
         dev = self.device
-        if (n < SPLIT_SEARCH_BODIES or dev.is_cpu and "cpu" not in SPLIT_SEARCH_DEVICES
-                or dev.is_cuda and "cuda" not in SPLIT_SEARCH_DEVICES or self.config.deterministic
-                or not self.free or max_vertices > dem_split.MAX_VERTICES):
+        tn = self.tuning
+        if (n < tn.split_search_bodies or ("cuda" if dev.is_cuda else "cpu") not in tn.split_search_devices
+                or self.config.deterministic or not self.free or max_vertices > dem_split.MAX_VERTICES):
             return None
-        kernels = dem_split.make_split_search(self.config.precision, dem_split.HITS_PER_PAIR, SPLIT_ASSEMBLE_REGISTERS)
+        kernels = dem_split.make_split_search(self.config.precision, tn.split_hits_per_pair,
+                                              tn.split_assemble_registers)
         S = kernels.Split()
-        S.pairs = min(n * SPLIT_PAIRS_PER_BODY, n * self.slots, 1 << 25)  # (a candidate's code holds q < 2^25)
-        cap = n * SPLIT_CANDIDATES_PER_BODY
+        S.pairs = min(n * tn.split_pairs_per_body, n * self.slots, 1 << 25)  # (a candidate's code holds q < 2^25)
+        cap = n * tn.split_candidates_per_body
         S.candidate = wp.zeros(cap, dtype=wp.int32, device=dev)
         S.candidate_count = wp.zeros(1, dtype=wp.int32, device=dev)
         S.whole = wp.zeros(S.pairs, dtype=wp.int32, device=dev)
         S.touches = wp.zeros(S.pairs, dtype=wp.int32, device=dev)
-        hits = S.pairs * dem_split.HITS_PER_PAIR
+        hits = S.pairs * tn.split_hits_per_pair
         S.code = wp.zeros(hits, dtype=wp.int32, device=dev)
         S.normal = wp.zeros(hits, dtype=self._vec2, device=dev)
         S.distance = wp.zeros(hits, dtype=self._scalar, device=dev)
-        per_body = 0 if self.disk_pairs else SPLIT_THREADS_PER_BODY  # (with disks: the few general pairs)
-        threads = (min(cap, max(SPLIT_THREADS_PER_SM * dev.sm_count, per_body * n)) if dev.is_cuda
-                   else min(cap, SPLIT_CPU_THREADS))
+        per_body = 0 if self.disk_pairs else tn.split_threads_per_body  # (with disks: the few general pairs)
+        threads = (min(cap, max(tn.split_threads_per_sm * dev.sm_count, per_body * n)) if dev.is_cuda
+                   else min(cap, tn.split_cpu_threads))
         return kernels, S, threads
 
     def contact_forces(self) -> None:

@@ -17,40 +17,10 @@ from ..kernels import granular as granular_kernels
 from ..kernels import scan as scan_kernels
 from ..kernels.shape_functions import SUPPORT_NODES
 from .launch_plan import IfFlag, Launch
+from .tuning import Tuning
 
-__all__ = ["CRITICAL_BAND", "LINK_LANES", "LINK_LANES_DEVICES", "LINK_LANES_POINTS", "NESTED_REBUILD",
-           "NODE_RANGE_MOVES", "RELINK_LANES", "WIDE_BAND_CAP",
-           "components", "granular_plan", "granular_statistics", "interaction_domains", "make_interaction",
+__all__ = ["components", "granular_plan", "granular_statistics", "interaction_domains", "make_interaction",
            "node_ranges", "static_extent"]
-
-#: Granular mode: overlap tests closer than this many cells to flipping are listed and re-tested
-#: at every step instead of setting the margin of the label reuse (below the 1.7e-3 cells by which
-#: the paper's ρ_cr makes neighbouring domains of a dense packing overlap).
-CRITICAL_BAND = 2.0**-11
-#: The widest band of the pair lists [cells] (kernels/granular.py, WIDE_STEPS).
-WIDE_BAND_CAP = 0.25
-#: Whether the rebuild sits in a conditional graph node of its own inside the relabel's (else its
-#: kernels are launched on every relabel and return at once when there is no rebuild).
-NESTED_REBUILD = True
-#: Threads a point of the rebuild's ``link`` (``kernels.granular.search``) and of the relabel's
-#: ``relink`` (``kernels.granular.labels``, domains that do not deform) in scenes of fewer than
-#: LINK_LANES_POINTS points on the devices of LINK_LANES_DEVICES: in a flowing scene most rebuilds
-#: come in a streak that only merges, and most relabels merge the wide lists of nearly every
-#: neighbour pair; the GPU, idle at a few thousand points, then runs each point's pair tests and
-#: merges over the lanes (the CPU, one core's work, keeps one thread).
-LINK_LANES = 4
-LINK_LANES_POINTS = 65536
-LINK_LANES_DEVICES = ("cuda",)
-#: Threads a point of ``relink`` where ``link`` takes LINK_LANES: one a listed pair (a point lists
-#: at most ``kernels.granular.PAIR_SLOTS`` = 8); 8 was the fastest of 2, 4 and 8 on sand-blocks and
-#: silo-discharge (docs/benchmarks.md, "Tuning constants and their measured reasons").
-RELINK_LANES = 8
-#: Whether a point may change node ranges without a rebuild where no pair's pre-task can then
-#: change (``make_interaction``: every domain granular and under half a cell, not deforming, not
-#: staged): it claims its copies at its new nodes in the next P2G instead (the tent relabels). Off,
-#: every new node range rebuilds (the tent still changes cells by relabels): the same labels and
-#: results, at a rebuild's cost.
-NODE_RANGE_MOVES = True
 
 
 def static_extent(scene, config, host: dict, mats: list) -> np.ndarray:
@@ -73,8 +43,9 @@ def static_extent(scene, config, host: dict, mats: list) -> np.ndarray:
 
 
 def make_interaction(scene, config, host: dict, mats: list, points, grid_shape, layer_rows: int, types, *,
-                     staged: bool, device):
-    """The interaction-graph struct of ``kernels/granular.py`` and the scan's tile totals."""
+                     staged: bool, device, tuning: Tuning):
+    """The interaction-graph struct of ``kernels/granular.py`` and the scan's tile totals (the bands
+    of the pair lists and the node-range moves from ``tuning``)."""
     if scene.periodic_x:
         raise InputError("granular", True, "False with periodic x boundaries (the domains of interaction and the "
                          "component grids know no periodic image yet)")
@@ -134,8 +105,8 @@ def make_interaction(scene, config, host: dict, mats: list, points, grid_shape, 
     # the cells where one did, marked with the labelling's stamp (FLAG_STAMP)
     S.dirty = wp.full(cells if tent else 1, -1, dtype=wp.int32, device=dev)
     S.quantum = t.scalar(scene.cell_size * 2.0**-20)
-    S.band_min = int(CRITICAL_BAND * 2.0**20)  # (in quanta of h 2^-20)
-    S.band_cap = int(WIDE_BAND_CAP * 2.0**20)
+    S.band_min = int(tuning.critical_band * 2.0**20)  # (in quanta of h 2^-20)
+    S.band_cap = int(tuning.wide_band_cap * 2.0**20)
     # a point may change cells and node ranges without a rebuild when every point is granular
     # and every domain of interaction under half a cell (domains that do not deform, outside
     # staged scenes): two overlapping domains are then less than a cell apart on each axis, and
@@ -146,7 +117,7 @@ def make_interaction(scene, config, host: dict, mats: list, points, grid_shape, 
     ext = float(extent[:2].max())
     rho_cr = np.array([m.critical_density or 0.0 for m in mats])[host["material_index"]]
     granular_only = bool((rho_cr > 0.0).all())
-    S.moves = int(not deforming and not staged and granular_only and ext < 0.5 and (tent or NODE_RANGE_MOVES))
+    S.moves = int(not deforming and not staged and granular_only and ext < 0.5 and (tent or tuning.node_range_moves))
     S.moves_margin = (int(math.floor((1.0 - 2.0 * ext * (1.0 + 1.0e-6)) * 2.0**20)) if S.moves
                       else granular_kernels.NO_MARGIN)
     flags = np.zeros(granular_kernels.FLAG_SLOTS, np.int32)
@@ -171,7 +142,8 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
 
     Returns (plan, judge, check): the launches, the kernel that decides at the end of the step
     whether the next one rebuilds (None: domains that deform rebuild every step) and the launch
-    that goes after the step's last G2P (None with no judge).
+    that goes after the step's last G2P (None with no judge). The lanes and the nesting of the
+    rebuild come from ``stage.tuning``.
     """
     c = stage.config
     n = stage.particle_count
@@ -180,12 +152,13 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
     S = stage.interaction
     gin = [stage.points, stage.G, stage.D, stage.materials, S, stage.status, stage.clock]
     device = "cuda" if wp.get_device(stage.device).is_cuda else "cpu"
-    small = device in LINK_LANES_DEVICES and n < LINK_LANES_POINTS
-    lanes = LINK_LANES if small else 1
-    relink_lanes = RELINK_LANES if small and not deforming else 1
+    tn = stage.tuning
+    small = device in tn.link_lanes_devices and n < tn.link_lanes_points
+    lanes = tn.link_lanes if small else 1
+    relink_lanes = tn.relink_lanes if small and not deforming else 1
     kernels = granular_kernels.make_granular_kernels(
         c.shape, prec, staged=stage.staged, link_lanes=lanes, relink_lanes=relink_lanes,
-        check_capped=n >= LINK_LANES_POINTS, moves=bool(S.moves))
+        check_capped=n >= tn.link_lanes_points, moves=bool(S.moves))
     reset = Launch(granular_kernels.make_reset_search(prec, deforming), grid_dim,
                    [stage.G, stage.D, S.ext_max, S.slack, S.cell_ref, S.flags, S.motion])
     rebuild = [reset, Launch(kernels.prepare, n, gin)]
@@ -220,7 +193,7 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
     rebuild += [Launch(kernels.settle, n, gin)]
     rebuild_flag = S.flags[granular_kernels.FLAG_REBUILD:]
     relabel_flag = S.flags[granular_kernels.FLAG_RELABEL:]
-    inner = [IfFlag(rebuild_flag, rebuild)] if NESTED_REBUILD else rebuild
+    inner = [IfFlag(rebuild_flag, rebuild)] if tn.nested_rebuild else rebuild
     plan = [IfFlag(relabel_flag, inner + relabel)]
     return plan, granular_kernels.make_rebuild_decision(prec), Launch(kernels.check, n, gin)
 

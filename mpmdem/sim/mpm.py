@@ -37,39 +37,9 @@ from .launch_plan import ExtensionPoint, Launch, Zero, plan_blocks, plan_kernels
 from .mpm_roles import GridUpdate, WallFold, last_grid_update, launches
 from .mpm_state import GHOST_NODES, STATE_FIELDS, initial_dt_bound, make_domain, make_grid, make_points
 from .stage import Clock, ClockedStage
+from .tuning import Tuning
 
 __all__ = ["AFTER_FORCE_UPDATE", "GHOST_NODES", "MPMSolver", "device_order", "initial_dt_bound"]
-
-#: From this many points on CUDA, P2G sums each block's points in a shared-memory tile first
-#: (``MPMSolver.p2g_tile``); below it a step is latency-bound and the tile's barriers only add.
-TILED_P2G_POINTS = 65536
-#: Threads (points) per block of the tiled P2G.
-TILED_P2G_BLOCK = 64
-#: Scenes of fewer points than this run P2G a stencil row a thread (``kernels.transfer.make_p2g``'s
-#: ``rows``) on the devices of ROW_P2G_DEVICES, outside granular mode: their GPU is nearly idle and
-#: each kernel as long as one warp's chain of instructions (bench/README.md, "P2G by stencil rows").
-ROW_P2G_POINTS = 16384
-ROW_P2G_DEVICES = ("cuda",)
-#: G2P reads the wall images (velocities of a ghost node's interior mirror, reflected) instead of a
-#: launch writing them after each grid update (``kernels.wall_images.make_mirrored_source``): one launch
-#: fewer per grid update in scenes with fixed or slip walls, the same bits.
-MIRROR_IN_G2P = True
-#: A grid update folds the wall images onto its own node first (``kernels.grid.make_grid_update``'s
-#: ``fold``), in place of the fold launch before it: the first grid update of MUSL, USF and USAVG
-#: steps, and the step's last (clearing) one where G2P reads the wall images and every wall is
-#: fixed, slip or free (its ghosts then are not updated, so their threads cannot race with the
-#: fold's reads). The same bits.
-FOLD_IN_GRID_UPDATE = True
-#: Both only in scenes of fewer points than this: they trade a launch for work in kernels that run
-#: over every point or node, which pays in small scenes, paid per launch, and costs in large ones,
-#: paid in bandwidth (G2P and the grid update grow severalfold at 1M points). Faster up to 32k points,
-#: even at 65536, slower above (docs/benchmarks.md, "Tuning constants and their measured reasons").
-IMAGES_IN_KERNELS_POINTS = 65536
-
-#: MUSL (and USAVG) re-map the new point velocities in the G2P that updates them (``make_g2p``'s
-#: ``remap``), the same terms in the same order per node, where P2G runs a thread a point (not
-#: tiled, not by rows), outside deterministic mode (whose ordered atomics that G2P lacks).
-REMAP_IN_G2P = True
 
 #: Extension point of the step: after the grid's force update and before G2P (USL only). The
 #: coupling's momentum exchange of Liu et al. runs there (``MPMSolver.extend``).
@@ -85,6 +55,8 @@ class MPMSolver(ClockedStage):
         device: Warp device ("cpu", "cuda", "cuda:0").
         clock: the run's clock (``Simulation`` passes its own); None makes one with this stage's
             dt policy (the CFL bound or the fixed dt).
+        tuning: which kernel variants and fused launches to use (``mpmdem.sim.tuning``; default
+            ``Tuning()``).
 
     Attributes:
         points: the ``Particles`` struct (device order; ``points.pid`` maps to the scene's).
@@ -92,9 +64,11 @@ class MPMSolver(ClockedStage):
         clock, steps: the device arrays of ``sim_clock`` that the kernels take.
     """
 
-    def __init__(self, scene: Scene, config: SolverConfig, device: str, *, clock: Clock | None = None):
+    def __init__(self, scene: Scene, config: SolverConfig, device: str, *, clock: Clock | None = None,
+                 tuning: Tuning | None = None):
         self.scene = scene
         self.config = config
+        self.tuning = tuning or Tuning()
         self.device = wp.get_device(device)
         self.types = scalar_types(config.precision)
         host = scene.particles()
@@ -178,7 +152,7 @@ class MPMSolver(ClockedStage):
         if self.config.granular:
             self.interaction, self.scan_totals = granular_state.make_interaction(
                 scene, self.config, host, mats, self.points, self.grid_shape, self.D.layer_rows, t,
-                staged=self.staged, device=dev)
+                staged=self.staged, device=dev, tuning=self.tuning)
             self.granular_stats = wp.zeros(2, dtype=wp.int32, device=dev)
         self.materials = wp.array(np.array([m.packed() for m in mats], T), dtype=t.params, device=dev)
         self.max_speed = wp.zeros(reduction_kernels.SPEED_SLOTS, dtype=wp.float32, device=dev)
@@ -206,9 +180,10 @@ class MPMSolver(ClockedStage):
         # the wall images and the periodic images at the grid's edges (mpmdem/sim/grid_edges.py)
         #: G2P reads the wall images itself (``transfer.make_g2p``'s ``mirror``): USL and MUSL,
         #: where only G2P reads the mirrored velocities, not XPIC's passes or Liu's exchange
+        tn = self.tuning
         edges = GridEdges(self, grid_dim, mirror_in_g2p=(
-            MIRROR_IN_G2P and c.update in ("USL", "MUSL") and not s.xpic and not (self.coupled and c.coupling == "liu")
-            and n < IMAGES_IN_KERNELS_POINTS))
+            tn.mirror_in_g2p and c.update in ("USL", "MUSL") and not s.xpic
+            and not (self.coupled and c.coupling == "liu") and n < tn.images_in_kernels_points))
         self.wall_band, self.mirror_in_g2p = edges.wall_band, edges.mirror_in_g2p
         fold, mirrored, moving = edges.fold, edges.mirrored, edges.moving
         layered = c.granular
@@ -306,8 +281,8 @@ class MPMSolver(ClockedStage):
                 seq += p2g(mass=False, momentum=False, force=True) + grid(velocity=False, force=True)
             else:
                 seq += p2g(mass=True, momentum=True, force=True) + grid(velocity=True, force=True)
-            # MUSL's re-mapping P2G in the velocity G2P (REMAP_IN_G2P), where P2G runs a thread a point
-            remap_in_g2p = REMAP_IN_G2P and not tile and not rows and not c.deterministic
+            # MUSL's re-mapping P2G in the velocity G2P (tuning.remap_in_g2p), where P2G runs a thread a point
+            remap_in_g2p = tn.remap_in_g2p and not tile and not rows and not c.deterministic
             seq += xpic_smoothing() + g2p(velocity=True, position=False, stress="none", remap=remap_in_g2p)
             # the re-mapped momentum starts from zero: the grid update before clears it at the nodes
             # (copies) it visits, which are those the re-mapping P2G adds to (no memset of the grid)
@@ -333,7 +308,7 @@ class MPMSolver(ClockedStage):
         kinds = {b.kind for b in self.scene.boundaries.values()}
         images = (self.mirror_in_g2p and kinds <= {"fixed", "slip", "free"} and c.damping == 0.0
                   and not self._obstacle_ghosts())
-        if FOLD_IN_GRID_UPDATE and n < IMAGES_IN_KERNELS_POINTS and not edges.unfused:
+        if tn.fold_in_grid_update and n < tn.images_in_kernels_points and not edges.unfused:
             # a fold launch right before a grid update that clears and re-maps nothing (or, with
             # images, the clearing one): the update folds its own node first
             for k in range(len(seq) - 1):
@@ -375,17 +350,17 @@ class MPMSolver(ClockedStage):
 
     def p2g_tile(self) -> tuple:
         """(B, TX, TY) of the shared-memory P2G (``kernels.transfer.make_p2g``'s ``tile``), or ()
-        for one global atomic per point and node: tiles pay on CUDA from TILED_P2G_POINTS points
-        on, for single-stencil shapes, outside granular and deterministic mode. A block of B
+        for one global atomic per point and node: tiles pay on CUDA from ``tuning.tiled_p2g_points``
+        points on, for single-stencil shapes, outside granular and deterministic mode. A block of B
         cell-sorted points spans about B / ppc cells of one cell column, so the tile is K + 1
         nodes wide and B / ppc + K + 3 high (K the stencil's nodes per axis)."""
         c = self.config
         K = SUPPORT_NODES[c.shape]
-        if (not self.device.is_cuda or self.particle_count < TILED_P2G_POINTS or c.granular or c.deterministic
-                or transfer_kernels.CORNERS.get(c.shape, 1) != 1):
+        if (not self.device.is_cuda or self.particle_count < self.tuning.tiled_p2g_points or c.granular
+                or c.deterministic or transfer_kernels.CORNERS.get(c.shape, 1) != 1):
             return ()
         ppc = min(b.points_per_cell for b in self.scene.bodies) ** 2
-        B = TILED_P2G_BLOCK
+        B = self.tuning.tiled_p2g_block
         TX, TY = K + 1, B // ppc + K + 3
         if TX > self.grid_shape[0] or TY > self.grid_shape[1]:
             return ()
@@ -393,12 +368,13 @@ class MPMSolver(ClockedStage):
 
     def p2g_rows(self, tile: tuple) -> bool:
         """Whether P2G runs a stencil row a thread (``kernels.transfer.make_p2g``'s ``rows``): in
-        scenes of fewer than ROW_P2G_POINTS points on the devices of ROW_P2G_DEVICES, for
+        scenes of fewer than ``tuning.row_p2g_points`` points on ``tuning.row_p2g_devices``, for
         single-stencil shapes, untiled, outside granular mode (its first P2G claims the point's
         node copies all at once)."""
         c = self.config
         device = "cuda" if self.device.is_cuda else "cpu"
-        return (device in ROW_P2G_DEVICES and self.particle_count < ROW_P2G_POINTS and not tile
+        tn = self.tuning
+        return (device in tn.row_p2g_devices and self.particle_count < tn.row_p2g_points and not tile
                 and not c.granular and transfer_kernels.CORNERS.get(c.shape, 1) == 1)
 
     # -- stepping -------------------------------------------------------------------------------
@@ -444,8 +420,8 @@ class MPMSolver(ClockedStage):
             return []
         flags = self.interaction.flags
         rebuilds, relabels = granular_kernels.FLAG_COUNT, granular_kernels.FLAG_RELABELS
-        layouts = [BlockLayout(blocks[0], flags, (rebuilds, relabels))]
-        layouts += [BlockLayout(block, flags, (rebuilds,)) for block in blocks[1:]]
+        layouts = [BlockLayout(blocks[0], flags, (rebuilds, relabels), self.tuning)]
+        layouts += [BlockLayout(block, flags, (rebuilds,), self.tuning) for block in blocks[1:]]
         return layouts
 
     def step_kernels(self) -> list:

@@ -31,6 +31,7 @@ from ..model.grains import GrainSet
 from ..model.overlaps import overlap_pairs
 from ..model.scene import Scene
 from .simulation import Simulation
+from .tuning import Tuning
 
 __all__ = ["Packing", "measure_packing", "settle"]
 
@@ -129,10 +130,10 @@ def _placed(scene: Scene, grains: list[GrainSet]):
 
 def settle(scene: Scene, config: SolverConfig | None = None, *, device: str = "cpu", min_time: float | None = None,
            max_time: float | None = None, check_every: float | None = None, rest_speed: float = REST_SPEED,
-           margin: float = MARGIN) -> Packing:
+           margin: float = MARGIN, tuning: Tuning | None = None) -> Packing:
     """Pour the scene's grains under its gravity until at rest and measure the packing.
 
-    Runs ``Simulation(scene, config, device)`` in chunks of ``check_every`` [s] (default: a tenth
+    Runs ``Simulation(scene, config, device, tuning)`` in chunks of ``check_every`` [s] (default: a tenth
     of ``min_time``) from ``min_time`` [s] (default: the free-fall time sqrt(2 H / g) through the
     domain height H) until the grains' RMS speed is below ``rest_speed`` × sqrt(g r) or
     ``max_time`` [s] (default 20 × min_time) has passed. The scene is not changed. Returns the
@@ -148,7 +149,7 @@ def settle(scene: Scene, config: SolverConfig | None = None, *, device: str = "c
     end = max_time or 20.0 * fall
     r_mean = float(np.mean(np.concatenate([np.sqrt(gs.area / math.pi) for gs in scene.grains])))
     rest = rest_speed * math.sqrt(g * r_mean)
-    sim = Simulation(scene, config or SolverConfig(), device=device)
+    sim = Simulation(scene, config or SolverConfig(), device=device, tuning=tuning)
     rigid = len(scene.rigid_bodies)
     t, speed = 0.0, math.inf
     while t < end:

@@ -32,13 +32,10 @@ from .dem import DEMSolver
 from .diagnostics import EnergyBalance, check_energy
 from .mpm import MPMSolver
 from .stage import Clock, Stage
+from .tuning import Tuning
 from .warp_init import check_device, init_warp
 
 __all__ = ["RunResult", "Simulation", "default_device"]
-
-#: steps per launch of the multi-step CUDA graph (small scenes pay a graph launch per launch, not per
-#: step; the batches of ``advance_to`` are hundreds of steps, so few steps run one graph at a time)
-STEPS_PER_GRAPH = 16
 
 
 def default_device() -> str:
@@ -75,11 +72,18 @@ class Simulation:
         scene: what to simulate.
         config: discretisation choices (default SolverConfig()).
         device: "cpu", "cuda" or "cuda:N"; None picks the GPU when there is one.
+        tuning: how the stages compute (kernel variants, thread counts, fused launches; default
+            ``Tuning()``): the same results whatever it is, to round-off (``mpmdem.sim.tuning``).
     """
 
-    def __init__(self, scene: Scene, config: SolverConfig | None = None, *, device: str | None = None):
+    def __init__(self, scene: Scene, config: SolverConfig | None = None, *, device: str | None = None,
+                 tuning: Tuning | None = None):
         self.scene = scene
         self.config = config or SolverConfig()
+        if tuning is not None and not isinstance(tuning, Tuning):
+            raise InputError("tuning", tuning, "a mpmdem.Tuning, or None for the defaults")
+        #: the performance knobs every stage reads
+        self.tuning = tuning or Tuning()
         init_warp()
         device = device or default_device()
         check_device(device)
@@ -95,8 +99,10 @@ class Simulation:
         overlaps = scene.validate()
         #: the time of the run, shared by every stage
         self.clock = Clock(self.device)
-        self.mpm = MPMSolver(scene, self.config, self.device, clock=self.clock) if scene.has_mpm else None
-        self.dem = (DEMSolver(scene, self.config, self.device, clock=self.clock, initial_overlaps=overlaps)
+        self.mpm = (MPMSolver(scene, self.config, self.device, clock=self.clock, tuning=self.tuning)
+                    if scene.has_mpm else None)
+        self.dem = (DEMSolver(scene, self.config, self.device, clock=self.clock, initial_overlaps=overlaps,
+                              tuning=self.tuning)
                     if scene.has_dem else None)
         # the dt policy of the stage that starts each step (with points, the MPM stage's CFL bound,
         # capped by the coupling's contact bound in a coupled step)
@@ -105,7 +111,7 @@ class Simulation:
         if self.mpm and self.dem:
             from .coupling import CoupledStage
 
-            self.coupling = CoupledStage(scene, self.config, self.device, self.mpm, self.dem)
+            self.coupling = CoupledStage(scene, self.config, self.device, self.mpm, self.dem, tuning=self.tuning)
         #: what one step runs
         self.stage: Stage = self.coupling or self.mpm or self.dem
         self._graph = None
@@ -116,9 +122,11 @@ class Simulation:
         self._steps_since_sort = 0
         # sort_interval None: re-sort when the memory order has drifted, checked after the batches
         # of advance_to (mpmdem.sim.auto_sort; None where it does not apply: CPU, small or coupled scenes)
-        self._auto_sort = AutoSort(self.mpm) if self.mpm is not None and auto_sort_applies(
-            self.config, cuda=wp.get_device(self.device).is_cuda, points=self.mpm.particle_count,
-            coupled=self.coupling is not None) else None
+        tn = self.tuning
+        self._auto_sort = AutoSort(self.mpm, tn.auto_sort_drift, tn.auto_sort_check_steps) if (
+            self.mpm is not None and auto_sort_applies(self.config, tn, cuda=wp.get_device(self.device).is_cuda,
+                                                       points=self.mpm.particle_count,
+                                                       coupled=self.coupling is not None)) else None
         #: Granular MPM in CUDA graphs: the layouts of the relabel and rebuild blocks, conditional
         #: nodes or in line, chosen after the batches of advance_to from how often each runs
         #: (mpmdem.sim.block_layout); none elsewhere (every block runs in line)
@@ -137,8 +145,8 @@ class Simulation:
 
     # -- stepping ---------------------------------------------------------------------------------
     def _capture(self) -> None:
-        """Record one step, and STEPS_PER_GRAPH steps, as CUDA graphs (modules are loaded by a no-op
-        step first). A step launches the same kernels whatever the state (its branches are on the
+        """Record one step, and ``tuning.steps_per_graph`` steps, as CUDA graphs (modules are loaded by
+        a no-op step first). A step launches the same kernels whatever the state (its branches are on the
         device), so a graph of n copies replays exactly as n replays of the one-step graph, with one
         launch from the host instead of n."""
         if self._graph is not None or not self.config.cuda_graph or not wp.get_device(self.device).is_cuda:
@@ -150,13 +158,13 @@ class Simulation:
         self._record_graphs()
 
     def _record_graphs(self) -> None:
-        """Record the one-step and the STEPS_PER_GRAPH-step graphs (modules loaded); again when the
-        step's layout changed (``block_layouts``): recording launches nothing."""
+        """Record the one-step and the ``tuning.steps_per_graph``-step graphs (modules loaded); again
+        when the step's layout changed (``block_layouts``): recording launches nothing."""
         with wp.ScopedCapture(device=self.device) as cap:
             self.stage.step()
         self._graph = cap.graph
         with wp.ScopedCapture(device=self.device) as cap:
-            for _ in range(STEPS_PER_GRAPH):
+            for _ in range(self.tuning.steps_per_graph):
                 self.stage.step()
         self._graph_many = cap.graph
 
@@ -167,9 +175,10 @@ class Simulation:
         left = steps
         while left > 0:
             until_sort = self.sort_interval - self._steps_since_sort if self.mpm and self.sort_interval else left
-            if self._graph is not None and left >= STEPS_PER_GRAPH and until_sort >= STEPS_PER_GRAPH:
+            many = self.tuning.steps_per_graph
+            if self._graph is not None and left >= many and until_sort >= many:
                 wp.capture_launch(self._graph_many)
-                n = STEPS_PER_GRAPH
+                n = many
             elif self._graph is not None:
                 wp.capture_launch(self._graph)
                 n = 1
@@ -186,8 +195,8 @@ class Simulation:
         """Step until the clock reaches t_stop [s]; checks stability after each batch of steps.
 
         With the automatic re-sorting (``mpmdem.sim.auto_sort``), also measures after a batch how far
-        the points' memory order has drifted (after each batch, or at most every AUTO_SORT_CHECK_STEPS steps) and
-        re-sorts them by cell when it passed AUTO_SORT_DRIFT.
+        the points' memory order has drifted (after each batch, or at most every
+        ``tuning.auto_sort_check_steps`` steps) and re-sorts them by cell when it passed ``tuning.auto_sort_drift``.
 
         Returns (time reached, steps taken). Raises BlowUpError on NaN/inf or escaped points.
         """

@@ -127,7 +127,7 @@ def run_variants(module: ModuleType, args: argparse.Namespace, sim, main: Varian
             continue
         folder = out / variant.name
         folder.mkdir(parents=True, exist_ok=True)
-        vsim = Simulation(setup.scene, config, device=sim.device)
+        vsim = Simulation(setup.scene, config, device=sim.device, tuning=sim.tuning)
         summary = {"case": module.NAME, "variant": variant.name, "status": "error", "device": vsim.device,
                    "particles": vsim.particle_count, "bodies": vsim.body_count, "config": config.to_dict(),
                    "end_time": v_end, "frames": v_frames}
