@@ -29,6 +29,8 @@ PIT_LENGTH = 2.5
 HEAP_RUN = 5.0
 #: wall plates' thickness, in L0
 WALL = 0.1
+#: profile.png draws at most this many grains as disks (more as pixels)
+DRAWN_AS_DISKS = 50_000
 #: --sand dem: the solver's choices (no grid). f64: a resting grain's overlap under its own weight, ρ_s g π r² / k_n
 #: (1.5e-8 m at r = 0.5 mm), is below f32's spacing of positions a metre from the origin (1.2e-7 m at 1 m;
 #: the tall columns run out to 2-5 m), so in f32 a surface grain's contact force could only jump by many
@@ -235,6 +237,9 @@ def _plot(x0, x1, r, w, a, y0, path, heap: bool = False) -> None:
 
     fig, ax = plt.subplots(figsize=(8, 3.5))
     for x, colour in ((x0, "0.8"), (x1, "C0")):
+        if len(x) > DRAWN_AS_DISKS:  # (hundreds of thousands of disks: pixels, not ellipses)
+            ax.scatter(x[:, 0] / w, (x[:, 1] - y0) / w, s=0.05, marker="s", color=colour, lw=0, rasterized=True)
+            continue
         ax.add_collection(EllipseCollection(2 * r / w, 2 * r / w, 0.0, units="xy", offsets=(x - [0.0, y0]) / w,
                                             offset_transform=ax.transData, facecolor=colour, edgecolor="none",
                                             alpha=0.6 if colour == "C0" else 1.0))

@@ -21,6 +21,7 @@ STUDIES = {
     "block-impact-coupling": "block_impact:COUPLING",
     "block-impact-rounding": "block_impact:ROUNDING",
     "block-impact-ensemble": "block_impact:ENSEMBLE",
+    "block-impact-dem": "block_impact_dem",
     "column-collapse": "column_collapse",
     "column-collapse-mu-i": "column_collapse:MU_I",
     "column-collapse-dem": "column_collapse_dem",
