@@ -298,7 +298,7 @@ def head_commit(repo: Path | None = None) -> str | None:
         # a source checkout holds the package; an installed package does not, and then the checkout
         # it was installed from is the working directory (CI, the README's commands) or above it
         here = Path.cwd().resolve()
-        candidates = [Path(__file__).resolve().parents[1], here, *here.parents]
+        candidates = [Path(__file__).resolve().parents[2], here, *here.parents]
         repo = next((c for c in candidates if (c / ".git").exists()), None)
         if repo is None:
             return None

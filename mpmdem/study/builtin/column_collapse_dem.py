@@ -111,7 +111,7 @@ def analyze(rows: list[dict], out: Path, root: Path | None = None) -> dict:
     import matplotlib.pyplot as plt
 
     out = Path(out)
-    root = Path(root) if root is not None else Path(__file__).resolve().parents[2]
+    root = Path(root) if root is not None else Path(__file__).resolve().parents[3]
     runs = load_runs(out)
     # the sibling sweeps beside this one (disks and pentagons) go on the same chart
     for name in SIBLINGS:
