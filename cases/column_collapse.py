@@ -96,6 +96,7 @@ import numpy as np
 
 from mpmdem import Boundary, MohrCoulomb, MuI, Scene, rectangle
 from mpmdem.cases import _column_grains
+from mpmdem.cases._grain_flags import add_grain_arguments
 from mpmdem.study.case import CaseSetup
 from mpmdem.study.flag_types import count_at_least, given, interval, positive
 from mpmdem.study.references.lube2005 import (
@@ -168,16 +169,7 @@ def add_arguments(parser):
     parser.add_argument("--friction-angle", type=positive("deg"), default=None,
                         help=f"phi of the Mohr-Coulomb sand and of the floor's mu = tan(phi) [deg] (default "
                              f"{FRICTION_ANGLE}; the grains' angle of repose: bench/results/studies/grain-calibration)")
-    parser.add_argument("--sand", default="mpm", choices=("mpm", "dem"),
-                        help="the column as Granular MPM points (mpm, the default) or as DEM grains (dem)")
-    parser.add_argument("--grain-radius", type=positive("m"), default=GRAIN_RADIUS,
-                        help=f"--sand dem: mean grain radius [m] (default {GRAIN_RADIUS}: d of --material mu-i)")
-    parser.add_argument("--grain-shape", default="disk", choices=("disk", "polygon"),
-                        help="--sand dem: sphero-disks (default) or rounded random pentagons")
-    parser.add_argument("--seed", type=count_at_least(0), default=1, help="--sand dem: seed of the grains")
-    parser.add_argument("--settle-max", type=positive("s"), default=None,
-                        help="--sand dem: the longest the grains settle behind the gate [s] (default 8 free falls "
-                             "through the lattice they start on; they stop earlier once at rest)")
+    add_grain_arguments(parser, what="the column", radius=GRAIN_RADIUS, radius_note="d of --material mu-i")
 
 
 def _check(args):

@@ -89,6 +89,7 @@ import numpy as np
 
 from mpmdem import ContactLaw, DruckerPrager, InputError, Scene, rounded_rectangle
 from mpmdem.cases import _blocks_grains
+from mpmdem.cases._grain_flags import add_grain_arguments
 from mpmdem.study.case import CaseSetup
 from mpmdem.study.flag_types import count_at_least, given, non_negative, positive
 from mpmdem.study.references.block_impact import ENSEMBLE_STARTS, T_PAPER, T_PAPER_PRINTED, first_time, readings
@@ -171,16 +172,7 @@ def add_arguments(parser):
                              "spacing, from this seed (default: none, the experiment's start)")
     parser.add_argument("--normal-stiffness", type=positive("N/m per m"), default=KN,
                         help=f"k_n of every contact [N/m per m] (default {KN:g}; Table 3: {KN_TABLE:g}); k_t = k_n/20")
-    parser.add_argument("--sand", default="mpm", choices=("mpm", "dem"),
-                        help="the sand column as Granular MPM points (mpm, the default) or as DEM grains (dem)")
-    parser.add_argument("--grain-radius", type=positive("m"), default=R_P_TABLE,
-                        help=f"--sand dem: mean grain radius [m] (default the seed's r_p = {R_P_TABLE})")
-    parser.add_argument("--grain-shape", default="disk", choices=("disk", "polygon"),
-                        help="--sand dem: sphero-disks (default) or rounded random pentagons")
-    parser.add_argument("--seed", type=count_at_least(0), default=1, help="--sand dem: seed of the grains")
-    parser.add_argument("--settle-max", type=positive("s"), default=None,
-                        help="--sand dem: the longest the grains settle behind the gate [s] (default 8 free falls "
-                             "through the lattice they start on; they stop earlier once at rest)")
+    add_grain_arguments(parser, what="the sand column", radius=R_P_TABLE, radius_note="the seed's r_p")
 
 
 def _cell(args) -> float:

@@ -77,9 +77,10 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, MuI, Scene, rectangle, rounded_rectangle
+from mpmdem.cases._grain_flags import add_grain_arguments
 from mpmdem.sim import gated_grains
 from mpmdem.study.case import CaseSetup
-from mpmdem.study.flag_types import count_at_least, given, positive
+from mpmdem.study.flag_types import given, positive
 from mpmdem.study.references.beverloo import beverloo
 from mpmdem.study.references.table3 import (
     CRITICAL_DENSITY_RATIO,
@@ -150,7 +151,6 @@ METHODS = {
     "obstacle-slip": ("granular", None, "obstacle-slip"),
     "obstacle-fixed": ("granular", None, "obstacle-fixed"),
 }
-SANDS = ("mpm", "dem")
 #: --sand dem: grain-grain Coulomb μ (a sand's; a pair with a plate takes the plates' Table 3 μ = 0.2) and
 #: the solid fraction of a settled pack of these grains (tests/test_grains.py; Berryman 1983: 0.82 ± 0.02),
 #: shared with the other cases' grains (mpmdem.sim.gated_grains)
@@ -197,17 +197,7 @@ def add_arguments(parser):
     parser.add_argument("--walls", default=None, choices=WALL_MODES,
                         help="silo and container as fixed spheropolygons (sdem, the paper's) or as grid obstacles "
                              "(obstacle-slip: rollers, obstacle-fixed: no slip; no DEM stage at all)")
-    parser.add_argument("--sand", default="mpm", choices=SANDS,
-                        help="the sand as Granular MPM points (mpm, the default) or as free DEM grains (dem)")
-    parser.add_argument("--grain-radius", type=positive("m"), default=R_P_TABLE,
-                        help=f"--sand dem: mean grain radius r_p [m] (default the seed's r_p = {R_P_TABLE})")
-    parser.add_argument("--grain-shape", default="disk", choices=("disk", "polygon"),
-                        help="--sand dem: sphero-disks (default) or rounded random pentagons")
-    parser.add_argument("--seed", type=count_at_least(0), default=1,
-                        help="--sand dem: seed of the grains' sizes and places")
-    parser.add_argument("--settle-max", type=positive("s"), default=None,
-                        help="--sand dem: the longest the grains settle behind the gate [s] (default 8 free falls "
-                             "through the lattice they start on; they stop earlier once at rest)")
+    add_grain_arguments(parser, what="the sand", radius=R_P_TABLE, radius_note="the seed's r_p")
 
 
 def coarse(args) -> bool:
