@@ -1,6 +1,6 @@
 """Pair geometry and pair force law of spheropolygon contacts, shared by the DEM and the coupling.
 
-Pure ``@wp.func``s, no arrays written: the body–body contacts (``kernels.dem``), the point–body
+Pure ``@wp.func``s, no arrays written: the body–body contacts (``kernels.dem_contacts``), the point–body
 contacts of the identified material points (``kernels.coupling``) and brute-force reference
 kernels in the tests all call the same functions (as JAX-MD keeps one pure pair law per energy).
 
@@ -15,7 +15,8 @@ went inside the core out through its nearest edge.
 
 Per touching feature: overlap ξ = a_X + a_other − d (eq. 38, eq. 44 for a point), contact point in
 the middle of the overlap (eq. 41), normal spring–dashpot and tangential spring with history and
-the Coulomb cap (eq. 43) in ``spring_dashpot``.
+the Coulomb cap (eq. 43) in ``spring_dashpot``, whose constants (k_n, k_t, ζ) both stages hold in
+one ``ContactLaw`` struct, defined here once.
 """
 
 import functools
@@ -29,10 +30,17 @@ __all__ = ["make_contact_geometry", "make_history_lookup"]
 
 @functools.cache
 def make_contact_geometry(precision: str):
-    """Geometry and force-law ``@wp.func``s of spheropolygon contacts for one precision."""
+    """Geometry and force-law ``@wp.func``s of spheropolygon contacts for one precision, and the
+    ``ContactLaw`` struct of the law's constants (eq. 43)."""
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2
+
+    @wp.struct
+    class ContactLaw:
+        kn: T  # normal stiffness k_n [N/m per m]
+        kt: T  # tangential stiffness k_t [N/m per m]
+        zeta: T  # damping ratio ζ of the normal dashpot, from the restitution coefficient
 
     @wp.func
     def rotate(angle: T, p: vec2):
@@ -215,6 +223,7 @@ def make_contact_geometry(precision: str):
         return fn * N + ft * tan, slip, energy, wp.vec2d(lost_damping, lost_friction)
 
     return Namespace(
+        ContactLaw=ContactLaw,
         rotate=rotate, cross=cross, spin=spin, point_velocity=point_velocity, segment_distance=segment_distance,
         polygon_distance=polygon_distance, box_distance=box_distance, within_reach=within_reach,
         in_corner=in_corner, edge_contact=edge_contact,

@@ -3,7 +3,7 @@
 Two sphero-disks (a core of one vertex at the centroid ⊕ a disk of radius a, MPM-SDEM eq. 37) touch
 at one spot: the centre distance d = |x_i − x_j| against a_i + a_j (the overlap of eq. 38), normal
 along the centre line, one tangential history entry per pair (eq. 43). The general search
-(``kernels.dem``) finds the same single vertex–vertex touch after testing both sides' features;
+(``kernels.dem_contacts``) finds the same single vertex–vertex touch after testing both sides' features;
 here the touch is computed directly, with the general search's own force law (``touch_force``),
 so the forces are the same floats.
 
@@ -31,8 +31,10 @@ import functools
 import warp as wp
 
 from .clock import CLOCK_DT
-from .dem import STATUS_NEIGHBOR_OVERFLOW, make_dem_kernels
+from .dem_bodies import STATUS_NEIGHBOR_OVERFLOW, make_dem_structs
+from .dem_contacts import make_dem_contacts
 from .types import Namespace, kernel, scalar_types
+from .verlet import make_verlet
 
 __all__ = ["make_disk_pairs"]
 
@@ -40,14 +42,14 @@ __all__ = ["make_disk_pairs"]
 @functools.cache
 def make_disk_pairs(precision: str, deterministic: bool = False):
     """Struct ``DiskPairs`` and kernels ``list_incoming``, ``sort_incoming``, ``disk_forces`` of the
-    disk–disk pass for one precision (the structs of ``make_dem_kernels(precision, deterministic)``)."""
+    disk–disk pass for one precision (the structs of ``make_dem_structs(precision)``)."""
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2
     vec4 = t.vec4
-    dem = make_dem_kernels(precision, deterministic)
-    Bodies, Contacts, Params = dem.Bodies, dem.Contacts, dem.Params
-    touch_force, cross, sort_ids = dem.touch_force, dem.cross, dem.sort_ids
+    Bodies, Contacts, Params = make_dem_structs(precision)
+    contacts = make_dem_contacts(precision, deterministic)
+    touch_force, cross, sort_ids = contacts.touch_force, contacts.cross, make_verlet(precision).sort_ids
 
     @wp.struct
     class DiskPairs:

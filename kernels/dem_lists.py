@@ -7,7 +7,7 @@ bounding circles come within the skin, or, for a large core (a wall), whose outl
 threads filled the cells, and hands over the tangential history of the pairs that stay listed.
 Outside deterministic mode ``build_lists`` also packs the listed slots at the front of
 ``Contacts.pairs``, one atomic a block (``scan.block_append``), so that the force pass runs on
-full warps. The structs and the rest of the DEM are ``kernels.dem``'s.
+full warps. The structs are ``kernels.dem_bodies``'s, the binning ``kernels.verlet``'s.
 """
 
 import functools
@@ -15,9 +15,10 @@ import functools
 import warp as wp
 
 from .contact_geometry import make_contact_geometry
-from .dem import FREE, STATUS_CELL_OVERFLOW, STATUS_NEIGHBOR_OVERFLOW, make_dem_kernels
+from .dem_bodies import FREE, STATUS_CELL_OVERFLOW, STATUS_NEIGHBOR_OVERFLOW, make_dem_structs
 from .scan import block_append
 from .types import Namespace, kernel, scalar_types
+from .verlet import make_verlet
 
 __all__ = ["make_dem_lists"]
 
@@ -31,9 +32,9 @@ def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool
     T = t.scalar
     vec2 = t.vec2
     vec4 = t.vec4
-    dem = make_dem_kernels(precision, deterministic)
-    Bodies, Contacts, Params = dem.Bodies, dem.Contacts, dem.Params
-    sort_ids, cell_in, bin_item = dem.sort_ids, dem.cell_in, dem.bin_item
+    Bodies, Contacts, Params = make_dem_structs(precision)
+    verlet = make_verlet(precision)
+    sort_ids, cell_in, bin_item = verlet.sort_ids, verlet.cell_in, verlet.bin_item
     geometry = make_contact_geometry(precision)
     polygon_distance, box_distance = geometry.polygon_distance, geometry.box_distance
 

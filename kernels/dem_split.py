@@ -1,5 +1,5 @@
 """The DEM pair search split over candidate vertices (large scenes on CUDA): the same touches, forces
-and history as ``dem.contact_forces``, to the bit, found by three kernels instead of one.
+and history as ``dem_contacts``' ``contact_forces``, to the bit, found by three kernels instead of one.
 
 ``contact_forces`` gives each listed pair one thread, which tests in turn every vertex of either
 core that lies within the other body's bounding circle against all the other's features (~34
@@ -24,7 +24,8 @@ import functools
 import warp as wp
 
 from .clock import CLOCK_DT
-from .dem import make_dem_kernels
+from .dem_bodies import make_dem_structs
+from .dem_contacts import make_dem_contacts
 from .scan import block_append
 from .types import Namespace, kernel, scalar_types
 
@@ -47,8 +48,8 @@ def make_split_search(precision: str, hits: int, assemble_registers: int | None 
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2
-    dem = make_dem_kernels(precision, False)
-    Bodies, Contacts, Params = dem.Bodies, dem.Contacts, dem.Params
+    Bodies, Contacts, Params = make_dem_structs(precision)
+    dem = make_dem_contacts(precision, False)
     pair_side, no_touches, vertex_search, add_touch = dem.pair_side, dem.no_touches, dem.vertex_search, dem.add_touch
     search_pair, listed_pair, pair_bodies = dem.search_pair, dem.listed_pair, dem.pair_bodies
     overlapping_circles, store_pair = dem.overlapping_circles, dem.store_pair

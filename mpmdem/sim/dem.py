@@ -281,9 +281,9 @@ class DEMSolver(ClockedStage):
         law = self.scene.contact
         (x0, y0), (x1, y1) = self.scene.domain
         params = k.Params()
-        params.kn = float(law.normal_stiffness)
-        params.kt = law.kt
-        params.zeta = law.damping_ratio
+        params.law.kn = float(law.normal_stiffness)
+        params.law.kt = law.kt
+        params.law.zeta = law.damping_ratio
         params.skin = self.skin
         params.gravity = self._vec2(*self.scene.gravity)
         params.gravity_ramp = float(self.scene.gravity_ramp)
