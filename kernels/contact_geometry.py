@@ -1,7 +1,7 @@
 """Pair geometry and pair force law of spheropolygon contacts, shared by the DEM and the coupling.
 
 Pure ``@wp.func``s, no arrays written: the body–body contacts (``kernels.dem_contacts``), the point–body
-contacts of the identified material points (``kernels.coupling``) and brute-force reference
+contacts of the identified material points (``kernels.imp_forces``) and brute-force reference
 kernels in the tests all call the same functions (as JAX-MD keeps one pure pair law per energy).
 
 A spheropolygon is a core polygon ⊕ a disk of radius a (MPM-SDEM eq. 37); its world vertices sit

@@ -1,4 +1,4 @@
-"""Large coupled scenes sift the listed points before the IMP force search (``kernels.coupling.sift``).
+"""Large coupled scenes sift the listed points before the IMP force search (``kernels.imp_sift``).
 
 The sift ends the contacts of listed points that no body can reach this step (outside every
 listed body's bounding circle) and packs the rest for the force kernel, which then searches only

@@ -181,9 +181,9 @@ class CoupledStage(ClockedStage):
         self.cells = (rows - 1, cols - 1)
 
         params = k.Params()
-        params.kn = float(self.law.normal_stiffness)
-        params.kt = self.law.kt
-        params.zeta = self.law.damping_ratio
+        params.law.kn = float(self.law.normal_stiffness)
+        params.law.kt = self.law.kt
+        params.law.zeta = self.law.damping_ratio
         params.skin = self.skin
         params.r_max = float(radius.max())
         params.cell_origin = mpm.D.origin
