@@ -9,7 +9,7 @@ import warp as wp
 from .clock import CLOCK_DT
 from .shape_functions import CORNERS, SUPPORT_NODES, make_stencil
 from .state import make_state_structs
-from .transfer import make_point_on_grid
+from .transfer_terms import make_point_on_grid
 from .types import kernel, scalar_types
 
 __all__ = ["make_xpic_gather", "make_xpic_scatter"]
