@@ -160,7 +160,7 @@ class CoupledStage(ClockedStage):
         else:
             L.listed = wp.zeros(n, dtype=wp.int32, device=dev)
             L.listed_count = wp.zeros(1, dtype=wp.int32, device=dev)
-        #: large scenes sift the listed points each step before the force search (``kernels.coupling.sift``)
+        #: large scenes sift the listed points each step before the force search (``kernels.imp_sift``)
         self.sifted = not cfg.deterministic and n >= tn.sifted_imp_points
         L.near = wp.zeros(n if self.sifted else 1, dtype=wp.int32, device=dev)
         L.near_count = wp.zeros(1, dtype=wp.int32, device=dev)

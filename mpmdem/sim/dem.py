@@ -380,7 +380,7 @@ class DEMSolver(ClockedStage):
         self.contact_forces()
 
     def contact_checks(self, clear_loads: bool = True) -> None:
-        """The start of the contact stage, one launch (``kernels.dem.start_contacts``): world vertices
+        """The start of the contact stage, one launch (``kernels.dem_contacts.start_contacts``): world vertices
         of the moving bodies, this step's loads cleared and, with free bodies, whether the lists
         must be rebuilt (a device flag). Without free bodies (a silo's walls, a fixed floor under
         points: no body–body contact, the lists would stay empty), ``clear_loads`` False leaves the

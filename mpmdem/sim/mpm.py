@@ -349,7 +349,7 @@ class MPMSolver(ClockedStage):
         return bool(np.any(solid[~inner] != 0))
 
     def p2g_tile(self) -> tuple:
-        """(B, TX, TY) of the shared-memory P2G (``kernels.transfer.make_p2g``'s ``tile``), or ()
+        """(B, TX, TY) of the shared-memory P2G (``kernels.p2g.make_p2g``'s ``tile``), or ()
         for one global atomic per point and node: tiles pay on CUDA from ``tuning.tiled_p2g_points``
         points on, for single-stencil shapes, outside granular and deterministic mode. A block of B
         cell-sorted points spans about B / ppc cells of one cell column, so the tile is K + 1
@@ -367,7 +367,7 @@ class MPMSolver(ClockedStage):
         return (B, TX, TY)
 
     def p2g_rows(self, tile: tuple) -> bool:
-        """Whether P2G runs a stencil row a thread (``kernels.transfer.make_p2g``'s ``rows``): in
+        """Whether P2G runs a stencil row a thread (``kernels.p2g.make_p2g``'s ``rows``): in
         scenes of fewer than ``tuning.row_p2g_points`` points on ``tuning.row_p2g_devices``, for
         single-stencil shapes, untiled, outside granular mode (its first P2G claims the point's
         node copies all at once)."""

@@ -44,7 +44,7 @@ class Tuning:
     tiled_p2g_block: int = _knob(64, 4, 1024)
     """Threads (cell-sorted points) per block of the tiled P2G."""
     row_p2g_points: int = _knob(16384, 0)
-    """Scenes of fewer points run P2G a stencil row a thread (``kernels.transfer.make_p2g``'s
+    """Scenes of fewer points run P2G a stencil row a thread (``kernels.p2g.make_p2g``'s
     ``rows``) on ``row_p2g_devices``, outside granular mode: their GPU is nearly idle and each
     kernel as long as one warp's chain of instructions."""
     row_p2g_devices: tuple[str, ...] = ("cuda",)
