@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal
@@ -17,6 +16,7 @@ import numpy as np
 from ..errors import InputError
 from .bodies import ContactLaw, RigidBody, make_rigid_body
 from .boundaries import SIDES, Boundary, as_boundary, check_sides, check_walls_on_grid_lines
+from .finished import Model, finalize
 from .grains import GrainSet, as_region, place_grains
 from .materials import Material
 from .probes import MassProbe, make_mass_probe
@@ -209,12 +209,6 @@ class Scene(SceneChecks):
         self.bodies.append(body)
         return body
 
-    def add_body(self, shape: Shape, material: Material, **kwargs) -> MPMBody:
-        """Deprecated name of ``add_mpm_body`` (it adds an MPM body; ``add_rigid_body`` adds a DEM one)."""
-        warnings.warn("Scene.add_body is deprecated: use Scene.add_mpm_body (the same arguments)", DeprecationWarning,
-                      stacklevel=2)
-        return self.add_mpm_body(shape, material, **kwargs)
-
     def add_rigid_body(
         self,
         shape: Spheropolygon,
@@ -388,6 +382,11 @@ class Scene(SceneChecks):
         self._check_grains_clear(grains)
         self.grains.append(grains)
         return grains
+
+    def finalize(self) -> Model:
+        """End the building: check the scene as a whole, seed its points and build its DEM bodies'
+        columns once, and return the finished ``Model`` the stages take (``mpmdem.model.finished``)."""
+        return finalize(self)
 
     def body_arrays(self) -> RigidArrays:
         """Columns of every DEM body: the rigid bodies (scene order), then each grain set's grains."""
