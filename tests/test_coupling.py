@@ -27,7 +27,7 @@ def test_imp_lists_equal_brute_force(monkeypatch):
     a_i + r_p + skin of the core outline (eq. 44's gap plus the Verlet skin) of an all-pairs search."""
     # points are scattered through the bodies on purpose (points that have sunk into a body must be
     # listed too): skip the input check that refuses points starting inside a rigid body
-    monkeypatch.setattr(m.Scene, "validate", lambda self: None)
+    monkeypatch.setattr(m.Scene, "validate", lambda self, **_: [])
     rng = np.random.default_rng(3)
     h = 0.02
     scene = m.Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=h, contact=m.ContactLaw(1.0e5), boundaries=FREE)

@@ -24,11 +24,30 @@ if TYPE_CHECKING:
     from .materials import Material
     from .probes import MassProbe
 
-__all__ = ["Model", "finalize"]
+__all__ = ["Model", "StageKinds", "finalize"]
+
+
+class StageKinds:
+    """What a ``Scene`` and its ``Model`` both answer: which stages run, and whether x is periodic."""
+
+    @property
+    def periodic_x(self) -> bool:
+        """Whether x is periodic (left and right sides "periodic"): the MPM grid wraps around."""
+        return self.boundaries["left"].kind == "periodic"
+
+    @property
+    def has_mpm(self) -> bool:
+        """Whether there are material points (the MPM stage runs)."""
+        return bool(self.bodies)
+
+    @property
+    def has_dem(self) -> bool:
+        """Whether there are rigid bodies or grains (the DEM stage runs)."""
+        return bool(self.rigid_bodies or self.grains)
 
 
 @dataclass(frozen=True, eq=False)
-class Model:
+class Model(StageKinds):
     """What the stages of one run take: a finished scene, its points seeded and its DEM bodies laid
     out once (SI units; made by ``finalize``, not by hand).
 
@@ -66,21 +85,6 @@ class Model:
     arrays: RigidArrays
     body_names: tuple[str, ...]
     initial_overlaps: tuple[tuple[str, str, float], ...]
-
-    @property
-    def periodic_x(self) -> bool:
-        """Whether x is periodic (left and right sides "periodic"): the MPM grid wraps around."""
-        return self.boundaries["left"].kind == "periodic"
-
-    @property
-    def has_mpm(self) -> bool:
-        """Whether the model has material points (the MPM stage runs)."""
-        return bool(self.bodies)
-
-    @property
-    def has_dem(self) -> bool:
-        """Whether the model has rigid bodies or grains (the DEM stage runs)."""
-        return bool(self.rigid_bodies or self.grains)
 
     def body_arrays(self) -> RigidArrays:
         """The DEM bodies' columns, built once by ``finalize`` (``Scene.body_arrays``' name)."""

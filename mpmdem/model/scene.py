@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import InputError
 from .bodies import ContactLaw, RigidBody, make_rigid_body
 from .boundaries import SIDES, Boundary, as_boundary, check_sides, check_walls_on_grid_lines
-from .finished import Model, finalize
+from .finished import Model, StageKinds, finalize
 from .grains import GrainSet, as_region, place_grains
 from .materials import Material
 from .probes import MassProbe, make_mass_probe
@@ -64,7 +64,7 @@ class MPMBody:
 
 
 @dataclass
-class Scene(SceneChecks):
+class Scene(SceneChecks, StageKinds):
     """The domain, grid and bodies of one simulation.
 
     Args:
@@ -137,11 +137,6 @@ class Scene(SceneChecks):
         check_sides(self.boundaries)
         if self.cell_size is not None:
             check_walls_on_grid_lines(self.domain, self.cell_size, self.boundaries)
-
-    @property
-    def periodic_x(self) -> bool:
-        """Whether x is periodic (left and right sides "periodic"): the MPM grid wraps around."""
-        return self.boundaries["left"].kind == "periodic"
 
     @property
     def cell_counts(self) -> tuple[int, int]:
@@ -519,16 +514,6 @@ class Scene(SceneChecks):
             return body.points
         return seed_points(body.shape, cell_size=self.cell_size, points_per_cell=body.points_per_cell,
                            origin=self.domain[0], seeding=body.seeding)
-
-    @property
-    def has_mpm(self) -> bool:
-        """Whether the scene has material points (the MPM stage runs)."""
-        return bool(self.bodies)
-
-    @property
-    def has_dem(self) -> bool:
-        """Whether the scene has rigid bodies (the DEM stage runs)."""
-        return bool(self.rigid_bodies or self.grains)
 
     def particles(self) -> dict[str, np.ndarray]:
         """Host arrays of every material point, body after body (float64)."""
