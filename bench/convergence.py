@@ -43,7 +43,7 @@ def run_one(shape: str, cells: int, device: str) -> dict:
     sim = Simulation(setup.scene, SolverConfig(shape=shape, transfer="APIC", update="USL", precision="f64"),
                      device=device)
     start = time.perf_counter()
-    result = sim.run(setup.end_time, frames=FRAMES, quiet=True)
+    result = sim.run(setup.end_time, frames=FRAMES)
     seconds = time.perf_counter() - start
     error = ab.summarize(sim, result, args)["centre_velocity_error_max"]
     return dict(shape=shape, cells=cells, h=setup.scene.cell_size, error=error, seconds=seconds,

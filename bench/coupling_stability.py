@@ -257,7 +257,7 @@ def run_one(task: dict) -> dict:
                    nodal_bound=sz.nodal_bound(kn), dt_over_contact_bound=dt / cb,
                    dt_over_nodal_bound=dt / sz.nodal_bound(kn), kn_dt2_over_mp=kn * dt * dt / sz.point_mass,
                    kn_dt2_over_mnode=kn * dt * dt / sz.node_mass, dt_over_h_c=dt * sz.wave_speed / sz.h)
-        result = sim.run(end, frames=sz.frames, quiet=True)
+        result = sim.run(end, frames=sz.frames)
         d = result.diagnostics
         e = np.asarray(d["energy_total"], float)
         released = max(0.0, float(np.max(d["energy_gravity"][0] - d["energy_gravity"])))

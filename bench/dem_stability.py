@@ -72,7 +72,7 @@ def run_one(scene_name: str, e: float, ratio: float) -> dict:
     t0 = time.perf_counter()
     try:
         sim = Simulation(scene, config, device="cpu")
-        result = sim.run(end, frames=30, quiet=True)
+        result = sim.run(end, frames=30)
         d = result.diagnostics
         e0 = float(d["energy_total"][0])
         residual = float(np.max(d["work_numerical"])) / e0

@@ -36,7 +36,7 @@ def run(h: float, material: str, device: str) -> dict:
     config = SolverConfig(**{**case.DEFAULTS, "shape": "bspline2"})
     sim = Simulation(setup.scene, config, device=device)
     start = time.perf_counter()
-    result = sim.run(setup.end_time, frames=20, quiet=True)
+    result = sim.run(setup.end_time, frames=20)
     seconds = time.perf_counter() - start
     v = float(sim.body_fields()["v"][0, 0])
     d = result.diagnostics

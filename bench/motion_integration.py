@@ -183,7 +183,7 @@ def _short_run(module, setup, scheme, xpic_order, update, device, out):
     """A few steps at κ = 0.5: loads (the first time compiles) the kernels of this variant."""
     config = make_config(module, setup, scheme, xpic_order, update, 0.5)
     sim = Simulation(setup.scene, config, device=device)
-    result = sim.run(WARMUP_STEPS * 0.5 * initial_dt_bound(setup.scene), frames=1, quiet=True, out=out)
+    result = sim.run(WARMUP_STEPS * 0.5 * initial_dt_bound(setup.scene), frames=1, out=out)
     return sim, result
 
 
@@ -252,7 +252,7 @@ def run_one(case: str, module, resolution: str, built, scheme: str, xpic_order: 
             start = time.perf_counter()
             try:
                 with writes:
-                    result = sim.run(end_time, frames=frames, quiet=True, out=tmp if with_file else None)
+                    result = sim.run(end_time, frames=frames, out=tmp if with_file else None)
             finally:
                 row["wall_seconds"] = time.perf_counter() - start - writes.seconds
                 row["write_seconds"] = writes.seconds

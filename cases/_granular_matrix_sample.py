@@ -113,7 +113,7 @@ def settle(pentagons: list[Pentagon], walls: list[tuple], width: float, height: 
         scene.add_rigid_body(p.shape, density=density, position=p.position, angle=p.angle, friction=friction,
                              name=f"pentagon{k}")
     sim = Simulation(scene, device=device)
-    result = sim.run(duration, frames=1, quiet=True)
+    result = sim.run(duration, frames=1)
     d = result.diagnostics
     released = float(d["energy_gravity"][0] - d["energy_gravity"][-1])
     f = sim.body_fields()

@@ -60,7 +60,7 @@ def build(args) -> CaseSetup:
 
 def summarize(sim, result, args) -> dict:
     f = sim.fields()
-    y0 = sim.scene.particles()["x"][:, 1]  # reference heights of the points
+    y0 = sim.model.particles["x"][:, 1]  # reference heights of the points
     exact = -DENSITY * GRAVITY * (HEIGHT - y0)
     syy = f["stress"][:, 1, 1]
     scale = DENSITY * GRAVITY * HEIGHT

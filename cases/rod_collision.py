@@ -201,7 +201,7 @@ def run_pair(scheme: str, grid_size_cm: float, *, points: int = POINTS, kn_n_cm:
     """One quiet run (no output files) of one scheme on one grid; returns ``measure``'s dict."""
     scene, end = make_scene(grid_size_cm, scheme=scheme, points=points, kn_n_cm=kn_n_cm, offset=offset)
     sim = Simulation(scene, SolverConfig(coupling=scheme, **DEFAULTS), device=device)
-    result = sim.run(end, frames=frames, quiet=True)
+    result = sim.run(end, frames=frames)
     return {"scheme": scheme, "grid_size_cm": grid_size_cm, "offset": offset, "steps": result.steps,
             **measure(sim, result)}
 

@@ -103,7 +103,7 @@ def summarize(sim, result, args) -> dict:
     # point" view: the APIC affine matrices are not counted). The diagnostics take it about the
     # origin; the linear momentum is zero, so it is the same about the centroid.
     L = d["momentum_angular"]
-    p0 = sim.scene.particles()
+    p0 = sim.model.particles
     i0, _ = _inertia(p0["mass"], p0["x"])
     f = sim.fields()
     i1, _ = _inertia(f["mass"].astype(np.float64), f["x"].astype(np.float64))

@@ -28,6 +28,7 @@ else:  # older Warp
 from .errors import BlowUpError, InputError
 from .model.bodies import ContactLaw, RigidBody
 from .model.config import SHAPE_FUNCTIONS, STRESS_UPDATES, TRANSFER_SCHEMES, SolverConfig, TransferScheme
+from .model.finished import Model
 from .model.granular_materials import DruckerPrager, MohrCoulomb, MuI
 from .model.materials import LinearElastic, Material, NeoHookean
 from .model.scene import Boundary, MassProbe, MPMBody, Scene
@@ -58,6 +59,7 @@ __all__ = [
     "MPMBody",
     "MassProbe",
     "Material",
+    "Model",
     "MohrCoulomb",
     "MuI",
     "NeoHookean",

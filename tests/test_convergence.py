@@ -14,7 +14,7 @@ def bar_error(shape: str, cells: int) -> float:
     setup = bar.build(args)
     sim = Simulation(setup.scene, SolverConfig(shape=shape, transfer="APIC", update="USL", precision="f64"),
                      device="cpu")
-    result = sim.run(setup.end_time, frames=40, quiet=True)
+    result = sim.run(setup.end_time, frames=40)
     return bar.summarize(sim, result, args)["centre_velocity_error_max"]
 
 

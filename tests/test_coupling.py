@@ -27,7 +27,7 @@ def test_imp_lists_equal_brute_force(monkeypatch):
     a_i + r_p + skin of the core outline (eq. 44's gap plus the Verlet skin) of an all-pairs search."""
     # points are scattered through the bodies on purpose (points that have sunk into a body must be
     # listed too): skip the input check that refuses points starting inside a rigid body
-    monkeypatch.setattr(m.Scene, "validate", lambda self: None)
+    monkeypatch.setattr(m.Scene, "validate", lambda self, **_: [])
     rng = np.random.default_rng(3)
     h = 0.02
     scene = m.Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=h, contact=m.ContactLaw(1.0e5), boundaries=FREE)
@@ -181,7 +181,7 @@ def test_granular_pile_rests_on_a_rigid_floor():
     scene.add_rigid_body(rounded_rectangle(0.36, 0.04, 0.005), density=2000.0, position=(0.2, 0.05), motion="fixed")
     config = m.SolverConfig(granular=True, transfer="PIC", shape="bspline2", damping=0.1)
     sim = m.Simulation(scene, config, device="cpu")
-    res = sim.run(0.25, frames=5, quiet=True)
+    res = sim.run(0.25, frames=5)
     d = res.diagnostics
     weight = 9.81 * d["points_mass"][-1]
     y = sim.fields()["x"][:, 1]
@@ -205,7 +205,7 @@ def test_kinematic_paddle_pushes_points_and_keeps_its_motion():
     scene.add_rigid_body(rounded_rectangle(0.04, 0.16, 0.005), density=1000.0, position=(0.25, 0.45),
                          velocity=(0.5, 0.0), motion="kinematic", friction=0.0)
     sim = m.Simulation(scene, m.SolverConfig(transfer="APIC", precision="f64"), device="cpu")
-    res = sim.run(0.4, frames=4, quiet=True)
+    res = sim.run(0.4, frames=4)
     d = res.diagnostics
     bf = sim.body_fields()
     np.testing.assert_allclose(bf["v"][0], [0.5, 0.0], atol=1e-12)  # prescribed, not integrated

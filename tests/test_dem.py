@@ -77,7 +77,7 @@ def test_polygon_in_box_keeps_energy_over_ten_collisions():
     # 0.05); at κ2 = 0.02 the error, O((ω dt)²), is 0.12 % in all
     sim = Simulation(scene, SolverConfig(precision="f64", dem_kappa=0.02), device="cpu")
     e0 = sim.diagnostics()["energy_total"]
-    result = sim.run(3.0, frames=600, quiet=True)
+    result = sim.run(3.0, frames=600)
     d = result.diagnostics
     free = d["energy_contact"] == 0.0  # frames between collisions
     assert d["list_rebuilds"][-1] > 5
@@ -108,10 +108,10 @@ def test_block_on_incline(theta_deg, mu):
     th = math.radians(theta_deg)
     sim = Simulation(incline_scene(theta_deg, mu), F64, device="cpu")
     t1, t2 = 0.1, 0.3
-    sim.run(t1, frames=1, quiet=True)
+    sim.run(t1, frames=1)
     x1 = body_state(sim)["x"][1].copy()
     v1 = body_state(sim)["v"][1].copy()
-    sim.run(t2, frames=1, quiet=True)
+    sim.run(t2, frames=1)
     x2 = body_state(sim)["x"][1]
     v2 = body_state(sim)["v"][1]
     if math.tan(th) > mu:
@@ -132,7 +132,7 @@ def test_resting_square_carries_its_weight():
     floor, = scene.add_walls(("bottom",))
     body = scene.add_rigid_body(rounded_rectangle(0.2, 0.2, radius=0.01), density=1500.0, position=(0.5, 0.1001))
     sim = Simulation(scene, F64, device="cpu")
-    sim.run(1.0, frames=1, quiet=True)
+    sim.run(1.0, frames=1)
     f = body_state(sim)["force"]
     weight = body.mass * G
     # the damped spring has settled (ζ = 0.59, period 7 ms: 1 s is > 100 periods): exact to 1e-9
@@ -149,7 +149,7 @@ def test_polygon_collision_conserves_momenta():
     scene.add_rigid_body(rounded_rectangle(0.3, 0.15, radius=0.02), density=3000.0, position=(0.3, -0.05),
                          angle=0.4, velocity=(-0.5, 0.2), angular_velocity=-1.0, friction=0.6)
     sim = Simulation(scene, SolverConfig(precision="f64", dem_kappa=0.02), device="cpu")
-    result = sim.run(0.8, frames=40, quiet=True)
+    result = sim.run(0.8, frames=40)
     d = result.diagnostics
     assert d["work_contact_friction"][-1] <= 0.0 and d["work_contact_damping"][-1] < -0.5 * d["energy_total"][0]
     p_scale = 1000.0 * 0.04 * 1.0
@@ -212,7 +212,7 @@ def test_verlet_lists_match_brute_force():
     scene = random_pack()
     sim = Simulation(scene, F64, device="cpu")
     for _ in range(4):
-        sim.run(sim.time + 0.05, frames=1, quiet=True)
+        sim.run(sim.time + 0.05, frames=1)
         # the step's contacts were computed from the positions before its update: step back to them
         f = body_state(sim)
         dt = sim.stage.read_clock()[1]
@@ -270,7 +270,7 @@ def test_corner_pressed_past_the_edge_line_still_pushes_out():
     sim = Simulation(scene, F64, device="cpu")
     depth = []
     for _ in range(60):
-        sim.run(sim.time + 0.002, frames=1, quiet=True)
+        sim.run(sim.time + 0.002, frames=1)
         f = body_state(sim)
         verts = scene.rigid_bodies[1].shape.world_vertices(f["x"][1], f["angle"][1])
         depth.append(-verts[:, 1].min())
@@ -292,7 +292,7 @@ def test_kinematic_pusher_and_fixed_bodies():
     # is resolved in ~6 steps and the O((ω dt)²) residual is 20 % of what is left after damping)
     sim = Simulation(scene, SolverConfig(precision="f64", dem_kappa=0.02), device="cpu")
     assert sim.dem.moving == 2  # the peg is laid out after the moving bodies and never integrated
-    result = sim.run(1.6, frames=80, quiet=True)
+    result = sim.run(1.6, frames=80)
     f = body_state(sim)
     dt = sim.stage.read_clock()[1]
     # the plate moved 0.4 m in its window (steps of dt: the window edges land within one step)

@@ -25,7 +25,7 @@ def colliding_disks(second=MAT):
 
 def run(scene, precision="f64", **config):
     sim = Simulation(scene, SolverConfig(precision=precision, **config), device="cpu")
-    sim.run(0.4, frames=2, quiet=True)  # through the impact: F far from I
+    sim.run(0.4, frames=2)  # through the impact: F far from I
     return sim
 
 

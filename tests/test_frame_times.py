@@ -33,7 +33,7 @@ def coupled_scene() -> Scene:
 @pytest.mark.parametrize("build", [mpm_scene, dem_scene, coupled_scene], ids=["mpm", "dem", "coupled"])
 def test_frames_land_on_their_nominal_times(build, dt):
     sim = Simulation(build(), SolverConfig(dt=dt), device="cpu")
-    result = sim.run(END, frames=FRAMES, quiet=True)
+    result = sim.run(END, frames=FRAMES)
     # the steps of a frame sum to its length up to float64 round-off (n ε t, n < 100 here)
     np.testing.assert_allclose(result.times, np.linspace(0.0, END, FRAMES + 1), rtol=0, atol=1e-12)
     assert result.times[-1] == END

@@ -756,7 +756,7 @@ def test_layer_overflow_stops_with_a_message():
     """More components on a node than copies: the run stops and names granular_layers."""
     sim = _granular_sim(_random_islands(5), "linear", layers=1)
     with pytest.raises(BlowUpError, match="granular_layers"):
-        sim.run(end_time=1.0e-4, frames=1, quiet=True)
+        sim.run(end_time=1.0e-4, frames=1)
 
 
 def _stretched_block(control: str, granular: bool = False, elastic: bool = False):
@@ -771,7 +771,7 @@ def _stretched_block(control: str, granular: bool = False, elastic: bool = False
     config = SolverConfig(shape="linear", transfer="PIC", precision="f64", density_control=control,
                           granular=granular)
     sim = Simulation(scene, config, device="cpu")
-    sim.run(end_time=2.0e-3, frames=1, quiet=True)
+    sim.run(end_time=2.0e-3, frames=1)
     f = sim.mpm.fields()
     return f["mass"] / f["volume"], f["stress"], sim
 
@@ -872,7 +872,7 @@ def test_disconnection_1d_onsets_predicted_at_untuned_positions(monkeypatch):
 def test_granular_mode_on_the_default_device(device):
     """Granular kernels compile and run on every available device (CUDA too when present)."""
     sim = _granular_sim(_random_islands(0), "linear", device=device)
-    sim.run(end_time=2.0e-4, frames=1, quiet=True)
+    sim.run(end_time=2.0e-4, frames=1)
     c, layers = sim.mpm.granular_statistics()
     assert c > 1 and layers >= 1
     wp.synchronize()
@@ -886,7 +886,7 @@ def test_obstacle_load_cell_reads_the_weight(granular):
     mat = MohrCoulomb(1.0e6, 0.3, 1000.0, 30.0, cohesion=5.0e3, critical_density=990.0)  # c: it stands
     scene.add_mpm_body(rectangle(0.1, 0.1, 0.3, 0.2), mat, points_per_cell=2)
     config = SolverConfig(precision="f64", transfer="PIC", damping=0.1, granular=granular, shape="linear")
-    result = Simulation(scene, config, device="cpu").run(end_time=0.4, frames=8, quiet=True)
+    result = Simulation(scene, config, device="cpu").run(end_time=0.4, frames=8)
     weight = 1000.0 * 0.2 * 0.1 * 9.81
     # at rest (Cundall damping) the last frames' mean force is the weight to round-off level;
     # 0.1 % leaves room for the residual oscillation of the damped block
@@ -902,7 +902,7 @@ def test_released_points_enter_on_time_and_bring_their_mass():
     pos = np.array([[0.15, 0.25]] * 3)
     scene.add_points(pos, mat, size=0.01, release_time=[0.0, 0.01, 0.02])
     sim = Simulation(scene, SolverConfig(granular=True, shape="linear", precision="f64", dt=1.0e-4), device="cpu")
-    result = sim.run(end_time=0.03, frames=3, quiet=True)
+    result = sim.run(end_time=0.03, frames=3)
     m_point = 2000.0 * 0.01 ** 2
     np.testing.assert_allclose(result.diagnostics["mass"], m_point * np.array([1, 2, 3, 3]), rtol=1e-12)
     assert result.diagnostics["work_inflow"][-1] == pytest.approx(2 * m_point * 9.81 * 0.25, rel=1e-12)
@@ -934,7 +934,7 @@ def test_vertical_cut_stands_or_fails_around_its_critical_height(law):
         sim = Simulation(scene, SolverConfig(granular=True, shape="bspline2", transfer="APIC", update="USL",
                                              precision="f64", damping=0.05), device="cpu")
         x0 = sim.mpm.fields()["x"]
-        sim.run(end_time=0.35, frames=1, quiet=True)
+        sim.run(end_time=0.35, frames=1)
         x1 = sim.mpm.fields()["x"]
         corner = np.argmax(x0[:, 0] + x0[:, 1])  # the top of the free face
         return x0[corner, 1] - x1[corner, 1]
@@ -955,7 +955,7 @@ def test_block_on_a_slip_ledge_slides_at_g_sin_theta(kind):
     sim = Simulation(scene, SolverConfig(precision="f64", shape="bspline2", transfer="APIC"), device="cpu")
     x0 = sim.mpm.fields()["x"]
     t = 0.2
-    sim.run(end_time=t, frames=1, quiet=True)
+    sim.run(end_time=t, frames=1)
     f = sim.mpm.fields()
     base = x0[:, 1] < 0.11
     travel = float(np.mean(f["x"][base, 0] - x0[base, 0]))

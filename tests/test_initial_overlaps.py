@@ -70,7 +70,7 @@ def test_opt_in_runs_and_a_blow_up_names_the_overlap():
     up the message names the initial overlap rather than only the time step."""
     sim = Simulation(two_disks(0.08, allow=True), device="cpu")
     try:
-        sim.run(0.2, frames=4, quiet=True)
+        sim.run(0.2, frames=4)
     except BlowUpError as e:
         assert "initial overlap of rigid bodies 'left' and 'right'" in str(e)
     else:  # no blow-up: the overlap turned into speed instead (the 5 mm case flies apart at 1.18 m/s)

@@ -135,9 +135,9 @@ def test_bad_run_arguments():
     """Verify run() rejects a non-positive end time and frame count."""
     sim = Simulation(free_disk_scene(), device="cpu")
     with pytest.raises(InputError, match="end_time"):
-        sim.run(-1.0, quiet=True)
+        sim.run(-1.0)
     with pytest.raises(InputError, match="frames"):
-        sim.run(1.0, frames=0, quiet=True)
+        sim.run(1.0, frames=0)
 
 
 def test_one_rule_for_numbers():

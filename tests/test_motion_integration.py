@@ -99,7 +99,7 @@ def sulsky_energy(transfer, m=2, update="USL"):
     scene.add_mpm_body(disk(center=(0.75, 0.75), radius=0.2), mat, velocity=(-0.05, -0.12))
     sim = Simulation(scene, SolverConfig(transfer=transfer, xpic_order=m, update=update, precision="f64"),
                      device="cpu")
-    d = sim.run(2.5, frames=2, quiet=True).diagnostics
+    d = sim.run(2.5, frames=2).diagnostics
     return d["energy_total"][-1] / d["energy_total"][0]
 
 
@@ -118,7 +118,7 @@ def damped_run(damping, *, force_kernel=False):
     sim = Simulation(scene, cfg, device="cpu")
     if force_kernel:
         sim.mpm.D.damping = damping  # the damping kernel variant, with the coefficient set to this value
-    return sim, sim.run(0.05, frames=2, quiet=True)
+    return sim, sim.run(0.05, frames=2)
 
 
 def test_cundall_damping_zero_changes_nothing_and_positive_dissipates():
@@ -142,7 +142,7 @@ def _bouncing_disk(update, cell_size):
                   boundaries={"bottom": "slip", "left": "slip", "right": "slip", "top": "slip"})
     scene.add_mpm_body(disk(center=(0.3, 0.25), radius=0.1), NeoHookean(1e6, 0.3, 1000.0))
     sim = Simulation(scene, SolverConfig(transfer="APIC", update=update, precision="f64", damping=0.1), device="cpu")
-    return sim.run(0.3, frames=6, quiet=True).diagnostics
+    return sim.run(0.3, frames=6).diagnostics
 
 
 @pytest.mark.parametrize("update", ["USL", "MUSL", "USF", "USAVG"])
@@ -176,7 +176,7 @@ def test_friction_wall_work_is_negative_for_a_sliding_block():
         from mpmdem import rectangle
         scene.add_mpm_body(rectangle(0.1, 0.0, 0.3, 0.1), NeoHookean(1e6, 0.3, 1000.0), velocity=(1.0, 0.0))
         return Simulation(scene, SolverConfig(transfer="APIC", precision="f64"), device="cpu").run(
-            0.1, frames=2, quiet=True).diagnostics
+            0.1, frames=2).diagnostics
 
     rough = slide(Boundary("friction", 0.3))
     assert rough["work_boundary"][-1] < 0.0

@@ -28,7 +28,7 @@ def test_too_large_dt_is_detected_and_file_kept(tmp_path):
     sim.mpm.clock.assign(clock)
     with pytest.raises(BlowUpError) as err:
         # frames 0.2 s apart hold several of these steps (steps are split evenly to end on a frame)
-        sim.run(2.0, out=tmp_path, frames=10, quiet=True)
+        sim.run(2.0, out=tmp_path, frames=10)
     assert err.value.reason in ("non-finite", "energy-growth", "left-domain")
     assert "dt" in str(err.value)
     with RunFile(tmp_path / "run.h5") as run:
@@ -42,7 +42,7 @@ def test_points_leaving_through_a_free_side_are_detected():
     scene = free_disk_scene(velocity=(20.0, 0.0), boundaries={"right": "free"})
     sim = Simulation(scene, device="cpu")
     with pytest.raises(BlowUpError) as err:
-        sim.run(1.0, frames=10, quiet=True)
+        sim.run(1.0, frames=10)
     assert err.value.reason == "left-domain"
     assert "left the domain" in str(err.value)
 
@@ -50,7 +50,7 @@ def test_points_leaving_through_a_free_side_are_detected():
 def test_energy_stays_bounded_in_a_stable_run():
     """Verify a stable run does not trip the detector (no false alarms)."""
     sim = Simulation(free_disk_scene(velocity=(0.3, 0.1), boundaries={"right": "slip"}), device="cpu")
-    result = sim.run(0.2, frames=4, quiet=True)
+    result = sim.run(0.2, frames=4)
     assert result.status == "completed"
 
 

@@ -64,7 +64,7 @@ def test_a_stage_built_alone_keeps_its_own_clock_and_policy():
     from mpmdem.sim.mpm import MPMSolver
 
     config = m.SolverConfig(cfl=0.3)
-    stage = MPMSolver(free_disk_scene(), config, "cpu")
+    stage = MPMSolver(free_disk_scene().finalize(), config, "cpu")
     assert isinstance(stage.sim_clock, Clock)
     c = stage.clock.numpy()
     assert c[clock_slots.CLOCK_DT_FACTOR] == 0.3 and c[clock_slots.CLOCK_DT_FIXED] == 0.0

@@ -24,7 +24,7 @@ def runs():
     out = {}
     for transfer in ("PIC", "APIC", "FLIP"):
         sim = Simulation(asymmetric_disks(), SolverConfig(transfer=transfer, precision="f64"), device="cpu")
-        out[transfer] = sim.run(2.5, frames=10, quiet=True)
+        out[transfer] = sim.run(2.5, frames=10)
     return out
 
 

@@ -57,7 +57,7 @@ def test_tiled_p2g_adds_what_the_global_atomics_add(device, shuffled, step_pass)
     scene.add_mpm_body(rectangle(0.2, 0.1, 0.8, 0.6), NeoHookean(1e5, 0.3, 1000.0), velocity=(0.3, -0.2))
     # (MUSL: the grid then has the re-mapped momentum field the "remap" pass adds to)
     sim = Simulation(scene, SolverConfig(precision="f32", transfer="APIC", update="MUSL"), device=device)
-    sim.run(0.005, frames=1, quiet=True)  # stresses and an affine field that are not zero
+    sim.run(0.005, frames=1)  # stresses and an affine field that are not zero
     if shuffled:
         sim.mpm.shuffle_points(seed=1)  # most points then fall outside their block's tile
     clock = sim.mpm.clock.numpy()

@@ -91,5 +91,5 @@ def test_energy_a_moving_wall_puts_in_is_not_a_blow_up():
                               "top": "free"})
     scene.add_mpm_body(rectangle(0.05, 0.0, 0.15, 0.03), LinearElastic(1.0e5, 0.3, 1000.0))
     sim = Simulation(scene, SolverConfig(precision="f64"), device="cpu")
-    result = sim.run(0.05, frames=5, quiet=True)  # (a scene at rest without gravity: the scale is the wall's work)
+    result = sim.run(0.05, frames=5)  # (a scene at rest without gravity: the scale is the wall's work)
     assert result.diagnostics["work_boundary"][-1] > 0.0

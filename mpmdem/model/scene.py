@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal
@@ -17,6 +16,7 @@ import numpy as np
 from ..errors import InputError
 from .bodies import ContactLaw, RigidBody, make_rigid_body
 from .boundaries import SIDES, Boundary, as_boundary, check_sides, check_walls_on_grid_lines
+from .finished import Model, StageKinds, finalize
 from .grains import GrainSet, as_region, place_grains
 from .materials import Material
 from .probes import MassProbe, make_mass_probe
@@ -64,7 +64,7 @@ class MPMBody:
 
 
 @dataclass
-class Scene(SceneChecks):
+class Scene(SceneChecks, StageKinds):
     """The domain, grid and bodies of one simulation.
 
     Args:
@@ -139,11 +139,6 @@ class Scene(SceneChecks):
             check_walls_on_grid_lines(self.domain, self.cell_size, self.boundaries)
 
     @property
-    def periodic_x(self) -> bool:
-        """Whether x is periodic (left and right sides "periodic"): the MPM grid wraps around."""
-        return self.boundaries["left"].kind == "periodic"
-
-    @property
     def cell_counts(self) -> tuple[int, int]:
         """Cells per direction; the grid covers the domain, rounded up to whole cells."""
         (x0, y0), (x1, y1) = self.domain
@@ -208,12 +203,6 @@ class Scene(SceneChecks):
             raise InputError("shape", shape.to_dict(), f"a shape inside the domain {self.domain}")
         self.bodies.append(body)
         return body
-
-    def add_body(self, shape: Shape, material: Material, **kwargs) -> MPMBody:
-        """Deprecated name of ``add_mpm_body`` (it adds an MPM body; ``add_rigid_body`` adds a DEM one)."""
-        warnings.warn("Scene.add_body is deprecated: use Scene.add_mpm_body (the same arguments)", DeprecationWarning,
-                      stacklevel=2)
-        return self.add_mpm_body(shape, material, **kwargs)
 
     def add_rigid_body(
         self,
@@ -389,6 +378,11 @@ class Scene(SceneChecks):
         self.grains.append(grains)
         return grains
 
+    def finalize(self) -> Model:
+        """End the building: check the scene as a whole, seed its points and build its DEM bodies'
+        columns once, and return the finished ``Model`` the stages take (``mpmdem.model.finished``)."""
+        return finalize(self)
+
     def body_arrays(self) -> RigidArrays:
         """Columns of every DEM body: the rigid bodies (scene order), then each grain set's grains."""
         parts = [rigid_arrays(self.rigid_bodies)] + [g.rigid_arrays() for g in self.grains]
@@ -520,16 +514,6 @@ class Scene(SceneChecks):
             return body.points
         return seed_points(body.shape, cell_size=self.cell_size, points_per_cell=body.points_per_cell,
                            origin=self.domain[0], seeding=body.seeding)
-
-    @property
-    def has_mpm(self) -> bool:
-        """Whether the scene has material points (the MPM stage runs)."""
-        return bool(self.bodies)
-
-    @property
-    def has_dem(self) -> bool:
-        """Whether the scene has rigid bodies (the DEM stage runs)."""
-        return bool(self.rigid_bodies or self.grains)
 
     def particles(self) -> dict[str, np.ndarray]:
         """Host arrays of every material point, body after body (float64)."""

@@ -51,10 +51,12 @@ class SceneChecks:
                          "a region clear of the bodies already in the scene (walls, fixed bodies, earlier grains): "
                          "grains would start inside them; draw the region inside the walls")
 
-    def validate(self) -> list[tuple[str, str, float]]:
-        """Checks that need the whole scene (bodies may be added in any order); ``Simulation``
-        runs them before any kernel. Raises InputError. Returns ``initial_overlaps()``, computed on
-        the way (``Simulation`` hands them to the DEM stage, which would compute them again).
+    def validate(self, *, arrays: RigidArrays | None = None, particles: dict | None = None
+                 ) -> list[tuple[str, str, float]]:
+        """Checks that need the whole scene (bodies may be added in any order); ``finalize`` runs
+        them before any kernel. Raises InputError. Returns ``initial_overlaps()``, computed on the
+        way (the finished model hands them to the DEM stage). ``arrays`` (``body_arrays()``) and
+        ``particles`` (``particles()``): what ``finalize`` built already, else built here.
 
         Material points must not start inside a rigid body (free, fixed, kinematic or a wall):
         a point is inside when its centre lies strictly inside the rounded body (core polygon
@@ -73,11 +75,11 @@ class SceneChecks:
         deliberately pre-stressed pack through.
         """
         self._check_periodic_alone()
-        arrays = self.body_arrays()
+        arrays = self.body_arrays() if arrays is None else arrays
         overlaps = self._initial_overlaps(arrays)
         if not self.allow_initial_overlap:
             self._check_initial_overlaps(*overlaps)
-        self._check_points_outside_bodies(arrays)
+        self._check_points_outside_bodies(arrays, particles)
         return self._named(*overlaps[:3])
 
     def _check_periodic_alone(self) -> None:
@@ -89,15 +91,13 @@ class SceneChecks:
             raise InputError("boundaries", "periodic", f"a scene of MPM bodies only: periodic x has no {found[0]} "
                              "(the DEM stage, the coupling and obstacles know no periodic image)")
 
-    def _check_points_outside_bodies(self, arrays: RigidArrays) -> None:
-        """``validate``'s check that no material point starts inside a rigid body."""
+    def _check_points_outside_bodies(self, arrays: RigidArrays, particles: dict | None = None) -> None:
+        """``validate``'s check that no material point starts inside a rigid body (``particles``:
+        ``particles()`` when the caller has them)."""
         if not (self.bodies and (self.rigid_bodies or self.grains)):
             return
-        seeded = [self._seed(b).positions for b in self.bodies]
-        x = np.concatenate(seeded)
-        owner = np.repeat(np.arange(len(seeded)), [len(p) for p in seeded])
-        released = np.concatenate([b.release_times if b.release_times is not None else np.zeros(len(p))
-                                   for b, p in zip(self.bodies, seeded, strict=True)]) > 0.0
+        particles = self.particles() if particles is None else particles
+        x, owner, released = particles["x"], particles["body"], particles["release"] > 0.0
         cores, radius = arrays.cores, arrays.radius
         points = shapely.points(x)
         # candidates: points within a of the core (closed); the exact depth below decides

@@ -28,6 +28,7 @@ from ..checks import check_time_step, eq51_step
 from ..errors import BlowUpError, InputError
 from ..kernels import coupling as coupling_kernels
 from ..model.config import SolverConfig
+from ..model.finished import Model
 from ..model.scene import Scene
 from .dem import DEMSolver, spring_time_step_bound
 from .diagnostics import coupled_likely_cause
@@ -40,7 +41,7 @@ from .tuning import Tuning
 __all__ = ["CoupledStage", "contact_time_step_bound"]
 
 
-def contact_time_step_bound(scene: Scene, point_mass: float) -> float:
+def contact_time_step_bound(scene: Scene | Model, point_mass: float) -> float:
     """Largest stable step [s] of a material point of mass ``point_mass`` [kg/m] on one contact
     spring of the coupling law, 2 sqrt(m_p / k) (sqrt(1 + ζ²) − ζ), k = max(k_n, k_t): the bound
     ``mpmdem.sim.dem.dem_time_step_bound`` gives a rigid body, with the point as the body.
@@ -64,14 +65,15 @@ class CoupledStage(ClockedStage):
     """One explicit step of a scene with material points and rigid bodies.
 
     Args:
-        scene, config, device: as for ``Simulation``.
+        model: the finished scene (``Scene.finalize``) both stages were built from.
+        config, device: as for ``Simulation``.
         mpm, dem: the two stages, built for this scene on one ``Clock`` (the coordinator's); the
             MPM stage's dt policy (``MPMSolver.start_clock``), capped here each step.
         tuning: the list build's tile, the sifted and the static point–body lists
             (``mpmdem.sim.tuning``; default: the MPM stage's).
     """
 
-    def __init__(self, scene: Scene, config: SolverConfig, device: str, mpm: MPMSolver, dem: DEMSolver, *,
+    def __init__(self, model: Model, config: SolverConfig, device: str, mpm: MPMSolver, dem: DEMSolver, *,
                  tuning: Tuning | None = None):
         # the point–body lists follow the points' memory order: no re-sort on a schedule, and the
         # automatic re-sorting of sort_interval None is off in coupled scenes (mpmdem.sim.auto_sort)
@@ -79,7 +81,7 @@ class CoupledStage(ClockedStage):
             raise InputError("sort_interval", config.sort_interval,
                              "0 or None in a scene with rigid bodies and points (the point–body lists follow the "
                              "points' memory order; None re-sorts nothing here)")
-        self.scene, self.config, self.mpm, self.dem = scene, config, mpm, dem
+        self.model, self.config, self.mpm, self.dem = model, config, mpm, dem
         self.tuning = tuning or mpm.tuning
         self.device = wp.get_device(device)
         if mpm.sim_clock is not dem.sim_clock:
@@ -87,10 +89,10 @@ class CoupledStage(ClockedStage):
                              "DEMSolver(..., clock=c))")
         self.sim_clock = mpm.sim_clock
         self.clock, self.steps = mpm.clock, mpm.steps
-        law = scene.coupling_contact or scene.contact
+        law = model.coupling_contact or model.contact
         self.law = law
         host_mass = mpm.P.mass.numpy()
-        self.contact_bound = contact_time_step_bound(scene, float(host_mass.min()))
+        self.contact_bound = contact_time_step_bound(model, float(host_mass.min()))
         self.dt_bound = min(self.contact_bound, dem.dt_bound)
         kappa = math.pi * config.dem_kappa
         self.dt_cap = kappa * self.dt_bound
@@ -113,12 +115,12 @@ class CoupledStage(ClockedStage):
     # -- set-up -------------------------------------------------------------------------------
     def _allocate(self) -> None:
         k, mpm, dem, cfg, dev = self.k, self.mpm, self.dem, self.config, self.device
-        scene = self.scene
+        model = self.model
         n = mpm.particle_count
         S = cfg.imp_max_bodies
         T = np.float32 if cfg.precision == "f32" else np.float64
         t = mpm.types
-        h = scene.cell_size
+        h = model.cell_size
         veci = wp.types.vector(coupling_kernels.IMP_HISTORY, wp.int32)
         vech = wp.types.vector(coupling_kernels.IMP_HISTORY, t.scalar)
 
@@ -167,11 +169,11 @@ class CoupledStage(ClockedStage):
         self.forces_kernel = k.make_forces(self.sifted, nb if self.static_lists else 0)
         self.L = L
 
-        mats = scene.materials()
-        rigid = len(scene.rigid_bodies)
-        names = [scene.rigid_bodies[i].name if i < rigid else None for i in dem.order.tolist()]
+        mats = model.materials
+        rigid = len(model.rigid_bodies)
+        names = [model.rigid_bodies[i].name if i < rigid else None for i in dem.order.tolist()]
         own = dem.arrays.friction[dem.order].tolist()  # (grains: their set's μ; no per-grain override)
-        mu = np.array([[scene.coupling_friction.get((m, name), f) for name, f in zip(names, own, strict=True)]
+        mu = np.array([[model.coupling_friction.get((m, name), f) for name, f in zip(names, own, strict=True)]
                        for m in mats], T)
         vols = mpm.P.vol.numpy()
         per_cell = h * h / float(vols.min())
@@ -216,7 +218,7 @@ class CoupledStage(ClockedStage):
         sand fall through between them."""
         dem, mpm, dev = self.dem, self.mpm, self.device
         t = mpm.types
-        h = self.scene.cell_size
+        h = self.model.cell_size
         local, owner, share = [], [], []
 
         def along(a, b):
@@ -375,7 +377,7 @@ class CoupledStage(ClockedStage):
 
     def likely_cause(self, dt: float, bound: float) -> str:
         """The rigid bodies' initial overlap, the points' causes, the contact stiffness."""
-        return coupled_likely_cause(self.config, self.scene, self.dem.overlap_cause(), dt, bound, self.contact_bound)
+        return coupled_likely_cause(self.config, self.model, self.dem.overlap_cause(), dt, bound, self.contact_bound)
 
     def check_status(self, t: float, dt: float, bound: float, status: CoupledStatus) -> None:
         """The MPM and DEM checks, then overflowing point–body lists or bins."""

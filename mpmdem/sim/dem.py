@@ -30,6 +30,7 @@ from ..kernels import reductions as reduction_kernels
 from ..kernels.scan import pack_launch
 from ..model.bodies import ContactLaw
 from ..model.config import SolverConfig
+from ..model.finished import Model
 from ..model.memory import check_device_memory
 from ..model.rigid_arrays import RigidArrays
 from ..model.scene import Scene
@@ -53,7 +54,7 @@ def effective_mass(mass, inertia, core_radius):
     return 1.0 / (1.0 / mass + core_radius * core_radius / inertia)
 
 
-def dem_time_step_bound(scene: Scene, arrays: RigidArrays | None = None) -> float:
+def dem_time_step_bound(scene: Scene | Model, arrays: RigidArrays | None = None) -> float:
     """Largest stable explicit step [s] of one free body on one damped contact spring,
     2 sqrt(m* / k) (sqrt(1 + ζ²) − ζ), with k the larger of k_n and k_t, m* the smallest
     effective mass of the free bodies and ζ the damping ratio of the contact law.
@@ -96,23 +97,20 @@ class DEMSolver(ClockedStage):
     """Device state and step sequence of the DEM stage of one scene.
 
     Args:
-        scene: the scene; its rigid bodies are uploaded once.
+        model: the finished scene (``Scene.finalize``): its DEM bodies' columns are uploaded once.
         config: solver choices (precision, dt, dem_kappa, dem_skin, dem_max_neighbors...).
         device: Warp device.
         clock: the run's clock (``Simulation`` passes its own); None makes one with this stage's
             dt policy (MPM-SDEM eq. 51's DEM term, or the fixed dt).
-        initial_overlaps: ``scene.initial_overlaps()`` of the scene as it is now, when the caller
-            has just computed them (``Simulation`` passes what ``scene.validate()`` returned);
-            None computes them.
         tuning: the broad phase's large bodies, the disk–disk pass and the split search
             (``mpmdem.sim.tuning``; default ``Tuning()``).
     """
 
-    def __init__(self, scene: Scene, config: SolverConfig, device: str, *, clock: Clock | None = None,
-                 initial_overlaps: list[tuple[str, str, float]] | None = None, tuning: Tuning | None = None):
-        if scene.contact is None:
+    def __init__(self, model: Model, config: SolverConfig, device: str, *, clock: Clock | None = None,
+                 tuning: Tuning | None = None):
+        if model.contact is None:
             raise InputError("contact", None, "a ContactLaw(normal_stiffness=...) in the Scene for rigid bodies")
-        self.scene = scene
+        self.model = model
         self.config = config
         self.tuning = tuning or Tuning()
         self.device = wp.get_device(device)
@@ -122,15 +120,15 @@ class DEMSolver(ClockedStage):
         #: search uncapped")
         self.contact_kernel = self.k.contact_forces
         #: the disk–disk pass (``kernels.dem_disks``): scenes with disk grains (``_disk_flags``)
-        self.disk_pairs = self.tuning.disk_pairs and any(g.shape == "disk" for g in scene.grains)
+        self.disk_pairs = self.tuning.disk_pairs and any(g.shape == "disk" for g in model.grains)
         #: columns of the scene's rigid bodies (scene order), then its grains
-        self.arrays = scene.body_arrays()
-        self.dt_bound = dem_time_step_bound(scene, self.arrays)
+        self.arrays = model.arrays
+        self.dt_bound = dem_time_step_bound(model, self.arrays)
         check_time_step(config, self.dt_bound, f"2 sqrt(m*/k_n) (sqrt(1+ζ²)−ζ) = {self.dt_bound:.6g} s of these "
                         f"bodies ({eq51_step(config, self.dt_bound)})")
         self.body_count = len(self.arrays)
         #: (body, body, depth [m]) of the pairs let start overlapping (Scene(allow_initial_overlap=True))
-        self.initial_overlaps = scene.initial_overlaps() if initial_overlaps is None else list(initial_overlaps)
+        self.initial_overlaps = list(model.initial_overlaps)
         self._layout()
         check_device_memory(self.device, self.body_count, self.vertex_total, self.slots, config.precision)
         if clock is None:
@@ -178,7 +176,7 @@ class DEMSolver(ClockedStage):
         self.motion = motion[order]
         self.is_large = is_large[order]
         # cells over the domain and every small body (a fixed peg may sit outside the domain)
-        (x0, y0), (x1, y1) = self.scene.domain
+        (x0, y0), (x1, y1) = self.model.domain
         sp = pos[~is_large]
         lo = np.minimum([x0, y0], sp.min(axis=0) if len(sp) else [x0, y0]) - self.cell
         hi = np.maximum([x1, y1], sp.max(axis=0) if len(sp) else [x1, y1]) + self.cell
@@ -278,15 +276,15 @@ class DEMSolver(ClockedStage):
             self.D.slip = wp.zeros(n * K, dtype=self._scalar, device=dev)
         self.split = self._split_search(n, int(np.max(counts)) if n else 0)
 
-        law = self.scene.contact
-        (x0, y0), (x1, y1) = self.scene.domain
+        law = self.model.contact
+        (x0, y0), (x1, y1) = self.model.domain
         params = k.Params()
         params.law.kn = float(law.normal_stiffness)
         params.law.kt = law.kt
         params.law.zeta = law.damping_ratio
         params.skin = self.skin
-        params.gravity = self._vec2(*self.scene.gravity)
-        params.gravity_ramp = float(self.scene.gravity_ramp)
+        params.gravity = self._vec2(*self.model.gravity)
+        params.gravity_ramp = float(self.model.gravity_ramp)
         params.lo = self._vec2(x0, y0)
         params.hi = self._vec2(x1, y1)
         params.cell_origin = self._vec2(*self.cell_origin)
@@ -524,7 +522,7 @@ class DEMSolver(ClockedStage):
     def probe_masses(self) -> dict[str, float]:
         """``mass_<probe>`` [kg/m]: the mass of the free bodies and grains whose centroid lies in
         each of the scene's mass probes, summed on the device (``kernels.reductions``)."""
-        probes = self.scene.mass_probes
+        probes = self.model.mass_probes
         if not probes:
             return {}
         if not hasattr(self, "_probe_boxes"):
@@ -556,8 +554,8 @@ class DEMSolver(ClockedStage):
         """Static per-body data (vertices, radius, motion, mass, name) in the scene's order."""
         inv = np.empty_like(self.order)
         inv[self.order] = np.arange(len(self.order))
-        bodies = self.scene.rigid_bodies
-        grains = self.scene.grains
+        bodies = self.model.rigid_bodies
+        grains = self.model.grains
         counts = np.array([len(b.shape.vertices) for b in bodies], np.int32)
         vertices = [b.shape.vertices for b in bodies] or [np.zeros((0, 2))]
         radius = [np.array([b.shape.radius for b in bodies])]
@@ -576,7 +574,7 @@ class DEMSolver(ClockedStage):
             "radius": np.concatenate(radius),
             "motion": np.concatenate(motion).astype(np.int32),
             "mass": np.concatenate(mass),
-            "name": self.scene.body_names(),
+            "name": list(self.model.body_names),
         }
         if grains:
             out["grain"] = np.repeat([0, 1], [len(bodies), self.body_count - len(bodies)]).astype(np.int32)

@@ -77,11 +77,11 @@ def point_diagnostics(stage) -> dict[str, float]:
               inputs=[stage.points, stage.D, stage.materials, stage.diag, t_now], device=stage.device)
     vals = stage.diag.numpy()
     out = {name: float(v) for name, v in zip(reduction_kernels.DIAG_NAMES, vals, strict=True)}
-    if stage.scene.mass_probes:
+    if stage.model.mass_probes:
         stage.probe_mass.zero_()
         wp.launch(stage.probe_mass_kernel, stage.particle_count,
                   inputs=[stage.points, stage.probe_boxes, stage.probe_mass, t_now], device=stage.device)
-        for probe, m in zip(stage.scene.mass_probes, stage.probe_mass.numpy(), strict=True):
+        for probe, m in zip(stage.model.mass_probes, stage.probe_mass.numpy(), strict=True):
             out[f"mass_{probe.name}"] = float(m)
     sums = stage.work.numpy().reshape(-1, grid_kernels.WORK_SLOTS).sum(axis=1)
     works = sums[: len(grid_kernels.WORK_TERMS)]
@@ -93,7 +93,7 @@ def point_diagnostics(stage) -> dict[str, float]:
     span = t_now - t_prev
     force = (impulse - i_prev) / span if span > 0.0 else np.zeros_like(impulse)
     stage.impulse_mark = (t_now, impulse)
-    for k, wall in enumerate(grid_kernels.WALLS if stage.scene.obstacles else ()):
+    for k, wall in enumerate(grid_kernels.WALLS if stage.model.obstacles else ()):
         out[f"force_{wall}_x"] = float(force[2 * k])
         out[f"force_{wall}_y"] = float(force[2 * k + 1])
     out["energy_total"] = out["energy_kinetic"] + out["energy_strain"] + out["energy_gravity"]

@@ -40,7 +40,7 @@ class GridEdges:
 
     def __init__(self, solver, grid_dim: tuple[int, int], *, mirror_in_g2p: bool):
         c, s = solver.config, solver.config.scheme
-        scene = solver.scene
+        scene = solver.model
         self.prec, self.layered = c.precision, c.granular
         self.G, self.D, self.clock = solver.G, solver.D, solver.clock
         self.periodic = scene.periodic_x

@@ -27,7 +27,7 @@ from ..kernels import xpic as xpic_kernels
 from ..kernels.shape_functions import SUPPORT_NODES
 from ..kernels.types import scalar_types
 from ..model.config import SolverConfig
-from ..model.scene import Scene
+from ..model.finished import Model
 from . import diagnostics as diagnostics_
 from . import granular_state
 from .block_layout import BlockLayout
@@ -50,7 +50,7 @@ class MPMSolver(ClockedStage):
     """Device state and step sequence of the MPM stage of one scene.
 
     Args:
-        scene: the scene; its points are seeded and uploaded once.
+        model: the finished scene (``Scene.finalize``); its seeded points are uploaded once.
         config: discretisation choices.
         device: Warp device ("cpu", "cuda", "cuda:0").
         clock: the run's clock (``Simulation`` passes its own); None makes one with this stage's
@@ -64,33 +64,33 @@ class MPMSolver(ClockedStage):
         clock, steps: the device arrays of ``sim_clock`` that the kernels take.
     """
 
-    def __init__(self, scene: Scene, config: SolverConfig, device: str, *, clock: Clock | None = None,
+    def __init__(self, model: Model, config: SolverConfig, device: str, *, clock: Clock | None = None,
                  tuning: Tuning | None = None):
-        self.scene = scene
+        self.model = model
         self.config = config
         self.tuning = tuning or Tuning()
         self.device = wp.get_device(device)
         self.types = scalar_types(config.precision)
-        host = scene.particles()
+        host = model.particles
         self.particle_count = len(host["mass"])
-        self.dt_bound0 = initial_dt_bound(scene, host)
+        self.dt_bound0 = initial_dt_bound(model, host)
         check_time_step(config, self.dt_bound0, f"h/max(c+|v|) = {self.dt_bound0:.6g} s of this scene "
-                        f"(h = {scene.cell_size:g} m)", use="the CFL policy")
-        if config.shape == "ugimp" and (host["half"] > 0.5 * scene.cell_size + 1e-12).any():
+                        f"(h = {model.cell_size:g} m)", use="the CFL policy")
+        if config.shape == "ugimp" and (host["half"] > 0.5 * model.cell_size + 1e-12).any():
             raise InputError("shape", config.shape, "uGIMP needs points_per_cell >= 1 (half-lengths <= h/2)")
         self.body = host["body"]
         self.release_times = host["release"]  # [s], scene order
-        ppc = max(b.points_per_cell for b in scene.bodies)
+        ppc = max(b.points_per_cell for b in model.bodies)
         reach = SUPPORT_NODES[config.shape] + (1 if config.shape == "cpdi1" else 0)
         # at most (cells reaching a node) × (points per cell) components can meet at one node
         self.granular_layers = (min(64, max(8, reach * reach * ppc * ppc)) if config.granular_layers is None
                                 else config.granular_layers) if config.granular else 1
         self.staged = bool((host["release"] > 0.0).any())
         #: rigid bodies push on the points through contact forces (MPM-SDEM §4; mpmdem.sim.coupling)
-        self.coupled = scene.has_dem
-        mats = scene.materials()
+        self.coupled = model.has_dem
+        mats = model.materials
         self.critical = any(m.critical_density is not None for m in mats)
-        self.order = device_order(host["x"], scene.domain[0], scene.cell_size)
+        self.order = device_order(host["x"], model.domain[0], model.cell_size)
         own_clock = clock is None
         if own_clock:
             clock = Clock(self.device)
@@ -110,7 +110,7 @@ class MPMSolver(ClockedStage):
         """Set this stage's dt policy on ``clock`` (once, before the first step): the fixed dt, else
         κ h / max(c + |v|), the speeds measured by the initial pass of ``_build``."""
         clock.set_policy(dt_fixed=self.config.dt, factor=self.config.cfl, land=self.land_step)
-        wp.launch(reduction_kernels.prime_step, 1, inputs=[clock.values, self.max_speed, float(self.scene.cell_size)],
+        wp.launch(reduction_kernels.prime_step, 1, inputs=[clock.values, self.max_speed, float(self.model.cell_size)],
                   device=self.device)
 
     def extend(self, place: str, launch) -> None:
@@ -133,9 +133,9 @@ class MPMSolver(ClockedStage):
         t = self.types
         T = np.float32 if self.config.precision == "f32" else np.float64
         dev = self.device
-        scene = self.scene
-        mats = scene.materials()
-        mat_index = np.array([mats.index(b.material) for b in scene.bodies], np.int32)[host["body"]]
+        model = self.model
+        mats = list(model.materials)
+        mat_index = np.array([mats.index(b.material) for b in model.bodies], np.int32)[host["body"]]
         host = {**host, "material_index": mat_index}
         n = self.particle_count
         self.point_contact_radius = host["contact_radius"]  # device order [m]
@@ -143,22 +143,22 @@ class MPMSolver(ClockedStage):
         #: hyperelastic scenes store F alone: σ and V are recomputed from it where needed
         #: (``kernels.constitutive.stress_from_deformation``; ``refresh_derived`` for the host)
         self.derived_stress = constitutive_kernels.stress_from_deformation(self.material_kinds, self.critical)
-        self.points = make_points(scene, self.config, host, self.order, mat_index, staged=self.staged,
+        self.points = make_points(model, self.config, host, self.order, mat_index, staged=self.staged,
                                   coupled=self.coupled, device=dev)
         # where each point's contact force acts (the "grid" coupling scheme spreads it from there)
         self.contact_at = wp.zeros(n if self.coupled else 1, dtype=t.vec2, device=dev)
-        self.G, self.grid_shape = make_grid(scene, self.config, self.granular_layers, device=dev)
-        self.D = make_domain(scene, self.config, self.granular_layers, float(host["mass"].min()))
+        self.G, self.grid_shape = make_grid(model, self.config, self.granular_layers, device=dev)
+        self.D = make_domain(model, self.config, self.granular_layers, float(host["mass"].min()))
         if self.config.granular:
             self.interaction, self.scan_totals = granular_state.make_interaction(
-                scene, self.config, host, mats, self.points, self.grid_shape, self.D.layer_rows, t,
+                model, self.config, host, mats, self.points, self.grid_shape, self.D.layer_rows, t,
                 staged=self.staged, device=dev, tuning=self.tuning)
             self.granular_stats = wp.zeros(2, dtype=wp.int32, device=dev)
         self.materials = wp.array(np.array([m.packed() for m in mats], T), dtype=t.params, device=dev)
         self.max_speed = wp.zeros(reduction_kernels.SPEED_SLOTS, dtype=wp.float32, device=dev)
         self.status = wp.zeros(granular_kernels.STATUS_SLOTS, dtype=wp.int32, device=dev)
         self.diag = wp.zeros(len(reduction_kernels.DIAG_NAMES), dtype=wp.float64, device=dev)
-        probes = scene.mass_probes
+        probes = model.mass_probes
         self.probe_boxes = wp.array(np.array([[*p.lo, *p.hi] for p in probes], dtype=np.float64).reshape(-1, 4),
                                     dtype=wp.vec4d, device=dev)
         self.probe_mass = wp.zeros(max(1, len(probes)), dtype=wp.float64, device=dev)
@@ -213,7 +213,7 @@ class MPMSolver(ClockedStage):
         def grid(**flags):
             def make(clear=False, zero_remap=False, fold=(), images=False):
                 return grid_kernels.make_grid_update(prec, damping=c.damping > 0.0, layered=layered,
-                                                     obstacles=bool(self.scene.obstacles), clear=clear,
+                                                     obstacles=bool(self.model.obstacles), clear=clear,
                                                      zero_remap=zero_remap, fold=fold, images=images, **flags,
                                                      **moving)
 
@@ -305,7 +305,7 @@ class MPMSolver(ClockedStage):
         # there does work (fixed and slip walls, no damping, no obstacle node among them): then the
         # clearing update folds too, each node clearing the ghost copies it read
         # (``kernels.grid.make_grid_update``'s images)
-        kinds = {b.kind for b in self.scene.boundaries.values()}
+        kinds = {b.kind for b in self.model.boundaries.values()}
         images = (self.mirror_in_g2p and kinds <= {"fixed", "slip", "free"} and c.damping == 0.0
                   and not self._obstacle_ghosts())
         if tn.fold_in_grid_update and n < tn.images_in_kernels_points and not edges.unfused:
@@ -340,7 +340,7 @@ class MPMSolver(ClockedStage):
     def _obstacle_ghosts(self) -> bool:
         """Whether an obstacle marks a ghost node (beyond the domain's edge): there a grid update
         reads the obstacle's load, so the ghosts must be updated."""
-        if not self.scene.obstacles:
+        if not self.model.obstacles:
             return False
         solid = self.G.solid.numpy()
         lo, hi = self.D.node_lo, self.D.node_hi
@@ -359,7 +359,7 @@ class MPMSolver(ClockedStage):
         if (not self.device.is_cuda or self.particle_count < self.tuning.tiled_p2g_points or c.granular
                 or c.deterministic or transfer_kernels.CORNERS.get(c.shape, 1) != 1):
             return ()
-        ppc = min(b.points_per_cell for b in self.scene.bodies) ** 2
+        ppc = min(b.points_per_cell for b in self.model.bodies) ** 2
         B = self.tuning.tiled_p2g_block
         TX, TY = K + 1, B // ppc + K + 3
         if TX > self.grid_shape[0] or TY > self.grid_shape[1]:
@@ -434,7 +434,7 @@ class MPMSolver(ClockedStage):
         measured, capped in coupled scenes (``kernels.reductions.finish_step``); in granular mode
         with them, whether the next step rebuilds the interaction graph: one launch."""
         cap, bound = self.dt_cap
-        clock = [self.clock, self.steps, self.max_speed, float(self.scene.cell_size), cap, bound]
+        clock = [self.clock, self.steps, self.max_speed, float(self.model.cell_size), cap, bound]
         if self._judge is not None:
             wp.launch(self._judge, 1, inputs=[self.interaction, *clock], device=self.device)
         else:
@@ -492,7 +492,7 @@ class MPMSolver(ClockedStage):
 
     def likely_cause(self, dt: float, bound: float) -> str:
         """What most likely made the points blow up at step dt [s] and bound [s]."""
-        return diagnostics_.likely_cause(self.config, self.scene, dt, bound)
+        return diagnostics_.likely_cause(self.config, self.model, dt, bound)
 
     def check_status(self, t: float, dt: float, bound: float, status: np.ndarray) -> None:
         """Raise BlowUpError for NaN/inf or escaped points (counted by the G2P kernel)."""

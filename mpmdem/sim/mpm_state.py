@@ -16,6 +16,7 @@ from ..kernels.shape_functions import SUPPORT_NODES
 from ..kernels.state import make_state_structs
 from ..kernels.types import scalar_types
 from ..model.config import SolverConfig
+from ..model.finished import Model
 from ..model.scene import Scene
 from .obstacles import solid_nodes
 
@@ -39,9 +40,9 @@ def _float_type(config: SolverConfig):
     return np.float32 if config.precision == "f32" else np.float64
 
 
-def make_points(scene: Scene, config: SolverConfig, host: dict, order: np.ndarray, mat_index: np.ndarray, *,
+def make_points(scene: Model, config: SolverConfig, host: dict, order: np.ndarray, mat_index: np.ndarray, *,
                 staged: bool, coupled: bool, device):
-    """The ``Particles`` struct of the points ``host`` (scene.particles(), in device order)."""
+    """The ``Particles`` struct of the points ``host`` (the model's ``particles``, in device order)."""
     t = scalar_types(config.precision)
     T = _float_type(config)
     n = len(host["mass"])
@@ -77,7 +78,7 @@ def make_points(scene: Scene, config: SolverConfig, host: dict, order: np.ndarra
     return points
 
 
-def make_grid(scene: Scene, config: SolverConfig, layers: int, *, device):
+def make_grid(scene: Model, config: SolverConfig, layers: int, *, device):
     """The ``Grid`` struct (``layers`` copies of the nodes in granular mode, else one) and its
     shape (layers × rows, columns)."""
     t = scalar_types(config.precision)
@@ -106,7 +107,7 @@ def make_grid(scene: Scene, config: SolverConfig, layers: int, *, device):
     return grid, shape
 
 
-def make_domain(scene: Scene, config: SolverConfig, layers: int, min_mass: float):
+def make_domain(scene: Model, config: SolverConfig, layers: int, min_mass: float):
     """The ``Domain`` struct: grid placement, walls, gravity, damping (``min_mass`` [kg/m]: the
     lightest point, which sets the mass below which a node counts as empty)."""
     t = scalar_types(config.precision)
@@ -148,9 +149,11 @@ def wall_band(rows: int, cols: int, ghosts: int = GHOST_NODES) -> np.ndarray:
     return np.stack([i[near], j[near]], axis=1).astype(np.int32)
 
 
-def initial_dt_bound(scene: Scene, particles: dict | None = None) -> float:
-    """Courant bound h / max_p(c_p + |v_p|) [s] of the initial state (κ = 1)."""
-    particles = particles or scene.particles()
+def initial_dt_bound(scene: Scene | Model, particles: dict | None = None) -> float:
+    """Courant bound h / max_p(c_p + |v_p|) [s] of the initial state (κ = 1) of a scene or a finished
+    model (``particles``: its ``particles()`` when the caller has them)."""
+    if particles is None:
+        particles = scene.particles if isinstance(scene, Model) else scene.particles()
     speeds = []
     for k, b in enumerate(scene.bodies):
         sel = particles["body"] == k

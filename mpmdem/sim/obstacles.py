@@ -6,12 +6,12 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from ..model.scene import Scene
+from ..model.finished import Model
 
 __all__ = ["solid_nodes"]
 
 
-def solid_nodes(scene: Scene, rows: int, cols: int, ghost_nodes: int) -> tuple[np.ndarray, np.ndarray]:
+def solid_nodes(scene: Model, rows: int, cols: int, ghost_nodes: int) -> tuple[np.ndarray, np.ndarray]:
     """Obstacle nodes of one layer: kind (0 none, 1 fixed, 2 slip) and, for slip nodes, the
     outward normal of the nearest edge of the obstacle (rows, cols, 2). (1, 1) arrays if none.
 

@@ -1,5 +1,8 @@
 """Simulation: the coordinator that advances a Scene in explicit steps and writes its results.
 
+It finishes the scene first (``Scene.finalize``: the whole-scene checks, the seeded points and the
+DEM bodies' columns, once) and builds its stages from that ``Model``.
+
 A scene runs only the stages it uses: the MPM stage (material points on a grid; dt from the CFL
 bound on the device), the DEM stage (rigid spheropolygons; dt from MPM-SDEM eq. 51's DEM term),
 or both, coupled through identified material points (``mpmdem.sim.coupling``: DEM contacts and
@@ -93,17 +96,15 @@ class Simulation:
             allowed = ", ".join(str(d) for d in wp.get_devices())
             raise InputError("device", device, f"one of {allowed}") from None
         self.device = str(wp.get_device(device))
-        if not (scene.has_mpm or scene.has_dem):
-            raise InputError("bodies", [], "at least one body (Scene.add_mpm_body or Scene.add_rigid_body)")
-        # whole-scene input checks (points starting inside rigid bodies), before any kernel
-        overlaps = scene.validate()
+        #: the finished scene every stage is built from: checked as a whole (points starting inside
+        #: rigid bodies, overlapping bodies), points seeded and DEM bodies laid out, once, before any kernel
+        self.model = model = scene.finalize()
         #: the time of the run, shared by every stage
         self.clock = Clock(self.device)
-        self.mpm = (MPMSolver(scene, self.config, self.device, clock=self.clock, tuning=self.tuning)
-                    if scene.has_mpm else None)
-        self.dem = (DEMSolver(scene, self.config, self.device, clock=self.clock, initial_overlaps=overlaps,
-                              tuning=self.tuning)
-                    if scene.has_dem else None)
+        self.mpm = (MPMSolver(model, self.config, self.device, clock=self.clock, tuning=self.tuning)
+                    if model.has_mpm else None)
+        self.dem = (DEMSolver(model, self.config, self.device, clock=self.clock, tuning=self.tuning)
+                    if model.has_dem else None)
         # the dt policy of the stage that starts each step (with points, the MPM stage's CFL bound,
         # capped by the coupling's contact bound in a coupled step)
         (self.mpm or self.dem).start_clock(self.clock)
@@ -111,7 +112,7 @@ class Simulation:
         if self.mpm and self.dem:
             from .coupling import CoupledStage
 
-            self.coupling = CoupledStage(scene, self.config, self.device, self.mpm, self.dem, tuning=self.tuning)
+            self.coupling = CoupledStage(model, self.config, self.device, self.mpm, self.dem, tuning=self.tuning)
         #: what one step runs
         self.stage: Stage = self.coupling or self.mpm or self.dem
         self._graph = None
@@ -238,7 +239,6 @@ class Simulation:
         out: str | Path | None = None,
         frames: int = 20,
         progress: Callable[[float, float], None] | None = None,
-        quiet: bool | None = None,
         name: str = "run",
         attrs: dict | None = None,
     ) -> RunResult:
@@ -251,8 +251,7 @@ class Simulation:
         error closes it and goes on. Either way the frames already written stay readable.
 
         The run prints nothing: ``progress(t, dt)`` [s], if given, is called after every batch of
-        steps (several per frame), e.g. ``mpmdem.study.run_progress.Progress(end_time).update``. ``quiet`` is
-        accepted for older callers and has no effect.
+        steps (several per frame), e.g. ``mpmdem.study.run_progress.Progress(end_time).update``.
         """
         if not (isinstance(end_time, (int, float)) and math.isfinite(end_time) and end_time > 0):
             raise InputError("end_time", end_time, "a positive time in seconds")
@@ -297,7 +296,7 @@ class Simulation:
             if writer is not None:
                 writer.write_frame(t, self.mpm.fields() if self.mpm else {}, d,
                                    body_fields=self.dem.fields() if self.dem else None)
-            check_energy(self.scene, self.config, t, d, balance.initial, lambda: self.stage.likely_cause(dt, bound))
+            check_energy(self.model, self.config, t, d, balance.initial, lambda: self.stage.likely_cause(dt, bound))
 
         status, message = "completed", ""
         try:

@@ -158,7 +158,7 @@ def plan_run(sim, args, out: Path, end_time: float, frames: int) -> tuple[int, s
     check_frame_interval(end_time, frames, dt)
     estimate = estimate_output_bytes(sim.particle_count, sim.body_count, frames, sim.config.precision,
                                      coupled=sim.coupling is not None,
-                                     grains=sum(len(s) for s in sim.scene.grains))
+                                     grains=sum(len(s) for s in sim.model.grains))
     check_output_size(estimate, out, frames, args.max_output)
     return frames, long_run_warning(end_time, dt, sim.particle_count, sim.device)
 

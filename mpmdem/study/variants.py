@@ -133,7 +133,7 @@ def run_variants(module: ModuleType, args: argparse.Namespace, sim, main: Varian
                    "end_time": v_end, "frames": v_frames}
         t0 = time.perf_counter()
         try:
-            result = vsim.run(v_end, out=folder, frames=v_frames, quiet=True, name=name)
+            result = vsim.run(v_end, out=folder, frames=v_frames, name=name)
             summary.update(status=result.status, steps=result.steps, wall_seconds=time.perf_counter() - t0,
                            output=str(result.path))
             measures = module.summarize(vsim, result, vargs)
