@@ -75,18 +75,15 @@ def grain_pack(n: int, seed: int = 0) -> tuple[Scene, float]:
     return lattice_pack(n, seed=seed)
 
 
-def measure(n: int, steps: int, warmup: int, device: str, grains: bool = False) -> dict:
-    t0 = time.perf_counter()
-    scene, dt = grain_pack(n) if grains else pack(n)
-    n = scene.dem_body_count - len(scene.rigid_bodies) if grains else n
-    build_scene = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    sim = Simulation(scene, SolverConfig(precision="f32", dt=dt), device=device)
-    setup = time.perf_counter() - t0
+def timed_window(sim: Simulation, dt: float, steps: int, warmup: int) -> dict:
+    """Capture the step's CUDA graph, take ``warmup`` steps, then time ``steps`` of the DEM stage between
+    two device synchronisations: seconds, simulated seconds, steps taken, touching contacts after,
+    list rebuilds in the window and the energy residual over the kinetic energy at its start.
+
+    The graph comes first: its capture takes a step of dt = 0 to load the modules and leaves the stop
+    time at the clock's (before 2026-11-26 the stop time was set first, so every GPU step after the
+    capture had dt = 0: a pack that never moved and never rebuilt its lists)."""
     dem = sim.dem
-    # the CUDA graph first: its capture takes a step of dt = 0 to load the modules, and leaves the stop
-    # time at the clock's (before 2026-11-26 the stop time was set first, so every GPU step after the
-    # capture had dt = 0: a pack that never moved and never rebuilt its lists)
     sim._capture()
     dem.set_stop_time(1e30)
     sim.advance(warmup)
@@ -102,20 +99,35 @@ def measure(n: int, steps: int, warmup: int, device: str, grains: bool = False) 
         raise RuntimeError(f"the timed steps did not advance the clock (t = {t} s): nothing was simulated")
     d1 = sim.diagnostics()
     dem.check_status(t, dt, bound, status)
-    contacts = int(np.count_nonzero(dem.C.energy.numpy() > 0.0))
     works = sum(d1[k] - d0[k] for k in dem.WORK_TERMS)
-    residual = (d1["energy_total"] - d0["energy_total"] - works) / max(abs(d0["energy_kinetic"]), 1e-30)
+    return {"seconds": seconds, "simulated_seconds": t - t0_sim, "steps_taken": steps1 - steps0,
+            "contacts": int(np.count_nonzero(dem.C.energy.numpy() > 0.0)),
+            "rebuilds": int(d1["list_rebuilds"] - d0["list_rebuilds"]),
+            "energy_residual_over_kinetic": (d1["energy_total"] - d0["energy_total"] - works)
+            / max(abs(d0["energy_kinetic"]), 1e-30)}
+
+
+def measure(n: int, steps: int, warmup: int, device: str, grains: bool = False) -> dict:
+    t0 = time.perf_counter()
+    scene, dt = grain_pack(n) if grains else pack(n)
+    n = scene.dem_body_count - len(scene.rigid_bodies) if grains else n
+    build_scene = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    sim = Simulation(scene, SolverConfig(precision="f32", dt=dt), device=device)
+    setup = time.perf_counter() - t0
+    dem = sim.dem
+    w = timed_window(sim, dt, steps, warmup)
+    seconds, contacts, rebuilds = w["seconds"], w["contacts"], w["rebuilds"]
     return {
         "case": "disk-grains" if grains else "pentagon-pack", "impl": "mpmdem", "device": sim.device, "bodies": n,
         "steps": steps,
-        "seconds": seconds, "body_steps_per_s": n * steps / seconds, "simulated_seconds": t - t0_sim,
+        "seconds": seconds, "body_steps_per_s": n * steps / seconds, "simulated_seconds": w["simulated_seconds"],
         "contacts_per_body": contacts / n, "contacts_per_s": contacts * steps / seconds,
         "listed_pairs_per_body": float(dem.C.count.numpy().sum()) / n,
-        "rebuilds": int(d1["list_rebuilds"] - d0["list_rebuilds"]),
-        "steps_per_rebuild": steps / max(1, int(d1["list_rebuilds"] - d0["list_rebuilds"])),
+        "rebuilds": rebuilds, "steps_per_rebuild": steps / max(1, rebuilds),
         "slots": dem.slots, "cuda_graph": sim._graph is not None,
-        "energy_residual_over_kinetic": residual,
-        "setup_seconds": setup, "scene_seconds": build_scene, "steps_total": steps1 - steps0 + warmup,
+        "energy_residual_over_kinetic": w["energy_residual_over_kinetic"],
+        "setup_seconds": setup, "scene_seconds": build_scene, "steps_total": w["steps_taken"] + warmup,
         "warp": wp.__version__,
     }
 

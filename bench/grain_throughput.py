@@ -32,6 +32,7 @@ import time
 
 import numpy as np
 import warp as wp
+from dem_throughput import timed_window  # (a script beside this one)
 
 from mpmdem import ContactLaw, Scene, Simulation, SolverConfig, Tuning
 from mpmdem.model.grains import GrainSet
@@ -78,34 +79,17 @@ def measure(scene: Scene, dt: float, n: int, disk_pass: bool, steps: int, warmup
     v = dem.B.v.numpy()
     v[:free] = np.random.default_rng(seed).uniform(-JITTER, JITTER, (free, 2))  # (free bodies first)
     dem.B.v.assign(v)
-    sim._capture()  # (its step has dt = 0: bench/dem_throughput.py)
-    dem.set_stop_time(1e30)
-    sim.advance(warmup)
-    wp.synchronize_device(sim.device)
-    d0 = sim.diagnostics()
-    t0_sim, _, _, steps0, _ = dem.read_clock()
-    t0 = time.perf_counter()
-    sim.advance(steps)
-    wp.synchronize_device(sim.device)
-    seconds = time.perf_counter() - t0
-    t, _, bound, steps1, status = dem.read_clock()
-    if not t > t0_sim:
-        raise RuntimeError(f"the timed steps did not advance the clock (t = {t} s): nothing was simulated")
-    d1 = sim.diagnostics()
-    dem.check_status(t, dt, bound, status)
-    contacts = int(np.count_nonzero(dem.C.energy.numpy() > 0.0))
-    works = sum(d1[k] - d0[k] for k in dem.WORK_TERMS)
-    residual = (d1["energy_total"] - d0["energy_total"] - works) / max(abs(d0["energy_kinetic"]), 1e-30)
-    rebuilds = int(d1["list_rebuilds"] - d0["list_rebuilds"])
+    w = timed_window(sim, dt, steps, warmup)
+    seconds, contacts, rebuilds = w["seconds"], w["contacts"], w["rebuilds"]
     row = {
         "case": "disk-grains", "impl": "mpmdem", "path": "disk-pass" if disk_pass else "general",
         "device": str(sim.device), "grains": n, "steps": steps, "seconds": seconds,
         "grain_steps_per_s": n * steps / seconds, "us_per_step": 1e6 * seconds / steps,
-        "simulated_seconds": t - t0_sim, "contacts_per_grain": contacts / n,
+        "simulated_seconds": w["simulated_seconds"], "contacts_per_grain": contacts / n,
         "listed_pairs_per_grain": float(dem.C.count.numpy().sum()) / n, "rebuilds": rebuilds,
         "steps_per_rebuild": steps / max(1, rebuilds), "slots": dem.slots, "cuda_graph": sim._graph is not None,
-        "split_search": dem.split is not None, "energy_residual_over_kinetic": residual,
-        "setup_seconds": setup, "steps_total": steps1 - steps0 + warmup, "warp": wp.__version__,
+        "split_search": dem.split is not None, "energy_residual_over_kinetic": w["energy_residual_over_kinetic"],
+        "setup_seconds": setup, "steps_total": w["steps_taken"] + warmup, "warp": wp.__version__,
     }
     del sim, dem
     gc.collect()
