@@ -85,6 +85,8 @@ from mpmdem.study.references.beverloo import beverloo
 from mpmdem.study.references.table3 import (
     CRITICAL_DENSITY_RATIO,
     DENSITY,
+    DILATANCY_ANGLE,
+    FRICTION_ANGLE,
     GRAVITY,
     GRID_TABLE,
     KN_TABLE,
@@ -197,6 +199,12 @@ def add_arguments(parser):
     parser.add_argument("--walls", default=None, choices=WALL_MODES,
                         help="silo and container as fixed spheropolygons (sdem, the paper's) or as grid obstacles "
                              "(obstacle-slip: rollers, obstacle-fixed: no slip; no DEM stage at all)")
+    parser.add_argument("--friction-angle", type=positive("deg"), default=None,
+                        help=f"φ of --material drucker-prager [deg] (default Table 3's {FRICTION_ANGLE:g}; the "
+                             "beverloo-calibrated study sets the DEM disks' angle of repose)")
+    parser.add_argument("--dilatancy-angle", type=float, default=None,
+                        help=f"ψ of --material drucker-prager [deg], 0 <= ψ <= φ (default Table 3's "
+                             f"{DILATANCY_ANGLE:g}, which needs φ >= {DILATANCY_ANGLE:g})")
     add_grain_arguments(parser, what="the sand", radius=R_P_TABLE, radius_note="the seed's r_p")
 
 
@@ -292,13 +300,29 @@ def material(args, critical_ratio):
     """The sand: Table 3's Drucker–Prager, or μ(I) with Jop et al. 2006's μs, μ2, I0 (glass beads),
     Table 3's elasticity and density, d = --grain-diameter and ρs = ρ / SOLID_FRACTION."""
     if args.material == "drucker-prager":
-        return sand(critical_ratio=critical_ratio)
+        phi, psi = sand_angles(args)
+        return sand(phi, psi, critical_ratio=critical_ratio)
     if not (math.isfinite(args.grain_diameter) and args.grain_diameter > 0.0):
         raise InputError("--grain-diameter", args.grain_diameter, "d > 0 [m]")
     beads = MuI.glass_beads()
     return MuI(YOUNGS, POISSON, DENSITY, mu_s=beads.mu_s, mu_2=beads.mu_2, i0=beads.i0,
                grain_diameter=args.grain_diameter, grain_density=DENSITY / SOLID_FRACTION,
                critical_density=critical_ratio * DENSITY if critical_ratio else None)
+
+
+def sand_angles(args) -> tuple[float, float]:
+    """(φ, ψ) [deg] of the Drucker–Prager sand: --friction-angle and --dilatancy-angle, else Table 3's;
+    raises InputError unless 0 < φ < 60 and 0 <= ψ <= φ (a dilatancy above the friction angle dissipates
+    negative plastic work)."""
+    phi = given(getattr(args, "friction_angle", None), FRICTION_ANGLE)
+    psi = given(getattr(args, "dilatancy_angle", None), DILATANCY_ANGLE)
+    if not (math.isfinite(phi) and 0.0 < phi < 60.0):
+        raise InputError("--friction-angle", phi, "a friction angle in (0, 60) deg")
+    if not (math.isfinite(psi) and 0.0 <= psi <= phi):
+        raise InputError("--dilatancy-angle", psi, f"a dilatancy angle in [0, φ = {phi:g}] deg"
+                         + (" (Table 3's default; give --dilatancy-angle with a smaller --friction-angle)"
+                            if getattr(args, "dilatancy_angle", None) is None else ""))
+    return phi, psi
 
 
 def walls(args) -> str:
@@ -439,6 +463,8 @@ def summarize(sim, result, args) -> dict:
         "fill_mass": fill_mass, "critical_density_ratio": args.critical_density_ratio,
         "material": args.material,
         "grain_diameter_m": args.grain_diameter if args.material == "mu-i" else None,
+        "friction_angle_deg": sand_angles(args)[0] if args.material == "drucker-prager" else None,
+        "dilatancy_angle_deg": sand_angles(args)[1] if args.material == "drucker-prager" else None,
         "walls_may_set_rate": bool(g["width"] < 2.5 * g["orifice"]),
         "times": times.tolist(),
         "discharged_mass": discharged.tolist(),

@@ -60,3 +60,16 @@ def test_grain_set_intercept_follows_d_and_grid_set_does_not():
     ignores = analyze_grain(_runs(lambda d, dg: law(d, 0.009), "grain_diameter_m", ds, {"cell_size": 0.0025}),
                             RHO, G)
     assert abs(ignores["d_star_slope_per_d"]) < 1e-6
+
+
+def test_against_grains_is_the_ratio_to_the_dem_rate_per_orifice():
+    """The continuum's finest-grid W and W∞ against the DEM silo's W at the same D0, as W / W_DEM − 1;
+    an orifice the DEM study lacks is left out (not compared with nothing)."""
+    from mpmdem.study.builtin.beverloo_refinement import against_grains
+
+    result = {"per_orifice": {"0.04": {"h_m": [0.002, 0.001], "rate": [30.0, 36.0], "w_inf": 40.0},
+                              "0.06": {"h_m": [0.001], "rate": [70.0], "w_inf": None}}}
+    grains = {"per_grain_radius": {"0.001": {"rate": {"0.04": 48.0}}}}
+    rows = against_grains(result, grains)
+    assert set(rows) == {"0.04"}
+    assert rows["0.04"] == {"dem": 48.0, "finest": pytest.approx(36.0 / 48.0 - 1.0), "w_inf": pytest.approx(40.0 / 48.0 - 1.0)}

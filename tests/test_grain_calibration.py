@@ -69,3 +69,16 @@ def test_committed_collapse_flank_is_no_steeper_than_the_heap(committed):
         if not (c["friction_angle_method"].startswith("heap") and flank and flank["stderr"]):
             continue
         assert flank["mean"] <= heap["mean"] + 2.0 * math.hypot(heap["stderr"], flank["stderr"])
+
+
+def test_the_references_copy_the_committed_angles(committed):
+    """mpmdem.study.references.grain_calibration holds the heaps' angles that continuum runs take as φ
+    (the beverloo-calibrated study): they must be the committed calibration's, to the 0.1° they print."""
+    from mpmdem.study.references import grain_calibration as ref
+
+    for key, mean, std in (("disk:0.001", ref.DISK_REPOSE_DEG, ref.DISK_REPOSE_STD_DEG),
+                           ("polygon:0.001", ref.POLYGON_REPOSE_DEG, ref.POLYGON_REPOSE_STD_DEG)):
+        angle = committed[key]["friction_angle_deg"]
+        assert committed[key]["friction_angle_method"].startswith("heap")
+        assert mean == pytest.approx(angle["mean"], abs=0.05)
+        assert std == pytest.approx(angle["std"], abs=0.05)

@@ -125,3 +125,29 @@ def test_cpu_run_says_which_size_runs(capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "preset for --cell-size, --fill-height:" in err[0], err
     assert "grid 0.5 cm, fill 15 cm, 1 s" in err[0] and "--cell-size 0.0035" in err[0], err
+
+
+@pytest.mark.parametrize("flags, word", [
+    (["--friction-angle", "17.9"], "--dilatancy-angle"),  # Table 3's ψ = 25° exceeds φ: name the flag to set
+    (["--friction-angle", "75"], "--friction-angle"),
+    (["--friction-angle", "30", "--dilatancy-angle", "-1"], "--dilatancy-angle"),
+])
+def test_bad_sand_angles_are_refused_before_any_kernel(flags, word):
+    """A Drucker–Prager sand with ψ > φ or φ outside (0, 60)° is an InputError naming the flag."""
+    from mpmdem.cases import silo_discharge as case
+    from mpmdem.study.runner import make_case_parser
+
+    with pytest.raises(InputError, match=word):
+        case.build(make_case_parser(case).parse_args(["--device", "cpu", *flags]))
+
+
+def test_the_calibrated_sand_takes_the_angles_given():
+    """--friction-angle/--dilatancy-angle reach the material (the beverloo-calibrated study's φ = the DEM
+    disks' angle of repose, ψ = 0): the Drucker–Prager material keeps the angles it was given."""
+    from mpmdem.cases import silo_discharge as case
+    from mpmdem.study.runner import make_case_parser
+
+    setup = case.build(make_case_parser(case).parse_args(
+        ["--device", "cpu", "--friction-angle", "17.9", "--dilatancy-angle", "0"]))
+    (sand,) = setup.scene.materials()
+    assert (sand.friction_angle, sand.dilatancy_angle) == (17.9, 0.0)

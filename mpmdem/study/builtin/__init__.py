@@ -14,6 +14,7 @@ STUDIES = {
     "beverloo": "beverloo:BEVERLOO",
     "beverloo-methods": "beverloo:METHODS",
     "beverloo-refined": "beverloo:REFINED",
+    "beverloo-calibrated": "beverloo:CALIBRATED",
     "beverloo-mu-i": "beverloo:MU_I",
     "beverloo-mu-i-grain": "beverloo:MU_I_GRAIN",
     "beverloo-dem": "beverloo:DEM",

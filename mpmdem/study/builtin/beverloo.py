@@ -13,6 +13,7 @@ the coupled step may fail. A failed run is a row with its status, marked in the 
 
 from pathlib import Path
 
+from mpmdem.study.references.grain_calibration import DISK_REPOSE_DEG
 from mpmdem.study.study import Study
 
 from .beverloo_analysis import analyze, methods_report
@@ -89,6 +90,18 @@ MU_I = Study(
     grid={"--orifice": [0.02, 0.03, 0.04, 0.05, 0.06], "--cell-size": REFINED_GRIDS},
     fixed={"--material": "mu-i"},
     analyze=_refinement("beverloo-mu-i"),
+)
+
+CALIBRATED = Study(
+    name="beverloo-calibrated",
+    case="silo-discharge",
+    description="Drucker-Prager silo with the DEM disks' angle of repose as phi (psi = 0) on six grids, 5 to 1 mm: "
+                "the continuum calibrated on the grains against the grains' own silo (beverloo-dem)",
+    grid={"--orifice": [0.02, 0.03, 0.04, 0.05, 0.06], "--cell-size": REFINED_GRIDS},
+    # φ: the heaps of the r_p = 1 mm disks (mpmdem.study.references.grain_calibration); ψ = 0: a flow at the
+    # critical state changes no volume, and the grains' dilatancy is not measured
+    fixed={"--friction-angle": DISK_REPOSE_DEG, "--dilatancy-angle": 0.0},
+    analyze=_refinement("beverloo-calibrated"),
 )
 
 MU_I_GRAIN = Study(

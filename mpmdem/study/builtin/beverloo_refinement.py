@@ -31,6 +31,9 @@ from .run_summaries import load_runs
 MIN_CELLS_ACROSS = 10
 #: the Richardson fit uses this many finest grids
 RICHARDSON_GRIDS = 4
+#: the continuum studies charted against the DEM silo: (law, study); a study not run is left out
+LAWS_AGAINST_GRAINS = (("Drucker-Prager", "beverloo-refined"), ("mu(I)", "beverloo-mu-i"),
+                       ("Drucker-Prager, phi of the grains", "beverloo-calibrated"))
 
 
 def _rates(runs: list[dict], key: str) -> dict[tuple[float, float], float]:
@@ -230,7 +233,9 @@ def chart_work_accuracy(studies: Path, path: Path) -> dict:
     dem = {round(float(r["orifice_m"]), 6): r for r in load_runs(studies / "beverloo-dem")
            if r.get("rate") is not None and r["flags"].get("grain-radius") == "0.001"}
     rows = []
-    for law, name in (("Drucker-Prager", "beverloo-refined"), ("mu(I)", "beverloo-mu-i")):
+    for law, name in LAWS_AGAINST_GRAINS:
+        if not (studies / name).is_dir():
+            continue
         for r in load_runs(studies / name):
             ref = dem.get(round(float(r["orifice_m"]), 6))
             if ref is None or r.get("rate") is None:
@@ -238,7 +243,7 @@ def chart_work_accuracy(studies: Path, path: Path) -> dict:
             rows.append({"law": law, "orifice_m": r["orifice_m"], "cell_size": r["cell_size"],
                          "work": r["particles"] * r["steps"], "deviation": r["rate"] / ref["rate"] - 1.0})
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    for i, law in enumerate(("Drucker-Prager", "mu(I)")):
+    for i, (law, _) in enumerate(LAWS_AGAINST_GRAINS):
         sel = [x for x in rows if x["law"] == law]
         ax.scatter([x["work"] for x in sel], [100 * abs(x["deviation"]) for x in sel], color=f"C{i}", s=18,
                    label=f"{law} (5 orifices x grids)")
@@ -259,11 +264,30 @@ def chart_work_accuracy(studies: Path, path: Path) -> dict:
     return {"rows": rows, "dem_work": work_dem}
 
 
+def against_grains(result: dict, grains: dict, radius: str = "0.001") -> dict:
+    """Per D0, the continuum's finest-grid W and its W∞ relative to the DEM silo's W at grain radius
+    ``radius`` (``grains``: ``analyze_dem``): {D0: {"dem", "finest", "w_inf"}}, deviations as W / W_DEM − 1."""
+    dem = grains.get("per_grain_radius", {}).get(radius, {}).get("rate", {})
+    rows = {}
+    for d, e in result["per_orifice"].items():
+        ref = dem.get(d)
+        if ref is None:
+            continue
+        rows[d] = {"dem": ref, "finest": e["rate"][int(np.argmin(e["h_m"]))] / ref - 1.0,
+                   "w_inf": None if e.get("w_inf") is None else e["w_inf"] / ref - 1.0}
+    return rows
+
+
 def analyze_study(out: Path, name: str, density: float, gravity: float) -> dict:
-    """The ``analyze`` of the refinement studies: fits into OUT/<name>.json and a W(h) chart."""
+    """The ``analyze`` of the refinement studies: fits into OUT/<name>.json and a W(h) chart, with the DEM
+    silo (a ``beverloo-dem`` study beside OUT, if there is one) drawn and compared per D0."""
     result = analyze_refinement(load_runs(out), density, gravity)
+    dem_study = Path(out).parent / "beverloo-dem"
+    grains = analyze_dem(load_runs(dem_study), density, gravity) if (dem_study / "runs").is_dir() else None
+    if grains:
+        result["against_grains_r1mm"] = against_grains(result, grains)
     write(result, out, name)
-    chart_rates({name: result}, Path(out) / f"{name}_rate_vs_h.png")
+    chart_rates({name: result}, Path(out) / f"{name}_rate_vs_h.png", grains)
     chart_intercepts({name: result}, None, Path(out) / f"{name}_intercept.png")
     return result
 
@@ -275,8 +299,10 @@ def compare(studies: Path, out: Path) -> dict:
     from ..references.table3 import DENSITY, GRAVITY
 
     studies, out = Path(studies), Path(out)
-    laws = {"Drucker-Prager (Table 3)": "beverloo-refined", "mu(I), d = 2 mm": "beverloo-mu-i"}
-    results = {law: analyze_refinement(load_runs(studies / name), DENSITY, GRAVITY) for law, name in laws.items()}
+    laws = {"Drucker-Prager (Table 3)": "beverloo-refined", "mu(I), d = 2 mm": "beverloo-mu-i",
+            "Drucker-Prager, phi of the grains": "beverloo-calibrated"}
+    results = {law: analyze_refinement(load_runs(studies / name), DENSITY, GRAVITY) for law, name in laws.items()
+               if (studies / name).is_dir()}
     grain = analyze_grain(load_runs(studies / "beverloo-mu-i-grain"), DENSITY, GRAVITY)
     dem = {}
     for path in sorted((studies / "beverloo-dem").glob("silo_dem_*.json")):

@@ -1,0 +1,20 @@
+"""Our DEM grains as a continuum: the friction angles measured by the grain calibration (issue 43 §2,
+``bench/results/studies/grain-calibration/calibration.json``, written by
+``mpmdem.study.builtin.grain_calibration``). A continuum run that stands for these grains takes its
+friction angle from here; ``tests/test_grain_calibration.py`` checks that these constants are the
+committed calibration's, so a new calibration cannot leave a stale copy behind.
+
+The silo's grains (``silo-discharge --sand dem``) are sphero-disks of r_p = 1 mm ± 15 %, grain–grain
+μ = 0.5: their angle of repose by the discharge method (a heap on a ledge, five seeds) is the
+continuum's φ. Disks roll freely (no rolling resistance), hence the low angle against a sand's ~30°.
+"""
+
+__all__ = ["DISK_REPOSE_DEG", "DISK_REPOSE_STD_DEG", "POLYGON_REPOSE_DEG", "POLYGON_REPOSE_STD_DEG", "SOURCE"]
+
+SOURCE = "bench/results/studies/grain-calibration/calibration.json"
+#: angle of repose [deg] of the r_p = 1 mm disks (mean of five heaps) and the heaps' standard deviation
+DISK_REPOSE_DEG = 17.9
+DISK_REPOSE_STD_DEG = 0.6
+#: the same for random convex sphero-polygons of r_p = 1 mm
+POLYGON_REPOSE_DEG = 30.2
+POLYGON_REPOSE_STD_DEG = 2.1
