@@ -72,4 +72,5 @@ def test_against_grains_is_the_ratio_to_the_dem_rate_per_orifice():
     grains = {"per_grain_radius": {"0.001": {"rate": {"0.04": 48.0}}}}
     rows = against_grains(result, grains)
     assert set(rows) == {"0.04"}
-    assert rows["0.04"] == {"dem": 48.0, "finest": pytest.approx(36.0 / 48.0 - 1.0), "w_inf": pytest.approx(40.0 / 48.0 - 1.0)}
+    assert rows["0.04"] == {"dem": 48.0, "finest": pytest.approx(36.0 / 48.0 - 1.0),
+                            "w_inf": pytest.approx(40.0 / 48.0 - 1.0)}
