@@ -178,7 +178,7 @@ def chart_rates(results: dict[str, dict], path: Path, grains: dict | None = None
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel("discharge rate W [kg/(m s)]")
     axes[0][-1].legend(fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5))
-    fig.suptitle("squares at h = 0: Richardson W∞; horizontal lines: DEM grains, r_p = 1 mm (dashed) and "
+    fig.suptitle("squares at h = 0: Richardson W∞;\nhorizontal lines: DEM grains, r_p = 1 mm (dashed) and "
                  "0.5 mm (dotted)", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
