@@ -96,7 +96,7 @@ def test_mu_i_comes_within_10_percent_of_the_grains_at_1_4_mm(mu_i):
 
 @pytest.mark.xfail(strict=True, reason=(
     "Drucker–Prager (Table 3, φ = 35°, ψ = 25°, H100) at h = 1 mm runs 16, 19, 19, 20 and 19 % below the "
-    "r_p = 1 mm grains at D0 = 2-6 cm (14.2, 25.8, 39.6, 55.3, 72.9 against 17.0, 31.8, 49.1, 68.9, 89.7 "
+    "r_p = 1 mm grains at D0 = 2-6 cm (14.2, 25.8, 39.6, 55.3, 72.9 against 17.0, 31.8, 49.1, 68.9, 90.8 "
     "kg/(m s)); its Richardson W∞ (six grids, 5-1 mm) is still 10-18 % below: its friction is the static "
     "one at every rate, where the grains' (and μ(I)'s) rises with I"))
 def test_drucker_prager_comes_within_10_percent_of_the_grains(dp):
@@ -163,3 +163,33 @@ def test_mu_i_follows_the_grains_grain_size():
     runs = {(r["orifice_m"], r["grain_diameter_m"]): r["rate"] for r in load_runs(STUDIES / "beverloo-mu-i-grain")}
     mu_i_gain = runs[(0.04, 0.001)] / runs[(0.04, 0.002)] - 1.0
     assert mu_i_gain == pytest.approx(dem_gain, rel=0.5)
+
+
+@pytest.fixture(scope="module")
+def calibrated():
+    return analyze_refinement(load_runs(STUDIES / "beverloo-calibrated"), DENSITY, GRAVITY)
+
+
+def test_calibrated_drucker_prager_at_2mm_within_10_percent_of_the_grains(calibrated):
+    """Drucker–Prager with the grains' own friction angle (φ = 17.9°, the r_p = 1 mm disks' angle of repose,
+    ψ = 0; study beverloo-calibrated, H100) on the 2 mm grid against the r_p = 1 mm DEM silo at every D0 it
+    has a rate for (2-5 cm: at 6 cm the fast flow leaves too few frames in the window of those runs): the
+    issue's 10 % criterion."""
+    grains = dem_study()["0.001"]["rate"]
+    compared = [d0 for d0 in grains if 0.002 in calibrated["per_orifice"].get(f"{float(d0):g}", {}).get("h_m", [])]
+    assert len(compared) >= 4
+    for d0 in compared:
+        assert rate_at(calibrated, float(d0), 0.002) == pytest.approx(grains[d0], rel=0.10), d0
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "Drucker–Prager with the grains' φ = 17.9° (H100) is not converged at 2 mm: W still rises by 20.8, 8.1, "
+    "6.1 and 5.2 % from 2.5 to 2 mm at D0 = 2-5 cm (14.8 -> 17.9, 32.0 -> 34.6, 50.3 -> 53.3, 69.9 -> 73.5 "
+    "kg/(m s)): the cell size still sets the dead zone, as with Table 3's angles; its agreement with the grains "
+    "at 2 mm is a crossing, and a Richardson W-inf from grids of 5-2 mm lies 26-41 % above them (1.4 and 1 mm "
+    "not run)"))
+def test_calibrated_drucker_prager_is_converged_at_2mm(calibrated):
+    """The issue's convergence target: W changes by < 3 % over the last refinement step run (2.5 -> 2 mm)."""
+    for d0 in (0.02, 0.03, 0.04, 0.05):
+        w2, w25 = rate_at(calibrated, d0, 0.002), rate_at(calibrated, d0, 0.0025)
+        assert abs(w2 - w25) / w2 < 0.03, d0

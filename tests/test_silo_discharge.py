@@ -151,3 +151,19 @@ def test_the_calibrated_sand_takes_the_angles_given():
         ["--device", "cpu", "--friction-angle", "17.9", "--dilatancy-angle", "0"]))
     (sand,) = setup.scene.materials()
     assert (sand.friction_angle, sand.dilatancy_angle) == (17.9, 0.0)
+
+
+@pytest.mark.parametrize("rate, t_setup", [(20.0, 0.1), (150.0, 0.1)])
+def test_steady_rate_recovers_a_linear_discharge_slow_or_fast(rate, t_setup):
+    """M(t) = W (t − t_setup) after a set-up time, frames every 0.02 s, fill 100 kg/m: the fitted slope is W
+    to round-off. A slow flow keeps the standard window [T_START, 40 % drained]; a fast one (40 % gone at
+    0.38 s, before T_START) gets MIN_WINDOW_FRAMES frames before its end, never starting before T_EARLY."""
+    from mpmdem.cases import silo_discharge as case
+
+    t = np.arange(0.0, 1.6 + 1e-9, 0.02)
+    m = np.minimum(np.maximum(rate * (t - t_setup), 0.0), 100.0)
+    out = case.steady_rate(t, m, 100.0)
+    assert out["rate"] == pytest.approx(rate, rel=1e-9)
+    start, _ = out["window_s"]
+    assert start == (case.T_START if rate < 50.0 else pytest.approx(0.38 - case.MIN_WINDOW_FRAMES * 0.02))
+    assert start >= case.T_EARLY and out["window_frames"] >= case.MIN_WINDOW_FRAMES
