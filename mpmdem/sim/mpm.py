@@ -187,7 +187,7 @@ class MPMSolver(ClockedStage):
         #: G2P reads the wall images itself (``transfer.make_g2p``'s ``mirror``): USL and MUSL,
         #: where only G2P reads the mirrored velocities, not XPIC's passes or Liu's exchange
         tn = self.tuning
-        edges = GridEdges(self, grid_dim, mirror_in_g2p=(
+        edges = GridEdges(self.model, c, grid_dim, G=G, D=D, clock=clock, device=self.device, mirror_in_g2p=(
             tn.mirror_in_g2p and c.update in ("USL", "MUSL") and not s.xpic
             and not (self.coupled and c.coupling == "liu") and n < tn.images_in_kernels_points))
         self.wall_band, self.mirror_in_g2p = edges.wall_band, edges.mirror_in_g2p
