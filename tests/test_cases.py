@@ -1,57 +1,12 @@
-"""Each case runs as a script and through the CLI; its summary.json holds the checked figures."""
+"""The cases through the CLI, its errors, and the Sulsky disks' convergence (each case's quick run
+and its figures: tests/test_case_table.py)."""
 
 import json
 import subprocess
 import sys
-from pathlib import Path
 
-import numpy as np
 import pytest
 from helpers import ENV, run_script
-
-from mpmdem.io import RunFile
-
-
-def test_axial_bar_matches_analytic_first_mode(tmp_path):
-    """Verify the bar's centre-of-mass velocity follows (2 v0/π) cos(ωt) over one period."""
-    s = run_script("axial_bar", tmp_path)
-    assert s["status"] == "completed"
-    # 16 cells, quadratic B-splines, APIC/USL: the error is the O(h²) spatial error of the
-    # discrete mode (measured 0.7 %; 0.19 % at 32 cells, second order, bench/convergence.py).
-    # 2 % leaves room for f64 platform differences but fails on a first-order defect (which
-    # gave 7-12 % at this resolution before the wall image points were added).
-    assert s["centre_velocity_error_max"] < 0.02
-
-
-def test_elastic_column_matches_static_stress(tmp_path):
-    """Verify σ_yy = −ρ g (H − y) after gravity is ramped on over whole periods."""
-    s = run_script("elastic_column", tmp_path)
-    # 8 cells over the height: the profile's rms error is the interpolation error of a linear
-    # field sampled by points near the free top and the fixed base (measured 0.9 % of ρgH);
-    # a residual dynamic oscillation or a wrong base condition would give ≥ 10 %.
-    assert s["stress_error_rms"] < 0.03
-    assert s["stress_error_max"] < 0.06
-    assert s["base_stress"] == pytest.approx(s["base_stress_exact"], rel=0.05)
-
-
-def test_sulsky_disks_rebound_and_conserve_momentum(tmp_path):
-    """Verify the Sulsky disks: they rebound, momentum is conserved, the file opens."""
-    s = run_script("sulsky_disks", tmp_path)
-    assert s["rebounded"]
-    # f32: Σ m v of ~250 points summed each frame; round-off ~1e-7 relative per step
-    assert s["momentum_drift_relative"] < 1e-5
-    # Reference: the collision of two Neo-Hookean disks is elastic ("MPM notes", Sulsky et al. 1995
-    # §7.3): the exact total energy stays at its initial value. An explicit APIC + USL step may lose
-    # energy, never create it (bound exact up to f32 round-off of the sums, 1e-5); the loss is a
-    # discretisation error, so it must shrink under refinement (see the next test).
-    assert s["total_energy_final_over_initial"] <= 1.0 + 1e-5
-    with RunFile(Path(s["output"])) as run:
-        assert run.frame_count >= 2
-        assert run.attrs["config"]["transfer"] == "APIC"
-        x = run.field("x", -1)
-        assert np.isfinite(x).all()
-    assert (tmp_path / "energy.csv").read_text().startswith("time,")
-    assert (tmp_path / "sulsky_disks.xdmf").exists()
 
 
 def test_sulsky_disks_energy_loss_converges(tmp_path):

@@ -22,7 +22,7 @@ def launches(items, inline_all=True):
 
 
 def relabel_plan(relabel_inline: bool, rebuild_inline: bool):
-    """The Granular MPM relabel as ``granular_state.granular_plan`` lays it out: the rebuild block
+    """The Granular MPM relabel as ``granular_state.make_granular_plan`` lays it out: the rebuild block
     nested first in the relabel block, then the relabel's own kernels; the list rebuilds before it."""
     rebuild = IfFlag(None, [Launch("reset_search", 1, []), Launch("link", 1, [])], inline=rebuild_inline)
     relabel = IfFlag(None, [rebuild, Launch("relink", 1, []), Launch("label", 1, [])], inline=relabel_inline)
