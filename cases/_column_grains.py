@@ -188,7 +188,7 @@ def summarize(sim, result, args) -> dict:
     centres, top = surface_profile(xk, rk, 0.0, 2.0 * d, end=min(connected, w) if args.floor == "ledge" else connected)
     flank = flank_angle(centres, top, floor=y0)
     # the steepest secant from the surface to the connected front: the deposit lies under the line of
-    # this slope that ends at the front (the bound of tests/test_column_dem.py's area argument)
+    # this slope that ends at the front (the bound of tests/cases/test_column_dem.py's area argument)
     ahead = [(t - y0) / (connected - c) for c, t in zip(centres, top, strict=True) if c < connected - d]
     secant = math.degrees(math.atan(max(ahead))) if ahead else None
     pred_runout, pred_height = cc.lube_runout(a), cc.lube_height(a)

@@ -71,7 +71,7 @@ VALIDATION = [
     Check("dem_speed_final", 1.992, "MPM-SDEM §5.1.1 (text under Fig. 7): hard disk", 0.02, _GRID, relative=False,
           flags=("--quick",),
           known_gap="with Table 1's k_n the exchange is set by the grid; the rest stays in the MPM disk as "
-                    "vibrations (tests/test_coupling_energy.py)", gap_bounds=(-0.15, -0.04),
+                    "vibrations (tests/cases/test_coupling_energy.py)", gap_bounds=(-0.15, -0.04),
           gap_source="1.85-1.87 m/s at this size and Table 1's, 1.90-1.94 on grids down to 0.5 mm (the header), "
                      "rounded outward to 0.01 m/s"),
     Check("kinetic_energy_ratio", 0.99202, "MPM-SDEM §5.1.1: 99.202 % of the elastic collision's E_k", 0.02, _GRID,

@@ -59,7 +59,7 @@
 # closed by a gate plate (mpmdem.sim.packing.settle), then moved into the open silo at t = 0: the flow
 # starts from a settled pack, as the MPM fill starts at rest. Grain density: the continuum's
 # 1500 kg/m³ over the packing fraction φ = PACKING_FRACTION of a settled pack of these grains
-# (0.82, measured by tests/test_grains.py, inside Berryman's 2D 0.82 ± 0.02), so that the pack's
+# (0.82, measured by tests/model/test_grains.py, inside Berryman's 2D 0.82 ± 0.02), so that the pack's
 # bulk density is the continuum's. M(t) is the same mass probe (it counts free bodies by their
 # centroid), and W the same fit; its Beverloo reference uses r_p = the grain radius. (A flowing
 # pack dilates a little: its density near the orifice is below the settled 1500 kg/m³.)
@@ -67,7 +67,7 @@
 # What --sand dem gives on a CPU (2 cores, f32): --quick (0.2 m wide, 15 cm fill, D0 = 4 cm, 8568
 # grains, 0.6 s: 86 s) W = 44.6 kg/(m s), steady (halves 44.9 and 44.2), 2.2 × the paper's curve
 # (C = 1.28 with k = 2.2 r_p); a 4 cm silo with D0 = 6 grain diameters 1.9-2.1 × (pentagons 1.9 ×);
-# D0 = 2 diameters jams within 0.05 s (tests/test_silo_dem.py). The grains flow faster than the
+# D0 = 2 diameters jams within 0.05 s (tests/cases/test_silo_dem.py). The grains flow faster than the
 # law, as the MPM sand does under refinement (C = 1.0): disks roll freely (no rolling resistance).
 """Silo discharge (MPM-SDEM §5.3): sand drains through an orifice into a container; rate vs 2D Beverloo."""
 
@@ -159,7 +159,7 @@ METHODS = {
     "obstacle-fixed": ("granular", None, "obstacle-fixed"),
 }
 #: --sand dem: grain-grain Coulomb μ (a sand's; a pair with a plate takes the plates' Table 3 μ = 0.2) and
-#: the solid fraction of a settled pack of these grains (tests/test_grains.py; Berryman 1983: 0.82 ± 0.02),
+#: the solid fraction of a settled pack of these grains (tests/model/test_grains.py; Berryman 1983: 0.82 ± 0.02),
 #: shared with the other cases' grains (mpmdem.sim.gated_grains)
 GRAIN_FRICTION = gated_grains.GRAIN_FRICTION
 PACKING_FRACTION = gated_grains.PACKING_FRACTION

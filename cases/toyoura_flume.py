@@ -59,7 +59,7 @@ DESCRIPTION = "Toyoura sand flows down a 45° flume onto a load cell: arrival, i
 DEFAULTS = {"granular": True, "shape": "ugimp", "transfer": "APIC", "update": "USL", "precision": "f64"}
 # No validation check: "Granular MPM" §4.4 compares with Moriguchi et al.'s experiment only as curves
 # (Fig. 19 flow surfaces, Fig. 20 load-cell force against time) and states no arrival time, peak
-# force or runout in its text; the seeds give no number to check against (tests/test_granular_cases.py
+# force or runout in its text; the seeds give no number to check against (tests/cases/test_granular_cases.py
 # checks physical bounds only).
 VALIDATION: list = []
 

@@ -73,7 +73,7 @@ def land_on_stop(clock: wp.array(dtype=wp.float64), dt: wp.float64) -> wp.float6
     error. Equal steps across the frame keep dt constant within it: with a fixed dt that divides
     the frame, dt itself; otherwise a dt smaller by less than one step per frame, and a change
     between frames of order dt² / frame length, which keeps the update second order
-    (tests/test_convergence.py).
+    (tests/sim/test_convergence.py).
     """
     return land(clock[CLOCK_T], clock[CLOCK_T_STOP], dt)
 

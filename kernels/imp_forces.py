@@ -13,7 +13,7 @@ reaction torque is taken about the same line of action, (x_p − c_i) × (−f_p
 lever to the contact point p(x_p, E_i); with friction that adds a couple f_t (r_p − ξ/2) per
 contact that nothing balances, and total angular momentum drifts. The ``grid`` scheme, which puts
 the force on the grid node nearest the contact point, takes the contact point's lever (the node
-is within a cell of it: angular momentum then drifts by that much, see tests/test_coupling.py).
+is within a cell of it: angular momentum then drifts by that much, see tests/sim/test_coupling.py).
 """
 
 import functools

@@ -233,7 +233,7 @@ class MuI(Material):
 
     Well-posedness: the incompressible μ(I) equations are ill-posed at low and at high I (Barker
     et al. 2015). This model adds no regulariser: it is compressible and elastic (finite G and K),
-    and the grid spacing bounds the shortest wave. ``tests/test_mu_i_grid.py`` runs a slow,
+    and the grid spacing bounds the shortest wave. ``tests/sim/test_mu_i_grid.py`` runs a slow,
     low-I flow and checks that no grid-scale noise grows (docs/concepts/mu-i.md).
     """
 

@@ -1,7 +1,8 @@
 """Whether the Granular MPM block of a step is a conditional graph node or launched in line.
 
-The interaction graph's rebuild and relabel (``granular_state.granular_plan``) run only in the
-steps whose flag asks for them: inside a CUDA graph, as conditional nodes (``launch_plan.IfFlag``).
+The interaction graph's rebuild and relabel (``GranularPlan.start``, ``mpmdem.sim.granular_state``) run
+only in the steps whose flag asks for them: inside a CUDA graph, as conditional nodes
+(``launch_plan.IfFlag``).
 A skipped conditional node costs a few µs (bench/launch_floor.py); a taken one costs more than
 the same kernels laid in line, where each reads its flag and returns at once in a step that needs
 nothing: scenes whose block runs in nearly every step (sand-blocks, silo-discharge) are faster in

@@ -37,8 +37,9 @@ from .mpm import AFTER_FORCE_UPDATE, MPMSolver
 from .stage import ClockedStage
 from .step_streams import StepStreams
 from .tuning import Tuning
+from .views import BodiesView
 
-__all__ = ["CoupledStage", "contact_time_step_bound"]
+__all__ = ["CoupledStage", "bodies_view", "contact_time_step_bound"]
 
 
 def contact_time_step_bound(scene: Scene | Model, point_mass: float) -> float:
@@ -52,6 +53,12 @@ def contact_time_step_bound(scene: Scene | Model, point_mass: float) -> float:
     """
     return spring_time_step_bound(scene.coupling_contact or scene.contact, point_mass)
 
+
+
+def bodies_view(dem: DEMSolver) -> BodiesView:
+    """What the coupled stage sees of ``dem``'s bodies (``mpmdem.sim.views``), built once."""
+    return BodiesView(struct=dem.B, world=dem.world, count=dem.body_count, moving=dem.moving, free=dem.free,
+                      order=dem.order, columns=dem.arrays)
 
 
 class CoupledStatus(NamedTuple):
@@ -82,6 +89,9 @@ class CoupledStage(ClockedStage):
                              "0 or None in a scene with rigid bodies and points (the point–body lists follow the "
                              "points' memory order; None re-sorts nothing here)")
         self.model, self.config, self.mpm, self.dem = model, config, mpm, dem
+        #: what this stage reads and writes of the two stages' arrays (``mpmdem.sim.views``); the
+        #: stages themselves only step, report and check
+        self.points, self.grid, self.bodies = mpm.points_view, mpm.grid_view, bodies_view(dem)
         self.tuning = tuning or mpm.tuning
         self.device = wp.get_device(device)
         if mpm.sim_clock is not dem.sim_clock:
@@ -91,7 +101,7 @@ class CoupledStage(ClockedStage):
         self.clock, self.steps = mpm.clock, mpm.steps
         law = model.coupling_contact or model.contact
         self.law = law
-        host_mass = mpm.P.mass.numpy()
+        host_mass = self.points.mass.numpy()
         self.contact_bound = contact_time_step_bound(model, float(host_mass.min()))
         self.dt_bound = min(self.contact_bound, dem.dt_bound)
         kappa = math.pi * config.dem_kappa
@@ -100,7 +110,7 @@ class CoupledStage(ClockedStage):
         check_time_step(config, self.dt_bound, f"{self.dt_bound:.6g} s of the contacts (a point of the smallest mass "
                         f"on k_n: {self.contact_bound:.6g} s; the rigid bodies: {dem.dt_bound:.6g} s); "
                         f"{eq51_step(config, self.dt_bound)}")
-        self.k = coupling_kernels.make_coupling_kernels(config.precision, config.coupling, staged=mpm.staged,
+        self.k = coupling_kernels.make_coupling_kernels(config.precision, config.coupling, staged=self.points.staged,
                                            deterministic=config.deterministic)
         self._allocate()
         self.liu = None
@@ -114,17 +124,17 @@ class CoupledStage(ClockedStage):
 
     # -- set-up -------------------------------------------------------------------------------
     def _allocate(self) -> None:
-        k, mpm, dem, cfg, dev = self.k, self.mpm, self.dem, self.config, self.device
+        k, pts, bodies, cfg, dev = self.k, self.points, self.bodies, self.config, self.device
         model = self.model
-        n = mpm.particle_count
+        n = pts.count
         S = cfg.imp_max_bodies
         T = np.float32 if cfg.precision == "f32" else np.float64
-        t = mpm.types
+        t = pts.types
         h = model.cell_size
         veci = wp.types.vector(coupling_kernels.IMP_HISTORY, wp.int32)
         vech = wp.types.vector(coupling_kernels.IMP_HISTORY, t.scalar)
 
-        nb = dem.body_count
+        nb = bodies.count
         device = "cuda" if dev.is_cuda else "cpu"
         tn = self.tuning
         #: every point lists every body, for the whole run (``tuning.static_imp_bodies``): no list check
@@ -148,13 +158,13 @@ class CoupledStage(ClockedStage):
         L.old_key = wp.full(n * S, veci(-1, -1), dtype=veci, device=dev)
         L.old_slip = wp.zeros(n * S, dtype=vech, device=dev)
         L.x_ref = wp.full(n, t.vec2(1.0e30, 1.0e30), dtype=t.vec2, device=dev)
-        L.body_x_ref = wp.clone(dem.B.x)
-        L.body_angle_ref = wp.clone(dem.B.angle)
-        radius = mpm.point_contact_radius.astype(T)
+        L.body_x_ref = wp.clone(bodies.struct.x)
+        L.body_angle_ref = wp.clone(bodies.struct.angle)
+        radius = pts.contact_radius.astype(T)
         L.radius = wp.array(radius, dtype=t.scalar, device=dev)
         L.energy = wp.zeros(n, dtype=t.scalar, device=dev)
         L.dissipated = wp.zeros(n, dtype=wp.vec2d, device=dev)
-        L.contact_at = mpm.contact_at
+        L.contact_at = pts.contact_at
         L.active = wp.zeros(n, dtype=wp.int32, device=dev)
         if self.static_lists:  # every point, in order: the force kernel visits them all
             L.listed = wp.array(np.arange(n, dtype=np.int32), dtype=wp.int32, device=dev)
@@ -171,15 +181,15 @@ class CoupledStage(ClockedStage):
 
         mats = model.materials
         rigid = len(model.rigid_bodies)
-        names = [model.rigid_bodies[i].name if i < rigid else None for i in dem.order.tolist()]
-        own = dem.arrays.friction[dem.order].tolist()  # (grains: their set's μ; no per-grain override)
+        names = [model.rigid_bodies[i].name if i < rigid else None for i in bodies.order.tolist()]
+        own = bodies.columns.friction[bodies.order].tolist()  # (grains: their set's μ; no per-grain override)
         mu = np.array([[model.coupling_friction.get((m, name), f) for name, f in zip(names, own, strict=True)]
                        for m in mats], T)
-        vols = mpm.P.vol.numpy()
+        vols = pts.vol.numpy()
         per_cell = h * h / float(vols.min())
         self.skin = float(cfg.imp_skin) if cfg.imp_skin is not None else 0.5 * h
         self.cell_cap = cfg.imp_cell_capacity or int(max(16, math.ceil(4.0 * per_cell)))
-        rows, cols = mpm.D.layer_rows, mpm.grid_shape[1]
+        rows, cols = self.grid.shape
         self.cells = (rows - 1, cols - 1)
 
         params = k.Params()
@@ -188,12 +198,12 @@ class CoupledStage(ClockedStage):
         params.law.zeta = self.law.damping_ratio
         params.skin = self.skin
         params.r_max = float(radius.max())
-        params.cell_origin = mpm.D.origin
+        params.cell_origin = self.grid.origin
         params.inv_cell = 1.0 / h
         params.cells_x, params.cells_y = self.cells
         params.cell_cap = self.cell_cap
         params.bodies = nb
-        params.moving = dem.moving
+        params.moving = bodies.moving
         params.tile = tn.imp_build_tile
         params.friction = wp.array(mu.ravel(), dtype=t.scalar, device=dev)
         self.params = params
@@ -216,8 +226,8 @@ class CoupledStage(ClockedStage):
         bodies' own grid. Edge carriers closer than a cell keep a long body (a floor slab) present at
         every node along it: carriers only at the vertices and edge midpoints of a 54 cm slab let
         sand fall through between them."""
-        dem, mpm, dev = self.dem, self.mpm, self.device
-        t = mpm.types
+        bodies, dev = self.bodies, self.device
+        t = self.points.types
         h = self.model.cell_size
         local, owner, share = [], [], []
 
@@ -225,8 +235,8 @@ class CoupledStage(ClockedStage):
             n = max(2, int(np.ceil(np.linalg.norm(b - a) / (0.5 * h))))
             return a + np.outer(np.arange(1, n) / n, b - a)  # interior points of edge a→b
 
-        cols = dem.arrays
-        for j, i in enumerate(dem.order):
+        cols = bodies.columns
+        for j, i in enumerate(bodies.order):
             v = cols.local[cols.starts[i]:cols.starts[i] + cols.counts[i]]
             if len(v) == 1:
                 a = 0.5 * cols.radius[i]
@@ -240,7 +250,7 @@ class CoupledStage(ClockedStage):
             share += [1.0 / len(pts)] * len(pts)
         k = coupling_kernels.make_liu_kernels(self.config.precision)
         T = np.float32 if self.config.precision == "f32" else np.float64
-        shape = (mpm.D.layer_rows, mpm.grid_shape[1])
+        shape = self.grid.shape
         BG = k.BodyGrid()
         BG.mass = wp.zeros(shape, dtype=t.scalar, device=dev)
         BG.mom = wp.zeros(shape, dtype=t.vec2, device=dev)
@@ -256,11 +266,13 @@ class CoupledStage(ClockedStage):
         BG.mass.zero_()
         BG.mom.zero_()
         BG.grad.zero_()
-        wp.launch(k.carriers_to_grid, n, inputs=[self.dem.B, BG, self.mpm.D, self.clock], device=self.device)
+        wp.launch(k.carriers_to_grid, n, inputs=[self.bodies.struct, BG, self.grid.domain, self.clock],
+                  device=self.device)
 
     def _liu_exchange(self) -> None:
         k, BG, _ = self.liu
-        wp.launch(k.exchange, BG.mass.shape, inputs=[self.mpm.G, self.mpm.D, BG, self.dem.B, self.clock],
+        grid = self.grid
+        wp.launch(k.exchange, BG.mass.shape, inputs=[grid.struct, grid.domain, BG, self.bodies.struct, self.clock],
                   device=self.device)
 
     # -- stepping -------------------------------------------------------------------------------
@@ -281,14 +293,15 @@ class CoupledStage(ClockedStage):
         # relabel laid in line) runs beside the contact forces
         head, tail = split_after_conditionals(self.start_plan)
         run_plan(group_conditionals(head, self.any_start), self.device, mpm.extensions)
-        with branches.branch("dem", work=bool(dem.free)):
+        with branches.branch("dem", work=bool(self.bodies.free)):
             dem.contact_forces()
         if self.liu is None:
             with branches.branch("imp", work=bool(tail)):  # (the IMP forces read no label)
                 self.imp_forces()
             run_plan(tail, self.device, mpm.extensions)
             branches.join("imp")
-            with branches.branch("dem", work=bool(dem.moving)):  # (after the IMP forces: their reactions are in)
+            # (after the IMP forces: their reactions are in)
+            with branches.branch("dem", work=bool(self.bodies.moving)):
                 dem.body_update()
             mpm.run_sequence(start=False)
         else:  # (the exchange reads and loads the bodies: no branch is taken, ``streams``)
@@ -305,12 +318,13 @@ class CoupledStage(ClockedStage):
         flagged, so in a CUDA graph it is one conditional node (built once: its arrays live as long
         as the stage)."""
         k, L, params, flags, clock = self.k, self.L, self.params, self.flags, self.clock
-        points, B, n = self.mpm.P, self.dem.B, self.mpm.particle_count
+        bodies = self.bodies
+        points, B, n = self.points.struct, bodies.struct, self.points.count
         rebuild = [
             Launch(k.clear_cells, len(self.cell_count), [flags, self.cell_count]),
             Launch(k.bin_points, n, [points, L, params, clock, flags, self.cell_count, self.cell_items, self.status]),
-            Launch(k.build_lists, self.dem.body_count * self.tuning.imp_build_tile,
-                   [points, B, L, params, self.dem.world, flags, self.cell_count, self.cell_items, self.status]),
+            Launch(k.build_lists, bodies.count * self.tuning.imp_build_tile,
+                   [points, B, L, params, bodies.world, flags, self.cell_count, self.cell_items, self.status]),
             Launch(k.finish_lists, n, [L, flags]),
             Launch(k.finish_rebuild, 1, [flags, self.rebuilds]),
         ]
@@ -333,26 +347,26 @@ class CoupledStage(ClockedStage):
     def clears_loads(self) -> bool:
         """Whether ``check_lists`` clears the bodies' loads: with no free body the DEM stage has no
         contact launch of its own to do it (``DEMSolver.contact_checks``), and the IMP step has."""
-        return self.listed and not self.dem.free
+        return self.listed and not self.bodies.free
 
     def check_lists(self) -> None:
         """Flag a rebuild of the point–body lists when a point or a moving body moved more than
         half the skin since the last build (with ``clears_loads``, the bodies' loads cleared in
         the same launch)."""
-        n, dem = self.mpm.particle_count, self.dem
-        clear = dem.body_count if self.clears_loads else 0
-        wp.launch(self.k.check_lists, max(n, dem.moving, clear),
-                  inputs=[self.mpm.P, dem.B, self.L, self.params, self.clock, self.flags, dem.moving, clear],
+        n, bodies = self.points.count, self.bodies
+        clear = bodies.count if self.clears_loads else 0
+        wp.launch(self.k.check_lists, max(n, bodies.moving, clear),
+                  inputs=[self.points.struct, bodies.struct, self.L, self.params, self.clock, self.flags,
+                          bodies.moving, clear],
                   device=self.device)
 
     def imp_forces(self) -> None:
         """The IMP forces of this step on the points (and their reactions on the bodies); large
         scenes first sift the listed points, and search only those near a body (``sifted``)."""
+        P, B, world, n = self.points.struct, self.bodies.struct, self.bodies.world, self.points.count
         if self.sifted:
-            wp.launch(self.k.sift, self.mpm.particle_count,
-                      inputs=[self.mpm.P, self.dem.B, self.L, self.dem.world, self.clock], device=self.device)
-        wp.launch(self.forces_kernel, self.mpm.particle_count,
-                  inputs=[self.mpm.P, self.dem.B, self.L, self.params, self.dem.world, self.clock, self.status],
+            wp.launch(self.k.sift, n, inputs=[P, B, self.L, world, self.clock], device=self.device)
+        wp.launch(self.forces_kernel, n, inputs=[P, B, self.L, self.params, world, self.clock, self.status],
                   device=self.device)
 
     @functools.cached_property
@@ -406,7 +420,7 @@ class CoupledStage(ClockedStage):
         m = self.mpm.diagnostics()
         d = self.dem.diagnostics()
         self.diag.zero_()
-        wp.launch(self.k.diagnostics, self.mpm.particle_count, inputs=[self.L, self.diag], device=self.device)
+        wp.launch(self.k.diagnostics, self.points.count, inputs=[self.L, self.diag], device=self.device)
         imp = dict(zip(coupling_kernels.IMP_DIAG_NAMES, (float(v) for v in self.diag.numpy()), strict=True))
         out = dict(m)
         for name in self._SUMMED:
@@ -440,5 +454,5 @@ class CoupledStage(ClockedStage):
                      "dissipated", "active", "listed", "listed_count"):
             arrays[f"imp.{name}"] = getattr(L, name)
         arrays.update({"imp.flags": self.flags, "imp.rebuilds": self.rebuilds, "imp.status": self.status,
-                       "imp.fcont": self.mpm.P.fcont})
+                       "imp.fcont": self.points.fcont})
         return arrays

@@ -8,17 +8,21 @@ every stage names its likely causes through ``Stage.likely_cause``, built from t
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 import numpy as np
 import warp as wp
 
 from ..errors import BlowUpError
-from ..kernels import granular as granular_kernels
 from ..kernels import grid as grid_kernels
 from ..kernels import reductions as reduction_kernels
+from ..model.config import SolverConfig
+from ..model.finished import Model
+from .granular_state import GranularPlan
+from .stage import Clock
 
-__all__ = ["EnergyBalance", "check_energy", "check_point_status", "coupled_likely_cause", "likely_cause",
-           "point_diagnostics"]
+__all__ = ["EnergyBalance", "PointStage", "check_energy", "check_point_status", "coupled_likely_cause",
+           "likely_cause", "point_diagnostics"]
 
 
 def likely_cause(config, scene, dt: float, bound: float) -> str:
@@ -47,7 +51,30 @@ def coupled_likely_cause(config, scene, overlap: str, dt: float, bound: float, c
             f"{contact_bound:.3g} s): lower dem_kappa or dt")
 
 
-def check_point_status(stage, t: float, dt: float, bound: float, status: np.ndarray) -> None:
+class PointStage(Protocol):
+    """What the checks and sums of the points read of the MPM stage (``MPMSolver``), none written."""
+
+    model: Model
+    config: SolverConfig
+    device: object
+    particle_count: int
+    points: object  # the ``Particles`` struct
+    D: object  # the ``Domain`` struct
+    materials: wp.array
+    sim_clock: Clock
+    diag: wp.array  # float64[len(DIAG_NAMES)]
+    work: wp.array  # float64: works and impulses per slot (``kernels.grid.WORK_SLOTS``)
+    probe_boxes: wp.array
+    probe_mass: wp.array
+    diagnostics_kernel: wp.Kernel
+    probe_mass_kernel: wp.Kernel
+    granular_layers: int
+    granular: GranularPlan | None
+
+    def likely_cause(self, dt: float, bound: float) -> str: ...
+
+
+def check_point_status(stage: PointStage, t: float, dt: float, bound: float, status: np.ndarray) -> None:
     """Raise BlowUpError for NaN/inf or escaped points, or a granular node out of grid layers
     (counted by the G2P and P2G kernels of the MPM ``stage``)."""
     if status[0] > 0 or not math.isfinite(t):
@@ -68,9 +95,13 @@ def check_point_status(stage, t: float, dt: float, bound: float, status: np.ndar
             f"boundary on that side, or an unstable step ({stage.likely_cause(dt, bound)}).", t)
 
 
-def point_diagnostics(stage) -> dict[str, float]:
+def point_diagnostics(stage: PointStage, mark: tuple[float, np.ndarray]) -> tuple[dict[str, float],
+                                                                                 tuple[float, np.ndarray]]:
     """Energies [J/m], momenta [kg/s, kg m/s per m], mass [kg/m], works, forces on the obstacles
-    [N/m] and granular counts of the MPM ``stage`` now."""
+    [N/m] and granular counts of the MPM ``stage`` now, and the mark of the next call.
+
+    ``mark``: (t [s], impulses on the obstacles [N s/m]) at the previous call (the forces are the
+    impulse since then over the time since then); the new mark is returned, not stored."""
     stage.diag.zero_()
     t_now = stage.sim_clock.time
     wp.launch(stage.diagnostics_kernel, stage.particle_count,
@@ -89,20 +120,17 @@ def point_diagnostics(stage) -> dict[str, float]:
     # force on the obstacles [N/m]: impulse since the previous call / time since then
     impulse = sums[grid_kernels.IMPULSE_BASE:]
     t_now = stage.sim_clock.time
-    t_prev, i_prev = stage.impulse_mark
+    t_prev, i_prev = mark
     span = t_now - t_prev
     force = (impulse - i_prev) / span if span > 0.0 else np.zeros_like(impulse)
-    stage.impulse_mark = (t_now, impulse)
     for k, wall in enumerate(grid_kernels.WALLS if stage.model.obstacles else ()):
         out[f"force_{wall}_x"] = float(force[2 * k])
         out[f"force_{wall}_y"] = float(force[2 * k + 1])
     out["energy_total"] = out["energy_kinetic"] + out["energy_strain"] + out["energy_gravity"]
-    if stage.config.granular:
-        out["components"], out["layers"] = (float(v) for v in stage.granular_statistics())
-        flags = stage.interaction.flags.numpy()
-        out["granular_rebuilds"] = float(flags[granular_kernels.FLAG_COUNT])
-        out["granular_relabels"] = float(flags[granular_kernels.FLAG_RELABELS])
-    return out
+    if stage.granular is not None:
+        out["components"], out["layers"] = (float(v) for v in stage.granular.statistics())
+        out["granular_rebuilds"], out["granular_relabels"] = (float(v) for v in stage.granular.counts())
+    return out, (t_now, impulse)
 
 
 class EnergyBalance:

@@ -41,7 +41,7 @@ __all__ = ["GRAIN_FRICTION", "PACKING_FRACTION", "RESTITUTION", "grain_density",
 GRAIN_FRICTION = 0.5
 #: restitution of a grain-grain impact (sets the normal dashpot, ``ContactLaw``)
 RESTITUTION = 0.5
-#: solid fraction of a settled pack of ±15 % sphero-disks (tests/test_grains.py measures 0.82-0.83;
+#: solid fraction of a settled pack of ±15 % sphero-disks (tests/model/test_grains.py measures 0.82-0.83;
 #: Berryman 1983: 2D random close packing 0.82 ± 0.02)
 PACKING_FRACTION = 0.82
 #: the longest settling, in free falls through the height the grains start from

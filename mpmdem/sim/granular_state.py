@@ -1,5 +1,6 @@
-"""Granular MPM on the MPM stage ("Granular MPM" §3.3–3.4): the arrays of the interaction graph,
-the launches that build it and label its components at the start of a step, and host-side
+"""Granular MPM on the MPM stage ("Granular MPM" §3.3–3.4): the arrays of the interaction graph
+(``make_interaction``) and the ``GranularPlan`` the stage owns: the kernels of its variant, the
+launches that build the graph and label its components at the start of a step, and host-side
 inspection (components, layers in use, domains of interaction).
 
 The kernels are in ``kernels/granular.py``; this module sizes their arrays and orders them.
@@ -8,6 +9,7 @@ The kernels are in ``kernels/granular.py``; this module sizes their arrays and o
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import warp as wp
@@ -19,8 +21,7 @@ from ..kernels.shape_functions import SUPPORT_NODES
 from .launch_plan import IfFlag, Launch
 from .tuning import Tuning
 
-__all__ = ["components", "granular_plan", "granular_statistics", "interaction_domains", "make_interaction",
-           "node_ranges", "static_extent"]
+__all__ = ["GranularPlan", "make_granular_plan", "make_interaction", "node_ranges", "static_extent"]
 
 
 def static_extent(scene, config, host: dict, mats: list) -> np.ndarray:
@@ -136,40 +137,142 @@ def make_interaction(scene, config, host: dict, mats: list, points, grid_shape, 
     return S, scan_totals
 
 
-def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
-    """Granular MPM tasks 1-2 at the start of a step: interaction graph and components (the
-    copies of each node are claimed in the P2G that follows, kernels/granular.py).
+@dataclass(frozen=True)
+class GranularPlan:
+    """Granular MPM on one MPM stage, built once (``make_granular_plan``) and owned by it
+    (``MPMSolver.granular``): the interaction graph, the kernels of its variant by name, the launches
+    of a step's start and end, and the host-side inspection.
 
-    Returns (plan, judge, check): the launches, the kernel that decides at the end of the step
-    whether the next one rebuilds (None: domains that deform rebuild every step) and the launch
-    that goes after the step's last G2P (None with no judge). The lanes and the nesting of the
-    rebuild come from ``stage.tuning``.
+    Attributes:
+        interaction: the ``Interaction`` struct (``kernels/granular.py``; its ``flags`` say what the
+            next step rebuilds or relabels).
+        scan_totals: the tile totals of the cell counts' prefix sums (``kernels/scan.py``).
+        stats: int32[2]: components and layers in use (``statistics``).
+        kernels: the interaction graph's kernels of this variant (``GranularKernels``).
+        start: the plan of a step's start: tasks 1-2, the graph (when flagged) and the components
+            (the copies of each node are claimed in the P2G that follows, kernels/granular.py).
+        judge: the kernel that decides at the end of a step whether the next one rebuilds (None:
+            domains that deform rebuild every step).
+        check: the launch that goes after the step's last G2P (None with no judge).
+        points, G, D, clock: the MPM stage's structs and clock the kernels take.
+        shape, precision, staged: the variant (``SolverConfig.shape``, ``precision``; points
+            released later).
+        layer_nodes: nodes of one grid layer (rows × columns).
+        device: the Warp device.
     """
-    c = stage.config
-    n = stage.particle_count
+
+    interaction: object
+    scan_totals: tuple
+    stats: wp.array
+    kernels: granular_kernels.GranularKernels
+    start: list
+    judge: object | None
+    check: Launch | None
+    points: object
+    G: object
+    D: object
+    clock: wp.array
+    shape: str
+    precision: str
+    staged: bool
+    layer_nodes: int
+    device: object
+
+    @property
+    def particle_count(self) -> int:
+        """Number of material points."""
+        return len(self.points.x)
+
+    @property
+    def deforming(self) -> bool:
+        """Whether the domains of interaction follow F (``DEFORMING_DOMAINS``): a rebuild every step."""
+        return self.shape in granular_kernels.DEFORMING_DOMAINS
+
+    def counts(self) -> tuple[int, int]:
+        """(rebuilds, relabels) of the interaction graph since the start (one host sync)."""
+        flags = self.interaction.flags.numpy()
+        return int(flags[granular_kernels.FLAG_COUNT]), int(flags[granular_kernels.FLAG_RELABELS])
+
+    def invalidate(self) -> None:
+        """The next step rebuilds the graph (after the points were reordered or overwritten from the
+        host, e.g. a checkpoint)."""
+        flag = wp.array([1], dtype=wp.int32, device="cpu")
+        for slot in (granular_kernels.FLAG_REBUILD, granular_kernels.FLAG_RELABEL):  # (a rebuild labels too)
+            wp.copy(self.interaction.flags, flag, dest_offset=slot, count=1)
+
+    def statistics(self) -> tuple[int, int]:
+        """(components, grid layers in use at the busiest node) of the last step (the copies a
+        relabel kept for a component that has left a node count until the next rebuild)."""
+        self.stats.zero_()
+        dim = max(self.particle_count, self.layer_nodes)
+        wp.launch(granular_kernels.make_granular_statistics(self.precision, self.staged), dim,
+                  inputs=[self.points, self.G, self.D, self.clock, self.stats], device=self.device)
+        c, layers = self.stats.numpy()
+        return int(c), int(layers)
+
+    def components(self) -> np.ndarray:
+        """Component label of every point in the scene's order: the smallest scene index among the
+        points of its component."""
+        n = self.particle_count
+        comp = self.points.comp.numpy()
+        pid = self.points.pid.numpy()
+        # labels are device indices of the root points (kernels/granular.py ``priority``): in the
+        # scene's order, each component named by its smallest member
+        root = np.empty(n, np.int64)
+        root[pid] = comp  # the root (a device index) of each point, in the scene's order
+        smallest = np.full(n, n, np.int64)
+        np.minimum.at(smallest, root, np.arange(n))
+        return smallest[root]
+
+    def interaction_domains(self) -> tuple[np.ndarray, np.ndarray]:
+        """Half-vectors a, b [m] of each point's domain of interaction at the last rebuild of the
+        interaction graph, in device order: the parallelogram x ± a ± b. A continuum point of a
+        non-deforming shape (no critical density) gets zeros: it interacts through its nodes."""
+        S = self.interaction
+        if self.deforming:
+            return S.dom_a.numpy().copy(), S.dom_b.numpy().copy()
+        ext = np.maximum(S.ext.numpy(), 0.0)  # the half-extents of the search's axis-aligned records
+        zero = np.zeros(len(ext))
+        return np.column_stack([ext[:, 0], zero]), np.column_stack([zero, ext[:, 1]])
+
+
+def make_granular_plan(scene, config, host: dict, mats: list, *, points, G, D, grid_shape, materials: wp.array,
+                       status: wp.array, clock: wp.array, types, staged: bool, device,
+                       tuning: Tuning) -> GranularPlan:
+    """The ``GranularPlan`` of an MPM stage: the interaction graph's arrays (``make_interaction``:
+    ``host`` the points' columns in device order, ``mats`` the scene's materials) and Granular MPM
+    tasks 1-2 at the start of a step over them and the stage's structs (``points``, ``G``, ``D``,
+    ``materials``, ``status``, ``clock``); the lanes and the nesting of the rebuild from ``tuning``."""
+    grid_dim = (D.layer_rows, grid_shape[1])  # the nodes of one layer
+    interaction, scan_totals = make_interaction(scene, config, host, mats, points, grid_shape, D.layer_rows, types,
+                                                staged=staged, device=device, tuning=tuning)
+    stats = wp.zeros(2, dtype=wp.int32, device=device)
+    c = config
+    n = len(points.x)
     prec = c.precision
     deforming = c.shape in granular_kernels.DEFORMING_DOMAINS
-    S = stage.interaction
-    gin = [stage.points, stage.G, stage.D, stage.materials, S, stage.status, stage.clock]
-    device = "cuda" if wp.get_device(stage.device).is_cuda else "cpu"
-    tn = stage.tuning
-    small = device in tn.link_lanes_devices and n < tn.link_lanes_points
+    S = interaction
+    gin = [points, G, D, materials, S, status, clock]
+    dev = wp.get_device(device)
+    kind = "cuda" if dev.is_cuda else "cpu"
+    tn = tuning
+    small = kind in tn.link_lanes_devices and n < tn.link_lanes_points
     lanes = tn.link_lanes if small else 1
     relink_lanes = tn.relink_lanes if small and not deforming else 1
     kernels = granular_kernels.make_granular_kernels(
-        c.shape, prec, staged=stage.staged, link_lanes=lanes, relink_lanes=relink_lanes,
+        c.shape, prec, staged=staged, link_lanes=lanes, relink_lanes=relink_lanes,
         check_capped=n >= tn.link_lanes_points, moves=bool(S.moves))
     reset = Launch(granular_kernels.make_reset_search(prec, deforming), grid_dim,
-                   [stage.G, stage.D, S.ext_max, S.slack, S.cell_ref, S.flags, S.motion])
+                   [G, D, S.ext_max, S.slack, S.cell_ref, S.flags, S.motion])
     rebuild = [reset, Launch(kernels.prepare, n, gin)]
     # the start of each cell's run in the cell-sorted list: prefix sums of the counts (gated
     # by the rebuild flag: outside a CUDA graph the kernels of a skipped rebuild are launched
     # and return; deforming domains rebuild every step: an open gate)
     gate = (S.flags[granular_kernels.FLAG_REBUILD:] if kernels.check is not None
-            else wp.ones(1, dtype=wp.int32, device=stage.device))
-    if wp.get_device(stage.device).is_cuda:
+            else wp.ones(1, dtype=wp.int32, device=device))
+    if dev.is_cuda:
         scan, threads = scan_kernels.make_tile_scan(), scan_kernels.SCAN_THREADS
-        totals = stage.scan_totals
+        totals = scan_totals
         levels = [(S.count, S.prefix1, totals[0]), (totals[0], S.prefix2, totals[1]),
                   (totals[1], S.prefix3, totals[2])]
         # (a level whose input is one tile adds nothing: its prefix stays zero)
@@ -184,8 +287,11 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
     if kernels.assign is not None:
         # the tent: each node gives out its copies (instead of the claims in P2G)
         relabel += [Launch(kernels.assign, grid_dim, gin)]
+    common = dict(interaction=S, scan_totals=scan_totals, stats=stats, kernels=kernels, points=points, G=G, D=D,
+                  clock=clock, shape=c.shape, precision=prec, staged=staged, layer_nodes=grid_dim[0] * grid_dim[1],
+                  device=device)
     if kernels.check is None:
-        return rebuild + relabel, None, None
+        return GranularPlan(start=rebuild + relabel, judge=None, check=None, **common)
     # the rebuild runs only when the previous step's judge (end_step) asked for it, the
     # relabel when it asked for either: inside a CUDA graph conditional nodes skip their
     # launches; elsewhere each kernel reads its flag and returns at once. ``check`` goes
@@ -194,61 +300,16 @@ def granular_plan(stage, grid_dim) -> tuple[list, object, Launch | None]:
     rebuild_flag = S.flags[granular_kernels.FLAG_REBUILD:]
     relabel_flag = S.flags[granular_kernels.FLAG_RELABEL:]
     inner = [IfFlag(rebuild_flag, rebuild)] if tn.nested_rebuild else rebuild
-    plan = [IfFlag(relabel_flag, inner + relabel)]
-    return plan, granular_kernels.make_rebuild_decision(prec), Launch(kernels.check, n, gin)
+    start = [IfFlag(relabel_flag, inner + relabel)]
+    return GranularPlan(start=start, judge=granular_kernels.make_rebuild_decision(prec),
+                        check=Launch(kernels.check, n, gin), **common)
 
 
-def _require_granular(stage) -> None:
-    if not stage.config.granular:
-        raise InputError("granular", False, "granular mode (SolverConfig(granular=True))")
-
-
-def granular_statistics(stage) -> tuple[int, int]:
-    """(components, grid layers in use at the busiest node) of the last step (granular mode; the
-    copies a relabel kept for a component that has left a node count until the next rebuild)."""
-    _require_granular(stage)
-    stage.granular_stats.zero_()
-    dim = max(stage.particle_count, stage.D.layer_rows * stage.grid_shape[1])
-    wp.launch(granular_kernels.make_granular_statistics(stage.config.precision, stage.staged), dim,
-              inputs=[stage.points, stage.G, stage.D, stage.clock, stage.granular_stats], device=stage.device)
-    c, layers = stage.granular_stats.numpy()
-    return int(c), int(layers)
-
-
-def components(stage) -> np.ndarray:
-    """Component label of every point in the scene's order: the smallest scene index among the
-    points of its component (granular mode; −1 otherwise)."""
-    n = stage.particle_count
-    if not stage.config.granular:
-        return np.full(n, -1, np.int64)
-    comp = stage.points.comp.numpy()
-    pid = stage.points.pid.numpy()
-    # labels are device indices of the root points (kernels/granular.py ``priority``): in the
-    # scene's order, each component named by its smallest member
-    root = np.empty(n, np.int64)
-    root[pid] = comp  # the root (a device index) of each point, in the scene's order
-    smallest = np.full(n, n, np.int64)
-    np.minimum.at(smallest, root, np.arange(n))
-    return smallest[root]
-
-
-def node_ranges(stage) -> np.ndarray:
+def node_ranges(points, D, shape: str, precision: str, device) -> np.ndarray:
     """(N, 4) int32 range (x0, x1, y0, y1) of grid nodes that each point's stencil reaches now,
-    in device order (indices of one grid layer): what the interaction graph's pre-task compares."""
-    out = wp.empty(stage.particle_count, dtype=wp.vec4i, device=stage.device)
-    wp.launch(granular_kernels.make_node_ranges(stage.config.shape, stage.config.precision), stage.particle_count,
-              inputs=[stage.points, stage.D, out], device=stage.device)
+    in device order (indices of one grid layer): what the interaction graph's pre-task compares
+    (any mode)."""
+    n = len(points.x)
+    out = wp.empty(n, dtype=wp.vec4i, device=device)
+    wp.launch(granular_kernels.make_node_ranges(shape, precision), n, inputs=[points, D, out], device=device)
     return out.numpy()
-
-
-def interaction_domains(stage) -> tuple[np.ndarray, np.ndarray]:
-    """Half-vectors a, b [m] of each point's domain of interaction at the last rebuild of the
-    interaction graph, in device order (granular mode): the parallelogram x ± a ± b. A continuum
-    point of a non-deforming shape (no critical density) gets zeros: it interacts through its nodes."""
-    _require_granular(stage)
-    S = stage.interaction
-    if stage.config.shape in granular_kernels.DEFORMING_DOMAINS:
-        return S.dom_a.numpy().copy(), S.dom_b.numpy().copy()
-    ext = np.maximum(S.ext.numpy(), 0.0)  # the half-extents of the search's axis-aligned records
-    zero = np.zeros(len(ext))
-    return np.column_stack([ext[:, 0], zero]), np.column_stack([zero, ext[:, 1]])

@@ -18,6 +18,8 @@ import warp as wp
 
 from ..kernels import periodic as periodic_kernels
 from ..kernels import wall_images as wall_image_kernels
+from ..model.config import SolverConfig
+from ..model.finished import Model
 from .launch_plan import Launch
 from .mpm_roles import WallFold
 from .mpm_state import wall_band
@@ -27,6 +29,14 @@ __all__ = ["GridEdges"]
 
 class GridEdges:
     """The edge launches of one MPM stage (``fold``, ``mirrored``) and the choices they imply.
+
+    Args:
+        scene, config: the finished scene and the stage's config.
+        grid_dim: (rows, columns) of the nodes of one grid layer.
+        G, D, clock: the stage's ``Grid`` and ``Domain`` structs and its clock array.
+        device: the Warp device.
+        mirror_in_g2p: G2P may read the wall images itself (where the scene has walls and nothing
+            keeps the edge launches apart).
 
     Attributes:
         periodic: x is periodic (``Scene.periodic_x``).
@@ -38,24 +48,24 @@ class GridEdges:
         wall_band: the nodes near the grid's edge that the wall-image kernels run over.
     """
 
-    def __init__(self, solver, grid_dim: tuple[int, int], *, mirror_in_g2p: bool):
-        c, s = solver.config, solver.config.scheme
-        scene = solver.model
+    def __init__(self, scene: Model, config: SolverConfig, grid_dim: tuple[int, int], *, G, D, clock: wp.array,
+                 device, mirror_in_g2p: bool):
+        c, s = config, config.scheme
         self.prec, self.layered = c.precision, c.granular
-        self.G, self.D, self.clock = solver.G, solver.D, solver.clock
+        self.G, self.D, self.clock = G, D, clock
         self.periodic = scene.periodic_x
         self.moving = {"moving": True} if any(b.velocity != 0.0 for b in scene.boundaries.values()) else {}
         self.unfused = self.periodic or bool(self.moving)
         self.mirror_walls = any(b.kind not in ("free", "periodic") for b in scene.boundaries.values())
         # the wall images touch only the nodes near the grid's edge: their kernels run over those
-        band = wall_band(solver.D.layer_rows, solver.grid_shape[1]) if self.mirror_walls else np.zeros((1, 2), np.int32)
-        self.wall_band = wp.array(band, dtype=wp.vec2i, device=solver.device)
+        band = wall_band(*grid_dim) if self.mirror_walls else np.zeros((1, 2), np.int32)
+        self.wall_band = wp.array(band, dtype=wp.vec2i, device=device)
         self.band_dim = len(band)
         self.mirror_in_g2p = mirror_in_g2p and self.mirror_walls and not self.unfused
         self.mirror = wall_image_kernels.make_mirror_ghosts(self.prec, layered=self.layered, **self.moving)
         self.mirror_pair = wall_image_kernels.make_mirror_ghosts(self.prec, layered=self.layered, pair=True,
                                                                  **self.moving)
-        self.period_dim = (scene.cell_counts[0], solver.grid_shape[1])
+        self.period_dim = (scene.cell_counts[0], grid_dim[1])
         self.copy = []
         if self.periodic:
             copy = periodic_kernels.make_periodic_copy(self.prec, remap=c.update in ("MUSL", "USAVG"), xpic=s.xpic)

@@ -33,18 +33,15 @@ from . import granular_state
 from .block_layout import BlockLayout
 from .cell_sort import PointSorter, device_order
 from .grid_edges import GridEdges
-from .launch_plan import ExtensionPoint, Launch, Zero, plan_blocks, plan_kernels, run_plan
+from .launch_plan import Launch, Zero, plan_blocks, plan_kernels, run_plan
+from .mpm_orders import AFTER_FORCE_UPDATE, ORDER_PLANS, StepPieces
 from .mpm_roles import GridUpdate, WallFold, last_grid_update, launches
 from .mpm_state import GHOST_NODES, STATE_FIELDS, initial_dt_bound, make_domain, make_grid, make_points
 from .stage import Clock, ClockedStage
 from .tuning import Tuning
+from .views import GridView, PointsView
 
 __all__ = ["AFTER_FORCE_UPDATE", "GHOST_NODES", "MPMSolver", "device_order", "initial_dt_bound"]
-
-#: Extension point of the step: after the grid's force update and before G2P (USL only). The
-#: coupling's momentum exchange of Liu et al. runs there (``MPMSolver.extend``).
-AFTER_FORCE_UPDATE = "after_force_update"
-
 
 class MPMSolver(ClockedStage):
     """Device state and step sequence of the MPM stage of one scene.
@@ -97,6 +94,13 @@ class MPMSolver(ClockedStage):
         self.sim_clock = clock
         self.clock, self.steps = clock.values, clock.steps
         self._allocate({k: v[self.order] for k, v in host.items()})
+        #: what the coupled stage sees of the points and the grid (``mpmdem.sim.views``)
+        self.points_view = PointsView(
+            struct=self.points, count=self.particle_count, mass=self.points.mass, vol=self.points.vol,
+            fcont=self.points.fcont, contact_radius=self.point_contact_radius, contact_at=self.contact_at,
+            staged=self.staged, types=self.types)
+        self.grid_view = GridView(struct=self.G, domain=self.D, shape=(self.D.layer_rows, self.grid_shape[1]),
+                                  origin=self.D.origin, cell_size=float(model.cell_size))
         self._sorter = PointSorter(self.points, self.D, self.grid_shape, config.precision, self.staged, self.device)
         #: (cap, bound) [s] of every step's dt (``cap_time_step``); cap 0: none
         self.dt_cap = (0.0, 0.0)
@@ -149,11 +153,6 @@ class MPMSolver(ClockedStage):
         self.contact_at = wp.zeros(n if self.coupled else 1, dtype=t.vec2, device=dev)
         self.G, self.grid_shape = make_grid(model, self.config, self.granular_layers, device=dev)
         self.D = make_domain(model, self.config, self.granular_layers, float(host["mass"].min()))
-        if self.config.granular:
-            self.interaction, self.scan_totals = granular_state.make_interaction(
-                model, self.config, host, mats, self.points, self.grid_shape, self.D.layer_rows, t,
-                staged=self.staged, device=dev, tuning=self.tuning)
-            self.granular_stats = wp.zeros(2, dtype=wp.int32, device=dev)
         self.materials = wp.array(np.array([m.packed() for m in mats], T), dtype=t.params, device=dev)
         self.max_speed = wp.zeros(reduction_kernels.SPEED_SLOTS, dtype=wp.float32, device=dev)
         self.status = wp.zeros(granular_kernels.STATUS_SLOTS, dtype=wp.int32, device=dev)
@@ -167,6 +166,13 @@ class MPMSolver(ClockedStage):
                              dtype=wp.float64, device=dev)
         #: (t [s], impulses on the obstacles) at the last diagnostics, for their mean forces
         self.impulse_mark = (0.0, np.zeros(2 * len(walls)))
+        #: granular mode: the interaction graph, its kernels and launches (``granular_state.GranularPlan``)
+        self.granular: granular_state.GranularPlan | None = None
+        if self.config.granular:
+            self.granular = granular_state.make_granular_plan(
+                model, self.config, host, mats, points=self.points, G=self.G, D=self.D, grid_shape=self.grid_shape,
+                materials=self.materials, status=self.status, clock=self.clock, types=t, staged=self.staged,
+                device=dev, tuning=self.tuning)
 
     def _build(self) -> None:
         """Pick the kernel variants of this config and lay out the launches of one step."""
@@ -181,7 +187,7 @@ class MPMSolver(ClockedStage):
         #: G2P reads the wall images itself (``transfer.make_g2p``'s ``mirror``): USL and MUSL,
         #: where only G2P reads the mirrored velocities, not XPIC's passes or Liu's exchange
         tn = self.tuning
-        edges = GridEdges(self, grid_dim, mirror_in_g2p=(
+        edges = GridEdges(self.model, c, grid_dim, G=G, D=D, clock=clock, device=self.device, mirror_in_g2p=(
             tn.mirror_in_g2p and c.update in ("USL", "MUSL") and not s.xpic
             and not (self.coupled and c.coupling == "liu") and n < tn.images_in_kernels_points))
         self.wall_band, self.mirror_in_g2p = edges.wall_band, edges.mirror_in_g2p
@@ -251,49 +257,15 @@ class MPMSolver(ClockedStage):
             return out + mirrored(G.vs)
 
         self.fused = c.update == "USL" and s.flip_fraction == 0.0 and not s.xpic and c.damping == 0.0
-        seq: list = []
-        self._judge = None  # granular mode, non-deforming domains: the rebuild decision (end_step)
-        check = None
-        self.start_plan: list = []  # granular mode: the relabel at the start of a step (as a block)
-        if c.granular:
-            self.start_plan, self._judge, check = granular_state.granular_plan(self, grid_dim)
-        if c.update == "USL":
-            if self.fused:
-                seq += p2g(mass=True, momentum=True, force=True, fused_impulse=True)
-                seq += grid(velocity=False, force=False, fused_impulse=True)
-            else:
-                seq += p2g(mass=True, momentum=True, force=True) + grid(velocity=True, force=True)
-            if self.coupled and c.coupling == "liu":
-                seq += [ExtensionPoint(AFTER_FORCE_UPDATE)]  # mpmdem.sim.coupling: Liu et al.'s exchange
-            seq += xpic_smoothing() + g2p(velocity=True, position=True, stress="vt")
-        elif c.update == "USF":
-            seq += p2g(mass=True, momentum=True, force=False) + grid(velocity=True, force=False)
-            seq += g2p(velocity=False, position=False, stress="v")
-            seq += p2g(mass=False, momentum=False, force=True) + grid(velocity=False, force=True)
-            seq += xpic_smoothing() + g2p(velocity=True, position=True, stress="none")
-        else:
-            # MUSL; USAVG ("Motion integration" §3.4) adds a first half stress update from V
-            # before the forces and makes the MUSL update the second half.
-            half = 0.5 if c.update == "USAVG" else 1.0
-            if c.update == "USAVG":
-                seq += p2g(mass=True, momentum=True, force=False) + grid(velocity=True, force=False)
-                seq += g2p(velocity=False, position=False, stress="v", stress_fraction=half)
-                seq += p2g(mass=False, momentum=False, force=True) + grid(velocity=False, force=True)
-            else:
-                seq += p2g(mass=True, momentum=True, force=True) + grid(velocity=True, force=True)
+        #: granular mode: the relabel at the start of a step (as a block)
+        self.start_plan: list = self.granular.start if self.granular is not None else []
+        # the first plan of the step in the order of its stress update (mpmdem/sim/mpm_orders.py)
+        pieces = StepPieces(
+            p2g=p2g, grid=grid, g2p=g2p, xpic=xpic_smoothing, fold=fold, fused=self.fused,
+            liu=self.coupled and c.coupling == "liu",
             # MUSL's re-mapping P2G in the velocity G2P (tuning.remap_in_g2p), where P2G runs a thread a point
-            remap_in_g2p = tn.remap_in_g2p and not tile and not rows and not c.deterministic
-            seq += xpic_smoothing() + g2p(velocity=True, position=False, stress="none", remap=remap_in_g2p)
-            # the re-mapped momentum starts from zero: the grid update before clears it at the nodes
-            # (copies) it visits, which are those the re-mapping P2G adds to (no memset of the grid)
-            last = last_grid_update(seq)
-            seq[last] = seq[last].remade(zero_remap=True)
-            if remap_in_g2p:
-                seq += fold(mass=False, momentum=True, force=False, remap=True)
-            else:
-                seq += p2g(mass=False, momentum=True, force=False, remap=True)
-            seq += grid(velocity=False, force=False, remap=True)
-            seq += g2p(velocity=False, position=True, stress="vm", stress_fraction=half)
+            remap_in_g2p=tn.remap_in_g2p and not tile and not rows and not c.deterministic)
+        seq = ORDER_PLANS[c.update](pieces)
         # the step's last grid update clears the nodes (copies) it used (kernels/grid.py), so no
         # memset of the grid starts the next step; not where something after it reads the nodal
         # mass (XPIC's updates, Liu et al.'s exchange): there the grid is cleared at the start
@@ -327,9 +299,9 @@ class MPMSolver(ClockedStage):
                 seq[k + 1] = Launch(fused, b.launch.dim, b.launch.inputs)
             seq = [item for item in seq if item is not None]
         seq = launches(seq)
-        if layered and check is not None:
+        if self.granular is not None and self.granular.check is not None:
             # the positions the next step starts from are final: whether it may keep the labels
-            seq += [check]
+            seq += [self.granular.check]
         self._sequence = seq
         self.diagnostics_kernel = reduction_kernels.make_diagnostics(prec, self.material_kinds, staged=self.staged)
         self.probe_mass_kernel = reduction_kernels.make_probe_mass(prec, staged=self.staged)
@@ -416,18 +388,23 @@ class MPMSolver(ClockedStage):
         rebuilds and the relabels without one) and of the rebuild block nested in it, each in its
         conditional node or in line by how often it runs (``mpmdem.sim.block_layout``); else none."""
         blocks = list(plan_blocks(self.start_plan))
-        if not blocks or self._judge is None:
+        if not blocks or self._judge() is None:
             return []
-        flags = self.interaction.flags
+        flags = self.granular.interaction.flags
         rebuilds, relabels = granular_kernels.FLAG_COUNT, granular_kernels.FLAG_RELABELS
         layouts = [BlockLayout(blocks[0], flags, (rebuilds, relabels), self.tuning)]
         layouts += [BlockLayout(block, flags, (rebuilds,), self.tuning) for block in blocks[1:]]
         return layouts
 
+    def _judge(self):
+        """Granular mode, domains that do not deform: the kernel of the end of a step that decides
+        whether the next one rebuilds the interaction graph (``GranularPlan.judge``); else None."""
+        return self.granular.judge if self.granular is not None else None
+
     def step_kernels(self) -> list:
         """Every kernel the MPM stage of a step may launch (those of conditional parts included)."""
         return (list(plan_kernels(self.start_plan + self._sequence))
-                + ([self._judge] if self._judge is not None else []))
+                + ([self._judge()] if self._judge() is not None else []))
 
     def end_step(self) -> None:
         """t += dt on the device clock and the next step's dt from the CFL speeds this step's G2P
@@ -435,18 +412,17 @@ class MPMSolver(ClockedStage):
         with them, whether the next step rebuilds the interaction graph: one launch."""
         cap, bound = self.dt_cap
         clock = [self.clock, self.steps, self.max_speed, float(self.model.cell_size), cap, bound]
-        if self._judge is not None:
-            wp.launch(self._judge, 1, inputs=[self.interaction, *clock], device=self.device)
+        judge = self._judge()
+        if judge is not None:
+            wp.launch(judge, 1, inputs=[self.granular.interaction, *clock], device=self.device)
         else:
             wp.launch(reduction_kernels.end_step, 1, inputs=clock, device=self.device)
 
     def invalidate_interactions(self) -> None:
         """Granular mode: the next step rebuilds the interaction graph (after the points were
         reordered or overwritten from the host, e.g. a checkpoint); a no-op otherwise."""
-        if self.config.granular:
-            flag = wp.array([1], dtype=wp.int32, device="cpu")
-            for slot in (granular_kernels.FLAG_REBUILD, granular_kernels.FLAG_RELABEL):  # (a rebuild labels too)
-                wp.copy(self.interaction.flags, flag, dest_offset=slot, count=1)
+        if self.granular is not None:
+            self.granular.invalidate()
 
     def sort_points(self) -> None:
         """Reorder the points by grid cell (radix sort on the device); outputs keep the scene's order."""
@@ -500,24 +476,40 @@ class MPMSolver(ClockedStage):
 
     def diagnostics(self) -> dict[str, float]:
         """Energies [J/m], momenta [kg/s, kg m/s per m] and mass [kg/m] of the points."""
-        return diagnostics_.point_diagnostics(self)
+        out, self.impulse_mark = diagnostics_.point_diagnostics(self, self.impulse_mark)
+        return out
+
+    @property
+    def interaction(self):
+        """Granular mode: the interaction graph's ``Interaction`` struct (``granular.interaction``)."""
+        return self._granular_plan().interaction
+
+    def _granular_plan(self) -> granular_state.GranularPlan:
+        """The ``GranularPlan``; an InputError outside granular mode."""
+        if self.granular is None:
+            raise InputError("granular", False, "granular mode (SolverConfig(granular=True))")
+        return self.granular
 
     def granular_statistics(self) -> tuple[int, int]:
         """(components, grid layers in use at the busiest node) of the last step (granular mode; the
         copies a relabel kept for a component that has left a node count until the next rebuild)."""
-        return granular_state.granular_statistics(self)
+        return self._granular_plan().statistics()
 
     def components(self) -> np.ndarray:
-        """Component label of every point in the scene's order (``granular_state.components``)."""
-        return granular_state.components(self)
+        """Component label of every point in the scene's order (``GranularPlan.components``; −1
+        outside granular mode)."""
+        if self.granular is None:
+            return np.full(self.particle_count, -1, np.int64)
+        return self.granular.components()
 
     def node_ranges(self) -> np.ndarray:
         """Grid nodes each point's stencil reaches now (``granular_state.node_ranges``)."""
-        return granular_state.node_ranges(self)
+        return granular_state.node_ranges(self.points, self.D, self.config.shape, self.config.precision,
+                                          self.device)
 
     def interaction_domains(self) -> tuple[np.ndarray, np.ndarray]:
-        """Domains of interaction at the last rebuild (``granular_state.interaction_domains``)."""
-        return granular_state.interaction_domains(self)
+        """Domains of interaction at the last rebuild (granular mode; ``GranularPlan.interaction_domains``)."""
+        return self._granular_plan().interaction_domains()
 
     def fields(self) -> dict[str, np.ndarray]:
         """Host copies of the per-point output fields (copies: on the CPU ``numpy()`` is a view)."""

@@ -1,8 +1,9 @@
 """Typed roles of the MPM step's launches while ``MPMSolver._build`` lays the step out.
 
-``_build`` rewrites its first plan in three places: MUSL's last grid update before the re-mapping
-zeroes the re-mapped momentum, the step's last grid update clears the nodes it used, and a fold of
-the wall images right before a grid update moves into that update. Each rewrite needs to know which
+The step's first plan is rewritten in three places: MUSL's last grid update before the re-mapping
+zeroes the re-mapped momentum (``mpm_orders.plan_musl``), the step's last grid update clears the
+nodes it used and a fold of the wall images right before a grid update moves into that update
+(``MPMSolver._build``). Each rewrite needs to know which
 launch is which: a ``GridUpdate`` keeps the maker of its kernel's variants and whether it re-maps
 or clears, a ``WallFold`` the fields it folds. ``launches`` then keeps only the launches.
 """

@@ -9,7 +9,7 @@ A case module defines ``NAME``, ``DESCRIPTION``, ``add_arguments(parser)`` (its 
 The built-in cases are plug-ins on top of the library: ``mpmdem.cases`` lists them by name
 (``CASES``, ``DEFAULT_CASE``) and each imports what it uses of the library. The library finds them
 by that name when a run asks for one (``case_module``), never by a static import, so the import
-graph keeps its layers (tests/test_layers.py).
+graph keeps its layers (tests/project/test_layers.py).
 """
 
 from __future__ import annotations

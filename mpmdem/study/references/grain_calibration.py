@@ -1,7 +1,7 @@
 """Our DEM grains as a continuum: the friction angles measured by the grain calibration (issue 43 §2,
 ``bench/results/studies/grain-calibration/calibration.json``, written by
 ``mpmdem.study.builtin.grain_calibration``). A continuum run that stands for these grains takes its
-friction angle from here; ``tests/test_grain_calibration.py`` checks that these constants are the
+friction angle from here; ``tests/results/test_grain_calibration.py`` checks that these constants are the
 committed calibration's, so a new calibration cannot leave a stale copy behind.
 
 The silo's grains (``silo-discharge --sand dem``) are sphero-disks of r_p = 1 mm ± 15 %, grain–grain
