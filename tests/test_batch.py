@@ -1,0 +1,120 @@
+"""Batched runs (mpmdem.sim.batch_run): independent worlds tiled along x in one grid.
+
+References: a world of a batch is the same simulation as its lone run, so the lone run is the
+reference. World 0 sits at offset 0 on the same grid lines, and its points and contacts meet no
+other world (the margin), so on the CPU, with a fixed dt, its outputs are bit for bit the lone
+run's (the same operations in the same order). World w > 0 sits X_w further along x: the grid's
+origin enters x − origin in a different rounding, so it matches the lone run to round-off (a
+relative 1e-9 in f64, far above the ulp-level differences and far below any physical change).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import mpmdem as m
+from mpmdem.errors import InputError
+from mpmdem.io.reader import RunFile
+from mpmdem.model.config import SolverConfig
+from mpmdem.model.spheropolygons import rounded_rectangle
+from mpmdem.sim.batch_run import BatchedSimulation
+from mpmdem.sim.batch_scene import batch_refusal, combine_scenes
+from mpmdem.sim.simulation import Simulation
+
+CONFIG = SolverConfig(precision="f64", dt=2.0e-5)
+END, FRAMES = 0.004, 2
+#: batch-wide sums (mpmdem.sim.world_diagnostics): not the lone run's
+BATCH_WIDE = ("work_plastic", "work_boundary", "work_damping", "work_inflow", "wall_time")
+
+
+def sand_on_plate(width=0.2, speed=0.0, dx=0.0):
+    """A sand block on a fixed spheropolygon plate in a 0.4 × 0.3 m box (coupled: points and a body)."""
+    scene = m.Scene(domain=((dx, 0.0), (0.4 + dx, 0.3)), cell_size=0.02, gravity=(0.0, -10.0),
+                    contact=m.ContactLaw(1e5, restitution=0.5),
+                    boundaries={"left": "slip", "right": "slip", "bottom": "slip", "top": "free"})
+    scene.add_mpm_body(m.rectangle(0.1 + dx, 0.08, 0.1 + width + dx, 0.16),
+                       m.DruckerPrager(1e6, 0.3, 1500.0, friction_angle=30.0), velocity=(speed, 0.0))
+    scene.add_rigid_body(rounded_rectangle(0.3, 0.02, 0.005), density=1000.0, position=(0.2 + dx, 0.05),
+                         motion="fixed", name="floor")
+    scene.add_mass_probe("low", hi=(math.inf, 0.1))
+    return scene
+
+
+@pytest.fixture(scope="module")
+def batch(tmp_path_factory):
+    out = tmp_path_factory.mktemp("batch")
+    b = BatchedSimulation([sand_on_plate(), sand_on_plate(0.15)], CONFIG, device="cpu")
+    results = b.run(END, outs=[out / "w0", out / "w1"], frames=FRAMES, names="sand")
+    return b, results, out
+
+
+def test_world_zero_is_its_lone_run_bit_for_bit(batch, tmp_path):
+    b, results, _ = batch
+    lone = Simulation(sand_on_plate(), CONFIG, device="cpu")
+    ref = lone.run(END, frames=FRAMES, out=tmp_path, name="sand")
+    assert results[0].status == "completed"
+    for key, values in ref.diagnostics.items():
+        if key not in BATCH_WIDE:
+            assert np.array_equal(values, results[0].diagnostics[key]), key
+    fields, ref_fields = b.view(0).fields(), lone.fields()
+    for key, values in ref_fields.items():
+        assert np.array_equal(values, fields[key]), key
+    np.testing.assert_array_equal(b.view(0).body_fields()["x"], lone.body_fields()["x"])
+    # the file: the lone run's datasets, shapes and frame times
+    with RunFile(ref.path) as a, RunFile(results[0].path) as c:
+        assert a.frame_count == c.frame_count == FRAMES + 1
+        np.testing.assert_array_equal(a.times, c.times)
+        assert a.fields == c.fields and a.body_fields == c.body_fields
+        assert a.particle_count == c.particle_count and a.body_count == c.body_count
+        for k in range(a.frame_count):
+            for name in a.fields:
+                np.testing.assert_array_equal(a.field(name, k), c.field(name, k), err_msg=name)
+            for name in a.body_fields:
+                np.testing.assert_array_equal(a.body_field(name, k), c.body_field(name, k), err_msg=name)
+        assert a.body_geometry()["name"] == c.body_geometry()["name"]
+        assert set(a.diagnostics) == set(c.diagnostics)
+
+
+def test_world_one_matches_its_lone_run_to_round_off(batch):
+    b, results, _ = batch
+    X = b.worlds[1].offset
+    assert X > 0.4 and math.isclose(X / 0.02, round(X / 0.02))  # past world 0's tile, on a grid line
+    lone = Simulation(sand_on_plate(0.15, dx=X), CONFIG, device="cpu")
+    ref = lone.run(END, frames=FRAMES)
+    assert results[1].status == "completed"
+    d = results[1].diagnostics
+    # the lone run's angular momentum is about the origin X_w to its left
+    ref.diagnostics["momentum_angular"] = ref.diagnostics["momentum_angular"] - X * ref.diagnostics["momentum_y"]
+    for key in ("energy_kinetic", "energy_strain", "energy_gravity", "mass", "mass_low", "momentum_y",
+                "momentum_angular", "energy_contact"):
+        # scales: energies against the potential energy in play, momenta against mass × 1 m/s
+        scale = np.abs(ref.diagnostics["energy_gravity"]).max() if key.startswith("energy") else (
+            ref.diagnostics["mass"][0] * 1.0)
+        np.testing.assert_allclose(d[key], ref.diagnostics[key], rtol=0, atol=1e-9 * scale, err_msg=key)
+    f, rf = b.view(1).fields(), lone.fields()
+    rf["x"][:, 0] -= X
+    np.testing.assert_allclose(f["x"], rf["x"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(f["v"], rf["v"], rtol=0, atol=1e-9)  # [m/s], against speeds ~ g t ~ 0.04 m/s
+
+
+def test_a_blow_up_fails_its_world_only(tmp_path):
+    """World 1 starts at 1e5 m/s (it leaves its domain in the first frame); world 0 completes as alone."""
+    b = BatchedSimulation([sand_on_plate(), sand_on_plate(0.15, speed=1.0e5)], SolverConfig(precision="f64"),
+                          device="cpu")
+    results = b.run(END, outs=[tmp_path / "w0", tmp_path / "w1"], frames=FRAMES, names="sand")
+    assert results[0].status == "completed"
+    assert results[1].status == "blown-up" and results[1].message.startswith("world 1:")
+    with RunFile(results[1].path) as f:
+        assert f.status == "blown-up"
+    lone = Simulation(sand_on_plate(), SolverConfig(precision="f64"), device="cpu").run(END, frames=FRAMES)
+    np.testing.assert_array_equal(results[0].diagnostics["energy_kinetic"], lone.diagnostics["energy_kinetic"])
+
+
+def test_runs_that_cannot_share_a_grid_are_refused():
+    other = sand_on_plate()
+    other.gravity = (0.0, -9.81)
+    reason = batch_refusal([sand_on_plate(), other], [CONFIG, CONFIG])
+    assert reason.startswith("run 1 differs from run 0 in gravity")
+    with pytest.raises(InputError, match="runs that can share one grid: run 1 differs from run 0 in config"):
+        combine_scenes([sand_on_plate(), sand_on_plate()], [CONFIG, SolverConfig(precision="f32")])
