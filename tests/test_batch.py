@@ -118,3 +118,35 @@ def test_runs_that_cannot_share_a_grid_are_refused():
     assert reason.startswith("run 1 differs from run 0 in gravity")
     with pytest.raises(InputError, match="runs that can share one grid: run 1 differs from run 0 in config"):
         combine_scenes([sand_on_plate(), sand_on_plate()], [CONFIG, SolverConfig(precision="f32")])
+
+
+def test_study_batches_runs_of_one_key_and_says_how(tmp_path, capsys):
+    """Three frictions of block-on-incline (DEM only, one domain: one batch key) in groups of 2: the
+    first two run as one batch, the third alone; each keeps its own row and summary.json. The lone
+    runs are the reference (world 0 bit for bit; world 1 to round-off: a relative 1e-9 of the
+    acceleration fitted to the block's path)."""
+    from mpmdem.study.study import Study, run_study
+
+    study = Study("fr", "block-on-incline", grid={"--friction": [0.1, 0.3, 0.9]},
+                  fixed={"--quick": True, "--angle": 30.0})
+    alone = run_study(study, tmp_path / "alone", workers=0, device="cpu", progress=False, batch=1)
+    batched = run_study(study, tmp_path / "batched", workers=0, device="cpu", progress=True, batch=2)
+    assert "3 runs in 2 batch(es) of up to 2 (2, 1 runs; grouped by batch key" in capsys.readouterr().err
+    assert [r["status"] for r in batched] == ["completed"] * 3
+    assert [(r.get("batch"), r.get("batch_world")) for r in batched] == [
+        ("friction=0.1", 0), ("friction=0.1", 1), (None, None)]
+    assert batched[0]["acceleration"] == alone[0]["acceleration"]
+    assert batched[1]["acceleration"] == pytest.approx(alone[1]["acceleration"], rel=1e-9)
+    assert batched[2]["acceleration"] == alone[2]["acceleration"]
+    assert (tmp_path / "batched" / "runs" / "friction=0.3" / "summary.json").is_file()
+
+
+def test_groups_gather_runs_of_one_key():
+    """Interleaved keys (a Beverloo grid: orifice × cell size, the cell size sets the key) come
+    together, at most ``size`` a group; a run without a key runs alone."""
+    from mpmdem.study.batch_worker import group_runs
+
+    runs = list("abcdef")
+    assert group_runs(runs, 2, keys=[1, 2, 1, 2, None, 1]) == [["a", "c"], ["f"], ["b", "d"], ["e"]]
+    assert group_runs(runs, 4) == [["a", "b", "c", "d"], ["e", "f"]]
+    assert group_runs(runs, 1) == [[r] for r in runs]

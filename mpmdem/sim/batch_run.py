@@ -200,7 +200,11 @@ class BatchedSimulation:
                 break
             batch = BatchedSimulation([self.scenes[k] for k in live], self.config, device=self.sim.device,
                                       tuning=self.sim.tuning, offsets=[offsets[k] for k in live])
+        #: the batch of the last pass, and each world's view in it (for ``summarize``)
         self.last_batch = batch
+        self.views = {k: batch.view(j) for j, k in enumerate(live)}
+        for k, view in self.views.items():
+            view.last_diagnostics = {name: float(v[-1]) for name, v in results[k].diagnostics.items() if len(v)}
         return [results[k] for k in range(n)]
 
     def _writer(self, world: World, out, name: str, end_time: float, attrs: dict | None):
@@ -234,7 +238,7 @@ class BatchedSimulation:
         history = {w.index: {} for w in worlds}
         times: list[float] = []
         start_wall = _time.perf_counter()
-        self.views = {w.index: WorldView(self, w) for w in worlds}
+        views = {w.index: WorldView(self, w) for w in worlds}
         failed: dict[int, str] = {}
 
         def fail(k: int, message: str, t: float) -> None:
@@ -254,7 +258,7 @@ class BatchedSimulation:
             for w in worlds:
                 d = balances[w.index].update(world_diagnostics(sim, w, self._points.get(w.index), batch_d))
                 d.update(dt=dt, dt_bound=bound, steps=float(steps), wall_time=_time.perf_counter() - start_wall)
-                self.views[w.index].last_diagnostics = d
+                views[w.index].last_diagnostics = d
                 for key, v in d.items():
                     history[w.index].setdefault(key, []).append(v)
                 if writers[w.index] is not None:
