@@ -28,12 +28,12 @@ END, FRAMES = 0.004, 2
 BATCH_WIDE = ("work_plastic", "work_boundary", "work_damping", "work_inflow", "wall_time")
 
 
-def sand_on_plate(width=0.2, speed=0.0, dx=0.0):
+def sand_on_plate(width=0.2, speed=0.0, dx=0.0, left=0.1):
     """A sand block on a fixed spheropolygon plate in a 0.4 × 0.3 m box (coupled: points and a body)."""
     scene = m.Scene(domain=((dx, 0.0), (0.4 + dx, 0.3)), cell_size=0.02, gravity=(0.0, -10.0),
                     contact=m.ContactLaw(1e5, restitution=0.5),
                     boundaries={"left": "slip", "right": "slip", "bottom": "slip", "top": "free"})
-    scene.add_mpm_body(m.rectangle(0.1 + dx, 0.08, 0.1 + width + dx, 0.16),
+    scene.add_mpm_body(m.rectangle(left + dx, 0.08, left + width + dx, 0.16),
                        m.DruckerPrager(1e6, 0.3, 1500.0, friction_angle=30.0), velocity=(speed, 0.0))
     scene.add_rigid_body(rounded_rectangle(0.3, 0.02, 0.005), density=1000.0, position=(0.2 + dx, 0.05),
                          motion="fixed", name="floor")
@@ -118,6 +118,10 @@ def test_runs_that_cannot_share_a_grid_are_refused():
     assert reason.startswith("run 1 differs from run 0 in gravity")
     with pytest.raises(InputError, match="runs that can share one grid: run 1 differs from run 0 in config"):
         combine_scenes([sand_on_plate(), sand_on_plate()], [CONFIG, SolverConfig(precision="f32")])
+    # sand against its left wall: the wall would not hold it in a batch (no walls between tiles)
+    reason = batch_refusal([sand_on_plate(), sand_on_plate(left=0.0)], [CONFIG, CONFIG])
+    assert reason == ("run 1 cannot be a world of a batch: its points start within 4 cells of its left wall "
+                      "(a batch has no walls between its worlds)")
 
 
 def test_study_batches_runs_of_one_key_and_says_how(tmp_path, capsys):

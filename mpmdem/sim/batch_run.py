@@ -37,7 +37,10 @@ from .simulation import RunResult, Simulation
 from .tuning import Tuning
 from .world_diagnostics import WorldPoints, world_diagnostics
 
-__all__ = ["BatchedSimulation", "WorldView"]
+__all__ = ["LEFT_TILE", "BatchedSimulation", "WorldView"]
+
+#: what the message of a world whose points left its own domain says
+LEFT_TILE = "points left the world's domain"
 
 
 class WorldView:
@@ -160,8 +163,8 @@ class BatchedSimulation:
                     continue
                 out = live & ((xs[:, 0] < x0) | (xs[:, 0] > x1) | (xs[:, 1] < y0) | (xs[:, 1] > y1))
                 if out.any():
-                    bad[w.index] = (f"{int(out.sum())} points left the world's domain (a batch does not model a "
-                                    "world's left and right walls: run it alone)")
+                    bad[w.index] = (f"{int(out.sum())} {LEFT_TILE} (a batch does not model a world's left and "
+                                    "right walls: run it alone)")
                     continue
             if self.sim.dem is not None and len(w.bodies):
                 b = self.body_fields(w)
@@ -241,7 +244,7 @@ class BatchedSimulation:
         views = {w.index: WorldView(self, w) for w in worlds}
         failed: dict[int, str] = {}
 
-        def fail(k: int, message: str, t: float) -> None:
+        def fail(k: int, message: str, t: float, left_tile: bool = False) -> None:
             failed[k] = message
             if writers[k] is not None:
                 writers[k].set_status("blown-up", message)
@@ -249,7 +252,8 @@ class BatchedSimulation:
             h = history[k]
             results[ids[k]] = RunResult(paths[k], np.array(times[:len(h.get("dt", []))]),
                                         {key: np.array(v) for key, v in h.items()}, "blown-up",
-                                        int(h["steps"][-1]) if h.get("steps") else 0, message)
+                                        int(h["steps"][-1]) if h.get("steps") else 0, message,
+                                        extra={"left_tile": left_tile})
 
         def record(t: float, steps: int, dt: float, bound: float) -> None:
             self._fresh_frame()
@@ -272,7 +276,7 @@ class BatchedSimulation:
                     fail(w.index, f"world {ids[w.index]}: {e}", t)
             for k, why in self.stray_worlds().items():
                 if k not in failed:
-                    fail(k, f"world {ids[k]}: {why} at t = {t:.6g} s", t)
+                    fail(k, f"world {ids[k]}: {why} at t = {t:.6g} s", t, left_tile=LEFT_TILE in why)
 
         ended = False
         try:

@@ -29,7 +29,8 @@ from ..model.config import SolverConfig
 from ..model.scene import MPMBody, Obstacle, Scene
 from ..model.shapes import SeededPoints, Shape
 
-__all__ = ["World", "WorldLayout", "batch_key", "batch_refusal", "combine_scenes", "margin_cells", "tile_offsets"]
+__all__ = ["World", "WorldLayout", "batch_key", "batch_refusal", "combine_scenes", "margin_cells", "side_refusal",
+           "tile_offsets"]
 
 #: empty cells between two tiles beyond the contact reach: the widest stencil (cubic B-spline,
 #: 4 nodes) plus the ghost layers a point on a side may touch (``mpm_state.GHOST_NODES``)
@@ -105,14 +106,34 @@ def batch_key(scene: Scene, config: SolverConfig) -> str:
     }, sort_keys=True, default=str)
 
 
+def side_refusal(scene: Scene) -> str | None:
+    """Why this scene cannot be a world of a batch (None when it can): x periodic (tiles would join
+    it to its neighbours), or material points starting within ``STENCIL_CELLS`` cells of a left or
+    right wall (a batch has no walls between its tiles: the wall would not hold them)."""
+    if scene.periodic_x:
+        return "it is periodic in x (tiles along x would join it to its neighbours)"
+    if not scene.has_mpm or not scene.cell_size:
+        return None
+    (x0, _), (x1, _) = scene.domain
+    reach = STENCIL_CELLS * scene.cell_size
+    for body in scene.bodies:
+        x = scene._seed(body).positions[:, 0]
+        for side, near in (("left", x.min() - x0 < reach), ("right", x1 - x.max() < reach)):
+            if near and scene.boundaries[side].kind != "free":
+                return (f"its points start within {STENCIL_CELLS} cells of its {side} wall (a batch has no walls "
+                        "between its worlds)")
+    return None
+
+
 def batch_refusal(scenes: list[Scene], configs: list[SolverConfig]) -> str | None:
-    """Why these runs cannot share one grid (None when they can): the first field of ``batch_key``
-    that differs from the first run's, or a periodic x, which tiling would break."""
+    """Why these runs cannot share one grid (None when they can): a run that cannot be a world
+    (``side_refusal``), or the first field of ``batch_key`` that differs from the first run's."""
     if not scenes:
         return "no runs to batch"
     for k, scene in enumerate(scenes):
-        if scene.periodic_x:
-            return f"run {k} is periodic in x (tiles along x would join it to its neighbours)"
+        why = side_refusal(scene)
+        if why:
+            return f"run {k} cannot be a world of a batch: {why}"
     first = json.loads(batch_key(scenes[0], configs[0]))
     for k, (scene, config) in enumerate(zip(scenes, configs, strict=True)):
         key = json.loads(batch_key(scene, config))

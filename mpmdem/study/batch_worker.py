@@ -43,7 +43,7 @@ def run_keys(case: str, runs: list, out: str, budget: float = 20.0) -> list | No
     the host that plans the study; None for a run whose build fails; None for all when building
     them takes longer than ``budget`` [s] (a case whose build itself simulates, such as grains
     settled behind a gate: the groups are then cut in grid order and the workers find the keys)."""
-    from ..sim.batch_scene import batch_key
+    from ..sim.batch_scene import batch_key, side_refusal
 
     module = load_case(case)
     if hasattr(module, "VARIANTS"):
@@ -55,7 +55,7 @@ def run_keys(case: str, runs: list, out: str, budget: float = 20.0) -> list | No
         try:
             with contextlib.redirect_stderr(io.StringIO()):
                 _, setup, config, end, frames = _prepare(module, run, str(Path(out) / "runs" / run.id))
-            keys.append((batch_key(setup.scene, config), end, frames))
+            keys.append(None if side_refusal(setup.scene) else (batch_key(setup.scene, config), end, frames))
         except Exception:  # (the run's own path reports it)
             keys.append(None)
     return keys
@@ -74,7 +74,7 @@ def _prepare(module, run, run_dir: str):
 
 def execute_batch(case: str, runs: list, out: str, device: str | None) -> list[dict]:
     """The rows of ``runs`` (``study.Run``s; folders ``out/runs/<id>``), batched where they can be."""
-    from ..sim.batch_scene import batch_key
+    from ..sim.batch_scene import batch_key, side_refusal
 
     module = load_case(case)
     folders = {r.id: str(Path(out) / "runs" / r.id) for r in runs}
@@ -92,13 +92,23 @@ def execute_batch(case: str, runs: list, out: str, device: str | None) -> list[d
     for run in runs:
         if run.id in prepared:
             _, setup, config, end, frames = prepared[run.id]
+            if side_refusal(setup.scene):
+                alone.append(run)
+                continue
             groups.setdefault((batch_key(setup.scene, config), end, frames), []).append(run)
     rows = []
     for group in groups.values():
         if len(group) == 1:
             alone += group
             continue
-        rows += _run_group(module, group, prepared, folders, device)
+        for row in _run_group(module, group, prepared, folders, device):
+            if row.pop("left_tile", False):  # its material reached its side: the lone run has the wall
+                run = next(r for r in group if r.id == row["id"])
+                lone = execute_run(case, run.id, run.values, list(run.argv), folders[run.id], device)
+                rows.append({**lone, "batch": row["batch"],
+                             "batch_note": "ran alone: it reached its side in the batch"})
+            else:
+                rows.append(row)
     for run in alone:
         rows.append(execute_run(case, run.id, run.values, list(run.argv), folders[run.id], device))
     return rows
@@ -151,6 +161,8 @@ def _run_group(module, group: list, prepared: dict, folders: dict, device: str |
         row = {"id": run.id, **run.values, "status": summary["status"], "message": summary.get("message", ""),
                "wall_seconds": wall, "device": summary["device"], "worker": worker_name(), **tag, "batch_world": k}
         row.update(scalar_summary(summary, row))
+        if result.extra.get("left_tile"):
+            row["left_tile"] = True
         rows.append(row)
     return rows
 
