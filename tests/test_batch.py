@@ -3,9 +3,11 @@
 References: a world of a batch is the same simulation as its lone run, so the lone run is the
 reference. World 0 sits at offset 0 on the same grid lines, and its points and contacts meet no
 other world (the margin), so on the CPU, with a fixed dt, its outputs are bit for bit the lone
-run's (the same operations in the same order). World w > 0 sits X_w further along x: the grid's
-origin enters x − origin in a different rounding, so it matches the lone run to round-off (a
-relative 1e-9 in f64, far above the ulp-level differences and far below any physical change).
+run's (the same operations in the same order). World w > 0 is bit for bit the lone run of its
+scene translated by X_w on the batch's grid (the same translation, the grid from the same origin);
+against its untranslated lone run, the grid's origin enters x − origin in another rounding, so it
+matches to round-off (a relative 1e-9 in f64, far above the ulp-level differences and far below
+any physical change).
 """
 
 import math
@@ -29,7 +31,8 @@ BATCH_WIDE = ("work_plastic", "work_boundary", "work_damping", "work_inflow", "w
 
 
 def sand_on_plate(width=0.2, speed=0.0, dx=0.0, left=0.1):
-    """A sand block on a fixed spheropolygon plate in a 0.4 × 0.3 m box (coupled: points and a body)."""
+    """A sand block on a fixed spheropolygon plate in a 0.4 × 0.3 m box (coupled: points and a body),
+    all moved dx along x."""
     scene = m.Scene(domain=((dx, 0.0), (0.4 + dx, 0.3)), cell_size=0.02, gravity=(0.0, -10.0),
                     contact=m.ContactLaw(1e5, restitution=0.5),
                     boundaries={"left": "slip", "right": "slip", "bottom": "slip", "top": "free"})
@@ -96,6 +99,28 @@ def test_world_one_matches_its_lone_run_to_round_off(batch):
     rf["x"][:, 0] -= X
     np.testing.assert_allclose(f["x"], rf["x"], rtol=0, atol=1e-12)
     np.testing.assert_allclose(f["v"], rf["v"], rtol=0, atol=1e-9)  # [m/s], against speeds ~ g t ~ 0.04 m/s
+
+
+def test_world_one_is_bit_for_bit_alone_in_the_batch_grid(batch):
+    """World 1 alone on the batch's grid (translated by X_1 as the batch translates it, on a grid from
+    x = 0 as the batch's): bit for bit the batch's world 1, so the other world changes nothing in it."""
+    b, results, _ = batch
+    X = b.worlds[1].offset
+    alone, _ = combine_scenes([sand_on_plate(0.15)], [CONFIG], offsets=[X])
+    assert alone.domain == b.combined.domain
+    lone = Simulation(alone, CONFIG, device="cpu")
+    ref = lone.run(END, frames=FRAMES)
+    d = ref.diagnostics
+    for prefix in ("points_", "bodies_"):  # about the world's own origin, as the world's output is taken
+        d[f"{prefix}momentum_angular"] = d[f"{prefix}momentum_angular"] - X * d[f"{prefix}momentum_y"]
+    d["momentum_angular"] = d["points_momentum_angular"] + d["bodies_momentum_angular"]
+    for key, values in d.items():
+        if key not in BATCH_WIDE:
+            assert np.array_equal(values, results[1].diagnostics[key]), key
+    f, rf = b.view(1).fields(), lone.fields()
+    rf["x"][:, 0] -= X
+    for key, values in rf.items():
+        assert np.array_equal(values, f[key]), key
 
 
 def test_a_blow_up_fails_its_world_only(tmp_path):
