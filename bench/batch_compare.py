@@ -35,7 +35,9 @@ def compare(a: dict, b: dict, columns: list[str] | None = None) -> tuple[float, 
     worst, where = 0.0, ""
     for key, va in a.items():
         vb = b.get(key)
-        if (columns and key not in columns) or key in SKIPPED or isinstance(va, bool) or not isinstance(va, int | float) or not isinstance(vb, int | float):
+        if (columns and key not in columns) or key in SKIPPED or isinstance(va, bool):
+            continue
+        if not (isinstance(va, int | float) and isinstance(vb, int | float)):
             continue
         if not (math.isfinite(va) and math.isfinite(vb)):
             continue
