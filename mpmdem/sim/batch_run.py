@@ -8,7 +8,8 @@ it reads of a Simulation, for one world. Which diagnostics are per world, and wh
 batch's: ``mpmdem.sim.world_diagnostics``.
 
 One dt for the batch: the smallest of the worlds' bounds, as the device reduces it over every
-point. With a fixed dt (``SolverConfig.dt``) world 0 is, on the CPU, bit for bit its lone run.
+point. With a fixed dt (``SolverConfig.dt``) world 0 is, on the CPU, bit for bit its lone run, and
+world w bit for bit the lone run of its scene translated by X_w on the batch's grid.
 
 A blow-up stops one world, not the batch: the device's checks (NaN/inf, points leaving the
 domain) and, at each frame, the energy check of each world and a check that its points stay

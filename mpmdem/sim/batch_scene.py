@@ -144,13 +144,16 @@ def batch_refusal(scenes: list[Scene], configs: list[SolverConfig]) -> str | Non
     return None
 
 
-def margin_cells(scenes: list[Scene]) -> int:
+def margin_cells(scenes: list[Scene], config: SolverConfig | None = None) -> int:
     """Empty cells between two tiles: ``STENCIL_CELLS`` plus twice the widest contact reach of any
-    world (its points' contact radii, its rigid bodies' and grains' bounding radii, in cells)."""
+    world (its points' contact radii, its rigid bodies' and grains' bounding radii, and the
+    point–body lists' Verlet skin, h/2 unless the config sets it; in cells), so that no contact
+    list of one world lists a body or point of another."""
     h = scenes[0].cell_size
     if not h:
         return STENCIL_CELLS
-    return STENCIL_CELLS + 2 * math.ceil(_reach(scenes) / h - 1e-9)
+    skin = (config.imp_skin if config is not None and config.imp_skin else 0.5 * h)
+    return STENCIL_CELLS + 2 * math.ceil((_reach(scenes) + skin) / h - 1e-9)
 
 
 def _reach(scenes: list[Scene]) -> float:
@@ -211,7 +214,7 @@ def combine_scenes(scenes: list[Scene], configs: list[SolverConfig], *,
         raise InputError("batch", f"{len(scenes)} runs", f"runs that can share one grid: {reason}")
     first = scenes[0]
     h = first.cell_size
-    margin = margin_cells(scenes)
+    margin = margin_cells(scenes, configs[0])
     offsets = tile_offsets(scenes, margin) if offsets is None else list(offsets)
     (x0, y0), (_, y1) = first.domain
     right = max(s.domain[1][0] + dx for s, dx in zip(scenes, offsets, strict=True))
