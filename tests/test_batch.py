@@ -136,6 +136,19 @@ def test_a_blow_up_fails_its_world_only(tmp_path):
     np.testing.assert_array_equal(results[0].diagnostics["energy_kinetic"], lone.diagnostics["energy_kinetic"])
 
 
+def test_a_world_reaching_its_side_wall_is_stopped_and_marked(tmp_path):
+    """World 1's sand slides right at 20 m/s: within 0.004 s it comes within 4 cells of its right
+    wall, which the batch does not model, so the world is stopped (marked for a lone run); world 0
+    completes bit for bit as alone (fixed dt: the restart without world 1 changes nothing in it)."""
+    b = BatchedSimulation([sand_on_plate(), sand_on_plate(0.15, speed=20.0)], CONFIG, device="cpu")
+    results = b.run(END, frames=FRAMES)
+    assert results[1].status == "blown-up" and results[1].extra["left_tile"]
+    assert "within 4 cells of its left or right wall" in results[1].message
+    lone = Simulation(sand_on_plate(), CONFIG, device="cpu").run(END, frames=FRAMES)
+    assert results[0].status == "completed"
+    np.testing.assert_array_equal(results[0].diagnostics["energy_kinetic"], lone.diagnostics["energy_kinetic"])
+
+
 def test_runs_that_cannot_share_a_grid_are_refused():
     other = sand_on_plate()
     other.gravity = (0.0, -9.81)

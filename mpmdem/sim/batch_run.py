@@ -32,7 +32,7 @@ from .. import __version__
 from ..errors import BlowUpError, InputError
 from ..model.config import SolverConfig
 from ..model.scene import Scene
-from .batch_scene import World, combine_scenes
+from .batch_scene import STENCIL_CELLS, World, combine_scenes
 from .diagnostics import EnergyBalance, check_energy
 from .simulation import RunResult, Simulation
 from .tuning import Tuning
@@ -41,7 +41,7 @@ from .world_diagnostics import WorldPoints, world_diagnostics
 __all__ = ["LEFT_TILE", "BatchedSimulation", "WorldView"]
 
 #: what the message of a world whose points left its own domain says
-LEFT_TILE = "points left the world's domain"
+LEFT_TILE = "left the world's domain"
 
 
 class WorldView:
@@ -146,8 +146,9 @@ class BatchedSimulation:
 
     # -- checks -----------------------------------------------------------------------------------
     def stray_worlds(self) -> dict[int, str]:
-        """World → why it failed, for worlds with non-finite points or bodies, or points outside their
-        own domain (a side wall of a world is not modelled in a batch; a free side is left)."""
+        """World → why it failed, for worlds with non-finite points or bodies, points that left their
+        own domain or came within ``STENCIL_CELLS`` cells of its left or right wall (a batch has no
+        walls between its worlds), or free bodies whose centroid left it."""
         self._fresh_frame()
         bad = {}
         for w in self.worlds:
@@ -162,15 +163,26 @@ class BatchedSimulation:
                 if not (np.isfinite(x[live]).all() and np.isfinite(v[live]).all()):
                     bad[w.index] = f"{int((~np.isfinite(x[live]).all(1)).sum())} points have NaN/inf values"
                     continue
-                out = live & ((xs[:, 0] < x0) | (xs[:, 0] > x1) | (xs[:, 1] < y0) | (xs[:, 1] > y1))
+                # (a wall acts on the nodes of its side: a point whose stencil reaches them feels it)
+                reach = STENCIL_CELLS * self.combined.cell_size
+                lo = x0 + (reach if w.scene.boundaries["left"].kind != "free" else 0.0)
+                hi = x1 - (reach if w.scene.boundaries["right"].kind != "free" else 0.0)
+                out = live & ((xs[:, 0] < lo) | (xs[:, 0] > hi) | (xs[:, 1] < y0) | (xs[:, 1] > y1))
                 if out.any():
-                    bad[w.index] = (f"{int(out.sum())} {LEFT_TILE} (a batch does not model a world's left and "
-                                    "right walls: run it alone)")
+                    bad[w.index] = (f"{int(out.sum())} points {LEFT_TILE} or came within {STENCIL_CELLS} cells of "
+                                    "its left or right wall (a batch has no walls between its worlds: run it alone)")
                     continue
             if self.sim.dem is not None and len(w.bodies):
                 b = self.body_fields(w)
                 if not all(np.isfinite(b[k]).all() for k in ("x", "v", "angle", "omega")):
                     bad[w.index] = "a rigid body has NaN/inf values"
+                    continue
+                free = np.array([r.motion == "free" for r in w.scene.rigid_bodies]
+                                + [True] * sum(len(g) for g in w.scene.grains), bool)
+                xb = b["x"][free] + np.array([w.offset, 0.0])
+                gone = (xb[:, 0] < x0) | (xb[:, 0] > x1) | (xb[:, 1] < y0) | (xb[:, 1] > y1)
+                if gone.any():
+                    bad[w.index] = f"{int(gone.sum())} free bodies {LEFT_TILE}"
         return bad
 
     # -- running ----------------------------------------------------------------------------------
