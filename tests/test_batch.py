@@ -192,3 +192,19 @@ def test_groups_gather_runs_of_one_key():
     assert group_runs(runs, 2, keys=[1, 2, 1, 2, None, 1]) == [["a", "c"], ["f"], ["b", "d"], ["e"]]
     assert group_runs(runs, 4) == [["a", "b", "c", "d"], ["e", "f"]]
     assert group_runs(runs, 1) == [[r] for r in runs]
+
+
+def test_study_runs_a_world_that_reached_its_wall_again_alone(tmp_path):
+    """Two sliding blocks batched: the one at 20 m/s nears its right wall in the batch, so the study
+    runs it again alone (the wall then holds it); the one at rest keeps its batched row, and both
+    rows equal their lone runs (the reference: world 0 bit for bit, the rerun is a lone run)."""
+    from mpmdem.study.study import Study, run_study
+
+    study = Study("slide", "study_sliding_case", grid={"--speed": [0.0, 20.0]})
+    alone = run_study(study, tmp_path / "alone", workers=0, device="cpu", progress=False, batch=1)
+    batched = run_study(study, tmp_path / "batched", workers=0, device="cpu", progress=False, batch=2)
+    assert [r["status"] for r in batched] == ["completed", "completed"]
+    assert batched[0]["batch_world"] == 0 and "batch_note" not in batched[0]
+    assert batched[1]["batch_note"] == "ran alone: it reached its side in the batch"
+    for a, b in zip(alone, batched, strict=True):
+        assert (a["right_edge"], a["low_mass"]) == (b["right_edge"], b["low_mass"])
