@@ -145,11 +145,13 @@ class BatchedSimulation:
         self._frame_fields = self._frame_bodies = None
 
     # -- checks -----------------------------------------------------------------------------------
-    def stray_worlds(self) -> dict[int, str]:
+    def stray_worlds(self, fresh: bool = True) -> dict[int, str]:
         """World → why it failed, for worlds with non-finite points or bodies, points that left their
         own domain or came within ``STENCIL_CELLS`` cells of its left or right wall (a batch has no
-        walls between its worlds), or free bodies whose centroid left it."""
-        self._fresh_frame()
+        walls between its worlds), or free bodies whose centroid left it. ``fresh``: read the device
+        again (False: the fields of the frame just written)."""
+        if fresh:
+            self._fresh_frame()
         bad = {}
         for w in self.worlds:
             (x0, y0), (x1, y1) = w.domain
@@ -287,7 +289,7 @@ class BatchedSimulation:
                                  lambda: sim.stage.likely_cause(dt, bound))
                 except BlowUpError as e:
                     fail(w.index, f"world {ids[w.index]}: {e}", t)
-            for k, why in self.stray_worlds().items():
+            for k, why in self.stray_worlds(fresh=False).items():
                 if k not in failed:
                     fail(k, f"world {ids[k]}: {why} at t = {t:.6g} s", t, left_tile=LEFT_TILE in why)
 
