@@ -21,6 +21,8 @@ from pathlib import Path
 
 from ..errors import InputError
 from .case import load_case
+from .run_progress import run_callback
+from .signals import deferred_stop, sigterm_raises
 from .worker import RUN_LOCK, execute_run, failed_row, scalar_summary, worker_name
 
 __all__ = ["execute_batch", "group_runs", "run_keys"]
@@ -125,11 +127,19 @@ def _run_group(module, group: list, prepared: dict, folders: dict, device: str |
     for run in group:
         (Path(folders[run.id]) / "summary.json").unlink(missing_ok=True)
     try:
-        with RUN_LOCK:
+        with RUN_LOCK, sigterm_raises(), deferred_stop() as received:
             batch = BatchedSimulation([prepared[r.id][1].scene for r in group], config, device=device)
             results = batch.run(end_time, outs=[folders[r.id] for r in group], frames=frames,
-                                names=module.NAME.replace("-", "_"))
+                                names=module.NAME.replace("-", "_"), progress=run_callback(None, received))
             final = batch.last_batch
+    except KeyboardInterrupt as e:  # (the files say "interrupted"; a resumed study runs the group again)
+        message = str(e) or "stopped by Ctrl-C"
+        for run in group:
+            Path(folders[run.id]).mkdir(parents=True, exist_ok=True)
+            (Path(folders[run.id]) / "summary.json").write_text(json.dumps(
+                {"case": module.NAME, "status": "interrupted", "message": message, **tag}, indent=2) + "\n")
+        return [{"id": run.id, **run.values, "status": "interrupted", "message": message, "device": device,
+                 "worker": worker_name(), **tag} for run in group]
     except Exception as e:
         rows = []
         for run in group:
@@ -153,6 +163,9 @@ def _run_group(module, group: list, prepared: dict, folders: dict, device: str |
                 summary.update(module.summarize(view, result, args))
             except InputError as e:
                 summary.update(status="bad-input", message=str(e))
+            except Exception as e:  # (a row, as execute_run makes of it)
+                (Path(folders[run.id]) / "error.txt").write_text(traceback.format_exc())
+                summary.update(status="error", message=f"{type(e).__name__}: {e}")
         else:
             summary.update(message=result.message)
         folder = Path(folders[run.id])
