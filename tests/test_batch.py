@@ -208,3 +208,22 @@ def test_study_runs_a_world_that_reached_its_wall_again_alone(tmp_path):
     assert batched[1]["batch_note"] == "ran alone: it reached its side in the batch"
     for a, b in zip(alone, batched, strict=True):
         assert (a["right_edge"], a["low_mass"]) == (b["right_edge"], b["low_mass"])
+
+
+def test_every_part_of_a_world_moves_with_it():
+    """Points, rigid bodies, obstacles (a disk's centre too) and the layout: world 1 is world 0's
+    scene moved X_1 along x, on a grid line, its points and bodies after world 0's."""
+    scenes = []
+    for _ in range(2):
+        scene = sand_on_plate()
+        scene.add_obstacle(m.disk((0.35, 0.2), 0.02), kind="slip")
+        scenes.append(scene)
+    combined, layout = combine_scenes(scenes, [CONFIG, CONFIG])
+    X = layout.worlds[1].offset
+    assert math.isclose(X / 0.02, round(X / 0.02)) and X >= 0.4 + layout.margin * 0.02 - 1e-12
+    assert combined.obstacles[1].shape._circle() == ((0.35 + X, 0.2), 0.02)
+    assert combined.rigid_bodies[1].position == (0.2 + X, 0.05)
+    n = layout.worlds[0].points.stop
+    x = combined.particles()["x"]
+    np.testing.assert_allclose(x[n:, 0] - X, x[:n, 0], rtol=0, atol=1e-12)
+    assert layout.world_of_point(n) == 1 and layout.world_of_body(1) == 1

@@ -168,8 +168,11 @@ def _reach(scenes: list[Scene]) -> float:
 
 
 def _shape(shape: Shape, dx: float) -> Shape:
-    return dataclasses.replace(shape, polygon=shapely.affinity.translate(shape.polygon, xoff=dx),
-                               params=shape.params + (("batch_offset", dx),))
+    """``shape`` moved dx [m] along x: its outline and the parameters that hold positions (a disk's
+    centre, which obstacles and seeding read; a rectangle's corners)."""
+    moved = {"center": lambda c: (c[0] + dx, c[1]), "corners": lambda c: (c[0] + dx, c[1], c[2] + dx, c[3])}
+    params = tuple((k, moved[k](v) if k in moved else v) for k, v in shape.params)
+    return dataclasses.replace(shape, polygon=shapely.affinity.translate(shape.polygon, xoff=dx), params=params)
 
 
 def _body(scene: Scene, b: MPMBody, dx: float, k: int) -> MPMBody:
