@@ -227,3 +227,16 @@ def test_every_part_of_a_world_moves_with_it():
     x = combined.particles()["x"]
     np.testing.assert_allclose(x[n:, 0] - X, x[:n, 0], rtol=0, atol=1e-12)
     assert layout.world_of_point(n) == 1 and layout.world_of_body(1) == 1
+
+
+def test_keys_come_from_builds_unless_the_build_simulates(tmp_path):
+    """The planner builds each run for its batch key (two speeds of one scene: one key), but not the
+    runs whose build settles grains (``costly_build``): those are grouped in grid order."""
+    from mpmdem.study.batch_worker import run_keys
+    from mpmdem.study.study import Study, plan_runs
+
+    runs = plan_runs(Study("slide", "study_sliding_case", grid={"--speed": [0.0, 1.0]}), "cpu")
+    keys = run_keys("study_sliding_case", runs, str(tmp_path))
+    assert keys[0] == keys[1] is not None
+    dem = plan_runs(Study("dem", "silo-discharge", grid={"--orifice": [0.04, 0.05]}, fixed={"--sand": "dem"}), "cpu")
+    assert run_keys("silo-discharge", dem, str(tmp_path)) is None

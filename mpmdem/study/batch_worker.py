@@ -42,18 +42,29 @@ def group_runs(runs: list, size: int, keys: list | None = None) -> list[list]:
 
 def run_keys(case: str, runs: list, out: str, budget: float = 20.0) -> list | None:
     """The batch key (with the end time and frame count) of each run, from its case's ``build``, on
-    the host that plans the study; None for a run whose build fails; None for all when building
-    them takes longer than ``budget`` [s] (a case whose build itself simulates, such as grains
-    settled behind a gate: the groups are then cut in grid order and the workers find the keys)."""
+    the host that plans the study; None for a run whose build fails; None for all when a run's
+    build itself simulates (the case's optional ``costly_build(args)`` says so: grains settled behind
+    a gate) or building them takes longer than ``budget`` [s]: the groups are then cut in grid order
+    and the workers find the keys."""
     from ..sim.batch_scene import batch_key, side_refusal
 
     module = load_case(case)
     if hasattr(module, "VARIANTS"):
         return [None] * len(runs)
+    from .runner import make_case_parser
+
     keys, start = [], time.perf_counter()
+    parser = make_case_parser(module)
     for run in runs:
         if time.perf_counter() - start > budget:
             return None
+        costly = getattr(module, "costly_build", None)
+        try:
+            if costly is not None and costly(parser.parse_args([*run.argv, "--quiet"])):
+                return None
+        except SystemExit:  # (plan_runs checked the flags; a case's own check may still refuse)
+            keys.append(None)
+            continue
         try:
             with contextlib.redirect_stderr(io.StringIO()):
                 _, setup, config, end, frames = _prepare(module, run, str(Path(out) / "runs" / run.id))
