@@ -307,7 +307,7 @@ class BatchedSimulation:
                 except BlowUpError as e:
                     stray = self.stray_worlds()
                     for j in (stray or [w.index for w in worlds]):
-                        fail(j, f"world {ids[j]}: {stray.get(j, e)}", e.time)
+                        fail(j, f"world {ids[j]}: {stray.get(j, e)}", e.time, left_tile=LEFT_TILE in stray.get(j, ""))
                     break
                 clock = sim.stage.read_clock()
                 record(t, steps, clock.dt, clock.bound)
