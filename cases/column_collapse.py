@@ -221,6 +221,12 @@ def material(args) -> MohrCoulomb | MuI:
     return MohrCoulomb(args.youngs_modulus, POISSON, DENSITY, friction_angle(args), 0.0, 0.0, critical_density=rho_cr)
 
 
+def costly_build(args) -> bool:
+    """Whether ``build`` itself simulates (--sand dem settles the grains behind a gate): a study then
+    groups these runs for batching without building them first (``mpmdem.study.batch_worker``)."""
+    return getattr(args, "sand", "mpm") == "dem"
+
+
 def build(args) -> CaseSetup:
     _check(args)
     if args.sand == "dem":

@@ -227,6 +227,12 @@ def contact_radius(h: float) -> float:
     return h * (POINTS_PER_CELL**2) ** -0.25  # eq. 45's geometric middle h n^(-1/4)
 
 
+def costly_build(args) -> bool:
+    """Whether ``build`` itself simulates (--sand dem settles the grains behind a gate): a study then
+    groups these runs for batching without building them first (``mpmdem.study.batch_worker``)."""
+    return getattr(args, "sand", "mpm") == "dem"
+
+
 def build(args) -> CaseSetup:
     _check(args)
     if getattr(args, "sand", "mpm") == "dem":

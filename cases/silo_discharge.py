@@ -388,6 +388,12 @@ def build_dem(args, g: dict) -> CaseSetup:
 DEFAULTS_DEM = {"precision": "f32"}
 
 
+def costly_build(args) -> bool:
+    """Whether ``build`` itself simulates (--sand dem settles the grains behind a gate): a study then
+    groups these runs for batching without building them first (``mpmdem.study.batch_worker``)."""
+    return getattr(args, "sand", "mpm") == "dem"
+
+
 def build(args) -> CaseSetup:
     g = geometry(args)
     if getattr(args, "sand", "mpm") == "dem":

@@ -167,6 +167,10 @@ def _study(argv: list[str]) -> int:
     p.add_argument("--scheduler", default=None, help="address of a running Dask scheduler to use instead")
     p.add_argument("--device", default=None, help="passed to every run: cpu, cuda (default: cuda with --gpus)")
     p.add_argument("--rerun-failed", action="store_true", help="run again every run not completed")
+    p.add_argument("--batch", type=_count(1), default=None, metavar="N",
+                   help="up to N runs of one batch key as one batched simulation on one device (default: 8 on a "
+                        "GPU, none on a CPU; docs/studies.md)")
+    p.add_argument("--no-batch", dest="batch", action="store_const", const=1, help="run every run alone")
     p.add_argument("--set", type=_setting, action="append", default=[], metavar="FLAG=VALUE",
                    help="a fixed flag (true/false for switches), or a grid flag's comma-separated values")
     try:
@@ -179,7 +183,8 @@ def _study(argv: list[str]) -> int:
     try:
         study = load_study(args.study).with_settings(dict(args.set))
         rows = run_study(study, args.out, workers=args.workers, gpus=args.gpus, workers_per_gpu=args.workers_per_gpu,
-                         scheduler=args.scheduler, device=args.device, rerun_failed=args.rerun_failed)
+                         scheduler=args.scheduler, device=args.device, rerun_failed=args.rerun_failed,
+                         batch=args.batch)
     except (InputError, ImportError) as e:
         print(f"mpmdem: error: {e}", file=sys.stderr)
         return 2

@@ -3,7 +3,9 @@ its ``build`` returns. Library code: cases depend on it, not on the command line
 
 A case module defines ``NAME``, ``DESCRIPTION``, ``add_arguments(parser)`` (its own flags),
 ``build(args) -> CaseSetup`` and, optionally, ``DEFAULTS`` (SolverConfig fields), ``VALIDATION``
-(``mpmdem.study.validation.Check`` rows) and ``summarize(sim, result, args) -> dict``;
+(``mpmdem.study.validation.Check`` rows), ``summarize(sim, result, args) -> dict`` and
+``costly_build(args) -> bool`` (True when ``build`` itself simulates: a study then groups the runs
+for batching without building them first, ``mpmdem.study.batch_worker``);
 ``mpmdem.study.runner.run_case`` parses the flags, runs it and writes its summary.
 
 The built-in cases are plug-ins on top of the library: ``mpmdem.cases`` lists them by name

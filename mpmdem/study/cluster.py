@@ -15,6 +15,7 @@ import uuid
 from collections.abc import Iterator
 from pathlib import Path
 
+from .batch_worker import execute_batch
 from .worker import execute_run, failed_row
 
 __all__ = ["DASK_MISSING", "dask_available", "execute_runs", "map_tasks"]
@@ -63,12 +64,16 @@ def study_client(workers: int, gpus: int = 0, workers_per_gpu: int = 1, schedule
 
 
 def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | None, gpus: int = 0,
-                 workers_per_gpu: int = 1, scheduler: str | None = None) -> Iterator[dict]:
-    """The row of every run, in the order they finish; ``workers == 0``: in this process, in order."""
+                 workers_per_gpu: int = 1, scheduler: str | None = None, groups: list | None = None) -> Iterator[dict]:
+    """The row of every run, in the order they finish; ``workers == 0``: in this process, in order.
+    ``groups`` (``batch_worker.group_runs``): each group one task that batches what it can."""
     def args(run):
         return case, run.id, run.values, list(run.argv), str(out / "runs" / run.id), device
 
     if not runs:
+        return
+    if groups is not None:
+        yield from _execute_groups(groups, case, out, device, workers, gpus, workers_per_gpu, scheduler)
         return
     if workers == 0 and not scheduler and gpus == 0:
         for run in runs:
@@ -89,6 +94,31 @@ def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | 
                 yield future.result()
             except Exception as e:  # the worker itself died (a crash, killed for memory, ...)
                 yield failed_row(run.id, run.values, f"worker lost: {type(e).__name__}: {e}", device=device)
+
+
+def _execute_groups(groups, case, out, device, workers, gpus, workers_per_gpu, scheduler) -> Iterator[dict]:
+    """The rows of every group of runs (``execute_batch``), a group's rows when it finishes."""
+    if workers == 0 and not scheduler and gpus == 0:
+        for group in groups:
+            rows = execute_batch(case, group, str(out), device)
+            yield from rows
+            if any(row["status"] == "interrupted" for row in rows):
+                raise KeyboardInterrupt
+        return
+    from distributed import as_completed
+
+    n = workers if workers else min(len(groups), os.cpu_count() or 1)
+    with study_client(n, gpus, workers_per_gpu, scheduler) as client:
+        token = uuid.uuid4().hex[:8]
+        futures = {client.submit(execute_batch, case, group, str(out), device, key=f"{group[0].id}-batch-{token}",
+                                 pure=False): group for group in groups}
+        for future in as_completed(futures):
+            group = futures[future]
+            try:
+                yield from future.result()
+            except Exception as e:  # the worker itself died
+                for run in group:
+                    yield failed_row(run.id, run.values, f"worker lost: {type(e).__name__}: {e}", device=device)
 
 
 def map_tasks(fn, tasks: list, workers: int = 1, gpus: int = 0, workers_per_gpu: int = 1,

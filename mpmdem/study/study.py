@@ -11,6 +11,7 @@ appends one row per run to ``OUT/results.jsonl`` as each finishes, and writes ``
 from __future__ import annotations
 
 import itertools
+import sys
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -217,6 +218,26 @@ def safe_id(text: str) -> str:
     return "".join(c if c.isalnum() or c in ".=,+-_" else "_" for c in text)
 
 
+#: runs per batch on a GPU by default: the silo at the study's sizes is launch-bound below ~8 worlds
+GPU_BATCH = 8
+
+
+def default_batch(device: str | None, gpus: int) -> int:
+    """Runs per batch when none is asked: ``GPU_BATCH`` on a GPU, 1 (no batching) on a CPU."""
+    return GPU_BATCH if gpus or (device or "").startswith("cuda") else 1
+
+
+def grouping_line(name: str, runs: int, size: int, groups: list | None = None, keyed: bool = False) -> str:
+    """How the study groups its runs, in one line."""
+    if size <= 1 or not groups:
+        return f"study {name}: {runs} runs, each alone (no batching)"
+    sizes = [len(g) for g in groups]
+    how = ("grouped by batch key: config, grid, sides, gravity, contact laws" if keyed else
+           "in grid order; within a group, runs of one batch key share a grid, the others run alone")
+    return (f"study {name}: {runs} runs in {len(groups)} batch(es) of up to {size} ({', '.join(map(str, sizes))} "
+            f"runs; {how})")
+
+
 def study_spec(study: Study, device: str | None) -> dict:
     """What ``OUT/study.json`` records: enough to tell whether a folder's rows belong to this study."""
     fixed = {k: format_value(v) for k, v in fixed_flags(study, device).items()}
@@ -226,7 +247,7 @@ def study_spec(study: Study, device: str | None) -> dict:
 
 def run_study(study: Study, out: str | Path | None = None, *, workers: int | None = None, gpus: int = 0,
               workers_per_gpu: int = 1, scheduler: str | None = None, device: str | None = None,
-              rerun_failed: bool = False, progress: bool = True) -> list[dict]:
+              rerun_failed: bool = False, progress: bool = True, batch: int | None = None) -> list[dict]:
     """Run every run of ``study`` not yet in ``out`` and return the table (one row per run, grid order).
 
     ``workers``: CPU worker processes of a local Dask cluster (None: one per core, at most one per
@@ -253,9 +274,22 @@ def run_study(study: Study, out: str | Path | None = None, *, workers: int | Non
     if todo and (workers != 0 or gpus or scheduler) and not dask_available():
         raise ImportError(DASK_MISSING)
     table.write_spec(spec)
+    size = default_batch(device, gpus) if batch is None else int(batch)
+    if size < 1:
+        raise InputError("batch", batch, "a number of runs per batch >= 1 (1: no batching)")
+    groups = None
+    if size > 1 and todo:
+        from .batch_worker import group_runs, run_keys
+
+        keys = run_keys(study.case, todo, str(out))
+        groups = group_runs(todo, size, keys)
+    if progress and todo:
+        print(grouping_line(study.name, len(todo), size, groups, keyed=size > 1 and keys is not None),
+              file=sys.stderr)
     bar = StudyProgress(study.name, len(todo), skipped=len(runs) - len(todo), enabled=progress)
     try:
-        for row in execute_runs(todo, study.case, out, device, workers, gpus, workers_per_gpu, scheduler):
+        for row in execute_runs(todo, study.case, out, device, workers, gpus, workers_per_gpu, scheduler,
+                                groups=groups):
             table.append(row)
             previous[row["id"]] = row
             bar.update(row)

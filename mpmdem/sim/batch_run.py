@@ -1,0 +1,342 @@
+"""BatchedSimulation: independent runs of one kind advanced as one simulation (one set of launches
+per step), each world written and checked as if it ran alone.
+
+The worlds are tiled along x in one grid (``mpmdem.sim.batch_scene``). Each world gets its own
+HDF5 file, energy.csv and diagnostics, in its own coordinates (the offset taken off), through the
+same writer as a lone run (``mpmdem.io.writer``); ``WorldView`` gives a case's ``summarize`` what
+it reads of a Simulation, for one world. Which diagnostics are per world, and which are the
+batch's: ``mpmdem.sim.world_diagnostics``.
+
+One dt for the batch: the smallest of the worlds' bounds, as the device reduces it over every
+point. With a fixed dt (``SolverConfig.dt``) world 0 is, on the CPU, bit for bit its lone run, and
+world w bit for bit the lone run of its scene translated by X_w on the batch's grid.
+
+A blow-up stops one world, not the batch: the device's checks (NaN/inf, points leaving the
+domain) and, at each frame, the energy check of each world and a check that its points stay
+inside its own domain, name the world; its file is marked "blown-up" with the message, and the
+batch starts again from t = 0 without it (the other worlds' files are written again, the same
+frames as they would be without the failed world). Checks that no point can be traced to a world
+(a granular node out of layers, overflowing contact lists) fail every world still running.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..errors import BlowUpError, InputError
+from ..model.config import SolverConfig
+from ..model.scene import Scene
+from .batch_scene import STENCIL_CELLS, World, combine_scenes
+from .diagnostics import EnergyBalance, check_energy
+from .simulation import RunResult, Simulation
+from .tuning import Tuning
+from .world_diagnostics import WorldPoints, world_diagnostics
+
+__all__ = ["LEFT_TILE", "BatchedSimulation", "WorldView"]
+
+#: what the message of a world whose points left its own domain says
+LEFT_TILE = "left the world's domain"
+
+
+class WorldView:
+    """What a case's ``summarize(sim, result, args)`` reads of a Simulation, for one world of a
+    batch: its scene, config, device, counts, and its point and body fields in its own coordinates."""
+
+    def __init__(self, batch: BatchedSimulation, world: World):
+        self._batch, self.world = batch, world
+        sim = batch.sim
+        self.scene, self.config, self.device, self.tuning = world.scene, sim.config, sim.device, sim.tuning
+        self.model = world.scene
+        self.coupling = sim.coupling
+        self.particle_count = world.points.stop - world.points.start
+        self.body_count = len(world.bodies)
+        self.last_diagnostics: dict[str, float] = {}
+
+    def fields(self) -> dict[str, np.ndarray]:
+        """Host copies of the world's per-point fields (its own coordinates and body indices)."""
+        if self.particle_count == 0:
+            raise InputError("fields", "points", "a scene with material points (use body_fields for rigid bodies)")
+        return self._batch.point_fields(self.world)
+
+    def body_fields(self) -> dict[str, np.ndarray]:
+        """Host copies of the world's per-body fields (its own coordinates, its scene's order)."""
+        if self.body_count == 0:
+            raise InputError("body_fields", "bodies", "a scene with rigid bodies")
+        return self._batch.body_fields(self.world)
+
+    def diagnostics(self) -> dict[str, float]:
+        """The world's diagnostics at its last frame."""
+        return dict(self.last_diagnostics)
+
+    @property
+    def time(self) -> float:
+        """The batch's time [s]."""
+        return self._batch.sim.time
+
+
+def _geometry(geo: dict, idx: np.ndarray, prefix: str) -> dict:
+    """The static body data of ``DEMSolver.scene_geometry`` for the bodies ``idx`` (names unprefixed)."""
+    start, count = geo["vertex_start"][idx], geo["vertex_count"][idx]
+    out = {"vertex_start": np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int32), "vertex_count": count,
+           "vertices": np.concatenate([geo["vertices"][s:s + c] for s, c in zip(start, count, strict=True)]
+                                      or [np.zeros((0, 2))])}
+    for key in ("radius", "motion", "mass", "grain"):
+        if key in geo:
+            out[key] = geo[key][idx]
+    out["name"] = [geo["name"][k].removeprefix(prefix) for k in idx]
+    return out
+
+
+class BatchedSimulation:
+    """Advance the worlds ``scenes`` (one SolverConfig) as one simulation.
+
+    Args:
+        scenes: the worlds; they must share what the kernels specialise on (``batch_scene.batch_key``).
+        config, device, tuning: as ``Simulation``'s, for every world.
+        offsets: X_w [m] per world (default ``batch_scene.tile_offsets``).
+    """
+
+    def __init__(self, scenes: list[Scene], config: SolverConfig | None = None, *, device: str | None = None,
+                 tuning: Tuning | None = None, offsets: list[float] | None = None):
+        self.scenes = list(scenes)
+        self.config = config or SolverConfig()
+        self.combined, self.layout = combine_scenes(self.scenes, [self.config] * len(self.scenes), offsets=offsets)
+        self.sim = Simulation(self.combined, self.config, device=device, tuning=tuning)
+        self._points = ({w.index: WorldPoints(self.sim.mpm, w) for w in self.layout.worlds}
+                        if self.sim.mpm is not None else {})
+        self._frame_fields: dict | None = None
+        self._frame_bodies: dict | None = None
+
+    @property
+    def worlds(self) -> tuple[World, ...]:
+        """The worlds, in order."""
+        return self.layout.worlds
+
+    def view(self, k: int) -> WorldView:
+        """World k as a Simulation-like view for ``summarize``."""
+        return WorldView(self, self.layout.worlds[k])
+
+    # -- per-world fields ------------------------------------------------------------------------
+    def point_fields(self, world: World) -> dict[str, np.ndarray]:
+        """World's point fields, in its own coordinates (copied once per frame from the device)."""
+        if self._frame_fields is None:
+            self._frame_fields = self.sim.mpm.fields()
+        f = self._frame_fields
+        out = {k: v[world.points].copy() for k, v in f.items()}
+        out["x"][:, 0] -= world.offset
+        out["body"] = out["body"] - sum(len(w.scene.bodies) for w in self.worlds[:world.index])
+        return out
+
+    def body_fields(self, world: World) -> dict[str, np.ndarray]:
+        """World's body fields, in its own coordinates and its scene's order."""
+        if self._frame_bodies is None:
+            self._frame_bodies = self.sim.dem.fields()
+        out = {k: v[world.bodies].copy() for k, v in self._frame_bodies.items()}
+        out["x"][:, 0] -= world.offset
+        return out
+
+    def _fresh_frame(self) -> None:
+        self._frame_fields = self._frame_bodies = None
+
+    # -- checks -----------------------------------------------------------------------------------
+    def stray_worlds(self, fresh: bool = True) -> dict[int, str]:
+        """World → why it failed, for worlds with non-finite points or bodies, points that left their
+        own domain or came within ``STENCIL_CELLS`` cells of its left or right wall (a batch has no
+        walls between its worlds), or free bodies whose centroid left it. ``fresh``: read the device
+        again (False: the fields of the frame just written)."""
+        if fresh:
+            self._fresh_frame()
+        bad = {}
+        for w in self.worlds:
+            (x0, y0), (x1, y1) = w.domain
+            if self.sim.mpm is not None and w.points.stop > w.points.start:
+                f = self.point_fields(w)
+                x, v = f["x"], f["v"]
+                xs = x + np.array([w.offset, 0.0])
+                live = np.ones(len(x), bool)
+                if self.sim.mpm.staged:  # (points not released yet are written as NaN)
+                    live = ~(self.sim.mpm.release_times[w.points] > self.sim.time)
+                if not (np.isfinite(x[live]).all() and np.isfinite(v[live]).all()):
+                    bad[w.index] = f"{int((~np.isfinite(x[live]).all(1)).sum())} points have NaN/inf values"
+                    continue
+                # (a wall acts on the nodes of its side: a point whose stencil reaches them feels it)
+                reach = STENCIL_CELLS * self.combined.cell_size
+                lo = x0 + (reach if w.scene.boundaries["left"].kind != "free" else 0.0)
+                hi = x1 - (reach if w.scene.boundaries["right"].kind != "free" else 0.0)
+                out = live & ((xs[:, 0] < lo) | (xs[:, 0] > hi) | (xs[:, 1] < y0) | (xs[:, 1] > y1))
+                if out.any():
+                    bad[w.index] = (f"{int(out.sum())} points {LEFT_TILE} or came within {STENCIL_CELLS} cells of "
+                                    "its left or right wall (a batch has no walls between its worlds: run it alone)")
+                    continue
+            if self.sim.dem is not None and len(w.bodies):
+                b = self.body_fields(w)
+                if not all(np.isfinite(b[k]).all() for k in ("x", "v", "angle", "omega")):
+                    bad[w.index] = "a rigid body has NaN/inf values"
+                    continue
+                free = np.array([r.motion == "free" for r in w.scene.rigid_bodies]
+                                + [True] * sum(len(g) for g in w.scene.grains), bool)
+                xb = b["x"][free] + np.array([w.offset, 0.0])
+                gone = (xb[:, 0] < x0) | (xb[:, 0] > x1) | (xb[:, 1] < y0) | (xb[:, 1] > y1)
+                if gone.any():
+                    bad[w.index] = f"{int(gone.sum())} free bodies {LEFT_TILE}"
+        return bad
+
+    # -- running ----------------------------------------------------------------------------------
+    def run(self, end_time: float, *, outs: list[str | Path | None] | None = None, frames: int = 20,
+            names: list[str] | str = "run", attrs: dict | None = None,
+            progress: Callable[[float, float], None] | None = None) -> list[RunResult]:
+        """Run every world to ``end_time`` [s] with ``frames`` frames; world k writes ``outs[k]/<name>.h5``
+        and ``energy.csv`` as a lone run does. Returns one RunResult per world ("completed" or
+        "blown-up" with its message; never raises BlowUpError). A KeyboardInterrupt marks the files of
+        the worlds still running "interrupted" and is re-raised; the files of finished worlds stay."""
+        if not (isinstance(end_time, (int, float)) and math.isfinite(end_time) and end_time > 0):
+            raise InputError("end_time", end_time, "a positive time in seconds")
+        if not (isinstance(frames, int) and frames >= 1):
+            raise InputError("frames", frames, "an integer >= 1")
+        n = len(self.worlds)
+        outs = list(outs) if outs is not None else [None] * n
+        names = [names] * n if isinstance(names, str) else list(names)
+        if len(outs) != n or len(names) != n:
+            raise InputError("outs", len(outs), f"one output folder and name per world ({n})")
+        results: dict[int, RunResult] = {}
+        live = list(range(n))
+        batch = self
+        offsets = [w.offset for w in self.worlds]
+        while True:
+            failed = batch._attempt(end_time, [outs[k] for k in live], frames, [names[k] for k in live], attrs,
+                                    progress, results, live)
+            if not failed:
+                break
+            live = [k for k in live if k not in failed]
+            if not live:
+                break
+            batch = BatchedSimulation([self.scenes[k] for k in live], self.config, device=self.sim.device,
+                                      tuning=self.sim.tuning, offsets=[offsets[k] for k in live])
+        #: the batch of the last pass, and each world's view in it (for ``summarize``)
+        self.last_batch = batch
+        self.views = {k: batch.view(j) for j, k in enumerate(live)}
+        for k, view in self.views.items():
+            view.last_diagnostics = {name: float(v[-1]) for name, v in results[k].diagnostics.items() if len(v)}
+        return [results[k] for k in range(n)]
+
+    def _writer(self, world: World, out, name: str, end_time: float, attrs: dict | None):
+        from ..io import FrameWriter, default_field_specs
+        from ..io.background import BackgroundFrameWriter
+
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        sim = self.sim
+        meta = {"version": __version__, "device": sim.device, "precision": self.config.precision,
+                "scene": world.scene.to_dict(), "config": self.config.to_dict(), "end_time": end_time,
+                **(attrs or {}), "batch": {"world": world.index, "worlds": len(self.worlds), "offset": world.offset}}
+        specs = {**default_field_specs(), "contact_force": ((2,), "float")} if sim.coupling is not None else None
+        geometry = None
+        if sim.dem is not None:
+            geometry = _geometry(sim.dem.scene_geometry(), world.bodies, f"w{world.index}_")
+        return BackgroundFrameWriter(FrameWriter(
+            out / f"{name}.h5", particle_count=world.points.stop - world.points.start, attrs=meta,
+            csv_path=out / "energy.csv", body_count=len(world.bodies), field_specs=specs, body_geometry=geometry))
+
+    def _attempt(self, end_time, outs, frames, names, attrs, progress, results, ids) -> set[int]:
+        """One pass from t = 0 over the worlds of this batch (``ids``: their numbers in the caller's
+        batch); fills ``results`` for the worlds that end; returns those (by caller's number) that failed."""
+        sim = self.sim
+        worlds = self.worlds
+        writers = {w.index: self._writer(w, outs[w.index], names[w.index], end_time, attrs)
+                   if outs[w.index] is not None else None for w in worlds}
+        paths = {w.index: Path(outs[w.index]) / f"{names[w.index]}.h5" if outs[w.index] is not None else None
+                 for w in worlds}
+        balances = {w.index: EnergyBalance(sim.stage.WORK_TERMS) for w in worlds}
+        history = {w.index: {} for w in worlds}
+        times: list[float] = []
+        start_wall = _time.perf_counter()
+        views = {w.index: WorldView(self, w) for w in worlds}
+        failed: dict[int, str] = {}
+
+        def fail(k: int, message: str, t: float, left_tile: bool = False) -> None:
+            failed[k] = message
+            if writers[k] is not None:
+                writers[k].set_status("blown-up", message)
+                writers[k].close()
+            h = history[k]
+            results[ids[k]] = RunResult(paths[k], np.array(times[:len(h.get("dt", []))]),
+                                        {key: np.array(v) for key, v in h.items()}, "blown-up",
+                                        int(h["steps"][-1]) if h.get("steps") else 0, message,
+                                        extra={"left_tile": left_tile})
+
+        def record(t: float, steps: int, dt: float, bound: float) -> None:
+            self._fresh_frame()
+            batch_d = sim.stage.diagnostics()
+            times.append(t)
+            for w in worlds:
+                d = balances[w.index].update(world_diagnostics(sim, w, self._points.get(w.index), batch_d))
+                d.update(dt=dt, dt_bound=bound, steps=float(steps), wall_time=_time.perf_counter() - start_wall)
+                views[w.index].last_diagnostics = d
+                for key, v in d.items():
+                    history[w.index].setdefault(key, []).append(v)
+                if writers[w.index] is not None:
+                    writers[w.index].write_frame(
+                        t, self.point_fields(w) if sim.mpm else {}, d,
+                        body_fields=self.body_fields(w) if sim.dem else None)
+                try:
+                    check_energy(w.scene, self.config, t, d, balances[w.index].initial,
+                                 lambda: sim.stage.likely_cause(dt, bound))
+                except BlowUpError as e:
+                    fail(w.index, f"world {ids[w.index]}: {e}", t)
+            for k, why in self.stray_worlds(fresh=False).items():
+                if k not in failed:
+                    fail(k, f"world {ids[k]}: {why} at t = {t:.6g} s", t, left_tile=LEFT_TILE in why)
+
+        ended = False
+        try:
+            start = sim.stage.read_clock()
+            t_start = start.t
+            record(start.t, start.steps, *sim.initial_step())
+            for k in range(1, frames + 1):
+                if failed:
+                    break
+                t_frame = end_time if k == frames else t_start + (end_time - t_start) * k / frames
+                try:
+                    t, steps = sim.advance_to(t_frame, on_batch=progress)
+                except BlowUpError as e:
+                    stray = self.stray_worlds()
+                    for j in (stray or [w.index for w in worlds]):
+                        fail(j, f"world {ids[j]}: {stray.get(j, e)}", e.time, left_tile=LEFT_TILE in stray.get(j, ""))
+                    break
+                clock = sim.stage.read_clock()
+                record(t, steps, clock.dt, clock.bound)
+            else:
+                ended = True
+        except KeyboardInterrupt as e:
+            for k, writer in writers.items():
+                if writer is not None and k not in failed:
+                    writer.set_status("interrupted", str(e) or "stopped by the user (Ctrl-C)")
+                    writer.close()
+            raise
+        except BaseException:
+            for k, writer in writers.items():
+                if writer is not None and k not in failed:
+                    writer.close()
+            raise
+        if failed and not ended:
+            for k, writer in writers.items():  # (written again by the next pass)
+                if writer is not None and k not in failed:
+                    writer.close()
+            return {ids[k] for k in failed}
+        for w in worlds:
+            if w.index in failed:
+                continue
+            if writers[w.index] is not None:
+                writers[w.index].set_status("completed", "")
+                writers[w.index].close()
+            h = history[w.index]
+            results[ids[w.index]] = RunResult(paths[w.index], np.array(times),
+                                              {key: np.array(v) for key, v in h.items()}, "completed",
+                                              int(h["steps"][-1]), "")
+        return set()

@@ -1,0 +1,253 @@
+"""Batched scenes: N independent scenes that share every kernel-specialising choice, tiled along x
+in one grid so that one simulation (one set of launches per step) advances them all.
+
+World w is its scene translated by X_w along x (a whole number of cells; world 0 at X_0 = 0),
+each tile followed by a margin of empty cells wide enough that no stencil or contact reaches from
+one world into the next (``margin_cells``). Its points, rigid bodies, grains, obstacles and mass
+probes move with it; its points come in the combined scene contiguously and in their own order,
+and likewise its rigid bodies and its grains. ``WorldLayout`` keeps where each world went, so
+that outputs can be split per world (``mpmdem.sim.batch_run``).
+
+Worlds stay independent only while their material stays inside their own domain: the combined
+scene has no walls between the tiles (a grid obstacle is not the same condition as a domain side),
+so a world whose points reach past its left or right side is failed and named by the batched run
+(run it alone). Top and bottom are shared: every world must have the same y range.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import shapely.affinity
+
+from ..errors import InputError
+from ..model.config import SolverConfig
+from ..model.scene import MPMBody, Obstacle, Scene
+from ..model.shapes import SeededPoints, Shape
+
+__all__ = ["World", "WorldLayout", "batch_key", "batch_refusal", "combine_scenes", "margin_cells", "side_refusal",
+           "tile_offsets"]
+
+#: empty cells between two tiles beyond the contact reach: the widest stencil (cubic B-spline,
+#: 4 nodes) plus the ghost layers a point on a side may touch (``mpm_state.GHOST_NODES``)
+STENCIL_CELLS = 4
+
+
+@dataclass(frozen=True)
+class World:
+    """Where one world of a batch went in the combined scene.
+
+    Attributes:
+        index: its place in the batch (0 first).
+        scene: its own Scene (untranslated): what its outputs describe.
+        offset: X_w [m], its translation along x.
+        points: its points in the combined scene's point order (a slice).
+        bodies: indices of its DEM bodies in the combined scene's body order (rigid bodies, then grains).
+    """
+
+    index: int
+    scene: Scene
+    offset: float
+    points: slice
+    bodies: np.ndarray
+
+    @property
+    def domain(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """Its domain in the combined scene's coordinates [m]."""
+        (x0, y0), (x1, y1) = self.scene.domain
+        return (x0 + self.offset, y0), (x1 + self.offset, y1)
+
+
+@dataclass(frozen=True)
+class WorldLayout:
+    """The worlds of a batch, in order, and the margin between their tiles [cells]."""
+
+    worlds: tuple[World, ...]
+    margin: int
+
+    def world_of_point(self, p: int) -> int:
+        """The world of point p (combined scene order)."""
+        for w in self.worlds:
+            if w.points.start <= p < w.points.stop:
+                return w.index
+        raise IndexError(p)
+
+    def world_of_body(self, k: int) -> int:
+        """The world of DEM body k (combined scene order)."""
+        for w in self.worlds:
+            if k in w.bodies:
+                return w.index
+        raise IndexError(k)
+
+
+def _staged(scene: Scene) -> bool:
+    return any(b.release_times is not None and (np.asarray(b.release_times) > 0.0).any() for b in scene.bodies)
+
+
+def batch_key(scene: Scene, config: SolverConfig) -> str:
+    """What the kernels of a run specialise on, and what the worlds of one grid must share, as a
+    JSON string: two runs batch together only when their keys are equal. The solver config, the
+    cell size, the y range, the four sides' conditions, gravity and its ramp, the contact laws,
+    which stages run, staged (released) points, the material kinds and whether there are obstacles."""
+    (_, y0), (_, y1) = scene.domain
+    return json.dumps({
+        "config": config.to_dict(), "cell_size": scene.cell_size, "y": [y0, y1],
+        "boundaries": scene.to_dict()["boundaries"], "gravity": list(scene.gravity),
+        "gravity_ramp": scene.gravity_ramp,
+        "contact": scene.contact.to_dict() if scene.contact else None,
+        "coupling_contact": scene.coupling_contact.to_dict() if scene.coupling_contact else None,
+        "mpm": scene.has_mpm, "dem": scene.has_dem, "staged": _staged(scene),
+        "material_kinds": sorted({b.material.kind_id for b in scene.bodies}),
+        "obstacles": bool(scene.obstacles), "allow_initial_overlap": scene.allow_initial_overlap,
+    }, sort_keys=True, default=str)
+
+
+def side_refusal(scene: Scene) -> str | None:
+    """Why this scene cannot be a world of a batch (None when it can): x periodic (tiles would join
+    it to its neighbours), or material points starting within ``STENCIL_CELLS`` cells of a left or
+    right wall (a batch has no walls between its tiles: the wall would not hold them)."""
+    if scene.periodic_x:
+        return "it is periodic in x (tiles along x would join it to its neighbours)"
+    if not scene.has_mpm or not scene.cell_size:
+        return None
+    (x0, _), (x1, _) = scene.domain
+    reach = STENCIL_CELLS * scene.cell_size
+    for body in scene.bodies:
+        x = scene._seed(body).positions[:, 0]
+        for side, near in (("left", x.min() - x0 < reach), ("right", x1 - x.max() < reach)):
+            if near and scene.boundaries[side].kind != "free":
+                return (f"its points start within {STENCIL_CELLS} cells of its {side} wall (a batch has no walls "
+                        "between its worlds)")
+    return None
+
+
+def batch_refusal(scenes: list[Scene], configs: list[SolverConfig]) -> str | None:
+    """Why these runs cannot share one grid (None when they can): a run that cannot be a world
+    (``side_refusal``), or the first field of ``batch_key`` that differs from the first run's."""
+    if not scenes:
+        return "no runs to batch"
+    for k, scene in enumerate(scenes):
+        why = side_refusal(scene)
+        if why:
+            return f"run {k} cannot be a world of a batch: {why}"
+    first = json.loads(batch_key(scenes[0], configs[0]))
+    for k, (scene, config) in enumerate(zip(scenes, configs, strict=True)):
+        key = json.loads(batch_key(scene, config))
+        for name, value in key.items():
+            if value != first[name]:
+                return (f"run {k} differs from run 0 in {name} ({value!r} against {first[name]!r}): "
+                        "the kernels specialise on it, so these runs cannot share one grid")
+    return None
+
+
+def margin_cells(scenes: list[Scene], config: SolverConfig | None = None) -> int:
+    """Empty cells between two tiles: ``STENCIL_CELLS`` plus twice the widest contact reach of any
+    world (its points' contact radii, its rigid bodies' and grains' bounding radii, and the
+    point–body lists' Verlet skin, h/2 unless the config sets it; in cells), so that no contact
+    list of one world lists a body or point of another."""
+    h = scenes[0].cell_size
+    if not h:
+        return STENCIL_CELLS
+    skin = (config.imp_skin if config is not None and config.imp_skin else 0.5 * h)
+    return STENCIL_CELLS + 2 * math.ceil((_reach(scenes) + skin) / h - 1e-9)
+
+
+def _reach(scenes: list[Scene]) -> float:
+    """The widest contact reach [m] of any world: contact radii of points, bounding radii of the
+    bodies that move (free or kinematic) and of grains."""
+    reach = 0.0
+    for s in scenes:
+        reach = max([reach] + [b.contact_radius or 0.0 for b in s.bodies]
+                    + [b.shape.bounding_radius for b in s.rigid_bodies if b.motion != "fixed"]
+                    + [float(g.bounding_radius.max()) for g in s.grains if len(g)])
+    return reach
+
+
+def _shape(shape: Shape, dx: float) -> Shape:
+    """``shape`` moved dx [m] along x: its outline and the parameters that hold positions (a disk's
+    centre, which obstacles and seeding read; a rectangle's corners)."""
+    moved = {"center": lambda c: (c[0] + dx, c[1]), "corners": lambda c: (c[0] + dx, c[1], c[2] + dx, c[3])}
+    params = tuple((k, moved[k](v) if k in moved else v) for k, v in shape.params)
+    return dataclasses.replace(shape, polygon=shapely.affinity.translate(shape.polygon, xoff=dx), params=params)
+
+
+def _body(scene: Scene, b: MPMBody, dx: float, k: int) -> MPMBody:
+    """The MPM body as explicit points translated by dx (seeded in its own scene, so world 0's
+    points are bit for bit the lone run's)."""
+    pts = scene._seed(b)
+    x = pts.positions + np.array([dx, 0.0]) if dx else pts.positions
+    velocity = b.velocity
+    if callable(velocity) and dx:
+        velocity = (lambda f: (lambda x: f(x - np.array([dx, 0.0]))))(velocity)
+    return dataclasses.replace(b, name=f"w{k}_{b.name}", shape=_shape(b.shape, dx), velocity=velocity,
+                               points=SeededPoints(x, pts.volumes, pts.half_sizes))
+
+
+def tile_offsets(scenes: list[Scene], margin: int) -> list[float]:
+    """X_w [m] of each world: world 0 at 0, each next one with its left side ``margin`` cells past
+    the previous tile's right side, on a grid line of the combined grid (DEM-only scenes, without
+    a grid: ``margin`` × the widest reach of a body apart)."""
+    h = scenes[0].cell_size
+    (x0, _), _ = scenes[0].domain
+    offsets, right = [], x0
+    for k, scene in enumerate(scenes):
+        (a, _), (b, _) = scene.domain
+        if k == 0:
+            dx = 0.0
+        elif h:
+            dx = x0 - a + math.ceil((right + margin * h - x0) / h - 1e-9) * h
+        else:
+            dx = right + margin * _reach(scenes) - a
+        offsets.append(float(dx))
+        right = b + dx
+    return offsets
+
+
+def combine_scenes(scenes: list[Scene], configs: list[SolverConfig], *,
+                   offsets: list[float] | None = None) -> tuple[Scene, WorldLayout]:
+    """One Scene holding every world, tiled along x (at ``offsets`` [m], default ``tile_offsets``),
+    and its layout. InputError, naming the difference, when the runs do not share what the kernels
+    specialise on (``batch_refusal``)."""
+    reason = batch_refusal(scenes, configs)
+    if reason:
+        raise InputError("batch", f"{len(scenes)} runs", f"runs that can share one grid: {reason}")
+    first = scenes[0]
+    h = first.cell_size
+    margin = margin_cells(scenes, configs[0])
+    offsets = tile_offsets(scenes, margin) if offsets is None else list(offsets)
+    (x0, y0), (_, y1) = first.domain
+    right = max(s.domain[1][0] + dx for s, dx in zip(scenes, offsets, strict=True))
+    if h:  # (a wall side must lie on a grid line)
+        right = x0 + math.ceil((right - x0) / h - 1e-9) * h
+    combined = Scene(domain=((x0, y0), (right, y1)), cell_size=h, gravity=first.gravity,
+                     boundaries=dict(first.boundaries), gravity_ramp=first.gravity_ramp,
+                     contact=first.contact, coupling_contact=first.coupling_contact,
+                     allow_initial_overlap=first.allow_initial_overlap)
+    worlds, grain_sets, n_points, n_rigid = [], [], 0, 0
+    for k, (scene, dx) in enumerate(zip(scenes, offsets, strict=True)):
+        bodies = [_body(scene, body, dx, k) for body in scene.bodies]
+        combined.bodies.extend(bodies)
+        n_new = sum(len(body.points.volumes) for body in bodies)
+        rigid = [dataclasses.replace(r, name=f"w{k}_{r.name}", position=(r.position[0] + dx, r.position[1]))
+                 for r in scene.rigid_bodies]
+        combined.rigid_bodies.extend(rigid)
+        for (mat, name), mu in scene.coupling_friction.items():
+            combined.coupling_friction[(mat, f"w{k}_{name}")] = mu
+        combined.obstacles.extend(Obstacle(_shape(o.shape, dx), o.kind) for o in scene.obstacles)
+        grain_sets += [(k, dataclasses.replace(g, name=f"w{k}_{g.name}", position=g.position + np.array([dx, 0.0])))
+                       for g in scene.grains]
+        worlds.append([k, scene, dx, slice(n_points, n_points + n_new), list(range(n_rigid, n_rigid + len(rigid)))])
+        n_points += n_new
+        n_rigid += len(rigid)
+    start = n_rigid
+    for k, g in grain_sets:  # grains after every rigid body, as a scene holds them
+        combined.grains.append(g)
+        worlds[k][4].extend(range(start, start + len(g)))
+        start += len(g)
+    layout = WorldLayout(tuple(World(k, s, dx, pts, np.array(bodies, dtype=np.int64))
+                               for k, s, dx, pts, bodies in worlds), margin)
+    return combined, layout

@@ -1,0 +1,138 @@
+"""Per-world diagnostics of a batched run (``mpmdem.sim.batch_run``): the sums a lone run of each
+world would report, from the batch's device arrays, at output frames only.
+
+Per world and exact (on the CPU, bit for bit the lone run's for world 0: the same kernels over the
+world's points, in the same relative order): the points' energies (kinetic, strain, gravity),
+momenta, mass and mass probes. Per world to round-off (host sums in float64): the free bodies'
+and grains' energies, momenta and mass, their contact energy, the point–body contact energy and
+its damping and friction works, the bodies' mass probes. Batch-wide (the sum over every world,
+as the device reduces it): the grid's works (walls, damping, plasticity, inflow), the forces on
+obstacles, the DEM bodies' dissipated works, list rebuilds and counters, granular components and
+layers, and dt (one step for the whole batch).
+
+Translation: x is shifted back by the world's offset X, so the angular momentum about the origin
+and a gravity with an x component are corrected (Σ m ((x − X) v_y − y v_x) = L − X Σ m v_y).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from ..kernels import dem as dem_kernels
+from ..kernels import reductions as reduction_kernels
+from .batch_scene import World
+
+__all__ = ["WorldPoints", "body_sums", "imp_sums", "point_sums", "world_diagnostics"]
+
+
+class WorldPoints:
+    """The device indices of one world's points in the MPM stage's arrays (contiguous while the
+    points keep the by-column order, which tiles along x preserve), and a ``Particles`` struct
+    of views onto them for the stage's own reduction kernels."""
+
+    def __init__(self, mpm, world: World):
+        pid = mpm.points.pid.numpy()
+        self.index = np.flatnonzero((pid >= world.points.start) & (pid < world.points.stop))
+        self.mpm = mpm
+        self._struct = None
+        self._pid_seen = None
+
+    def struct(self):
+        """The world's ``Particles``: slices of the stage's arrays (a re-sort keeps each world's
+        range: points are ordered by cell column and the worlds by x)."""
+        if self._struct is None:
+            points, n = self.mpm.points, self.mpm.particle_count
+            lo, hi = int(self.index[0]), int(self.index[-1]) + 1
+            if hi - lo != len(self.index):
+                raise RuntimeError("a world's points are not contiguous on the device")
+            P = points._cls()
+            for name in points._cls.vars:
+                a = getattr(points, name)
+                setattr(P, name, a[lo:hi] if a.shape[0] == n and n > 1 else a)
+            self._struct = P
+        return self._struct
+
+
+def point_sums(mpm, wpts: WorldPoints, world: World) -> dict[str, float]:
+    """Energies [J/m], momenta, mass [kg/m] and ``mass_<probe>`` of one world's points."""
+    P = wpts.struct()
+    n = len(wpts.index)
+    t_now = mpm.sim_clock.time
+    diag = wp.zeros(len(reduction_kernels.DIAG_NAMES), dtype=wp.float64, device=mpm.device)
+    wp.launch(mpm.diagnostics_kernel, n, inputs=[P, mpm.D, mpm.materials, diag, t_now], device=mpm.device)
+    out = {name: float(v) for name, v in zip(reduction_kernels.DIAG_NAMES, diag.numpy(), strict=True)}
+    X = world.offset
+    probes = world.scene.mass_probes
+    if probes:
+        boxes = wp.array(np.array([[p.lo[0] + X, p.lo[1], p.hi[0] + X, p.hi[1]] for p in probes], np.float64),
+                         dtype=wp.vec4d, device=mpm.device)
+        mass = wp.zeros(len(probes), dtype=wp.float64, device=mpm.device)
+        wp.launch(mpm.probe_mass_kernel, n, inputs=[P, boxes, mass, t_now], device=mpm.device)
+        out.update({f"mass_{p.name}": float(m) for p, m in zip(probes, mass.numpy(), strict=True)})
+    if X:
+        out["momentum_angular"] -= X * out["momentum_y"]
+        out["energy_gravity"] += world.scene.gravity[0] * X * out["mass"]
+    return out
+
+
+def imp_sums(coupling, wpts: WorldPoints) -> dict[str, float]:
+    """The point–body contact energy [J/m] and its damping and friction works of one world's points."""
+    L = coupling.L
+    e = L.energy.numpy()[wpts.index].astype(np.float64)
+    lost = L.dissipated.numpy()[wpts.index]
+    return {"energy_imp": float(e.sum()), "dissipated_imp_damping": float(lost[:, 0].sum()),
+            "dissipated_imp_friction": float(lost[:, 1].sum())}
+
+
+def body_sums(dem, world: World) -> dict[str, float]:
+    """Energies [J/m], momenta and mass of one world's free bodies and grains, their contact energy,
+    and ``mass_<probe>`` of its free bodies (float64 sums on the host)."""
+    B, C = dem.B, dem.C
+    scene_of_device = dem.order
+    idx = np.flatnonzero(np.isin(scene_of_device, world.bodies))
+    X = world.offset
+    m, inertia = B.mass.numpy()[idx].astype(float), B.inertia.numpy()[idx].astype(float)
+    v, w = B.v.numpy()[idx].astype(float), B.omega.numpy()[idx].astype(float)
+    x = B.x.numpy()[idx].astype(float) - np.array([X, 0.0])
+    free = B.motion.numpy()[idx] == dem_kernels.FREE
+    m, inertia, v, w, xf = m[free], inertia[free], v[free], w[free], x[free]
+    g = np.asarray(world.scene.gravity)
+    energy = C.energy.numpy().reshape(-1, C.slots)[idx].astype(float).sum()
+    out = {"energy_kinetic": float(0.5 * (m * (v ** 2).sum(1) + inertia * w * w).sum()),
+           "energy_gravity": float(-(m * (xf @ g)).sum()), "energy_contact": float(energy),
+           "momentum_x": float((m * v[:, 0]).sum()), "momentum_y": float((m * v[:, 1]).sum()),
+           "momentum_angular": float((m * (xf[:, 0] * v[:, 1] - xf[:, 1] * v[:, 0]) + inertia * w).sum()),
+           "mass": float(m.sum())}
+    for p in world.scene.mass_probes:
+        inside = ((xf[:, 0] >= p.lo[0]) & (xf[:, 1] >= p.lo[1]) & (xf[:, 0] < p.hi[0]) & (xf[:, 1] < p.hi[1]))
+        out[f"mass_{p.name}"] = float(m[inside].sum())
+    return out
+
+
+def world_diagnostics(sim, world: World, wpts: WorldPoints | None, batch: dict[str, float]) -> dict[str, float]:
+    """One world's diagnostics under the names a lone run gives them: ``batch`` (the whole batch's,
+    ``Stage.diagnostics``) with every per-world sum replaced (see the module's docstring)."""
+    d = {k: v for k, v in batch.items() if not k.startswith("mass_")}
+    m = point_sums(sim.mpm, wpts, world) if sim.mpm is not None else None
+    b = body_sums(sim.dem, world) if sim.dem is not None else None
+    if m is not None and b is not None:
+        imp = imp_sums(sim.coupling, wpts)
+        d.update({k: v for k, v in m.items() if not k.startswith("mass_")})
+        for name in ("energy_kinetic", "energy_gravity", "momentum_x", "momentum_y", "momentum_angular", "mass"):
+            d[f"points_{name}"], d[f"bodies_{name}"] = m[name], b[name]
+            d[name] = m[name] + b[name]
+        d["energy_contact_bodies"] = b["energy_contact"]
+        d["energy_contact_points"] = imp["energy_imp"]
+        d["energy_contact"] = b["energy_contact"] + imp["energy_imp"]
+        d["energy_total"] = d["energy_kinetic"] + d["energy_gravity"] + d["energy_strain"] + d["energy_contact"]
+        d["work_imp_damping"] = -imp["dissipated_imp_damping"]
+        d["work_imp_friction"] = -imp["dissipated_imp_friction"]
+        d.update({k: m[k] + b[k] for k in m if k.startswith("mass_")})
+    elif m is not None:
+        d.update(m)
+        d["energy_total"] = d["energy_kinetic"] + d["energy_strain"] + d["energy_gravity"]
+    else:
+        d.update(b)
+        d["energy_total"] = d["energy_kinetic"] + d["energy_gravity"] + d["energy_contact"]
+    return d

@@ -1,0 +1,263 @@
+"""Batched runs (mpmdem.sim.batch_run): independent worlds tiled along x in one grid.
+
+References: a world of a batch is the same simulation as its lone run, so the lone run is the
+reference. World 0 sits at offset 0 on the same grid lines, and its points and contacts meet no
+other world (the margin), so on the CPU, with a fixed dt, its outputs are bit for bit the lone
+run's (the same operations in the same order). World w > 0 is bit for bit the lone run of its
+scene translated by X_w on the batch's grid (the same translation, the grid from the same origin);
+against its untranslated lone run, the grid's origin enters x − origin in another rounding, so it
+matches to round-off (a relative 1e-9 in f64, far above the ulp-level differences and far below
+any physical change).
+"""
+
+import math
+
+import numpy as np
+import pytest
+import warp as wp
+
+import mpmdem as m
+from mpmdem.errors import InputError
+from mpmdem.io.reader import RunFile
+from mpmdem.model.config import SolverConfig
+from mpmdem.model.spheropolygons import rounded_rectangle
+from mpmdem.sim.batch_run import BatchedSimulation
+from mpmdem.sim.batch_scene import batch_refusal, combine_scenes
+from mpmdem.sim.simulation import Simulation
+
+CONFIG = SolverConfig(precision="f64", dt=2.0e-5)
+END, FRAMES = 0.004, 2
+#: batch-wide sums (mpmdem.sim.world_diagnostics): not the lone run's
+BATCH_WIDE = ("work_plastic", "work_boundary", "work_damping", "work_inflow", "wall_time")
+
+
+def sand_on_plate(width=0.2, speed=0.0, dx=0.0, left=0.1):
+    """A sand block on a fixed spheropolygon plate in a 0.4 × 0.3 m box (coupled: points and a body),
+    all moved dx along x."""
+    scene = m.Scene(domain=((dx, 0.0), (0.4 + dx, 0.3)), cell_size=0.02, gravity=(0.0, -10.0),
+                    contact=m.ContactLaw(1e5, restitution=0.5),
+                    boundaries={"left": "slip", "right": "slip", "bottom": "slip", "top": "free"})
+    scene.add_mpm_body(m.rectangle(left + dx, 0.08, left + width + dx, 0.16),
+                       m.DruckerPrager(1e6, 0.3, 1500.0, friction_angle=30.0), velocity=(speed, 0.0))
+    scene.add_rigid_body(rounded_rectangle(0.3, 0.02, 0.005), density=1000.0, position=(0.2 + dx, 0.05),
+                         motion="fixed", name="floor")
+    scene.add_mass_probe("low", hi=(math.inf, 0.1))
+    return scene
+
+
+@pytest.fixture(scope="module")
+def batch(tmp_path_factory):
+    out = tmp_path_factory.mktemp("batch")
+    b = BatchedSimulation([sand_on_plate(), sand_on_plate(0.15)], CONFIG, device="cpu")
+    results = b.run(END, outs=[out / "w0", out / "w1"], frames=FRAMES, names="sand")
+    return b, results, out
+
+
+def test_world_zero_is_its_lone_run_bit_for_bit(batch, tmp_path):
+    b, results, _ = batch
+    lone = Simulation(sand_on_plate(), CONFIG, device="cpu")
+    ref = lone.run(END, frames=FRAMES, out=tmp_path, name="sand")
+    assert results[0].status == "completed"
+    for key, values in ref.diagnostics.items():
+        if key not in BATCH_WIDE:
+            assert np.array_equal(values, results[0].diagnostics[key]), key
+    fields, ref_fields = b.view(0).fields(), lone.fields()
+    for key, values in ref_fields.items():
+        assert np.array_equal(values, fields[key]), key
+    np.testing.assert_array_equal(b.view(0).body_fields()["x"], lone.body_fields()["x"])
+    # the file: the lone run's datasets, shapes and frame times
+    with RunFile(ref.path) as a, RunFile(results[0].path) as c:
+        assert a.frame_count == c.frame_count == FRAMES + 1
+        np.testing.assert_array_equal(a.times, c.times)
+        assert a.fields == c.fields and a.body_fields == c.body_fields
+        assert a.particle_count == c.particle_count and a.body_count == c.body_count
+        for k in range(a.frame_count):
+            for name in a.fields:
+                np.testing.assert_array_equal(a.field(name, k), c.field(name, k), err_msg=name)
+            for name in a.body_fields:
+                np.testing.assert_array_equal(a.body_field(name, k), c.body_field(name, k), err_msg=name)
+        assert a.body_geometry()["name"] == c.body_geometry()["name"]
+        assert set(a.diagnostics) == set(c.diagnostics)
+
+
+def test_world_one_matches_its_lone_run_to_round_off(batch):
+    b, results, _ = batch
+    X = b.worlds[1].offset
+    assert X > 0.4 and math.isclose(X / 0.02, round(X / 0.02))  # past world 0's tile, on a grid line
+    lone = Simulation(sand_on_plate(0.15, dx=X), CONFIG, device="cpu")
+    ref = lone.run(END, frames=FRAMES)
+    assert results[1].status == "completed"
+    d = results[1].diagnostics
+    # the lone run's angular momentum is about the origin X_w to its left
+    ref.diagnostics["momentum_angular"] = ref.diagnostics["momentum_angular"] - X * ref.diagnostics["momentum_y"]
+    for key in ("energy_kinetic", "energy_strain", "energy_gravity", "mass", "mass_low", "momentum_y",
+                "momentum_angular", "energy_contact"):
+        # scales: energies against the potential energy in play, momenta against mass × 1 m/s
+        scale = np.abs(ref.diagnostics["energy_gravity"]).max() if key.startswith("energy") else (
+            ref.diagnostics["mass"][0] * 1.0)
+        np.testing.assert_allclose(d[key], ref.diagnostics[key], rtol=0, atol=1e-9 * scale, err_msg=key)
+    f, rf = b.view(1).fields(), lone.fields()
+    rf["x"][:, 0] -= X
+    np.testing.assert_allclose(f["x"], rf["x"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(f["v"], rf["v"], rtol=0, atol=1e-9)  # [m/s], against speeds ~ g t ~ 0.04 m/s
+
+
+def test_world_one_is_bit_for_bit_alone_in_the_batch_grid(batch):
+    """World 1 alone on the batch's grid (translated by X_1 as the batch translates it, on a grid from
+    x = 0 as the batch's): bit for bit the batch's world 1, so the other world changes nothing in it."""
+    b, results, _ = batch
+    X = b.worlds[1].offset
+    alone, _ = combine_scenes([sand_on_plate(0.15)], [CONFIG], offsets=[X])
+    assert alone.domain == b.combined.domain
+    lone = Simulation(alone, CONFIG, device="cpu")
+    ref = lone.run(END, frames=FRAMES)
+    d = ref.diagnostics
+    for prefix in ("points_", "bodies_"):  # about the world's own origin, as the world's output is taken
+        d[f"{prefix}momentum_angular"] = d[f"{prefix}momentum_angular"] - X * d[f"{prefix}momentum_y"]
+    d["momentum_angular"] = d["points_momentum_angular"] + d["bodies_momentum_angular"]
+    for key, values in d.items():
+        if key not in BATCH_WIDE:
+            assert np.array_equal(values, results[1].diagnostics[key]), key
+    f, rf = b.view(1).fields(), lone.fields()
+    rf["x"][:, 0] -= X
+    for key, values in rf.items():
+        assert np.array_equal(values, f[key]), key
+
+
+def test_a_blow_up_fails_its_world_only(tmp_path):
+    """World 1 starts at 1e5 m/s (it leaves its domain in the first frame); world 0 completes as alone."""
+    b = BatchedSimulation([sand_on_plate(), sand_on_plate(0.15, speed=1.0e5)], SolverConfig(precision="f64"),
+                          device="cpu")
+    results = b.run(END, outs=[tmp_path / "w0", tmp_path / "w1"], frames=FRAMES, names="sand")
+    assert results[0].status == "completed"
+    assert results[1].status == "blown-up" and results[1].message.startswith("world 1:")
+    with RunFile(results[1].path) as f:
+        assert f.status == "blown-up"
+    lone = Simulation(sand_on_plate(), SolverConfig(precision="f64"), device="cpu").run(END, frames=FRAMES)
+    np.testing.assert_array_equal(results[0].diagnostics["energy_kinetic"], lone.diagnostics["energy_kinetic"])
+
+
+def test_a_world_reaching_its_side_wall_is_stopped_and_marked(tmp_path):
+    """World 1's sand slides right at 20 m/s: within 0.004 s it comes within 4 cells of its right
+    wall, which the batch does not model, so the world is stopped (marked for a lone run); world 0
+    completes bit for bit as alone (fixed dt: the restart without world 1 changes nothing in it)."""
+    b = BatchedSimulation([sand_on_plate(), sand_on_plate(0.15, speed=20.0)], CONFIG, device="cpu")
+    results = b.run(END, frames=FRAMES)
+    assert results[1].status == "blown-up" and results[1].extra["left_tile"]
+    assert "within 4 cells of its left or right wall" in results[1].message
+    lone = Simulation(sand_on_plate(), CONFIG, device="cpu").run(END, frames=FRAMES)
+    assert results[0].status == "completed"
+    np.testing.assert_array_equal(results[0].diagnostics["energy_kinetic"], lone.diagnostics["energy_kinetic"])
+
+
+def test_runs_that_cannot_share_a_grid_are_refused():
+    other = sand_on_plate()
+    other.gravity = (0.0, -9.81)
+    reason = batch_refusal([sand_on_plate(), other], [CONFIG, CONFIG])
+    assert reason.startswith("run 1 differs from run 0 in gravity")
+    with pytest.raises(InputError, match="runs that can share one grid: run 1 differs from run 0 in config"):
+        combine_scenes([sand_on_plate(), sand_on_plate()], [CONFIG, SolverConfig(precision="f32")])
+    # sand against its left wall: the wall would not hold it in a batch (no walls between tiles)
+    reason = batch_refusal([sand_on_plate(), sand_on_plate(left=0.0)], [CONFIG, CONFIG])
+    assert reason == ("run 1 cannot be a world of a batch: its points start within 4 cells of its left wall "
+                      "(a batch has no walls between its worlds)")
+
+
+def test_study_batches_runs_of_one_key_and_says_how(tmp_path, capsys):
+    """Three frictions of block-on-incline (DEM only, one domain: one batch key) in groups of 2: the
+    first two run as one batch, the third alone; each keeps its own row and summary.json. The lone
+    runs are the reference (world 0 bit for bit; world 1 to round-off: a relative 1e-9 of the
+    acceleration fitted to the block's path)."""
+    from mpmdem.study.study import Study, run_study
+
+    study = Study("fr", "block-on-incline", grid={"--friction": [0.1, 0.3, 0.9]},
+                  fixed={"--quick": True, "--angle": 30.0})
+    alone = run_study(study, tmp_path / "alone", workers=0, device="cpu", progress=False, batch=1)
+    batched = run_study(study, tmp_path / "batched", workers=0, device="cpu", progress=True, batch=2)
+    assert "3 runs in 2 batch(es) of up to 2 (2, 1 runs; grouped by batch key" in capsys.readouterr().err
+    assert [r["status"] for r in batched] == ["completed"] * 3
+    assert [(r.get("batch"), r.get("batch_world")) for r in batched] == [
+        ("friction=0.1", 0), ("friction=0.1", 1), (None, None)]
+    assert batched[0]["acceleration"] == alone[0]["acceleration"]
+    assert batched[1]["acceleration"] == pytest.approx(alone[1]["acceleration"], rel=1e-9)
+    assert batched[2]["acceleration"] == alone[2]["acceleration"]
+    assert (tmp_path / "batched" / "runs" / "friction=0.3" / "summary.json").is_file()
+
+
+def test_groups_gather_runs_of_one_key():
+    """Interleaved keys (a Beverloo grid: orifice × cell size, the cell size sets the key) come
+    together, at most ``size`` a group; a run without a key runs alone."""
+    from mpmdem.study.batch_worker import group_runs
+
+    runs = list("abcdef")
+    assert group_runs(runs, 2, keys=[1, 2, 1, 2, None, 1]) == [["a", "c"], ["f"], ["b", "d"], ["e"]]
+    assert group_runs(runs, 4) == [["a", "b", "c", "d"], ["e", "f"]]
+    assert group_runs(runs, 1) == [[r] for r in runs]
+
+
+def test_study_runs_a_world_that_reached_its_wall_again_alone(tmp_path):
+    """Two sliding blocks batched: the one at 20 m/s nears its right wall in the batch, so the study
+    runs it again alone (the wall then holds it); the one at rest keeps its batched row, and both
+    rows equal their lone runs (the reference: world 0 bit for bit, the rerun is a lone run)."""
+    from mpmdem.study.study import Study, run_study
+
+    study = Study("slide", "study_sliding_case", grid={"--speed": [0.0, 20.0]})
+    alone = run_study(study, tmp_path / "alone", workers=0, device="cpu", progress=False, batch=1)
+    batched = run_study(study, tmp_path / "batched", workers=0, device="cpu", progress=False, batch=2)
+    assert [r["status"] for r in batched] == ["completed", "completed"]
+    assert batched[0]["batch_world"] == 0 and "batch_note" not in batched[0]
+    assert batched[1]["batch_note"] == "ran alone: it reached its side in the batch"
+    for a, b in zip(alone, batched, strict=True):
+        assert (a["right_edge"], a["low_mass"]) == (b["right_edge"], b["low_mass"])
+
+
+def test_every_part_of_a_world_moves_with_it():
+    """Points, rigid bodies, obstacles (a disk's centre too) and the layout: world 1 is world 0's
+    scene moved X_1 along x, on a grid line, its points and bodies after world 0's."""
+    scenes = []
+    for _ in range(2):
+        scene = sand_on_plate()
+        scene.add_obstacle(m.disk((0.35, 0.2), 0.02), kind="slip")
+        scenes.append(scene)
+    combined, layout = combine_scenes(scenes, [CONFIG, CONFIG])
+    X = layout.worlds[1].offset
+    assert math.isclose(X / 0.02, round(X / 0.02)) and X >= 0.4 + layout.margin * 0.02 - 1e-12
+    assert combined.obstacles[1].shape._circle() == ((0.35 + X, 0.2), 0.02)
+    assert combined.rigid_bodies[1].position == (0.2 + X, 0.05)
+    n = layout.worlds[0].points.stop
+    x = combined.particles()["x"]
+    np.testing.assert_allclose(x[n:, 0] - X, x[:n, 0], rtol=0, atol=1e-12)
+    assert layout.world_of_point(n) == 1 and layout.world_of_body(1) == 1
+
+
+def test_keys_come_from_builds_unless_the_build_simulates(tmp_path):
+    """The planner builds each run for its batch key (two speeds of one scene: one key), but not the
+    runs whose build settles grains (``costly_build``): those are grouped in grid order."""
+    from mpmdem.study.batch_worker import run_keys
+    from mpmdem.study.study import Study, plan_runs
+
+    runs = plan_runs(Study("slide", "study_sliding_case", grid={"--speed": [0.0, 1.0]}), "cpu")
+    keys = run_keys("study_sliding_case", runs, str(tmp_path))
+    assert keys[0] == keys[1] is not None
+    dem = plan_runs(Study("dem", "silo-discharge", grid={"--orifice": [0.04, 0.05]}, fixed={"--sand": "dem"}), "cpu")
+    assert run_keys("silo-discharge", dem, str(tmp_path)) is None
+
+
+@pytest.mark.cuda
+@pytest.mark.skipif(not wp.get_cuda_device_count(), reason="no CUDA device here: the CUDA items run on the GPU "
+                    "machine (pytest -m cuda)")
+def test_batch_on_cuda_matches_lone_runs():
+    """On a GPU (f32, CUDA graphs): each world of a batch against its lone run. GPU atomics sum in no
+    fixed order, so two lone runs differ too: f32 round-off (1e-7) grown over 200 steps of a
+    dissipative flow; 1e-4 of the potential energy in play and of the mass bounds that."""
+    config = SolverConfig(precision="f32", dt=2.0e-5)
+    b = BatchedSimulation([sand_on_plate(), sand_on_plate(0.15)], config, device="cuda")
+    results = b.run(END, frames=FRAMES)
+    for k, width in enumerate((0.2, 0.15)):
+        ref = Simulation(sand_on_plate(width), config, device="cuda").run(END, frames=FRAMES).diagnostics
+        d = results[k].diagnostics
+        assert results[k].status == "completed"
+        scale = np.abs(ref["energy_gravity"]).max()
+        for key in ("energy_kinetic", "energy_strain", "energy_gravity", "energy_contact"):
+            np.testing.assert_allclose(d[key], ref[key], rtol=0, atol=1e-4 * scale, err_msg=key)
+        np.testing.assert_allclose(d["mass_low"], ref["mass_low"], rtol=0, atol=1e-4 * ref["mass"][0])
