@@ -14,6 +14,7 @@ from .clock import (
     set_step,
 )
 from .dem_bodies import FREE, KINEMATIC, STATUS_NONFINITE, STATUS_OUTSIDE, make_dem_structs
+from .dem_period import make_dem_period
 from .reductions import close_step
 from .types import Namespace, kernel, scalar_types
 
@@ -21,12 +22,14 @@ __all__ = ["DIAG_NAMES", "make_dem_integration"]
 
 
 @functools.cache
-def make_dem_integration(precision: str):
-    """Kernels ``integrate``, ``end_step`` and ``diagnostics`` of the DEM stage for one precision."""
+def make_dem_integration(precision: str, periodic: bool = False):
+    """Kernels ``integrate``, ``end_step`` and ``diagnostics`` of the DEM stage for one precision;
+    ``periodic``: x periodic, a centroid leaving [lo_x, hi_x) wrapped by one period."""
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2
     Bodies, Contacts, Params = make_dem_structs(precision)
+    wrap_x = make_dem_period(precision).wrap_x
 
     @kernel
     def integrate(B: Bodies, prm: Params, clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
@@ -53,6 +56,8 @@ def make_dem_integration(precision: str):
             v = v + dt * (B.inv_mass[i] * B.force[i] + T(ramp) * prm.gravity)
             w = w + dt * B.inv_inertia[i] * B.torque[i]
         x = B.x[i] + dt * v
+        if wp.static(periodic):
+            x = wrap_x(x, prm)
         B.v[i] = v
         B.omega[i] = w
         B.x[i] = x
