@@ -131,7 +131,7 @@ def summarize(sim, result, args) -> dict:
     mass = grains.mass
     speed = np.array([float(np.sum(mass * uf) / mass.sum()) for uf in u])
     start = (1.0 - args.average) * times[-1]
-    state = flow_state(times, speed, start, math.sqrt(GRAVITY * d))
+    state = flow_state(times, speed, start, math.sqrt(GRAVITY * d), GRAVITY * math.sin(theta))
     window = [k for k, t in enumerate(times) if t >= start]
     rho = grains.density
     prof = layer_profiles([y[k] for k in window], [u[k] for k in window], grains.area, mass, base=base_top,
@@ -141,7 +141,8 @@ def summarize(sim, result, args) -> dict:
     core = core_values(prof, h, MARGIN * d)
     steps = int(np.asarray(result.diagnostics["steps"])[-1]) if "steps" in result.diagnostics else None
     out = {
-        "angle_deg": args.angle, "mu": math.tan(theta), **state, "steady": state["state"] == "steady",
+        "angle_deg": args.angle, "mu": math.tan(theta), **state,
+        "mu_balance": math.tan(theta) * (1.0 - state["acceleration_over_drive"]), "steady": state["state"] == "steady",
         "I": core["I_core"], "I_std": core["I_core_std"], "phi": core["phi_core"], "phi_std": core["phi_core_std"],
         "shear_rate": core["shear_rate_core"], "core_bins": core["core_bins"], "core_range_m": core["core_range_m"],
         "flow_height_m": h, "flow_height_in_d": h / d, "surface_speed": float(np.nanmax(prof["u"])),

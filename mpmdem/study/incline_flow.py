@@ -6,7 +6,8 @@ steady uniform flow the momentum balance across the layer gives τ_xy / p = tan 
 with p(y) = ρs g cos θ ∫_y^top φ dy' (the weight of the grains above, per unit area), so each
 steady run is one point (I, μ = tan θ) of the friction law μ(I), I = γ̇ d / sqrt(p / ρs) (GDR MiDi
 2004; Jop et al. 2006). A run below the stopping angle comes to rest; above the largest angle of
-steady flow it keeps accelerating: ``flow_state`` says which.
+steady flow it keeps accelerating: ``flow_state`` says which (a steady flow's net acceleration a
+is a small fraction of g sin θ, and μ = tan θ − a / (g cos θ)).
 
 Profiles (``layer_profiles``): the grains binned by centroid height in bins of one width: solid
 fraction φ (grain area in the bin over its area), mean velocity u (mass-weighted), p from the top
@@ -26,34 +27,35 @@ __all__ = ["STATES", "core_values", "flow_height", "flow_state", "layer_profiles
 STATES = ("stopped", "steady", "accelerating")
 #: at rest: the mean speed at the end below this fraction of sqrt(g d)
 REST_SPEED = 1e-3
-#: accelerating: the mean speed grew by more than this fraction over the averaging window (a steady
-#: flow's mean speed fluctuates by a few per cent from frame to frame: a linear fit's trend is compared)
-GROWTH = 0.05
+#: accelerating: the window's mean acceleration (a linear fit of the mean speed) above this fraction of
+#: the drive g sin θ. The balance of the layer, m a = m g sin θ − μ m g cos θ, then reads μ = tan θ to
+#: this fraction of tan θ: a steady flow's μ (a small strip's mean speed fluctuates by ~10 % from frame
+#: to frame, which a test on the relative change would take for acceleration)
+DRIVE_FRACTION = 0.01
 
 
-def flow_state(times: np.ndarray, mean_speed: np.ndarray, start: float, speed_scale: float) -> dict:
+def flow_state(times: np.ndarray, mean_speed: np.ndarray, start: float, speed_scale: float, drive: float) -> dict:
     """Whether the layer stopped, flows steadily or accelerates over the window t ≥ ``start`` [s]:
     ``mean_speed`` [m/s] per frame (the grains' mean down-slope velocity), ``speed_scale`` sqrt(g d)
-    [m/s]. Stopped: the last frame's speed below REST_SPEED × the scale; accelerating: a linear fit
-    over the window grows by more than GROWTH of its mean; else steady. Returns the state, the
-    window's mean speed, its relative growth and the final speed over the scale."""
+    [m/s], ``drive`` g sin θ [m/s²]. Stopped: the last frame's speed below REST_SPEED × the scale;
+    accelerating: the window's mean acceleration a (a linear fit) above DRIVE_FRACTION × the drive;
+    else steady. Returns the state, the window's mean speed, a / drive and the final speed over the
+    scale."""
     t = np.asarray(times, float)
     u = np.asarray(mean_speed, float)
     window = t >= start
     tw, uw = t[window], u[window]
     mean = float(np.mean(uw))
-    growth = 0.0
-    if len(tw) >= 3 and mean > 0.0:
-        slope = float(np.polyfit(tw, uw, 1)[0])
-        growth = slope * float(tw[-1] - tw[0]) / mean
+    accel = float(np.polyfit(tw, uw, 1)[0]) if len(tw) >= 3 else 0.0
     final = float(u[-1]) / speed_scale
     if abs(final) < REST_SPEED:
         state = "stopped"
-    elif growth > GROWTH:
+    elif accel > DRIVE_FRACTION * drive:
         state = "accelerating"
     else:
         state = "steady"
-    return {"state": state, "window_mean_speed": mean, "window_growth": growth, "final_speed_scaled": final}
+    return {"state": state, "window_mean_speed": mean, "acceleration_over_drive": accel / drive,
+            "final_speed_scaled": final}
 
 
 def layer_profiles(y: list[np.ndarray], u: list[np.ndarray], area: np.ndarray, mass: np.ndarray, *, base: float,

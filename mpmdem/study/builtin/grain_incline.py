@@ -41,7 +41,7 @@ def incline_points(runs: list[dict]) -> list[dict]:
         rate = grains * steps / wall if wall and steps else None
         rows.append({"run": r["run"], "shape": r["grain_shape"], "angle_deg": r["angle_deg"], "mu": r["mu"],
                      "state": r["state"], "I": r["I"], "I_std": r["I_std"], "phi": r["phi"], "phi_std": r["phi_std"],
-                     "flow_height_in_d": r["flow_height_in_d"], "window_growth": r["window_growth"],
+                     "flow_height_in_d": r["flow_height_in_d"], "acceleration_over_drive": r["acceleration_over_drive"],
                      "grains": r.get("grains"), "steps": steps, "wall_seconds": wall, "device": r.get("device"),
                      "body_steps_per_second": rate})
     return sorted(rows, key=lambda x: (x.get("shape", ""), x.get("angle_deg", 0.0)))

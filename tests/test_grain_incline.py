@@ -1,0 +1,60 @@
+"""The μ(I) calibration of the DEM grains (issue 43 §2): the Jop fit of ``mpmdem.study.mu_i_fit`` on
+synthetic points, the flow states of ``mpmdem.study.incline_flow``, and the ``grain-incline`` case
+at a quick size on the CPU (f64, a strip 20 grains long)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from mpmdem.study.incline_flow import flow_state
+from mpmdem.study.mu_i_fit import fit_jop, jop_mu
+
+#: known parameters: Jop et al. 2006's glass beads (``MuI.glass_beads``)
+TRUE = (0.38, 0.64, 0.279)
+
+
+def test_fit_recovers_known_parameters_within_their_noise():
+    """Verify the fit recovers (μs, μ2, I0) from 12 points whose I carry a Gaussian scatter σ_I = 0.01
+    (μ exact, as tan θ): each value within 3 of its own 1-σ of the truth (a 3-σ band holds 99.7 % of
+    fits of this seed's kind), and the 1-σ are the size the noise makes them (not 0, not huge)."""
+    rng = np.random.default_rng(7)
+    true_i = np.geomspace(0.01, 1.5, 12)
+    mu = jop_mu(true_i, *TRUE)
+    sigma_i = np.full(12, 0.01)
+    fit = fit_jop(true_i + rng.normal(0.0, sigma_i), mu, sigma_i)
+    for name, value in zip(("mu_s", "mu_2", "i0"), TRUE, strict=True):
+        assert abs(fit[name] - value) <= 3.0 * fit[f"{name}_std"], (name, fit)
+        assert 0.0 < fit[f"{name}_std"] < 0.2 * value, (name, fit)
+    assert fit["mu2_constrained"], fit
+
+
+def test_fit_says_when_mu2_is_unconstrained():
+    """Verify points all well below I0 (the plateau never reached) give mu2_constrained False, with a note."""
+    i = np.geomspace(0.005, 0.05, 6)
+    fit = fit_jop(i, jop_mu(i, *TRUE) + np.array([1, -1, 1, -1, 1, -1]) * 1e-3)
+    assert not fit["mu2_constrained"] and "unconstrained" in fit["note"]
+    assert fit_jop([0.1, 0.2], [0.4, 0.5])["mu_s"] is None  # (two points: no fit)
+
+
+def test_flow_state_reads_stopped_steady_accelerating():
+    """Verify the three states on made-up mean speeds against a drive g sin θ = 3 m/s²: at rest; flat with
+    10 % noise; gaining 0.06 m/s² (2 % of the drive, over the 1 % limit)."""
+    t = np.linspace(0.0, 1.0, 50)
+    noise = 0.03 * np.sin(37.0 * t)
+    assert flow_state(t, 1e-6 * np.ones(50), 0.6, 0.1, 3.0)["state"] == "stopped"
+    assert flow_state(t, 0.3 + noise, 0.6, 0.1, 3.0)["state"] == "steady"
+    assert flow_state(t, 0.3 + 0.06 * t + 0.1 * noise, 0.6, 0.1, 3.0)["state"] == "accelerating"
+
+
+def incline(tmp_path, angle: float, duration: float) -> dict:
+    from mpmdem.cli import main
+
+    out = tmp_path / f"theta{angle:g}"
+    rc = main(["run", "grain-incline", "--quick", "--device", "cpu", "--quiet", "--angle", str(angle),
+               "--duration", str(duration), "--out", str(out)])
+    assert rc == 0
+    return json.loads((out / "summary.json").read_text())
