@@ -8,7 +8,6 @@ import json
 import math
 
 import numpy as np
-import pytest
 
 from mpmdem.study.incline_flow import flow_state
 from mpmdem.study.mu_i_fit import fit_jop, jop_mu
@@ -50,11 +49,31 @@ def test_flow_state_reads_stopped_steady_accelerating():
     assert flow_state(t, 0.3 + 0.06 * t + 0.1 * noise, 0.6, 0.1, 3.0)["state"] == "accelerating"
 
 
-def incline(tmp_path, angle: float, duration: float) -> dict:
+def incline(tmp_path, angle: float, flags: list[str]) -> dict:
+    """The summary of a quick run at ``angle`` [deg] on a strip 12 grains long, a layer 8 deep."""
     from mpmdem.cli import main
 
     out = tmp_path / f"theta{angle:g}"
     rc = main(["run", "grain-incline", "--quick", "--device", "cpu", "--quiet", "--angle", str(angle),
-               "--duration", str(duration), "--out", str(out)])
+               "--length", "12", "--height", "8", *flags, "--out", str(out)])
     assert rc == 0
     return json.loads((out / "summary.json").read_text())
+
+
+def test_below_the_stopping_angle_the_layer_stops(tmp_path):
+    """Verify a layer on a 14° slope, below the disks' angle of repose (17.9 ± 0.6°,
+    bench/results/studies/grain-calibration), comes to rest: the summary says stopped."""
+    s = incline(tmp_path, 14.0, ["--duration", "40"])
+    assert s["state"] == "stopped" and not s["steady"], s["state"]
+
+
+def test_above_it_the_layer_flows_steadily(tmp_path):
+    """Verify a layer on a 22° slope (above the angle of repose, below the largest angle of steady flow
+    of disks: a quick run of 500 sqrt(d/g) settles at a constant mean speed there) flows steadily over
+    the last 150 sqrt(d/g) of 300, with a positive inertial number in its core, and φ below the
+    settled pack's 0.82 (a flowing layer dilates). Twice the default step (dem_kappa 0.2, π κ2 = 0.63
+    of the stable bound) halves the test's time; the states do not hinge on the step's size."""
+    s = incline(tmp_path, 22.0, ["--duration", "300", "--average", "0.5", "--dem-kappa", "0.2"])
+    assert s["state"] == "steady", (s["state"], s["acceleration_over_drive"], s["acceleration_over_drive_std"])
+    assert s["I"] > 0.0 and s["I"] > 3.0 * s["I_std"] / math.sqrt(s["core_bins"]), (s["I"], s["I_std"])
+    assert 0.6 < s["phi"] < 0.82

@@ -32,30 +32,36 @@ REST_SPEED = 1e-3
 #: this fraction of tan θ: a steady flow's μ (a small strip's mean speed fluctuates by ~10 % from frame
 #: to frame, which a test on the relative change would take for acceleration)
 DRIVE_FRACTION = 0.01
+#: ... and above this many standard errors of the fit's slope (a short window's fluctuations of a
+#: steady flow are not taken for acceleration)
+SIGNIFICANCE = 3.0
 
 
 def flow_state(times: np.ndarray, mean_speed: np.ndarray, start: float, speed_scale: float, drive: float) -> dict:
     """Whether the layer stopped, flows steadily or accelerates over the window t ≥ ``start`` [s]:
     ``mean_speed`` [m/s] per frame (the grains' mean down-slope velocity), ``speed_scale`` sqrt(g d)
     [m/s], ``drive`` g sin θ [m/s²]. Stopped: the last frame's speed below REST_SPEED × the scale;
-    accelerating: the window's mean acceleration a (a linear fit) above DRIVE_FRACTION × the drive;
-    else steady. Returns the state, the window's mean speed, a / drive and the final speed over the
-    scale."""
+    accelerating: the window's mean acceleration a (a linear fit) above DRIVE_FRACTION × the drive
+    and above SIGNIFICANCE standard errors of the fit; else steady. Returns the state, the window's
+    mean speed, a / drive with its standard error, and the final speed over the scale."""
     t = np.asarray(times, float)
     u = np.asarray(mean_speed, float)
     window = t >= start
     tw, uw = t[window], u[window]
     mean = float(np.mean(uw))
-    accel = float(np.polyfit(tw, uw, 1)[0]) if len(tw) >= 3 else 0.0
+    accel, accel_err = 0.0, 0.0
+    if len(tw) >= 4:
+        coef, cov = np.polyfit(tw, uw, 1, cov=True)
+        accel, accel_err = float(coef[0]), float(np.sqrt(max(cov[0, 0], 0.0)))
     final = float(u[-1]) / speed_scale
     if abs(final) < REST_SPEED:
         state = "stopped"
-    elif accel > DRIVE_FRACTION * drive:
+    elif accel > DRIVE_FRACTION * drive and accel > SIGNIFICANCE * accel_err:
         state = "accelerating"
     else:
         state = "steady"
     return {"state": state, "window_mean_speed": mean, "acceleration_over_drive": accel / drive,
-            "final_speed_scaled": final}
+            "acceleration_over_drive_std": accel_err / drive, "final_speed_scaled": final}
 
 
 def layer_profiles(y: list[np.ndarray], u: list[np.ndarray], area: np.ndarray, mass: np.ndarray, *, base: float,
