@@ -58,7 +58,7 @@ def add_arguments(parser):
     parser.add_argument("--height", type=positive(), default=None,
                         help="the layer's depth in mean grain diameters (default 20; 10 with --quick)")
     parser.add_argument("--duration", type=positive(), default=None,
-                        help="the run in units of sqrt(d/g) (default 2000; 400 with --quick)")
+                        help="the run in units of sqrt(d/g) (default 2000; 300 with --quick)")
     parser.add_argument("--average", type=interval(0.0, 1.0), default=0.4,
                         help="the fraction of the run at its end over which the profiles are averaged (default 0.4)")
     parser.add_argument("--grain-radius", type=positive("m"), default=GRAIN_RADIUS,
@@ -72,7 +72,7 @@ def _sizes(args) -> tuple[int, float, float]:
     """(base grains = the strip's length in diameters, layer depth in diameters, run in sqrt(d/g))."""
     length = args.length or (20 if args.quick else 30)
     height = args.height or (10.0 if args.quick else 20.0)
-    duration = args.duration or (400.0 if args.quick else 2000.0)
+    duration = args.duration or (300.0 if args.quick else 2000.0)
     if not 0.0 < args.angle < 60.0:
         raise InputError("--angle", args.angle, "a slope angle in (0, 60) deg")
     if not 2.0 <= height <= 500.0:

@@ -77,3 +77,30 @@ def test_above_it_the_layer_flows_steadily(tmp_path):
     assert s["state"] == "steady", (s["state"], s["acceleration_over_drive"], s["acceleration_over_drive_std"])
     assert s["I"] > 0.0 and s["I"] > 3.0 * s["I_std"] / math.sqrt(s["core_bins"]), (s["I"], s["I_std"])
     assert 0.6 < s["phi"] < 0.82
+
+
+def test_study_analysis_fits_the_steady_runs(tmp_path):
+    """Verify the grain-incline analysis reads run summaries, fits the steady ones only (the stopped and
+    the accelerating ones listed as bounds) and writes mu_i_fit.json and the chart: made-up runs on
+    Jop's glass-bead law, I exact, so the fit returns the law to 1e-6 (curve_fit's tolerance)."""
+    from mpmdem.study.builtin.grain_incline import analyze
+
+    angles = [22.0, 24.0, 26.0, 28.0, 30.0]  # (tan θ between μs and μ2)
+    inverse = {a: TRUE[2] * (math.tan(math.radians(a)) - TRUE[0]) / (TRUE[1] - math.tan(math.radians(a)))
+               for a in angles}  # (I of μ = tan θ on the law)
+    runs = [(a, "steady", inverse[a]) for a in angles] + [(19.0, "stopped", 0.0), (40.0, "accelerating", 2.0)]
+    for angle, state, inertial in runs:
+        folder = tmp_path / "runs" / f"angle={angle:g}"
+        folder.mkdir(parents=True)
+        summary = {"status": "completed", "grain_shape": "disk", "angle_deg": angle,
+                   "mu": math.tan(math.radians(angle)), "state": state, "I": inertial, "I_std": 0.0, "phi": 0.78,
+                   "phi_std": 0.01, "flow_height_in_d": 20.0, "acceleration_over_drive": 0.0, "grains": 600,
+                   "base_grains": 30, "steps": 1000, "wall_seconds": 2.0, "device": "cpu"}
+        (folder / "summary.json").write_text(json.dumps(summary))
+    analyze([], tmp_path)
+    per = json.loads((tmp_path / "mu_i_fit.json").read_text())["per_shape"]["disk"]
+    assert per["stopped_angles_deg"] == [19.0] and per["accelerating_angles_deg"] == [40.0]
+    fit = per["fit"]
+    assert fit["points"] == 5
+    np.testing.assert_allclose([fit["mu_s"], fit["mu_2"], fit["i0"]], TRUE, rtol=1e-4)
+    assert (tmp_path / "mu_i.png").stat().st_size > 0
