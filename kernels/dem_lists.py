@@ -30,7 +30,7 @@ def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool
     packing of the listed slots only outside deterministic mode; with ``disk_pairs`` the pairs of
     two bodies flagged ``B.disk`` are left out of the packed list: ``kernels.dem_disks`` takes them).
     ``periodic``: x periodic, the cell columns wrap and distances take the partner's nearest image
-    (``kernels.dem_period``; a large body is met in its own frame: a floor spanning the period)."""
+    (``kernels.dem_period``), a large body's outline tested against the image of the body nearest it."""
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2
@@ -119,8 +119,11 @@ def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool
             if j != i and (is_large[i] == 0 or j > i):
                 if free_i or B.motion[j] == FREE:
                     listed = False
+                    xs = xi  # (periodic: i's image nearest j, in j's frame, as the force pass pairs them)
+                    if wp.static(periodic):
+                        xs = xi - image(xi, B.x[j], prm)
                     if is_large[i] != 0:
-                        listed = wp.length(B.x[j] - xi) - ri - B.core_radius[j] - B.radius[j] < prm.skin
+                        listed = wp.length(B.x[j] - xs) - ri - B.core_radius[j] - B.radius[j] < prm.skin
                     else:
                         # a large core's outline only where its bounding box comes near (a wall is far
                         # from most bodies); the box test keeps a margin well above round-off, so the
@@ -128,8 +131,8 @@ def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool
                         reach = ri + B.radius[j] + prm.skin
                         start = B.vstart[j]
                         count = B.vcount[j]
-                        if box_distance(xi, world, start, count) < reach + T(1.0e-3) * (reach + wp.length(xi)):
-                            listed = polygon_distance(xi, world, start, count) - ri - B.radius[j] < prm.skin
+                        if box_distance(xs, world, start, count) < reach + T(1.0e-3) * (reach + wp.length(xs)):
+                            listed = polygon_distance(xs, world, start, count) - ri - B.radius[j] < prm.skin
                     if listed:
                         n = add_pair(C, i, j, n, status)
         n = wp.min(n, K)

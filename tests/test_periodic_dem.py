@@ -106,6 +106,28 @@ def test_pentagon_collision_across_the_seam_is_the_interior_collision():
     np.testing.assert_allclose(seam["omega"], inside["omega"], rtol=0.0, atol=0.3e-9 / 0.003)
 
 
+def landing(x: float) -> dict:
+    """A disk dropped at x [m] onto a floor plate spanning the period (a large body, not in the cells)."""
+    s = Scene(domain=((0.0, 0.0), (L, 0.02)), gravity=(0.0, -9.81), boundaries=PERIODIC,
+              contact=ContactLaw(1e5, restitution=0.5))
+    s.add_walls(("bottom",), thickness=0.004)
+    for g in disks([(x, 0.004)], [(0.2, 0.0)]):
+        s.add_grain_set(g)
+    return run(s, 3000)
+
+
+def test_disk_lands_on_a_floor_across_the_seam_as_inside():
+    """Verify the large-body path (a floor plate, listed against the image of a body nearest it): a disk
+    sliding across the seam lands and bounces on the floor as the same disk in the interior, to round-off
+    (tolerance as for the collisions), and it did land (it moves up after 30 ms)."""
+    inside, seam = landing(0.5 * L - 0.005), landing(L - 0.005)  # (on the floor from 20 ms, across at 25)
+    disk = -1  # (the floor comes first, grains last)
+    assert inside["v"][disk, 1] > 0.0 or abs(inside["x"][disk, 1] - R) < 1e-4, inside["x"]
+    np.testing.assert_allclose(seam["v"], inside["v"], rtol=0.0, atol=1e-9)
+    np.testing.assert_allclose(seam["x"][:, 1], inside["x"][:, 1], rtol=0.0, atol=1e-12)
+    assert abs((seam["x"][disk, 0] - inside["x"][disk, 0]) % L - 0.5 * L) < 1e-12
+
+
 def test_periodic_dem_bad_input():
     """Verify a period under three broad-phase cells, a periodic y and material points beside
     grains are InputErrors naming the parameter, before any kernel runs."""
