@@ -8,7 +8,8 @@ grains, e = 0.5, ρs = 1550 / 0.82 kg/m³, ±15 % sizes; k_n = 1e6 N/m, k_t = k_
 ``--length`` mean diameters long), y normal to it; gravity (g sin θ, −g cos θ) for ``--angle`` θ.
 The base is a row of glued grains of the mean size, one per diameter, at random heights within a
 radius (a rough base: no slip), and the layer ``--height`` diameters deep is placed loose above it
-and let flow from rest.
+and let flow from rest; a frictionless lid 6 layer depths up keeps grains thrown up by an
+accelerating layer in the domain.
 
 In a steady uniform flow τ/p = tan θ at every depth (``mpmdem.study.incline_flow``), so the run gives
 one point of μ(I): μ = tan θ against the inertial number I = γ̇ d / sqrt(p / ρs) of the layer's
@@ -25,7 +26,7 @@ import sys
 
 import numpy as np
 
-from mpmdem import ContactLaw, InputError, Scene, sphero_disk
+from mpmdem import ContactLaw, InputError, Scene, rounded_rectangle, sphero_disk
 from mpmdem.cases._column_grains import KN, KT
 from mpmdem.cases._grain_flags import GRAIN_SHAPES
 from mpmdem.sim import gated_grains
@@ -42,7 +43,8 @@ BULK_DENSITY = 1550.0  # kg/m³, the column collapse's (grain density ρs = this
 GRAIN_RADIUS = 0.5e-3  # m: d = 1 mm, the column collapse's and the calibration's grain
 #: the loose lattice the layer is placed on, in units of its height (as cases/_column_grains.py LATTICE)
 LATTICE = {"disk": 1.5, "polygon": 2.2}
-#: the domain's height above the base, in units of the layer's height (room for a dilated, saltating layer)
+#: the domain's height above the base (to a frictionless lid), in units of the layer's height (room for a
+#: dilated, saltating layer)
 HEADROOM = 6.0
 #: bins of the depth profiles, in mean diameters
 BIN = 1.0
@@ -93,6 +95,10 @@ def build(args) -> CaseSetup:
     scene = Scene(domain=((0.0, -r), (L, top)), gravity=(GRAVITY * math.sin(theta), -GRAVITY * math.cos(theta)),
                   boundaries={"left": "periodic", "right": "periodic"},
                   contact=ContactLaw(KN, KT, restitution=gated_grains.RESTITUTION))
+    # a frictionless lid far above the layer: a steady layer never reaches it, an accelerating one
+    # (grains thrown up at growing speeds) stays in the domain and keeps its state readable
+    scene.add_rigid_body(rounded_rectangle(L + 4.0 * d, 2.0 * d), density=1000.0, position=(0.5 * L, top - r + d),
+                         motion="fixed", friction=0.0, name="lid")
     jitter = np.random.default_rng(args.seed).uniform(0.0, r, n_base)
     for k in range(n_base):
         scene.add_rigid_body(sphero_disk(r), density=1000.0, position=((k + 0.5) * d, float(jitter[k])),
@@ -121,7 +127,7 @@ def summarize(sim, result, args) -> dict:
     d = 2.0 * float(np.mean(np.sqrt(grains.area / math.pi)))  # mean equivalent diameter
     r = args.grain_radius
     L = n_base * 2.0 * r
-    base = np.array([b.position[1] for b in sim.scene.rigid_bodies])
+    base = np.array([b.position[1] for b in sim.scene.rigid_bodies if b.name.startswith("base")])
     base_top = float(base.mean()) + r
     theta = math.radians(args.angle)
     with RunFile(result.path) as rf:

@@ -519,7 +519,7 @@ class DEMSolver(ClockedStage):
         # works done on the bodies (<= 0: dissipated), as the MPM stage's work terms
         out["work_contact_damping"] = -vals["dissipated_damping"]
         out["work_contact_friction"] = -vals["dissipated_friction"]
-        out["work_driven"] = vals["work_driven"]  # done on the free bodies by kinematic ones
+        out["work_driven"] = vals["work_driven"]  # by kinematic bodies (and, periodic x, across the seam)
         out["list_rebuilds"] = float(self.rebuilds.numpy()[0])
         out["listed_pairs"] = float(self.C.count.numpy().sum())
         out["history_overflows"] = float(self.status.numpy()[dem_kernels.STATUS_HISTORY_OVERFLOW])
