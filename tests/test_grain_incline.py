@@ -104,3 +104,12 @@ def test_study_analysis_fits_the_steady_runs(tmp_path):
     assert fit["points"] == 5
     np.testing.assert_allclose([fit["mu_s"], fit["mu_2"], fit["i0"]], TRUE, rtol=1e-4)
     assert (tmp_path / "mu_i.png").stat().st_size > 0
+
+
+def test_studies_plan_six_angles_each():
+    """Verify the grain-incline studies are registered and their runs parse with the case's flags."""
+    from mpmdem.study.study import load_study, plan_runs
+
+    for name, shape in (("grain-incline", "disk"), ("grain-incline-polygon", "polygon")):
+        runs = plan_runs(load_study(name), "cuda")
+        assert len(runs) == 6 and all(("--grain-shape", shape) == r.argv[2:4] for r in runs), runs[0].argv

@@ -40,8 +40,8 @@ def scene() -> Scene:
                  contact=ContactLaw(1e5, restitution=0.5))
 
 
-def run(s: Scene, steps: int, disk_pairs: bool = True) -> dict:
-    sim = Simulation(s, F64, device="cpu", tuning=Tuning(disk_pairs=disk_pairs))
+def run(s: Scene, steps: int, disk_pairs: bool = True, device: str = "cpu") -> dict:
+    sim = Simulation(s, F64, device=device, tuning=Tuning(disk_pairs=disk_pairs))
     sim.stage.set_stop_time(1e30)
     sim.advance(steps)
     return sim.body_fields()
@@ -82,29 +82,29 @@ def test_disk_falling_along_x_keeps_the_energy_balance():
     assert d["work_driven"] - d0["work_driven"] > 3.0 * m * 9.81 * L
 
 
-def collision(offset: float, disk_pairs: bool) -> dict:
+def collision(offset: float, disk_pairs: bool, device: str) -> dict:
     """Two disks meeting obliquely (friction and rolling act), their contact point at x = offset [m]."""
     s = scene()
     at = [((offset - 1.2 * R) % L, 0.0095), ((offset + 1.2 * R) % L, 0.0105)]
     for g in disks(at, [(0.4, 0.0), (-0.4, 0.05)]):
         s.add_grain_set(g)
-    return run(s, 300, disk_pairs)
+    return run(s, 300, disk_pairs, device)
 
 
 @pytest.mark.parametrize("disk_pairs", [True, False])
-def test_disk_collision_across_the_seam_is_the_interior_collision(disk_pairs):
+def test_disk_collision_across_the_seam_is_the_interior_collision(disk_pairs, device):
     """Verify a two-disk collision straddling the seam (the disk–disk pass, and the general search)
     gives the interior collision's velocities and spins to round-off: tolerance 1e-9 of the
     impact speed, far above the ulps of the shifted positions (1e-17 m against overlaps of 1e-5 m)
     and far below the change the impact makes (the velocities turn by O(1))."""
-    inside, seam = collision(0.5 * L, disk_pairs), collision(0.0, disk_pairs)
+    inside, seam = collision(0.5 * L, disk_pairs, device), collision(0.0, disk_pairs, device)
     assert np.abs(inside["v"] - np.array([[0.4, 0.0], [-0.4, 0.05]])).max() > 0.1  # (they met)
     assert np.abs(inside["omega"]).max() > 1.0
     np.testing.assert_allclose(seam["v"], inside["v"], rtol=0.0, atol=0.4e-9)
     np.testing.assert_allclose(seam["omega"], inside["omega"], rtol=0.0, atol=0.4e-9 / R)
 
 
-def pentagons(offset: float) -> dict:
+def pentagons(offset: float, device: str) -> dict:
     """Two rounded pentagons meeting corner against face, their contact near x = offset [m]."""
     s = scene()
     shape = regular_polygon(5, 0.003, radius=0.0005)
@@ -112,13 +112,13 @@ def pentagons(offset: float) -> dict:
                      angular_velocity=2.0)
     s.add_rigid_body(shape, density=2500.0, position=((offset + 0.0036) % L, 0.0105), angle=0.3,
                      velocity=(-0.3, 0.02))
-    return run(s, 400)
+    return run(s, 400, device=device)
 
 
-def test_pentagon_collision_across_the_seam_is_the_interior_collision():
+def test_pentagon_collision_across_the_seam_is_the_interior_collision(device):
     """Verify the vertex–edge path across the seam: the same collision of two pentagons in the interior
     and straddling the seam ends with the same velocities and spins (tolerance as for the disks)."""
-    inside, seam = pentagons(0.5 * L), pentagons(0.0)
+    inside, seam = pentagons(0.5 * L, device), pentagons(0.0, device)
     assert np.abs(inside["v"] - np.array([[0.3, 0.0], [-0.3, 0.02]])).max() > 0.05  # (they met)
     np.testing.assert_allclose(seam["v"], inside["v"], rtol=0.0, atol=0.3e-9)
     np.testing.assert_allclose(seam["omega"], inside["omega"], rtol=0.0, atol=0.3e-9 / 0.003)
