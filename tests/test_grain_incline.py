@@ -92,13 +92,13 @@ def test_study_analysis_fits_the_steady_runs(tmp_path):
     for angle, state, inertial in runs:
         folder = tmp_path / "runs" / f"angle={angle:g}"
         folder.mkdir(parents=True)
-        summary = {"status": "completed", "grain_shape": "disk", "angle_deg": angle,
+        summary = {"status": "completed", "grain_shape": "disk", "grain_radius_m": 0.001, "angle_deg": angle,
                    "mu": math.tan(math.radians(angle)), "state": state, "I": inertial, "I_std": 0.0, "phi": 0.78,
                    "phi_std": 0.01, "flow_height_in_d": 20.0, "acceleration_over_drive": 0.0, "grains": 600,
                    "base_grains": 30, "steps": 1000, "wall_seconds": 2.0, "device": "cpu"}
         (folder / "summary.json").write_text(json.dumps(summary))
     analyze([], tmp_path)
-    per = json.loads((tmp_path / "mu_i_fit.json").read_text())["per_shape"]["disk"]
+    per = json.loads((tmp_path / "mu_i_fit.json").read_text())["per_grain"]["disk:0.001"]
     assert per["stopped_angles_deg"] == [19.0] and per["accelerating_angles_deg"] == [40.0]
     fit = per["fit"]
     assert fit["points"] == 5
@@ -113,3 +113,4 @@ def test_studies_plan_six_angles_each():
     for name, shape in (("grain-incline", "disk"), ("grain-incline-polygon", "polygon")):
         runs = plan_runs(load_study(name), "cuda")
         assert len(runs) == 6 and all(("--grain-shape", shape) == r.argv[2:4] for r in runs), runs[0].argv
+        assert all(("--grain-radius", "0.001") == r.argv[4:6] for r in runs), runs[0].argv

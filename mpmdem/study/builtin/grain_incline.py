@@ -1,7 +1,10 @@
 """The μ(I) of the DEM grains from steady flows down a rough incline (issue 43 §2): ``grain-incline``
 sweeps the slope of ``cases/grain_incline.py`` over six angles from the disks' angle of repose
 (17.9 ± 0.6°, bench/results/studies/grain-calibration) to 1.5 times it, ``grain-incline-polygon``
-the same for the rounded pentagons (30.2 ± 2.1° to 45°).
+the same for the rounded pentagons (30.2 ± 2.1° to 45°). The grains are those of the heap runs that
+gave those angles: r = 1 mm (``--set grain-radius=0.0005,0.001`` adds the column's d = 1 mm grains:
+I is dimensionless, so the two sizes should give one law up to the contacts' stiffness, k_n being
+the same at both).
 
 Each steady run is a point (I, μ = tan θ) of the friction law (the case's header); runs that stopped
 (below the stopping angle of their depth) or accelerated (above the largest angle of steady flow)
@@ -31,7 +34,7 @@ MU_FLOOR = 0.002
 
 
 def incline_points(runs: list[dict]) -> list[dict]:
-    """The runs as rows: shape, angle, μ, state, core I ± σ, φ, flow height, DEM cost."""
+    """The runs as rows: grain ("shape:radius"), angle, μ, state, core I ± σ, φ, flow height, DEM cost."""
     rows = []
     for r in runs:
         if r.get("status") != "completed":
@@ -39,7 +42,8 @@ def incline_points(runs: list[dict]) -> list[dict]:
             continue
         wall, steps, grains = r.get("wall_seconds"), r.get("steps"), r.get("grains", 0) + r.get("base_grains", 0)
         rate = grains * steps / wall if wall and steps else None
-        rows.append({"run": r["run"], "shape": r["grain_shape"], "angle_deg": r["angle_deg"], "mu": r["mu"],
+        rows.append({"run": r["run"], "shape": f"{r['grain_shape']}:{r['grain_radius_m']:g}",
+                     "angle_deg": r["angle_deg"], "mu": r["mu"], "mu_balance": r.get("mu_balance"),
                      "state": r["state"], "I": r["I"], "I_std": r["I_std"], "phi": r["phi"], "phi_std": r["phi_std"],
                      "flow_height_in_d": r["flow_height_in_d"], "acceleration_over_drive": r["acceleration_over_drive"],
                      "grains": r.get("grains"), "steps": steps, "wall_seconds": wall, "device": r.get("device"),
@@ -48,8 +52,8 @@ def incline_points(runs: list[dict]) -> list[dict]:
 
 
 def fit_shapes(rows: list[dict]) -> dict:
-    """Per grain shape: the Jop fit to the steady points, the points, and the angles at which the
-    layer stopped or accelerated."""
+    """Per grain ("shape:radius", as bench/results/studies/grain-calibration keys them): the Jop fit to
+    the steady points, the points, and the angles at which the layer stopped or accelerated."""
     out = {}
     for shape in sorted({r["shape"] for r in rows if "shape" in r}):
         mine = [r for r in rows if r.get("shape") == shape]
@@ -74,9 +78,9 @@ def analyze(rows: list[dict], out: Path) -> dict:
         if other.resolve() != out.resolve() and (other / "runs").is_dir():
             runs += [r | {"run": f"{name}/{r['run']}"} for r in load_runs(other)]
     points = incline_points(runs)
-    result = {"method": __doc__, "per_shape": fit_shapes(points), "runs": points}
+    result = {"method": __doc__, "per_grain": fit_shapes(points), "runs": points}
     (out / "mu_i_fit.json").write_text(json.dumps(result, indent=2) + "\n")
-    _chart(points, result["per_shape"], out / "mu_i.png")
+    _chart(points, result["per_grain"], out / "mu_i.png")
     return result
 
 
@@ -115,19 +119,19 @@ def _chart(points: list[dict], shapes: dict, path: Path) -> None:
 STUDY = Study(
     name="grain-incline",
     case="grain-incline",
-    description="mu(I) of the DEM disks (r = 0.5 mm) from steady flows down a rough incline, periodic along it: six "
+    description="mu(I) of the DEM disks (r = 1 mm) from steady flows down a rough incline, periodic along it: six "
                 "angles from the angle of repose (17.9 deg) to 1.5 times it; Jop's mu_s, mu_2, I0 fitted",
     grid={"--angle": [18.0, 19.8, 21.6, 23.4, 25.2, 27.0]},
-    fixed={"--grain-shape": "disk"},
+    fixed={"--grain-shape": "disk", "--grain-radius": 0.001},
     analyze=analyze,
 )
 
 POLYGON = Study(
     name="grain-incline-polygon",
     case="grain-incline",
-    description="mu(I) of the DEM rounded pentagons (r = 0.5 mm) from steady incline flows, 30-45 deg (repose "
+    description="mu(I) of the DEM rounded pentagons (r = 1 mm) from steady incline flows, 30-45 deg (repose "
                 "30.2 deg to 1.5 times it); Jop's mu_s, mu_2, I0 fitted",
     grid={"--angle": [30.0, 33.0, 36.0, 39.0, 42.0, 45.0]},
-    fixed={"--grain-shape": "polygon"},
+    fixed={"--grain-shape": "polygon", "--grain-radius": 0.001},
     analyze=analyze,
 )
