@@ -1,9 +1,8 @@
 """The μ(I) of the DEM grains from steady flows down a rough incline (issue 43 §2): ``grain-incline``
 sweeps the slope of ``cases/grain_incline.py`` over six angles from the disks' angle of repose
-(17.9 ± 0.6°, bench/results/studies/grain-calibration) to 30° (1.7 times it: quick CPU runs of
-layers 10 d deep still flowed steadily at 27°, I ≈ 0.4, below the I0 their fit gave, so a wider
-sweep reaches the plateau μ2 better), ``grain-incline-polygon`` the rounded pentagons from their
-angle of repose (30.2 ± 2.1°) to 1.5 times it (45°). The grains are those of the heap runs that
+(17.9 ± 0.6°, bench/results/studies/grain-calibration) to 30° (1.7 times it, toward the plateau μ2:
+docs/studies/index.md, "μ(I) of the grains"), ``grain-incline-polygon`` the rounded pentagons from
+their angle of repose (30.2 ± 2.1°) to 1.5 times it (45°). The grains are those of the heap runs that
 gave those angles: r = 1 mm (``--set grain-radius=0.0005,0.001`` adds the column's d = 1 mm grains:
 I is dimensionless, so the two sizes should give one law up to the contacts' stiffness, k_n being
 the same at both).
