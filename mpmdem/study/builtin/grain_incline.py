@@ -1,8 +1,9 @@
 """The μ(I) of the DEM grains from steady flows down a rough incline (issue 43 §2): ``grain-incline``
 sweeps the slope of ``cases/grain_incline.py`` over six angles from the disks' angle of repose
 (17.9 ± 0.6°, bench/results/studies/grain-calibration) to 30° (1.7 times it, toward the plateau μ2:
-docs/studies/index.md, "μ(I) of the grains"), ``grain-incline-polygon`` the rounded pentagons from
-their angle of repose (30.2 ± 2.1°) to 1.5 times it (45°). The grains are those of the heap runs that
+docs/studies/index.md, "μ(I) of the grains"), ``grain-incline-polygon`` the rounded pentagons over
+26–33.5° about their angle of repose (30.2 ± 2.1°): their range of steady flow is narrow (the same
+page), so the sweep is denser there instead of reaching 1.5 times the angle. The grains are those of the heap runs that
 gave those angles: r = 1 mm (``--set grain-radius=0.0005,0.001`` adds the column's d = 1 mm grains:
 I is dimensionless, so the two sizes should give one law up to the contacts' stiffness, k_n being
 the same at both).
@@ -130,9 +131,9 @@ STUDY = Study(
 POLYGON = Study(
     name="grain-incline-polygon",
     case="grain-incline",
-    description="mu(I) of the DEM rounded pentagons (r = 1 mm) from steady incline flows, 30-45 deg (repose "
-                "30.2 deg to 1.5 times it); Jop's mu_s, mu_2, I0 fitted",
-    grid={"--angle": [30.0, 33.0, 36.0, 39.0, 42.0, 45.0]},
+    description="mu(I) of the DEM rounded pentagons (r = 1 mm) from steady incline flows, 26-33.5 deg about their "
+                "angle of repose (30.2 deg); Jop's mu_s, mu_2, I0 fitted",
+    grid={"--angle": [26.0, 27.5, 29.0, 30.5, 32.0, 33.5]},
     fixed={"--grain-shape": "polygon", "--grain-radius": 0.001},
     analyze=analyze,
 )
