@@ -45,7 +45,8 @@ def make_dem_contacts(precision: str, deterministic: bool = False, periodic: boo
     point_velocity, edge_count, vertex_feature = geometry.point_velocity, geometry.edge_count, geometry.vertex_feature
     contact_point, spring_dashpot = geometry.contact_point, geometry.spring_dashpot
     find_slip = make_history_lookup(precision, HISTORY_SLOTS)
-    in_corner, image = geometry.in_corner, make_dem_period(precision).image
+    period = make_dem_period(precision)
+    in_corner, image, needs_rebuild_image = geometry.in_corner, period.image, period.needs_rebuild_image
 
     # -- the start of the stage ----------------------------------------------------------------
     @kernel
@@ -66,7 +67,10 @@ def make_dem_contacts(precision: str, deterministic: bool = False, periodic: boo
             B.force[k] = vec2()
             B.torque[k] = T(0.0)
         if k < moving:
-            if needs_rebuild(B, k, B.x_ref, B.angle_ref, prm.skin):
+            if wp.static(periodic):
+                if needs_rebuild_image(B, k, prm.skin, prm):
+                    flags[0] = 1
+            elif needs_rebuild(B, k, B.x_ref, B.angle_ref, prm.skin):
                 flags[0] = 1
 
     @kernel

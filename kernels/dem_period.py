@@ -1,12 +1,13 @@
 """The periodic image of the DEM in a domain periodic in x (period L = hi_x − lo_x of ``Params``).
 
 A body's centroid stays in [lo_x, lo_x + L): the rigid-body update wraps it by ±L when it leaves
-(``kernels.dem_integrate``). A pair is computed with the minimum image of its partner: body j's
-centroid shifted by a whole number of periods to the image nearest body i (``image``), and the
-vertices of one body moved into the other's frame by that shift (``kernels.dem_contacts``). The
-broad-phase cells tile the period exactly, so a cell index wraps in x (``periodic_cell``); the host
-takes a period of at least three cells (``mpmdem.sim.dem_period``), so the three columns of cells
-around a body are distinct and a pair is listed once, under one image.
+(``kernels.dem_integrate``), and the wrap alone rebuilds no list (``needs_rebuild_image``). A pair is
+computed with the minimum image of its partner: body j's centroid shifted by a whole number of
+periods to the image nearest body i (``image``), and the vertices of one body moved into the other's
+frame by that shift (``kernels.dem_contacts``). The broad-phase cells tile the period exactly, so a
+cell index wraps in x (``periodic_cell``); the host takes a period of at least three cells
+(``mpmdem.sim.dem_period``), so the three columns of cells around a body are distinct and a pair is
+listed once, under one image.
 
 Only the factories built with ``periodic=True`` call these; the others compile as before.
 """
@@ -23,11 +24,12 @@ __all__ = ["make_dem_period"]
 
 @functools.cache
 def make_dem_period(precision: str):
-    """Functions ``image``, ``wrap_x`` and ``periodic_cell`` of the periodic DEM for one precision."""
+    """Functions ``image``, ``wrap_x``, ``periodic_cell`` and ``needs_rebuild_image`` of the periodic DEM
+    for one precision."""
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2
-    _, _, Params = make_dem_structs(precision)
+    Bodies, _, Params = make_dem_structs(precision)
 
     @wp.func
     def image(xi: vec2, xj: vec2, prm: Params):
@@ -58,4 +60,12 @@ def make_dem_period(precision: str):
         cy = wp.clamp(int(wp.floor((x[1] - prm.cell_origin[1]) * prm.inv_cell)), 0, prm.cells_y - 1)
         return cx, cy
 
-    return Namespace(image=image, wrap_x=wrap_x, periodic_cell=periodic_cell)
+    @wp.func
+    def needs_rebuild_image(B: Bodies, i: int, skin: T, prm: Params):
+        """``kernels.verlet.needs_rebuild`` with the centroid's shift since the list build taken to the
+        nearest image: a wrap across the seam moves nothing (the lists hold partners, not places)."""
+        d = B.x[i] - B.x_ref[i] - image(B.x[i], B.x_ref[i], prm)
+        moved = wp.length(d) + B.core_radius[i] * wp.abs(B.angle[i] - B.angle_ref[i])
+        return moved > T(0.5) * skin or not wp.isfinite(moved)
+
+    return Namespace(image=image, wrap_x=wrap_x, periodic_cell=periodic_cell, needs_rebuild_image=needs_rebuild_image)
