@@ -61,7 +61,7 @@ def add_arguments(parser):
                         help="the layer's depth in mean grain diameters (default 20; 10 with --quick)")
     parser.add_argument("--duration", type=positive(), default=None,
                         help="the run in units of sqrt(d/g) (default 2000; 300 with --quick)")
-    parser.add_argument("--average", type=interval(0.0, 1.0), default=0.4,
+    parser.add_argument("--average", type=interval(0.0, 1.0, open_low=True), default=0.4,
                         help="the fraction of the run at its end over which the profiles are averaged (default 0.4)")
     parser.add_argument("--grain-radius", type=positive("m"), default=GRAIN_RADIUS,
                         help=f"mean grain radius [m] (default {GRAIN_RADIUS}: the column collapse's grains)")
