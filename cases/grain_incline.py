@@ -8,7 +8,7 @@ grains, e = 0.5, ρs = 1550 / 0.82 kg/m³, ±15 % sizes; k_n = 1e6 N/m, k_t = k_
 ``--length`` mean diameters long), y normal to it; gravity (g sin θ, −g cos θ) for ``--angle`` θ.
 The base is a row of glued grains of the mean size, one per diameter, at random heights within a
 radius (a rough base: no slip), and the layer ``--height`` diameters deep is placed loose above it
-and let flow from rest; a frictionless lid 6 layer depths up keeps grains thrown up by an
+and let flow from rest; a frictionless lid 3 layer depths up keeps grains thrown up by an
 accelerating layer in the domain.
 
 In a steady uniform flow τ/p = tan θ at every depth (``mpmdem.study.incline_flow``), so the run gives
@@ -45,7 +45,7 @@ GRAIN_RADIUS = 0.5e-3  # m: d = 1 mm, the column collapse's and the calibration'
 LATTICE = {"disk": 1.5, "polygon": 2.2}
 #: the domain's height above the base (to a frictionless lid), in units of the layer's height (room for a
 #: dilated, saltating layer)
-HEADROOM = 6.0
+HEADROOM = 3.0
 #: bins of the depth profiles, in mean diameters
 BIN = 1.0
 #: the core leaves this many diameters out at the base and at the surface
