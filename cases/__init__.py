@@ -35,6 +35,7 @@ CASES = {
     "sand-blocks": "sand_blocks",
     "silo-discharge": "silo_discharge",
     "granular-matrix": "granular_matrix",
+    "grain-incline": "grain_incline",
 }
 
 DEFAULT_CASE = "silo-discharge"

@@ -46,13 +46,16 @@ __all__ = ["DIAG_NAMES", "FIXED", "FREE", "HISTORY_SLOTS", "KINEMATIC", "STATUS_
 
 
 @functools.cache
-def make_dem_kernels(precision: str, deterministic: bool = False):
+def make_dem_kernels(precision: str, deterministic: bool = False, periodic: bool = False):
     """Structs, functions and kernels of the DEM stage for one precision ("f32" or "f64"), in one
     namespace: those of ``make_dem_structs``, ``make_verlet``, ``make_dem_contacts`` and
     ``make_dem_integration``, the contact kernel, and ``make_contact_forces(max_registers=None,
-    disk_pairs=False)`` for its other builds (``make_dem_contact_forces``)."""
+    disk_pairs=False)`` for its other builds (``make_dem_contact_forces``); ``periodic``: x periodic
+    (``kernels.dem_period``)."""
     parts = make_dem_structs(precision)._asdict()
-    for part in (make_verlet(precision), make_dem_contacts(precision, deterministic), make_dem_integration(precision)):
+    for part in (make_verlet(precision), make_dem_contacts(precision, deterministic, periodic),
+                 make_dem_integration(precision, periodic)):
         parts.update(vars(part))
-    return Namespace(**parts, contact_forces=make_dem_contact_forces(precision, deterministic),
-                     make_contact_forces=functools.partial(make_dem_contact_forces, precision, deterministic))
+    return Namespace(**parts, contact_forces=make_dem_contact_forces(precision, deterministic, periodic=periodic),
+                     make_contact_forces=functools.partial(make_dem_contact_forces, precision, deterministic,
+                                                           periodic=periodic))

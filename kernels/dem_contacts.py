@@ -22,6 +22,7 @@ import warp as wp
 from .clock import CLOCK_DT
 from .contact_geometry import make_contact_geometry, make_history_lookup
 from .dem_bodies import HISTORY_SLOTS, KEY_KIND, KEY_VERTEX, STATUS_HISTORY_OVERFLOW, make_dem_structs
+from .dem_period import make_dem_period
 from .types import Namespace, kernel, scalar_types
 from .verlet import make_verlet
 
@@ -29,9 +30,10 @@ __all__ = ["make_dem_contact_forces", "make_dem_contacts"]
 
 
 @functools.cache
-def make_dem_contacts(precision: str, deterministic: bool = False):
+def make_dem_contacts(precision: str, deterministic: bool = False, periodic: bool = False):
     """The start-of-stage kernels, the touch law and the pair-search functions of the DEM for one
-    precision (the contact kernel that calls them: ``make_dem_contact_forces``)."""
+    precision (the contact kernel that calls them: ``make_dem_contact_forces``); with ``periodic``
+    (x periodic) each pair is computed with its partner's minimum image (``kernels.dem_period``)."""
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2
@@ -43,6 +45,8 @@ def make_dem_contacts(precision: str, deterministic: bool = False):
     point_velocity, edge_count, vertex_feature = geometry.point_velocity, geometry.edge_count, geometry.vertex_feature
     contact_point, spring_dashpot = geometry.contact_point, geometry.spring_dashpot
     find_slip = make_history_lookup(precision, HISTORY_SLOTS)
+    period = make_dem_period(precision)
+    in_corner, image, needs_rebuild_image = geometry.in_corner, period.image, period.needs_rebuild_image
 
     # -- the start of the stage ----------------------------------------------------------------
     @kernel
@@ -63,7 +67,10 @@ def make_dem_contacts(precision: str, deterministic: bool = False):
             B.force[k] = vec2()
             B.torque[k] = T(0.0)
         if k < moving:
-            if needs_rebuild(B, k, B.x_ref, B.angle_ref, prm.skin):
+            if wp.static(periodic):
+                if needs_rebuild_image(B, k, prm.skin, prm):
+                    flags[0] = 1
+            elif needs_rebuild(B, k, B.x_ref, B.angle_ref, prm.skin):
                 flags[0] = 1
 
     @kernel
@@ -89,6 +96,8 @@ def make_dem_contacts(precision: str, deterministic: bool = False):
         delta, p = contact_point(X, N, d, reach, a_r)
         xi = B.x[i]
         xj = B.x[j]
+        if wp.static(periodic):  # (X, and so p, in i's frame: j's image nearest i)
+            xj = xj + image(xi, xj, prm)
         vel = point_velocity(B.v[i], B.omega[i], p - xi) - point_velocity(B.v[j], B.omega[j], p - xj)
         if side == 1:
             vel = -vel
@@ -173,30 +182,72 @@ def make_dem_contacts(precision: str, deterministic: bool = False):
         return keys, slips, n_hist, energy, lost, fi, ti, fj, tj
 
     @wp.func
+    def shifted_feature(X: vec2, world: wp.array(dtype=vec2), start: int, count: int, f: int, n_edges: int,
+                        n_corners: int, reach: T, own_start: int, own_count: int, own_k: int, inside: bool,
+                        best_d: T, best_f: int, best_n: vec2, own_shift: vec2):
+        """``vertex_feature`` of a vertex X given in the other core's frame, whose own core is
+        ``own_shift`` [m] away (periodic x): a corner's second test (W in the corner region of X's own
+        vertex) takes W into X's own frame; edges and the last pass are ``vertex_feature``'s."""
+        if f >= n_edges and f < n_edges + n_corners:
+            w = f - n_edges
+            W = world[start + w]
+            D = X - W
+            d = wp.length(D)
+            hit = False
+            N = vec2()
+            if d < reach and d > T(1.0e-12) * reach:
+                if in_corner(X, world, start, count, w) and in_corner(W + own_shift, world, own_start, own_count,
+                                                                      own_k):
+                    N = D / d
+                    hit = True
+            return hit, N, d, f, inside, best_d, best_f, best_n
+        return vertex_feature(X, world, start, count, f, n_edges, n_corners, reach, own_start, own_count, own_k,
+                              inside, best_d, best_f, best_n)
+
+    @wp.func
     def search_pair(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2), tid: int, i: int, j: int,
                     xi: vec2, xj: vec2, reach: T, dt: T, status: wp.array(dtype=wp.int32)):
         """Every touch of the pair in slot ``tid`` (bodies i, j), searched in turn: each vertex of
         either core within the other's bounding circle against the other's features. Returns the
-        history (keys, δ_t), energy, dissipated work and the forces and torques on i and j."""
+        history (keys, δ_t), energy, dissipated work and the forces and torques on i and j. Periodic
+        x: j's image nearest i (shift s); a vertex is searched in the other core's frame (side 0: X − s,
+        side 1: X + s) and its touch computed in i's frame."""
         keys, slips, energy, lost, fi, ti, fj, tj = no_touches()
         n_hist = int(0)
+        xj_i = xj
+        if wp.static(periodic):
+            s = image(xi, xj, prm)
+            xj_i = xj + s
         sides = int(2)  # (a loop, not unrolled: one copy of the search in registers)
         for side in range(sides):
             r_start, r_count, o_start, o_count, c_o, r_o, a_r = pair_side(B, i, j, side)
             for k in range(r_count):
                 X = world[r_start + k]
-                if wp.length(X - c_o) >= r_o + reach:
+                Xs = X  # (in the other core's frame)
+                if wp.static(periodic):
+                    own_shift = s  # (from the other core's frame to X's own)
+                    if side == 1:
+                        own_shift = -s
+                    Xs = X - own_shift
+                    if side == 1:
+                        X = Xs
+                if wp.length(Xs - c_o) >= r_o + reach:
                     continue
                 # candidate features of the other body: its edges when it has any, then (side 0
                 # only) its vertices as corners, then the pass for a vertex gone inside its core
                 n_feat, n_corner, inside, best_d, best_f, best_n = vertex_search(side, o_count)
                 for f in range(n_feat + n_corner + 1):
-                    hit, N, d, feature, inside, best_d, best_f, best_n = vertex_feature(
-                        X, world, o_start, o_count, f, n_feat, n_corner, reach, r_start, r_count, k,
-                        inside, best_d, best_f, best_n)
+                    if wp.static(periodic):
+                        hit, N, d, feature, inside, best_d, best_f, best_n = shifted_feature(
+                            Xs, world, o_start, o_count, f, n_feat, n_corner, reach, r_start, r_count, k,
+                            inside, best_d, best_f, best_n, own_shift)
+                    else:
+                        hit, N, d, feature, inside, best_d, best_f, best_n = vertex_feature(
+                            X, world, o_start, o_count, f, n_feat, n_corner, reach, r_start, r_count, k,
+                            inside, best_d, best_f, best_n)
                     if hit:
                         keys, slips, n_hist, energy, lost, fi, ti, fj, tj = add_touch(
-                            B, C, prm, tid, i, j, side, k, X, N, d, feature, n_feat, reach, a_r, dt, xi, xj,
+                            B, C, prm, tid, i, j, side, k, X, N, d, feature, n_feat, reach, a_r, dt, xi, xj_i,
                             keys, slips, n_hist, energy, lost, fi, ti, fj, tj, status)
         return keys, slips, energy, lost, fi, ti, fj, tj
 
@@ -227,6 +278,14 @@ def make_dem_contacts(precision: str, deterministic: bool = False):
         return wp.length(B.x[j] - B.x[i]) < B.core_radius[i] + B.core_radius[j] + (B.radius[i] + B.radius[j])
 
     @wp.func
+    def overlapping_images(B: Bodies, prm: Params, i: int, j: int):
+        """``overlapping_circles`` with j's image nearest i (periodic x)."""
+        xi = B.x[i]
+        xj = B.x[j]
+        D = xj + image(xi, xj, prm) - xi
+        return wp.length(D) < B.core_radius[i] + B.core_radius[j] + (B.radius[i] + B.radius[j])
+
+    @wp.func
     def store_pair(B: Bodies, C: Contacts, tid: int, i: int, j: int, touching: bool, keys: wp.vec4i, slips: vec4,
                    energy: T, lost: wp.vec2d, fi: vec2, ti: T, fj: vec2, tj: T):
         """The pair's forces and torques added to both bodies (when their circles overlap), its history,
@@ -246,25 +305,27 @@ def make_dem_contacts(precision: str, deterministic: bool = False):
         # the pieces of the pair search, for the search split over candidate vertices (kernels/dem_split.py)
         pair_side=pair_side, no_touches=no_touches, vertex_search=vertex_search, add_touch=add_touch,
         search_pair=search_pair, pair_bodies=pair_bodies,
-        listed_pair=listed_pair, overlapping_circles=overlapping_circles, store_pair=store_pair,
+        listed_pair=listed_pair, overlapping_circles=overlapping_circles, overlapping_images=overlapping_images,
+        store_pair=store_pair,
         vertex_feature=vertex_feature, edge_count=edge_count,
     )
 
 
 @functools.cache
 def make_dem_contact_forces(precision: str, deterministic: bool = False, max_registers: int | None = None,
-                            disk_pairs: bool = False):
+                            disk_pairs: bool = False, periodic: bool = False):
     """The contact kernel of the DEM for one precision: forces and torques of the listed pairs
     (eq. 39–40), with at most ``max_registers`` registers per thread on CUDA (None: the compiler's
     choice, which the stage uses; capped builds are for ``bench/kernel_registers.py``); with
     ``disk_pairs`` it leaves the pairs of two bodies flagged ``B.disk`` to the disk–disk pass
-    (``kernels.dem_disks``)."""
-    pieces = make_dem_contacts(precision, deterministic)
+    (``kernels.dem_disks``); ``periodic``: x periodic, pairs with their minimum image."""
+    pieces = make_dem_contacts(precision, deterministic, periodic)
     T = scalar_types(precision).scalar
     vec2 = scalar_types(precision).vec2
     Bodies, Contacts, Params = make_dem_structs(precision)
     listed_pair, pair_bodies, no_touches = pieces.listed_pair, pieces.pair_bodies, pieces.no_touches
     overlapping_circles, search_pair, store_pair = pieces.overlapping_circles, pieces.search_pair, pieces.store_pair
+    overlapping_images = pieces.overlapping_images
 
     @kernel(deterministic=deterministic, max_registers=max_registers)
     def contact_forces(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
@@ -278,7 +339,10 @@ def make_dem_contact_forces(precision: str, deterministic: bool = False, max_reg
             if B.disk[i] != 0 and B.disk[j] != 0:
                 return
         keys, slips, energy, lost, fi, ti, fj, tj = no_touches()
-        touching = overlapping_circles(B, i, j)
+        if wp.static(periodic):
+            touching = overlapping_images(B, prm, i, j)
+        else:
+            touching = overlapping_circles(B, i, j)
         if touching:
             keys, slips, energy, lost, fi, ti, fj, tj = search_pair(
                 B, C, prm, world, tid, i, j, xi, xj, B.radius[i] + B.radius[j], T(clock[CLOCK_DT]), status)

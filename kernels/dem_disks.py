@@ -33,6 +33,7 @@ import warp as wp
 from .clock import CLOCK_DT
 from .dem_bodies import STATUS_NEIGHBOR_OVERFLOW, make_dem_structs
 from .dem_contacts import make_dem_contacts
+from .dem_period import make_dem_period
 from .types import Namespace, kernel, scalar_types
 from .verlet import make_verlet
 
@@ -40,15 +41,17 @@ __all__ = ["make_disk_pairs"]
 
 
 @functools.cache
-def make_disk_pairs(precision: str, deterministic: bool = False):
+def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool = False):
     """Struct ``DiskPairs`` and kernels ``list_incoming``, ``sort_incoming``, ``disk_forces`` of the
-    disk–disk pass for one precision (the structs of ``make_dem_structs(precision)``)."""
+    disk–disk pass for one precision (the structs of ``make_dem_structs(precision)``); ``periodic``:
+    x periodic, a pair computed with the partner's image nearest the owner (``kernels.dem_period``)."""
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2
     vec4 = t.vec4
     Bodies, Contacts, Params = make_dem_structs(precision)
-    contacts = make_dem_contacts(precision, deterministic)
+    contacts = make_dem_contacts(precision, deterministic, periodic)
+    image = make_dem_period(precision).image
     touch_force, cross, sort_ids = contacts.touch_force, contacts.cross, make_verlet(precision).sort_ids
 
     @wp.struct
@@ -102,6 +105,8 @@ def make_disk_pairs(precision: str, deterministic: bool = False):
         vertex–vertex touch (``search_pair``: side 0, X = x_i, N from j towards i), in its order."""
         xi = B.x[i]
         xj = B.x[j]
+        if wp.static(periodic):  # (as touch_force: j's image nearest i)
+            xj = xj + image(xi, xj, prm)
         reach = B.radius[i] + B.radius[j]
         D = xi - xj
         d = wp.length(D)

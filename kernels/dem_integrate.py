@@ -14,6 +14,7 @@ from .clock import (
     set_step,
 )
 from .dem_bodies import FREE, KINEMATIC, STATUS_NONFINITE, STATUS_OUTSIDE, make_dem_structs
+from .dem_period import make_dem_period
 from .reductions import close_step
 from .types import Namespace, kernel, scalar_types
 
@@ -21,12 +22,14 @@ __all__ = ["DIAG_NAMES", "make_dem_integration"]
 
 
 @functools.cache
-def make_dem_integration(precision: str):
-    """Kernels ``integrate``, ``end_step`` and ``diagnostics`` of the DEM stage for one precision."""
+def make_dem_integration(precision: str, periodic: bool = False):
+    """Kernels ``integrate``, ``end_step`` and ``diagnostics`` of the DEM stage for one precision;
+    ``periodic``: x periodic, a centroid leaving [lo_x, hi_x) wrapped by one period."""
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2
     Bodies, Contacts, Params = make_dem_structs(precision)
+    wrap_x = make_dem_period(precision).wrap_x
 
     @kernel
     def integrate(B: Bodies, prm: Params, clock: wp.array(dtype=wp.float64), status: wp.array(dtype=wp.int32)):
@@ -53,6 +56,16 @@ def make_dem_integration(precision: str):
             v = v + dt * (B.inv_mass[i] * B.force[i] + T(ramp) * prm.gravity)
             w = w + dt * B.inv_inertia[i] * B.torque[i]
         x = B.x[i] + dt * v
+        if wp.static(periodic):
+            xw = wrap_x(x, prm)
+            if xw[0] != x[0] and B.motion[i] == FREE:
+                # the potential energy −m g·x jumps by −m g_x Δx as the centroid moves back by Δx across
+                # the seam: booked as work brought in (in ``work``, summed with the driven work)
+                gr = float(1.0)
+                if prm.gravity_ramp > 0.0:
+                    gr = wp.min(float(t) / prm.gravity_ramp, 1.0)
+                B.work[i] = B.work[i] - wp.float64(B.mass[i] * T(gr) * prm.gravity[0] * (xw[0] - x[0]))
+            x = xw
         B.v[i] = v
         B.omega[i] = w
         B.x[i] = x
@@ -76,7 +89,8 @@ def make_dem_integration(precision: str):
     @kernel
     def diagnostics(B: Bodies, C: Contacts, prm: Params, out: wp.array(dtype=wp.float64)):
         """Sums of: kinetic, gravity, contact energy, momenta x, y, angular, mass (free bodies),
-        damping and friction work dissipated in contacts (all pairs), work of kinematic bodies."""
+        damping and friction work dissipated in contacts (all pairs), work of kinematic bodies (and,
+        periodic x, the potential energy the free bodies brought across the seam)."""
         i = wp.tid()
         e = wp.float64(0.0)
         lost = C.body_dissipated[i]
@@ -86,6 +100,9 @@ def make_dem_integration(precision: str):
         wp.atomic_add(out, 2, e)
         wp.atomic_add(out, 7, lost[0])
         wp.atomic_add(out, 8, lost[1])
+        if wp.static(periodic):  # (a free body's: the potential energy it brought across the seam)
+            if B.motion[i] == FREE:
+                wp.atomic_add(out, 9, B.work[i])
         if B.motion[i] != FREE:
             wp.atomic_add(out, 9, B.work[i])
             return

@@ -16,6 +16,7 @@ import warp as wp
 
 from .contact_geometry import make_contact_geometry
 from .dem_bodies import FREE, STATUS_CELL_OVERFLOW, STATUS_NEIGHBOR_OVERFLOW, make_dem_structs
+from .dem_period import make_dem_period
 from .scan import block_append
 from .types import Namespace, kernel, scalar_types
 from .verlet import make_verlet
@@ -24,10 +25,12 @@ __all__ = ["make_dem_lists"]
 
 
 @functools.cache
-def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool = False):
+def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool = False, periodic: bool = False):
     """Kernels ``bin_bodies`` and ``build_lists`` of the body-pair lists for one precision (the
     packing of the listed slots only outside deterministic mode; with ``disk_pairs`` the pairs of
-    two bodies flagged ``B.disk`` are left out of the packed list: ``kernels.dem_disks`` takes them)."""
+    two bodies flagged ``B.disk`` are left out of the packed list: ``kernels.dem_disks`` takes them).
+    ``periodic``: x periodic, the cell columns wrap and distances take the partner's nearest image
+    (``kernels.dem_period``), a large body's outline tested against the image of the body nearest it."""
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2
@@ -37,9 +40,12 @@ def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool
     sort_ids, cell_in, bin_item = verlet.sort_ids, verlet.cell_in, verlet.bin_item
     geometry = make_contact_geometry(precision)
     polygon_distance, box_distance = geometry.polygon_distance, geometry.box_distance
+    image, periodic_cell = make_dem_period(precision).image, make_dem_period(precision).periodic_cell
 
     @wp.func
     def cell_of(x: vec2, prm: Params):
+        if wp.static(periodic):
+            return periodic_cell(x, prm)
         return cell_in(x, prm.cell_origin, prm.inv_cell, prm.cells_x, prm.cells_y)
 
     @kernel
@@ -88,22 +94,36 @@ def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool
         n = int(0)
         if is_large[i] == 0:
             cx, cy = cell_of(xi, prm)
-            for gx in range(wp.max(cx - 1, 0), wp.min(cx + 2, prm.cells_x)):
+            gx_lo = wp.max(cx - 1, 0)
+            gx_hi = wp.min(cx + 2, prm.cells_x)
+            if wp.static(periodic):  # (three distinct columns: cells_x >= 3)
+                gx_lo = cx - 1
+                gx_hi = cx + 2
+            for gx_at in range(gx_lo, gx_hi):
+                gx = gx_at
+                if wp.static(periodic):
+                    gx = (gx_at + prm.cells_x) % prm.cells_x
                 for gy in range(wp.max(cy - 1, 0), wp.min(cy + 2, prm.cells_y)):
                     c = gx * prm.cells_y + gy
                     for s in range(wp.min(cell_count[c], prm.cell_cap)):
                         j = cell_items[c * prm.cell_cap + s]
                         if j > i and (free_i or B.motion[j] == FREE):
                             rj = B.core_radius[j] + B.radius[j]
-                            if wp.length(B.x[j] - xi) < ri + rj + prm.skin:
+                            xj = B.x[j]
+                            if wp.static(periodic):
+                                xj = xj + image(xi, xj, prm)
+                            if wp.length(xj - xi) < ri + rj + prm.skin:
                                 n = add_pair(C, i, j, n, status)
         for s in range(n_large):
             j = large[s]
             if j != i and (is_large[i] == 0 or j > i):
                 if free_i or B.motion[j] == FREE:
                     listed = False
+                    xs = xi  # (periodic: i's image nearest j, in j's frame, as the force pass pairs them)
+                    if wp.static(periodic):
+                        xs = xi - image(xi, B.x[j], prm)
                     if is_large[i] != 0:
-                        listed = wp.length(B.x[j] - xi) - ri - B.core_radius[j] - B.radius[j] < prm.skin
+                        listed = wp.length(B.x[j] - xs) - ri - B.core_radius[j] - B.radius[j] < prm.skin
                     else:
                         # a large core's outline only where its bounding box comes near (a wall is far
                         # from most bodies); the box test keeps a margin well above round-off, so the
@@ -111,8 +131,8 @@ def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool
                         reach = ri + B.radius[j] + prm.skin
                         start = B.vstart[j]
                         count = B.vcount[j]
-                        if box_distance(xi, world, start, count) < reach + T(1.0e-3) * (reach + wp.length(xi)):
-                            listed = polygon_distance(xi, world, start, count) - ri - B.radius[j] < prm.skin
+                        if box_distance(xs, world, start, count) < reach + T(1.0e-3) * (reach + wp.length(xs)):
+                            listed = polygon_distance(xs, world, start, count) - ri - B.radius[j] < prm.skin
                     if listed:
                         n = add_pair(C, i, j, n, status)
         n = wp.min(n, K)

@@ -370,7 +370,10 @@ class Scene(SceneChecks, StageKinds):
             raise InputError("name", grains.name, "a grain-set name not used by another set")
         (x0, y0), (x1, y1) = self.domain
         x, reach = grains.position, grains.bounding_radius
-        out = (x[:, 0] - reach < x0) | (x[:, 0] + reach > x1) | (x[:, 1] - reach < y0) | (x[:, 1] + reach > y1)
+        if self.periodic_x:  # (x periodic: a grain may straddle the seam, its centroid in [x0, x1))
+            out = (x[:, 0] < x0) | (x[:, 0] >= x1) | (x[:, 1] - reach < y0) | (x[:, 1] + reach > y1)
+        else:
+            out = (x[:, 0] - reach < x0) | (x[:, 0] + reach > x1) | (x[:, 1] - reach < y0) | (x[:, 1] + reach > y1)
         if out.any():
             raise InputError(what.split(" ")[0], what, f"grains inside the domain {self.domain}: {int(out.sum())} "
                              f"of {len(grains)} grains would reach past it")

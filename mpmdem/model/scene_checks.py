@@ -83,13 +83,16 @@ class SceneChecks:
         return self._named(*overlaps[:3])
 
     def _check_periodic_alone(self) -> None:
-        """``validate``'s check that a periodic scene has MPM bodies only: the DEM stage, the coupling
-        and the obstacle nodes know no periodic image."""
-        found = [name for name, items in (("rigid bodies", self.rigid_bodies), ("grains", self.grains),
-                                          ("obstacles", self.obstacles)) if items]
+        """``validate``'s check that a periodic scene is MPM bodies alone or DEM bodies alone: the DEM
+        stage knows the periodic image (``kernels.dem_period``), the coupling and the obstacle
+        nodes do not."""
+        found = [name for name, items in (("rigid bodies", self.rigid_bodies and self.bodies),
+                                          ("grains", self.grains and self.bodies), ("obstacles", self.obstacles))
+                 if items]
         if self.periodic_x and found:
-            raise InputError("boundaries", "periodic", f"a scene of MPM bodies only: periodic x has no {found[0]} "
-                             "(the DEM stage, the coupling and obstacles know no periodic image)")
+            raise InputError("boundaries", "periodic", f"MPM bodies alone or rigid bodies and grains alone: periodic "
+                             f"x has no {found[0]} beside material points (the coupling and obstacles know no "
+                             "periodic image)")
 
     def _check_points_outside_bodies(self, arrays: RigidArrays, particles: dict | None = None) -> None:
         """``validate``'s check that no material point starts inside a rigid body (``particles``:

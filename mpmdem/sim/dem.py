@@ -34,6 +34,7 @@ from ..model.finished import Model
 from ..model.memory import check_device_memory
 from ..model.rigid_arrays import RigidArrays
 from ..model.scene import Scene
+from .dem_period import periodic_cells
 from .launch_plan import IfFlag, Launch, run_plan
 from .stage import Clock, ClockedStage
 from .tuning import Tuning
@@ -114,7 +115,9 @@ class DEMSolver(ClockedStage):
         self.config = config
         self.tuning = tuning or Tuning()
         self.device = wp.get_device(device)
-        self.k = dem_kernels.make_dem_kernels(config.precision, config.deterministic)
+        #: x periodic (``kernels.dem_period``): kernels built with the minimum image, cells tiling the period
+        self.periodic = model.periodic_x
+        self.k = dem_kernels.make_dem_kernels(config.precision, config.deterministic, self.periodic)
         #: the body–body contact kernel of the one-kernel search, built uncapped: a cap of 96
         #: registers made large scenes slower with real steps (bench/README.md, "The one-kernel
         #: search uncapped")
@@ -182,6 +185,8 @@ class DEMSolver(ClockedStage):
         hi = np.maximum([x1, y1], sp.max(axis=0) if len(sp) else [x1, y1]) + self.cell
         self.cell_origin = lo
         self.cells = tuple(int(v) for v in np.maximum(np.ceil((hi - lo) / self.cell), 1))
+        if self.periodic:
+            self.cell, self.cell_origin, self.cells = periodic_cells(self.model.domain, self.cell, lo, hi)
         # capacity of a cell: bodies whose centroids fit in it without overlapping much
         areas = self.arrays.area[~is_large]
         a_min = float(areas.min()) if len(areas) else 1.0
@@ -268,7 +273,7 @@ class DEMSolver(ClockedStage):
         self.D = None
         if self.disk_pairs:
             self.contact_kernel = self.k.make_contact_forces(None, True)
-            self.disks = dem_disks.make_disk_pairs(self.config.precision, self.config.deterministic)
+            self.disks = dem_disks.make_disk_pairs(self.config.precision, self.config.deterministic, self.periodic)
             self.D = self.disks.DiskPairs()
             self.D.incoming = wp.zeros(n * K, dtype=wp.int32, device=dev)
             self.D.fill = wp.zeros(n, dtype=wp.int32, device=dev)
@@ -352,7 +357,8 @@ class DEMSolver(ClockedStage):
         unless the rebuild flag is set, so in a CUDA graph it is one conditional node instead of
         five launches (built once: the arrays it names live as long as the stage)."""
         k, B, C, params = self.k, self.B, self.C, self.params
-        lists = dem_lists.make_dem_lists(self.config.precision, self.config.deterministic, self.disk_pairs)
+        lists = dem_lists.make_dem_lists(self.config.precision, self.config.deterministic, self.disk_pairs,
+                                         self.periodic)
         rebuild = [Launch(k.clear_cells, len(self.cell_count), [self.flags, self.cell_count])]
         if len(self.small):
             rebuild.append(Launch(lists.bin_bodies, len(self.small),
@@ -406,7 +412,8 @@ class DEMSolver(ClockedStage):
         dev = self.device
         tn = self.tuning
         if (n < tn.split_search_bodies or ("cuda" if dev.is_cuda else "cpu") not in tn.split_search_devices
-                or self.config.deterministic or not self.free or max_vertices > dem_split.MAX_VERTICES):
+                or self.config.deterministic or not self.free or max_vertices > dem_split.MAX_VERTICES
+                or self.periodic):
             return None
         kernels = dem_split.make_split_search(self.config.precision, tn.split_hits_per_pair,
                                               tn.split_assemble_registers)
@@ -512,7 +519,7 @@ class DEMSolver(ClockedStage):
         # works done on the bodies (<= 0: dissipated), as the MPM stage's work terms
         out["work_contact_damping"] = -vals["dissipated_damping"]
         out["work_contact_friction"] = -vals["dissipated_friction"]
-        out["work_driven"] = vals["work_driven"]  # done on the free bodies by kinematic ones
+        out["work_driven"] = vals["work_driven"]  # by kinematic bodies (and, periodic x, across the seam)
         out["list_rebuilds"] = float(self.rebuilds.numpy()[0])
         out["listed_pairs"] = float(self.C.count.numpy().sum())
         out["history_overflows"] = float(self.status.numpy()[dem_kernels.STATUS_HISTORY_OVERFLOW])

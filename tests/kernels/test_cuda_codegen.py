@@ -59,6 +59,24 @@ def test_dem_step_compiles_for_sm90(tmp_path):
     assert _compile(kernels, tmp_path) >= 5
 
 
+def test_periodic_dem_step_compiles_for_sm90(tmp_path):
+    """The periodic DEM's kernels (``kernels.dem_period``: wrapped cells, minimum-image pairs in the
+    disk–disk pass and the vertex–edge search, the wrap of the update) for CUDA."""
+    from mpmdem.kernels import dem_disks, dem_lists
+    from mpmdem.model.grains import place_grains
+
+    scene = M.Scene(domain=((0, 0), (0.05, 0.05)), gravity=(0, -9.81), contact=M.ContactLaw(1e6, restitution=0.5),
+                    boundaries={"left": "periodic", "right": "periodic"})
+    scene.add_grain_set(place_grains([(0, 0), (0.05, 0), (0.05, 0.02), (0, 0.02)], radius=0.002, density=2600.0))
+    scene.add_rigid_body(M.regular_polygon(5, 0.004, radius=0.001), density=2600.0, position=(0.02, 0.04))
+    dem = M.Simulation(scene, M.SolverConfig(), device="cpu").dem
+    assert dem.periodic and dem.disk_pairs
+    lists = dem_lists.make_dem_lists("f32", False, True, True)
+    disks = dem_disks.make_disk_pairs("f32", False, True)
+    kernels = [dem.contact_kernel, dem.k.integrate, lists.bin_bodies, lists.build_lists, disks.disk_forces]
+    assert _compile(kernels, tmp_path) == 5
+
+
 def test_coupled_step_compiles_for_sm90(tmp_path):
     """The point–body lists, IMP forces, the grid scheme's scatter and Liu's exchange."""
     from mpmdem.model.spheropolygons import rounded_rectangle

@@ -30,6 +30,8 @@ STUDIES = {
     "column-collapse-dem-heap": "column_collapse_dem:HEAP",
     "column-collapse-dem-polygon": "column_collapse_dem:POLYGON",
     "disk-restitution": "disk_restitution",
+    "grain-incline": "grain_incline",
+    "grain-incline-polygon": "grain_incline:POLYGON",
 }
 
 
