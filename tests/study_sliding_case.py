@@ -1,5 +1,5 @@
 """A test-only case for batched studies: a sand block on a fixed plate in a 0.4 × 0.3 m box, sliding
-right at ``--speed`` (20 m/s brings it within reach of the right wall in 4 ms: tests/test_batch.py)."""
+right at ``--speed`` (20 m/s brings it within reach of the right wall in 4 ms: tests/sim/test_batch.py)."""
 
 import math
 
