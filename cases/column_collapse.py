@@ -97,8 +97,10 @@ import numpy as np
 from mpmdem import Boundary, MohrCoulomb, MuI, Scene, rectangle
 from mpmdem.cases import _column_grains
 from mpmdem.cases._grain_flags import add_grain_arguments
+from mpmdem.sim import gated_grains
 from mpmdem.study.case import CaseSetup
 from mpmdem.study.flag_types import count_at_least, given, interval, positive
+from mpmdem.study.references.grain_calibration import DISK_DIAMETER, DISK_MU_I, MU_I_SOURCE
 from mpmdem.study.references.lube2005 import (
     LUBE_RUNOUT_LINEAR,
     LUBE_RUNOUT_POWER,
@@ -146,6 +148,10 @@ GRAIN_DIAMETER = 1.0e-3
 #: --sand dem: mean grain radius [m], d = GRAIN_DIAMETER (the header)
 GRAIN_RADIUS = 0.5 * GRAIN_DIAMETER
 SOLID_FRACTION = 0.6
+#: the box holds this many times Lube's runout (--box-runout)
+BOX_RUNOUT = 1.5
+#: the friction laws of --material mu-i (--mu-i-set)
+MU_I_SETS = {"glass-beads": "Jop et al. 2006", "dem-disks": MU_I_SOURCE}
 STOP_FRACTION = 0.01  # the flow has stopped once E_k stays below this fraction of its peak
 
 def add_arguments(parser):
@@ -164,8 +170,16 @@ def add_arguments(parser):
     parser.add_argument("--material", default="mohr-coulomb", choices=("mohr-coulomb", "mu-i"),
                         help="mohr-coulomb (phi = 30 deg, the default) or mu-i (Jop et al. 2006's glass-bead "
                              "mu_s, mu_2, I0 with --grain-diameter)")
-    parser.add_argument("--grain-diameter", type=positive("m"), default=GRAIN_DIAMETER,
-                        help=f"d of --material mu-i [m] (default {GRAIN_DIAMETER})")
+    parser.add_argument("--grain-diameter", type=positive("m"), default=None,
+                        help=f"d of --material mu-i [m] (default {GRAIN_DIAMETER}; {DISK_DIAMETER} with --mu-i-set "
+                             "dem-disks, the disks' own)")
+    parser.add_argument("--mu-i-set", default="glass-beads", choices=tuple(MU_I_SETS),
+                        help="mu_s, mu_2, I0 of --material mu-i: glass-beads (Jop et al. 2006, rho_s = rho / "
+                             f"{SOLID_FRACTION}) or dem-disks (our r_p = 1 mm disks' incline flows, {MU_I_SOURCE}; "
+                             "rho_s = their grain density)")
+    parser.add_argument("--box-runout", type=positive(), default=BOX_RUNOUT,
+                        help=f"the box holds this many times Lube's runout plus the column (default {BOX_RUNOUT}; "
+                             "the DEM columns' box is 3)")
     parser.add_argument("--friction-angle", type=positive("deg"), default=None,
                         help=f"phi of the Mohr-Coulomb sand and of the floor's mu = tan(phi) [deg] (default "
                              f"{FRICTION_ANGLE}; the grains' angle of repose: bench/results/studies/grain-calibration)")
@@ -215,10 +229,25 @@ def material(args) -> MohrCoulomb | MuI:
     ratio = args.critical_density_ratio
     rho_cr = ratio * DENSITY if ratio > 0.0 else None
     if getattr(args, "material", "mohr-coulomb") == "mu-i":
-        beads = MuI.glass_beads()
-        return MuI(args.youngs_modulus, POISSON, DENSITY, mu_s=beads.mu_s, mu_2=beads.mu_2, i0=beads.i0,
-                   grain_diameter=args.grain_diameter, grain_density=DENSITY / SOLID_FRACTION, critical_density=rho_cr)
+        law, rho_s, d = mu_i_set(args)
+        return MuI(args.youngs_modulus, POISSON, DENSITY, **law, grain_diameter=d, grain_density=rho_s,
+                   critical_density=rho_cr)
     return MohrCoulomb(args.youngs_modulus, POISSON, DENSITY, friction_angle(args), 0.0, 0.0, critical_density=rho_cr)
+
+
+def mu_i_set(args) -> tuple[dict, float, float]:
+    """({mu_s, mu_2, i0}, ρs [kg/m³], d [m]) of --material mu-i: Jop et al. 2006's glass beads with
+    ρs = ρ / SOLID_FRACTION and d = GRAIN_DIAMETER, or our disks' incline fit
+    (``mpmdem.study.references.grain_calibration``) with their grain density and diameter; --grain-diameter
+    overrides d."""
+    name = getattr(args, "mu_i_set", "glass-beads")
+    if name == "dem-disks":
+        law, rho_s, d = dict(DISK_MU_I), gated_grains.grain_density(DENSITY), DISK_DIAMETER
+    else:
+        beads = MuI.glass_beads()
+        law = {"mu_s": beads.mu_s, "mu_2": beads.mu_2, "i0": beads.i0}
+        rho_s, d = DENSITY / SOLID_FRACTION, GRAIN_DIAMETER
+    return law, rho_s, given(getattr(args, "grain_diameter", None), d)
 
 
 def costly_build(args) -> bool:
@@ -234,9 +263,9 @@ def build(args) -> CaseSetup:
     a, w = args.aspect_ratio, args.width
     h = w / _cells(args)
     height = a * w
-    # the box holds 1.5 × Lube's runout (plane-strain simulations run past the walled experiments)
+    # the box holds --box-runout (1.5) × Lube's runout (plane-strain simulations run past the walled experiments)
     # plus 4 cells, and the column plus 2 cells
-    reach = (1.0 + 1.5 * max(1.2 * a, 1.9 * a ** (2.0 / 3.0))) * w
+    reach = (1.0 + args.box_runout * max(1.2 * a, 1.9 * a ** (2.0 / 3.0))) * w
     nx = math.ceil(reach / h) + 4
     ny = math.ceil(height / h - 1e-9) + 2
     floor = (Boundary("friction", friction=math.tan(math.radians(friction_angle(args)))) if args.floor == "friction"
@@ -356,6 +385,9 @@ def summarize(sim, result, args) -> dict:
         "youngs_modulus_pa": args.youngs_modulus,
         "friction_angle_deg": friction_angle(args),
         "material": getattr(args, "material", "mohr-coulomb"),
+        **({"mu_i_set": args.mu_i_set, "mu_i": mu_i_set(args)[0], "grain_density": mu_i_set(args)[1],
+            "grain_diameter_m": mu_i_set(args)[2]} if getattr(args, "material", "") == "mu-i" else {}),
+        "box_runout": args.box_runout,
         "runout_m": length - w,
         "normalized_runout": runout,
         "runout_p99_m": length_p99 - w,

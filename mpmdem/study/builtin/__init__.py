@@ -25,6 +25,7 @@ STUDIES = {
     "block-impact-dem": "block_impact_dem",
     "column-collapse": "column_collapse",
     "column-collapse-mu-i": "column_collapse:MU_I",
+    "column-collapse-mu-i-disks": "column_collapse:MU_I_DISKS",
     "column-collapse-dem": "column_collapse_dem",
     "column-collapse-dem-seeds": "column_collapse_dem:SEEDS",
     "column-collapse-dem-heap": "column_collapse_dem:HEAP",

@@ -105,3 +105,67 @@ MU_I = Study(
     fixed={"--material": "mu-i"},
     analyze=analyze,
 )
+
+
+def analyze_disks(rows: list[dict], out: Path) -> dict:
+    """The μ(I) columns with our disks' incline-fitted law against the DEM disk columns (r_p = 1 mm,
+    ``column-collapse-dem`` beside OUT): per run the runout and final height and their deviation from
+    the grains' at the same a; OUT/column_mu_i_disks.json and a chart of both against a."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .collapse_against_grains import grain_reference
+
+    out = Path(out)
+    dem_dir = out.parent / "column-collapse-dem"
+    ref = grain_reference(out.parent, "disks") if (dem_dir / "runs").is_dir() else {}
+    result = {"reference": "column-collapse-dem, sphero-disks r_p = 1 mm (rough floor of glued grains)",
+              "grains": {f"{a:g}": r for a, r in sorted(ref.items())}, "runs": []}
+    for r in load_runs(out):
+        if r.get("status") != "completed":
+            continue
+        a = float(r["aspect_ratio"])
+        row = {"a": a, "cells": r["cells_per_width"], "runout": r["normalized_runout"],
+               "final_height": r["normalized_final_height"], "work": r["particles"] * r["steps"],
+               "wall_seconds": r.get("wall_seconds")}
+        if a in ref:
+            row["runout_deviation"] = row["runout"] / ref[a]["runout"] - 1.0
+            row["final_height_deviation"] = row["final_height"] / ref[a]["final_height"] - 1.0
+        result["runs"].append(row)
+    result["runs"].sort(key=lambda x: (x["cells"], x["a"]))
+    (out / "column_mu_i_disks.json").write_text(json.dumps(result, indent=1))
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    for ax, key, label in ((axes[0], "runout", "(L_f - L0) / L0"), (axes[1], "final_height", "H_f / L0")):
+        if ref:
+            xs = sorted(ref)
+            ax.plot(xs, [ref[a][key] for a in xs], "ks-", label="DEM disks, r_p = 1 mm")
+        for i, cells in enumerate(sorted({x["cells"] for x in result["runs"]})):
+            sel = [x for x in result["runs"] if x["cells"] == cells]
+            ax.plot([x["a"] for x in sel], [x[key] for x in sel], "o--", color=f"C{i}",
+                    label=f"mu(I) of the disks, {cells} cells")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("aspect ratio a")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3, which="both")
+    axes[0].legend(fontsize=8)
+    fig.suptitle("column collapse: mu(I) fitted on the disks' incline flows against the disks themselves", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(out / "column_mu_i_disks.png", dpi=120)
+    plt.close(fig)
+    return result
+
+
+MU_I_DISKS = Study(
+    name="column-collapse-mu-i-disks",
+    case="column-collapse",
+    description="column collapse with mu(I) fitted on our DEM disks' incline flows (grain-incline), against the DEM "
+                "disk columns (column-collapse-dem, r_p = 1 mm)",
+    grid={"--aspect-ratio": [0.5, 1.0, 2.0, 4.0, 8.0], "--cells-per-width": [20, 40]},
+    # the disks' own μs, μ2, I0, d and ρs; a no-slip floor for the glued grains of the DEM's rough floor; the
+    # DEM columns' box (3 × Lube's runout)
+    fixed={"--material": "mu-i", "--mu-i-set": "dem-disks", "--floor": "fixed", "--box-runout": 3.0},
+    analyze=analyze_disks,
+)
