@@ -147,6 +147,8 @@ def analyze_disks(rows: list[dict], out: Path) -> dict:
                     label=f"mu(I) of the disks, {cells} cells")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.set_xticks([0.5, 1.0, 2.0, 4.0, 8.0], ["0.5", "1", "2", "4", "8"])
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_xlabel("aspect ratio a")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3, which="both")
