@@ -80,7 +80,7 @@ from mpmdem import ContactLaw, InputError, MuI, Scene, rectangle, rounded_rectan
 from mpmdem.cases._grain_flags import add_grain_arguments
 from mpmdem.sim import gated_grains
 from mpmdem.study.case import CaseSetup
-from mpmdem.study.flag_types import given, positive
+from mpmdem.study.flag_types import given, non_negative, positive
 from mpmdem.study.references.beverloo import beverloo
 from mpmdem.study.references.table3 import (
     CRITICAL_DENSITY_RATIO,
@@ -207,7 +207,7 @@ def add_arguments(parser):
     parser.add_argument("--friction-angle", type=positive("deg"), default=None,
                         help=f"φ of --material drucker-prager [deg] (default Table 3's {FRICTION_ANGLE:g}; the "
                              "beverloo-calibrated study sets the DEM disks' angle of repose)")
-    parser.add_argument("--dilatancy-angle", type=float, default=None,
+    parser.add_argument("--dilatancy-angle", type=non_negative("deg"), default=None,
                         help=f"ψ of --material drucker-prager [deg], 0 <= ψ <= φ (default Table 3's "
                              f"{DILATANCY_ANGLE:g}, which needs φ >= {DILATANCY_ANGLE:g})")
     add_grain_arguments(parser, what="the sand", radius=R_P_TABLE, radius_note="the seed's r_p")
@@ -448,7 +448,8 @@ def steady_rate(times: np.ndarray, mass: np.ndarray, fill_mass: float, t_start: 
     t_end = float(times[end])
     sel = (times >= t_start - 1e-9) & (times <= t_end + 1e-9)
     if sel.sum() < MIN_WINDOW_FRAMES and end >= MIN_WINDOW_FRAMES:
-        t_start = max(T_EARLY, float(times[end - MIN_WINDOW_FRAMES]))
+        # earlier, never later, and not before T_EARLY unless the caller's start already was
+        t_start = min(t_start, max(min(t_start, T_EARLY), float(times[end - MIN_WINDOW_FRAMES])))
         sel = (times >= t_start - 1e-9) & (times <= t_end + 1e-9)
     out = {"window_s": [t_start, t_end], "window_frames": int(sel.sum())}
     if sel.sum() < 4:

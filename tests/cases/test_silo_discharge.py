@@ -130,7 +130,7 @@ def test_cpu_run_says_which_size_runs(capsys):
 @pytest.mark.parametrize("flags, word", [
     (["--friction-angle", "17.9"], "--dilatancy-angle"),  # Table 3's ψ = 25° exceeds φ: name the flag to set
     (["--friction-angle", "75"], "--friction-angle"),
-    (["--friction-angle", "30", "--dilatancy-angle", "-1"], "--dilatancy-angle"),
+    (["--friction-angle", "20", "--dilatancy-angle", "25"], "--dilatancy-angle"),  # ψ > φ
 ])
 def test_bad_sand_angles_are_refused_before_any_kernel(flags, word):
     """A Drucker–Prager sand with ψ > φ or φ outside (0, 60)° is an InputError naming the flag."""

@@ -32,6 +32,8 @@ ALLOWED = {
     ("sand-blocks", "--ensemble-seed", "0"): "a random seed",
     ("sand-blocks", "--seed", "0"): "a random seed",
     ("silo-discharge", "--seed", "0"): "a random seed",
+    ("silo-discharge", "--dilatancy-angle", "0"): "a flow at the critical state, no volume change",
+    ("grain-incline", "--seed", "0"): "a random seed",
     ("silo-filling", "--settle", "0"): "the paper's run length (the default)",
     ("silo-filling", "--jitter", "0"): "release positions on the axis",
 }
