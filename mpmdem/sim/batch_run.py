@@ -36,7 +36,7 @@ from .batch_scene import STENCIL_CELLS, World, combine_scenes
 from .diagnostics import EnergyBalance, check_energy
 from .simulation import RunResult, Simulation
 from .tuning import Tuning
-from .world_diagnostics import WorldPoints, world_diagnostics
+from .world_diagnostics import HostArrays, WorldPoints, world_diagnostics
 
 __all__ = ["LEFT_TILE", "BatchedSimulation", "WorldView"]
 
@@ -273,9 +273,10 @@ class BatchedSimulation:
         def record(t: float, steps: int, dt: float, bound: float) -> None:
             self._fresh_frame()
             batch_d = sim.stage.diagnostics()
+            host = HostArrays()  # (each device array read back once this frame, for every world)
             times.append(t)
             for w in worlds:
-                d = balances[w.index].update(world_diagnostics(sim, w, self._points.get(w.index), batch_d))
+                d = balances[w.index].update(world_diagnostics(sim, w, self._points.get(w.index), batch_d, host))
                 d.update(dt=dt, dt_bound=bound, steps=float(steps), wall_time=_time.perf_counter() - start_wall)
                 views[w.index].last_diagnostics = d
                 for key, v in d.items():

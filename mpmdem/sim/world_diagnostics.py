@@ -23,7 +23,21 @@ from ..kernels import dem as dem_kernels
 from ..kernels import reductions as reduction_kernels
 from .batch_scene import World
 
-__all__ = ["WorldPoints", "body_sums", "imp_sums", "point_sums", "world_diagnostics"]
+__all__ = ["HostArrays", "WorldPoints", "body_sums", "imp_sums", "point_sums", "world_diagnostics"]
+
+
+class HostArrays:
+    """The device arrays a frame's per-world sums read, each copied to the host once per frame and
+    shared by every world (a fresh object each frame)."""
+
+    def __init__(self):
+        self._arrays: dict[str, np.ndarray] = {}
+
+    def __call__(self, name: str, array) -> np.ndarray:
+        """``array`` on the host, read back at the first call of this frame under ``name``."""
+        if name not in self._arrays:
+            self._arrays[name] = array.numpy()
+        return self._arrays[name]
 
 
 class WorldPoints:
@@ -76,29 +90,29 @@ def point_sums(mpm, wpts: WorldPoints, world: World) -> dict[str, float]:
     return out
 
 
-def imp_sums(coupling, wpts: WorldPoints) -> dict[str, float]:
+def imp_sums(coupling, wpts: WorldPoints, host: HostArrays) -> dict[str, float]:
     """The point–body contact energy [J/m] and its damping and friction works of one world's points."""
     L = coupling.L
-    e = L.energy.numpy()[wpts.index].astype(np.float64)
-    lost = L.dissipated.numpy()[wpts.index]
+    e = host("L.energy", L.energy)[wpts.index].astype(np.float64)
+    lost = host("L.dissipated", L.dissipated)[wpts.index]
     return {"energy_imp": float(e.sum()), "dissipated_imp_damping": float(lost[:, 0].sum()),
             "dissipated_imp_friction": float(lost[:, 1].sum())}
 
 
-def body_sums(dem, world: World) -> dict[str, float]:
+def body_sums(dem, world: World, host: HostArrays) -> dict[str, float]:
     """Energies [J/m], momenta and mass of one world's free bodies and grains, their contact energy,
     and ``mass_<probe>`` of its free bodies (float64 sums on the host)."""
     B, C = dem.B, dem.C
     scene_of_device = dem.order
     idx = np.flatnonzero(np.isin(scene_of_device, world.bodies))
     X = world.offset
-    m, inertia = B.mass.numpy()[idx].astype(float), B.inertia.numpy()[idx].astype(float)
-    v, w = B.v.numpy()[idx].astype(float), B.omega.numpy()[idx].astype(float)
-    x = B.x.numpy()[idx].astype(float) - np.array([X, 0.0])
-    free = B.motion.numpy()[idx] == dem_kernels.FREE
+    m, inertia = host("B.mass", B.mass)[idx].astype(float), host("B.inertia", B.inertia)[idx].astype(float)
+    v, w = host("B.v", B.v)[idx].astype(float), host("B.omega", B.omega)[idx].astype(float)
+    x = host("B.x", B.x)[idx].astype(float) - np.array([X, 0.0])
+    free = host("B.motion", B.motion)[idx] == dem_kernels.FREE
     m, inertia, v, w, xf = m[free], inertia[free], v[free], w[free], x[free]
     g = np.asarray(world.scene.gravity)
-    energy = C.energy.numpy().reshape(-1, C.slots)[idx].astype(float).sum()
+    energy = host("C.energy", C.energy).reshape(-1, C.slots)[idx].astype(float).sum()
     out = {"energy_kinetic": float(0.5 * (m * (v ** 2).sum(1) + inertia * w * w).sum()),
            "energy_gravity": float(-(m * (xf @ g)).sum()), "energy_contact": float(energy),
            "momentum_x": float((m * v[:, 0]).sum()), "momentum_y": float((m * v[:, 1]).sum()),
@@ -110,14 +124,17 @@ def body_sums(dem, world: World) -> dict[str, float]:
     return out
 
 
-def world_diagnostics(sim, world: World, wpts: WorldPoints | None, batch: dict[str, float]) -> dict[str, float]:
+def world_diagnostics(sim, world: World, wpts: WorldPoints | None, batch: dict[str, float],
+                      host: HostArrays | None = None) -> dict[str, float]:
     """One world's diagnostics under the names a lone run gives them: ``batch`` (the whole batch's,
-    ``Stage.diagnostics``) with every per-world sum replaced (see the module's docstring)."""
+    ``Stage.diagnostics``) with every per-world sum replaced (see the module's docstring). ``host``:
+    this frame's read-backs, shared by its worlds (a fresh one if None)."""
+    host = host if host is not None else HostArrays()
     d = {k: v for k, v in batch.items() if not k.startswith("mass_")}
     m = point_sums(sim.mpm, wpts, world) if sim.mpm is not None else None
-    b = body_sums(sim.dem, world) if sim.dem is not None else None
+    b = body_sums(sim.dem, world, host) if sim.dem is not None else None
     if m is not None and b is not None:
-        imp = imp_sums(sim.coupling, wpts)
+        imp = imp_sums(sim.coupling, wpts, host)
         d.update({k: v for k, v in m.items() if not k.startswith("mass_")})
         for name in ("energy_kinetic", "energy_gravity", "momentum_x", "momentum_y", "momentum_angular", "mass"):
             d[f"points_{name}"], d[f"bodies_{name}"] = m[name], b[name]
