@@ -519,13 +519,17 @@ class MPMSolver(ClockedStage):
                   "mass": points.mass, "F": points.F}
         pid = points.pid.numpy()
         out = {}
+        def scene_order(a: wp.array) -> np.ndarray:
+            host = a.numpy()  # (one read-back per field)
+            ordered = np.empty_like(host)
+            ordered[pid] = host  # back to the scene's order
+            return ordered
+
         for k, a in fields.items():
-            out[k] = np.empty_like(a.numpy())
-            out[k][pid] = a.numpy()  # back to the scene's order
+            out[k] = scene_order(a)
         out["body"] = self.body.copy()
         if self.coupled:
-            out["contact_force"] = np.empty_like(points.fcont.numpy())
-            out["contact_force"][pid] = points.fcont.numpy()
+            out["contact_force"] = scene_order(points.fcont)
         if self.staged:
             waiting = self.release_times > self.sim_clock.time
             out["x"][waiting] = np.nan  # not in the scene yet
