@@ -97,10 +97,15 @@ import numpy as np
 from mpmdem import Boundary, MohrCoulomb, MuI, Scene, rectangle
 from mpmdem.cases import _column_grains
 from mpmdem.cases._grain_flags import add_grain_arguments
-from mpmdem.sim import gated_grains
 from mpmdem.study.case import CaseSetup
 from mpmdem.study.flag_types import count_at_least, given, interval, positive
-from mpmdem.study.references.grain_calibration import DISK_DIAMETER, DISK_MU_I, MU_I_SOURCE
+from mpmdem.study.references.grain_calibration import (
+    DISK_DIAMETER,
+    GLASS_BEAD_SOLID_FRACTION,
+    MU_I_SETS,
+    MU_I_SOURCE,
+    mu_i_law,
+)
 from mpmdem.study.references.lube2005 import (
     LUBE_RUNOUT_LINEAR,
     LUBE_RUNOUT_POWER,
@@ -147,11 +152,9 @@ POINTS_PER_CELL = 2  # per direction: 2 × 2 points per cell, as the paper's N_m
 GRAIN_DIAMETER = 1.0e-3
 #: --sand dem: mean grain radius [m], d = GRAIN_DIAMETER (the header)
 GRAIN_RADIUS = 0.5 * GRAIN_DIAMETER
-SOLID_FRACTION = 0.6
+SOLID_FRACTION = GLASS_BEAD_SOLID_FRACTION  # ρ / ρs of the glass-bead set
 #: the box holds this many times Lube's runout (--box-runout)
 BOX_RUNOUT = 1.5
-#: the friction laws of --material mu-i (--mu-i-set)
-MU_I_SETS = {"glass-beads": "Jop et al. 2006", "dem-disks": MU_I_SOURCE}
 STOP_FRACTION = 0.01  # the flow has stopped once E_k stays below this fraction of its peak
 
 def add_arguments(parser):
@@ -241,12 +244,8 @@ def mu_i_set(args) -> tuple[dict, float, float]:
     (``mpmdem.study.references.grain_calibration``) with their grain density and diameter; --grain-diameter
     overrides d."""
     name = getattr(args, "mu_i_set", "glass-beads")
-    if name == "dem-disks":
-        law, rho_s, d = dict(DISK_MU_I), gated_grains.grain_density(DENSITY), DISK_DIAMETER
-    else:
-        beads = MuI.glass_beads()
-        law = {"mu_s": beads.mu_s, "mu_2": beads.mu_2, "i0": beads.i0}
-        rho_s, d = DENSITY / SOLID_FRACTION, GRAIN_DIAMETER
+    law, rho_s = mu_i_law(name, DENSITY)
+    d = DISK_DIAMETER if name == "dem-disks" else GRAIN_DIAMETER
     return law, rho_s, given(getattr(args, "grain_diameter", None), d)
 
 

@@ -82,6 +82,7 @@ from mpmdem.sim import gated_grains
 from mpmdem.study.case import CaseSetup
 from mpmdem.study.flag_types import given, non_negative, positive
 from mpmdem.study.references.beverloo import beverloo
+from mpmdem.study.references.grain_calibration import GLASS_BEAD_SOLID_FRACTION, MU_I_SETS, MU_I_SOURCE, mu_i_law
 from mpmdem.study.references.table3 import (
     CRITICAL_DENSITY_RATIO,
     DENSITY,
@@ -144,7 +145,7 @@ QUICK = {"cell_size": 0.005, "fill_height": 0.15, "end": 0.8}
 WALL_MODES = ("sdem", "obstacle-slip", "obstacle-fixed")
 MATERIALS = ("drucker-prager", "mu-i")
 GRAIN_DIAMETER = 2.0 * R_P_TABLE  # m, d of --material mu-i: Table 3's grain radius r_p = 0.1 cm
-SOLID_FRACTION = 0.6  # ρ / ρs of --material mu-i (grain density 2500 kg/m³, quartz-like)
+SOLID_FRACTION = GLASS_BEAD_SOLID_FRACTION  # ρ / ρs of the glass-bead --material mu-i (ρs 2500 kg/m³)
 #: the model choices the method comparison sets (--method), each (MPM variant, coupling, walls):
 #: Granular MPM ("Granular MPM" §3: critical density, density control, a grid per component),
 #: stress-free MPM (stress-free below the critical density, one grid, no density control), original
@@ -200,7 +201,12 @@ def add_arguments(parser):
                              "mu(I) rheology with Jop et al. 2006's friction law and --grain-diameter: the "
                              "continuum then carries the grain length)")
     parser.add_argument("--grain-diameter", type=positive("m"), default=GRAIN_DIAMETER,
-                        help=f"d of --material mu-i [m] (default {GRAIN_DIAMETER}: 2 r_p of Table 3)")
+                        help=f"d of --material mu-i [m] (default {GRAIN_DIAMETER}: 2 r_p of Table 3, also the "
+                             "DEM disks' d)")
+    parser.add_argument("--mu-i-set", default="glass-beads", choices=tuple(MU_I_SETS),
+                        help="mu_s, mu_2, I0 of --material mu-i: glass-beads (Jop et al. 2006, rho_s = rho / "
+                             f"{SOLID_FRACTION}) or dem-disks (our r_p = 1 mm disks' incline flows, {MU_I_SOURCE}; "
+                             "rho_s = their grain density)")
     parser.add_argument("--walls", default=None, choices=WALL_MODES,
                         help="silo and container as fixed spheropolygons (sdem, the paper's) or as grid obstacles "
                              "(obstacle-slip: rollers, obstacle-fixed: no slip; no DEM stage at all)")
@@ -302,16 +308,16 @@ def fill_points(g: dict) -> np.ndarray:
 
 
 def material(args, critical_ratio):
-    """The sand: Table 3's Drucker–Prager, or μ(I) with Jop et al. 2006's μs, μ2, I0 (glass beads),
-    Table 3's elasticity and density, d = --grain-diameter and ρs = ρ / SOLID_FRACTION."""
+    """The sand: Table 3's Drucker–Prager, or μ(I) with the --mu-i-set's μs, μ2, I0 and ρs (Jop et al.
+    2006's glass beads, ρs = ρ / SOLID_FRACTION, or our DEM disks' incline fit), Table 3's elasticity and
+    density, d = --grain-diameter."""
     if args.material == "drucker-prager":
         phi, psi = sand_angles(args)
         return sand(phi, psi, critical_ratio=critical_ratio)
     if not (math.isfinite(args.grain_diameter) and args.grain_diameter > 0.0):
         raise InputError("--grain-diameter", args.grain_diameter, "d > 0 [m]")
-    beads = MuI.glass_beads()
-    return MuI(YOUNGS, POISSON, DENSITY, mu_s=beads.mu_s, mu_2=beads.mu_2, i0=beads.i0,
-               grain_diameter=args.grain_diameter, grain_density=DENSITY / SOLID_FRACTION,
+    law, rho_s = mu_i_law(getattr(args, "mu_i_set", "glass-beads"), DENSITY)
+    return MuI(YOUNGS, POISSON, DENSITY, **law, grain_diameter=args.grain_diameter, grain_density=rho_s,
                critical_density=critical_ratio * DENSITY if critical_ratio else None)
 
 
@@ -479,6 +485,7 @@ def summarize(sim, result, args) -> dict:
         "fill_mass": fill_mass, "critical_density_ratio": args.critical_density_ratio,
         "material": args.material,
         "grain_diameter_m": args.grain_diameter if args.material == "mu-i" else None,
+        "mu_i_set": getattr(args, "mu_i_set", "glass-beads") if args.material == "mu-i" else None,
         "friction_angle_deg": sand_angles(args)[0] if args.material == "drucker-prager" else None,
         "dilatancy_angle_deg": sand_angles(args)[1] if args.material == "drucker-prager" else None,
         "walls_may_set_rate": bool(g["width"] < 2.5 * g["orifice"]),

@@ -167,3 +167,22 @@ def test_steady_rate_recovers_a_linear_discharge_slow_or_fast(rate, t_setup):
     start, _ = out["window_s"]
     assert start == (case.T_START if rate < 50.0 else pytest.approx(0.38 - case.MIN_WINDOW_FRAMES * 0.02))
     assert start >= case.T_EARLY and out["window_frames"] >= case.MIN_WINDOW_FRAMES
+
+
+@pytest.mark.parametrize("name", ["glass-beads", "dem-disks"])
+def test_the_mu_i_set_reaches_the_material(name):
+    """--mu-i-set picks the friction law and ρs of --material mu-i: Jop et al.'s glass beads (ρs = ρ/0.6)
+    or our disks' incline fit (mpmdem.study.references.grain_calibration, ρs = the grains' ρ/0.82)."""
+    from mpmdem.cases import silo_discharge as case
+    from mpmdem.sim.gated_grains import PACKING_FRACTION
+    from mpmdem.study.references.grain_calibration import DISK_MU_I
+    from mpmdem.study.runner import make_case_parser
+
+    setup = case.build(make_case_parser(case).parse_args(
+        ["--device", "cpu", "--material", "mu-i", "--mu-i-set", name]))
+    (sand,) = setup.scene.materials()
+    if name == "dem-disks":
+        assert (sand.mu_s, sand.mu_2, sand.i0) == (DISK_MU_I["mu_s"], DISK_MU_I["mu_2"], DISK_MU_I["i0"])
+        assert sand.grain_density == pytest.approx(case.DENSITY / PACKING_FRACTION)
+    else:
+        assert sand.grain_density == pytest.approx(case.DENSITY / 0.6)

@@ -17,6 +17,7 @@ STUDIES = {
     "beverloo-calibrated": "beverloo:CALIBRATED",
     "beverloo-mu-i": "beverloo:MU_I",
     "beverloo-mu-i-grain": "beverloo:MU_I_GRAIN",
+    "beverloo-mu-i-disks": "beverloo:MU_I_DISKS",
     "beverloo-dem": "beverloo:DEM",
     "block-impact": "block_impact:GRIDS",
     "block-impact-coupling": "block_impact:COUPLING",

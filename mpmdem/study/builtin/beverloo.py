@@ -104,6 +104,16 @@ CALIBRATED = Study(
     analyze=_refinement("beverloo-calibrated"),
 )
 
+MU_I_DISKS = Study(
+    name="beverloo-mu-i-disks",
+    case="silo-discharge",
+    description="mu(I) silo with the DEM disks' own incline fit (grain-incline: mu_s, mu_2, I0, d = 2 mm, their grain "
+                "density) on six grids, 5 to 1 mm, against the DEM silo of those disks (beverloo-dem)",
+    grid={"--orifice": [0.02, 0.03, 0.04, 0.05, 0.06], "--cell-size": REFINED_GRIDS},
+    fixed={"--material": "mu-i", "--mu-i-set": "dem-disks"},
+    analyze=_refinement("beverloo-mu-i-disks"),
+)
+
 MU_I_GRAIN = Study(
     name="beverloo-mu-i-grain",
     case="silo-discharge",

@@ -33,7 +33,8 @@ MIN_CELLS_ACROSS = 10
 RICHARDSON_GRIDS = 4
 #: the continuum studies charted against the DEM silo: (law, study); a study not run is left out
 LAWS_AGAINST_GRAINS = (("Drucker-Prager", "beverloo-refined"), ("mu(I)", "beverloo-mu-i"),
-                       ("Drucker-Prager, phi of the grains", "beverloo-calibrated"))
+                       ("Drucker-Prager, phi of the grains", "beverloo-calibrated"),
+                       ("mu(I) of the grains", "beverloo-mu-i-disks"))
 
 
 def _rates(runs: list[dict], key: str) -> dict[tuple[float, float], float]:
@@ -300,7 +301,7 @@ def compare(studies: Path, out: Path) -> dict:
 
     studies, out = Path(studies), Path(out)
     laws = {"Drucker-Prager (Table 3)": "beverloo-refined", "mu(I), d = 2 mm": "beverloo-mu-i",
-            "Drucker-Prager, phi of the grains": "beverloo-calibrated"}
+            "Drucker-Prager, phi of the grains": "beverloo-calibrated", "mu(I) of the grains": "beverloo-mu-i-disks"}
     results = {law: analyze_refinement(load_runs(studies / name), DENSITY, GRAVITY) for law, name in laws.items()
                if (studies / name).is_dir()}
     grain = analyze_grain(load_runs(studies / "beverloo-mu-i-grain"), DENSITY, GRAVITY)
