@@ -23,3 +23,14 @@ def add_grain_arguments(parser, *, what: str, radius: float, radius_note: str) -
     parser.add_argument("--settle-max", type=positive("s"), default=None,
                         help="--sand dem: the longest the grains settle behind the gate [s] (default 8 free falls "
                              "through the lattice they start on; they stop earlier once at rest)")
+
+
+def add_mu_i_set_argument(parser) -> None:
+    """Add --mu-i-set: the friction law and ρs of a case's --material mu-i, one of the named sets of
+    ``mpmdem.study.references.grain_calibration`` (``mu_i_law``)."""
+    from mpmdem.study.references.grain_calibration import GLASS_BEAD_SOLID_FRACTION, MU_I_SETS, MU_I_SOURCE
+
+    parser.add_argument("--mu-i-set", default="glass-beads", choices=tuple(MU_I_SETS),
+                        help="mu_s, mu_2, I0 of --material mu-i: glass-beads (Jop et al. 2006, rho_s = rho / "
+                             f"{GLASS_BEAD_SOLID_FRACTION}) or dem-disks (our r_p = 1 mm disks' incline flows, "
+                             f"{MU_I_SOURCE}; rho_s = their grain density)")

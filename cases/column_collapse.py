@@ -96,14 +96,12 @@ import numpy as np
 
 from mpmdem import Boundary, MohrCoulomb, MuI, Scene, rectangle
 from mpmdem.cases import _column_grains
-from mpmdem.cases._grain_flags import add_grain_arguments
+from mpmdem.cases._grain_flags import add_grain_arguments, add_mu_i_set_argument
 from mpmdem.study.case import CaseSetup
 from mpmdem.study.flag_types import count_at_least, given, interval, positive
 from mpmdem.study.references.grain_calibration import (
     DISK_DIAMETER,
     GLASS_BEAD_SOLID_FRACTION,
-    MU_I_SETS,
-    MU_I_SOURCE,
     mu_i_law,
 )
 from mpmdem.study.references.lube2005 import (
@@ -176,10 +174,7 @@ def add_arguments(parser):
     parser.add_argument("--grain-diameter", type=positive("m"), default=None,
                         help=f"d of --material mu-i [m] (default {GRAIN_DIAMETER}; {DISK_DIAMETER} with --mu-i-set "
                              "dem-disks, the disks' own)")
-    parser.add_argument("--mu-i-set", default="glass-beads", choices=tuple(MU_I_SETS),
-                        help="mu_s, mu_2, I0 of --material mu-i: glass-beads (Jop et al. 2006, rho_s = rho / "
-                             f"{SOLID_FRACTION}) or dem-disks (our r_p = 1 mm disks' incline flows, {MU_I_SOURCE}; "
-                             "rho_s = their grain density)")
+    add_mu_i_set_argument(parser)
     parser.add_argument("--box-runout", type=positive(), default=BOX_RUNOUT,
                         help=f"the box holds this many times Lube's runout plus the column (default {BOX_RUNOUT}; "
                              "the DEM columns' box is 3)")

@@ -77,12 +77,12 @@ import sys
 import numpy as np
 
 from mpmdem import ContactLaw, InputError, MuI, Scene, rectangle, rounded_rectangle
-from mpmdem.cases._grain_flags import add_grain_arguments
+from mpmdem.cases._grain_flags import add_grain_arguments, add_mu_i_set_argument
 from mpmdem.sim import gated_grains
 from mpmdem.study.case import CaseSetup
 from mpmdem.study.flag_types import given, non_negative, positive
 from mpmdem.study.references.beverloo import beverloo
-from mpmdem.study.references.grain_calibration import GLASS_BEAD_SOLID_FRACTION, MU_I_SETS, MU_I_SOURCE, mu_i_law
+from mpmdem.study.references.grain_calibration import GLASS_BEAD_SOLID_FRACTION, mu_i_law
 from mpmdem.study.references.table3 import (
     CRITICAL_DENSITY_RATIO,
     DENSITY,
@@ -203,10 +203,7 @@ def add_arguments(parser):
     parser.add_argument("--grain-diameter", type=positive("m"), default=GRAIN_DIAMETER,
                         help=f"d of --material mu-i [m] (default {GRAIN_DIAMETER}: 2 r_p of Table 3, also the "
                              "DEM disks' d)")
-    parser.add_argument("--mu-i-set", default="glass-beads", choices=tuple(MU_I_SETS),
-                        help="mu_s, mu_2, I0 of --material mu-i: glass-beads (Jop et al. 2006, rho_s = rho / "
-                             f"{SOLID_FRACTION}) or dem-disks (our r_p = 1 mm disks' incline flows, {MU_I_SOURCE}; "
-                             "rho_s = their grain density)")
+    add_mu_i_set_argument(parser)
     parser.add_argument("--walls", default=None, choices=WALL_MODES,
                         help="silo and container as fixed spheropolygons (sdem, the paper's) or as grid obstacles "
                              "(obstacle-slip: rollers, obstacle-fixed: no slip; no DEM stage at all)")
