@@ -7,7 +7,8 @@ it has stored V_p and C_p. Every node still receives its points' terms in point 
 CPU the trajectory is the same bits as with the separate launch, for the tent, B-spline and CPDI
 stencils, APIC and FLIP, USAVG (whose second half is MUSL's), granular mode (the point's copies)
 and the IMP contact. Reference: the separate re-mapping P2G, itself tested against the analytic
-cases of tests/sim/test_transfer.py and tests/sim/test_convergence.py and the MUSL studies. On a GPU the float atomics of both paths add in
+cases of tests/sim/test_transfer.py and tests/sim/test_convergence.py and the MUSL studies. On a GPU
+the float atomics of both paths add in
 an order that varies from run to run: there the two must agree within the rounding of reordered
 f64 sums over these few hundred steps (1e-9 m, where a missing or doubled term misses by the
 momentum of a point over a step, ~1e-5 m).

@@ -5,7 +5,8 @@ chain of instructions is shorter (a small scene's P2G is as long as that chain).
 nothing a scene computes: every node still receives its points' terms in point order, so on the
 CPU the trajectory is the same bits as with a thread a point, for every single-stencil shape, the
 affine and force variants, USL's fused impulse, MUSL's re-mapping, and the IMP contact forces.
-Reference: the thread-a-point P2G, itself tested against the analytic cases of tests/sim/test_transfer.py and tests/sim/test_convergence.py.
+Reference: the thread-a-point P2G, itself tested against the analytic cases of
+tests/sim/test_transfer.py and tests/sim/test_convergence.py.
 On a GPU every small non-granular scene of the CUDA suite runs P2G by rows (``Tuning.row_p2g_points``)
 and is checked against its own references there.
 """
