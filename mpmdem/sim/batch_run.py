@@ -34,7 +34,7 @@ from ..model.config import SolverConfig
 from ..model.scene import Scene
 from .batch_scene import STENCIL_CELLS, World, combine_scenes
 from .diagnostics import EnergyBalance, check_energy
-from .simulation import RunResult, Simulation
+from .simulation import RunResult, Simulation, frame_time
 from .tuning import Tuning
 from .world_diagnostics import HostArrays, WorldPoints, world_diagnostics
 
@@ -145,13 +145,14 @@ class BatchedSimulation:
         self._frame_fields = self._frame_bodies = None
 
     # -- checks -----------------------------------------------------------------------------------
-    def stray_worlds(self, fresh: bool = True) -> dict[int, str]:
+    def stray_worlds(self, fresh: bool = True, time: float | None = None) -> dict[int, str]:
         """World → why it failed, for worlds with non-finite points or bodies, points that left their
         own domain or came within ``STENCIL_CELLS`` cells of its left or right wall (a batch has no
         walls between its worlds), or free bodies whose centroid left it. ``fresh``: read the device
-        again (False: the fields of the frame just written)."""
+        again (False: the fields of the frame just written, at ``time`` [s]; None: the device's)."""
         if fresh:
             self._fresh_frame()
+        now = self.sim.time if time is None else time
         bad = {}
         for w in self.worlds:
             (x0, y0), (x1, y1) = w.domain
@@ -161,7 +162,7 @@ class BatchedSimulation:
                 xs = x + np.array([w.offset, 0.0])
                 live = np.ones(len(x), bool)
                 if self.sim.mpm.staged:  # (points not released yet are written as NaN)
-                    live = ~(self.sim.mpm.release_times[w.points] > self.sim.time)
+                    live = ~(self.sim.mpm.release_times[w.points] > now)
                 if not (np.isfinite(x[live]).all() and np.isfinite(v[live]).all()):
                     bad[w.index] = f"{int((~np.isfinite(x[live]).all(1)).sum())} points have NaN/inf values"
                     continue
@@ -270,27 +271,33 @@ class BatchedSimulation:
                                         int(h["steps"][-1]) if h.get("steps") else 0, message,
                                         extra={"left_tile": left_tile})
 
-        def record(t: float, steps: int, dt: float, bound: float) -> None:
+        def record(t: float, steps: int, dt: float, bound: float, t_next: float | None) -> None:
+            # (every device read first: the batch's and each world's sums and fields; then the next
+            # frame's first steps go, and the host writes and checks the frame while they run)
             self._fresh_frame()
             batch_d = sim.stage.diagnostics()
             host = HostArrays()  # (each device array read back once this frame, for every world)
+            sums = {w.index: world_diagnostics(sim, w, self._points.get(w.index), batch_d, host) for w in worlds}
+            frame = {w.index: (self.point_fields(w) if sim.mpm else {}, self.body_fields(w) if sim.dem else None)
+                     for w in worlds if writers[w.index] is not None}
+            if t_next is not None:
+                sim.launch_ahead(t, t_next, dt)
             times.append(t)
             for w in worlds:
-                d = balances[w.index].update(world_diagnostics(sim, w, self._points.get(w.index), batch_d, host))
+                d = balances[w.index].update(sums[w.index])
                 d.update(dt=dt, dt_bound=bound, steps=float(steps), wall_time=_time.perf_counter() - start_wall)
                 views[w.index].last_diagnostics = d
                 for key, v in d.items():
                     history[w.index].setdefault(key, []).append(v)
                 if writers[w.index] is not None:
-                    writers[w.index].write_frame(
-                        t, self.point_fields(w) if sim.mpm else {}, d,
-                        body_fields=self.body_fields(w) if sim.dem else None)
+                    fields, body_fields = frame[w.index]
+                    writers[w.index].write_frame(t, fields, d, body_fields=body_fields)
                 try:
                     check_energy(w.scene, self.config, t, d, balances[w.index].initial,
                                  lambda: sim.stage.likely_cause(dt, bound))
                 except BlowUpError as e:
                     fail(w.index, f"world {ids[w.index]}: {e}", t)
-            for k, why in self.stray_worlds(fresh=False).items():
+            for k, why in self.stray_worlds(fresh=False, time=t).items():
                 if k not in failed:
                     fail(k, f"world {ids[k]}: {why} at t = {t:.6g} s", t, left_tile=LEFT_TILE in why)
 
@@ -298,20 +305,20 @@ class BatchedSimulation:
         try:
             start = sim.stage.read_clock()
             t_start = start.t
-            record(start.t, start.steps, *sim.initial_step())
+            record(start.t, start.steps, *sim.initial_step(), frame_time(t_start, end_time, 1, frames))
             for k in range(1, frames + 1):
                 if failed:
                     break
-                t_frame = end_time if k == frames else t_start + (end_time - t_start) * k / frames
                 try:
-                    t, steps = sim.advance_to(t_frame, on_batch=progress)
+                    t, steps = sim.advance_to(frame_time(t_start, end_time, k, frames), on_batch=progress)
                 except BlowUpError as e:
                     stray = self.stray_worlds()
                     for j in (stray or [w.index for w in worlds]):
                         fail(j, f"world {ids[j]}: {stray.get(j, e)}", e.time, left_tile=LEFT_TILE in stray.get(j, ""))
                     break
                 clock = sim.stage.read_clock()
-                record(t, steps, clock.dt, clock.bound)
+                record(t, steps, clock.dt, clock.bound,
+                       frame_time(t_start, end_time, k + 1, frames) if k < frames else None)
             else:
                 ended = True
         except KeyboardInterrupt as e:

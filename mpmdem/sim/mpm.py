@@ -21,6 +21,7 @@ from ..kernels import constitutive as constitutive_kernels
 from ..kernels import contact_scatter as contact_scatter_kernels
 from ..kernels import granular as granular_kernels
 from ..kernels import grid as grid_kernels
+from ..kernels import output_fields as output_kernels
 from ..kernels import reductions as reduction_kernels
 from ..kernels import transfer as transfer_kernels
 from ..kernels import xpic as xpic_kernels
@@ -85,6 +86,7 @@ class MPMSolver(ClockedStage):
         self.staged = bool((host["release"] > 0.0).any())
         #: rigid bodies push on the points through contact forces (MPM-SDEM §4; mpmdem.sim.coupling)
         self.coupled = model.has_dem
+        self._packed_output: wp.array | None = None  # (``fields``: the frame's points, packed in scene order)
         mats = model.materials
         self.critical = any(m.critical_density is not None for m in mats)
         self.order = device_order(host["x"], model.domain[0], model.cell_size)
@@ -512,24 +514,26 @@ class MPMSolver(ClockedStage):
         return self._granular_plan().interaction_domains()
 
     def fields(self) -> dict[str, np.ndarray]:
-        """Host copies of the per-point output fields (copies: on the CPU ``numpy()`` is a view)."""
-        points = self.points
+        """Host copies of the per-point output fields, in the scene's order: packed on the device
+        (``kernels.output_fields``) and read back in one copy."""
         self.refresh_derived()
-        fields = {"x": points.x, "v": points.v, "stress": points.stress, "volume": points.vol,
-                  "mass": points.mass, "F": points.F}
-        pid = points.pid.numpy()
+        n = self.particle_count
+        width = output_kernels.output_width(self.coupled)
+        if self._packed_output is None:
+            self._packed_output = wp.empty((n, width), dtype=scalar_types(self.config.precision).scalar,
+                                           device=self.device)
+        wp.launch(output_kernels.make_pack_output(self.config.precision, self.coupled), n,
+                  inputs=[self.points, self._packed_output], device=self.device)
+        packed = self._packed_output.numpy()
         out = {}
-        def scene_order(a: wp.array) -> np.ndarray:
-            host = a.numpy()  # (one read-back per field)
-            ordered = np.empty_like(host)
-            ordered[pid] = host  # back to the scene's order
-            return ordered
-
-        for k, a in fields.items():
-            out[k] = scene_order(a)
-        out["body"] = self.body.copy()
-        if self.coupled:
-            out["contact_force"] = scene_order(points.fcont)
+        for name, (first, shape) in output_kernels.OUTPUT_COLUMNS.items():
+            if name == "contact_force":
+                out["body"] = self.body.copy()
+                if not self.coupled:
+                    continue
+            size = int(np.prod(shape, dtype=int))
+            # (a fresh contiguous array: on the CPU ``numpy()`` is a view of the reused device buffer)
+            out[name] = np.ascontiguousarray(packed[:, first:first + size].reshape(n, *shape))
         if self.staged:
             waiting = self.release_times > self.sim_clock.time
             out["x"][waiting] = np.nan  # not in the scene yet

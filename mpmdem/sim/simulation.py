@@ -41,6 +41,17 @@ from .warp_init import check_device, init_warp
 __all__ = ["RunResult", "Simulation", "default_device"]
 
 
+#: The share of a frame's steps ``Simulation.launch_ahead`` launches before the host's work on the
+#: last frame: few enough that a growing dt cannot carry them past the frame (dt would have to double
+#: within it; a step past it would be idle and its dt = 0 would show in the frame's diagnostics).
+AHEAD_FRACTION = 0.5
+
+
+def frame_time(t_start: float, end_time: float, k: int, frames: int) -> float:
+    """The time [s] of frame k of ``frames`` from t_start to end_time (the last one exactly end_time)."""
+    return end_time if k == frames else t_start + (end_time - t_start) * k / frames
+
+
 def default_device() -> str:
     """"cuda" when a CUDA device is present, else "cpu"."""
     init_warp()
@@ -192,6 +203,22 @@ class Simulation:
                 self.mpm.sort_points()
                 self._steps_since_sort = 0
 
+    def launch_ahead(self, t_now: float, t_stop: float, dt: float) -> int:
+        """On a CUDA device: move the stop time to t_stop [s] and launch about half of the steps from
+        t_now to it (dt [s]: the last step's) without waiting for them, so that the host's work on
+        the frame it has just read back runs while they do; ``advance_to(t_stop)`` goes on from where
+        they end. The steps are the same as ``advance_to`` alone would take (a step's dt is set on the
+        device; steps past t_stop do nothing). Returns the steps launched: 0 on the CPU, whose
+        kernels run as they are launched."""
+        if not wp.get_device(self.device).is_cuda or not (dt > 0.0 and t_stop > t_now):
+            return 0
+        self._capture()
+        self.stage.set_stop_time(t_stop)
+        steps = int(AHEAD_FRACTION * (t_stop - t_now) / dt)
+        if steps > 0:
+            self.advance(steps)
+        return steps
+
     def advance_to(self, t_stop: float, *, max_batch: int | None = None, on_batch=None) -> tuple[float, int]:
         """Step until the clock reaches t_stop [s]; checks stability after each batch of steps.
 
@@ -287,15 +314,21 @@ class Simulation:
         start_wall = _time.perf_counter()
         balance = EnergyBalance(self.stage.WORK_TERMS)
 
-        def record(t: float, steps: int, dt: float, bound: float) -> None:
+        def record(t: float, steps: int, dt: float, bound: float, t_next: float | None) -> None:
+            # (everything read from the device first; then the next frame's first steps go, and the
+            # host hands the frame to the writer and checks it while they run)
             d = balance.update(self.stage.diagnostics())
             d.update(dt=dt, dt_bound=bound, steps=float(steps), wall_time=_time.perf_counter() - start_wall)
+            fields = body_fields = None
+            if writer is not None:
+                fields, body_fields = self.mpm.fields() if self.mpm else {}, self.dem.fields() if self.dem else None
+            if t_next is not None:
+                self.launch_ahead(t, t_next, dt)
             times.append(t)
             for k, v in d.items():
                 history.setdefault(k, []).append(v)
             if writer is not None:
-                writer.write_frame(t, self.mpm.fields() if self.mpm else {}, d,
-                                   body_fields=self.dem.fields() if self.dem else None)
+                writer.write_frame(t, fields, d, body_fields=body_fields)
             check_energy(self.model, self.config, t, d, balance.initial, lambda: self.stage.likely_cause(dt, bound))
 
         status, message = "completed", ""
@@ -304,13 +337,12 @@ class Simulation:
             t_start = start.t
             if t_start >= end_time:
                 raise InputError("end_time", end_time, f"a time after the current time {t_start:g} s")
-            record(t_start, start.steps, *self.initial_step())
+            record(t_start, start.steps, *self.initial_step(), frame_time(t_start, end_time, 1, frames))
             for k in range(1, frames + 1):
-                t_frame = end_time if k == frames else t_start + (end_time - t_start) * k / frames
-                t, steps = self.advance_to(t_frame, on_batch=progress)
+                t, steps = self.advance_to(frame_time(t_start, end_time, k, frames), on_batch=progress)
                 clock = self.stage.read_clock()
-                dt, bound = clock.dt, clock.bound
-                record(t, steps, dt, bound)
+                record(t, steps, clock.dt, clock.bound,
+                       frame_time(t_start, end_time, k + 1, frames) if k < frames else None)
         except BlowUpError as e:
             status, message = "blown-up", str(e)
             if writer is not None:

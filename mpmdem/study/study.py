@@ -222,6 +222,17 @@ def safe_id(text: str) -> str:
 GPU_BATCH = 8
 
 
+#: batches sharing one GPU at a time by default (each its own worker process): a batch's frames
+#: leave the GPU idle while its host reads and writes them, which another batch's steps fill
+GPU_SIDE_BY_SIDE = 4
+
+
+def default_workers_per_gpu(groups: list | None) -> int:
+    """Workers per GPU when none is asked: one per batch up to ``GPU_SIDE_BY_SIDE`` when the study
+    is batched, else 1."""
+    return min(len(groups), GPU_SIDE_BY_SIDE) if groups else 1
+
+
 def default_batch(device: str | None, gpus: int) -> int:
     """Runs per batch when none is asked: ``GPU_BATCH`` on a GPU, 1 (no batching) on a CPU."""
     return GPU_BATCH if gpus or (device or "").startswith("cuda") else 1
@@ -246,16 +257,17 @@ def study_spec(study: Study, device: str | None) -> dict:
 
 
 def run_study(study: Study, out: str | Path | None = None, *, workers: int | None = None, gpus: int = 0,
-              workers_per_gpu: int = 1, scheduler: str | None = None, device: str | None = None,
+              workers_per_gpu: int | None = None, scheduler: str | None = None, device: str | None = None,
               rerun_failed: bool = False, progress: bool = True, batch: int | None = None) -> list[dict]:
     """Run every run of ``study`` not yet in ``out`` and return the table (one row per run, grid order).
 
     ``workers``: CPU worker processes of a local Dask cluster (None: one per core, at most one per
     run; 0: in this process); ``gpus``: a local cluster of ``workers_per_gpu`` workers per GPU
-    instead; ``scheduler``: the address of a running Dask cluster to use instead. ``device`` is passed
-    to every run (``cuda`` by default with ``gpus``). Runs whose last row is completed, blown-up or
-    bad-input are skipped; ``rerun_failed`` runs all but the completed ones again. Raises InputError
-    (nothing has run) for a study the case cannot take, ImportError when Dask is needed but missing.
+    instead (None: ``default_workers_per_gpu``, batches side by side); ``scheduler``: the address
+    of a running Dask cluster to use instead. ``device`` is passed to every run (``cuda`` by default
+    with ``gpus``). Runs whose last row is completed, blown-up or bad-input are skipped;
+    ``rerun_failed`` runs all but the completed ones again. Raises InputError (nothing has run) for
+    a study the case cannot take, ImportError when Dask is needed but missing.
     """
     from .cluster import DASK_MISSING, dask_available, execute_runs
     from .progress import StudyProgress
@@ -283,8 +295,11 @@ def run_study(study: Study, out: str | Path | None = None, *, workers: int | Non
 
         keys = run_keys(study.case, todo, str(out))
         groups = group_runs(todo, size, keys)
+    if workers_per_gpu is None:
+        workers_per_gpu = default_workers_per_gpu(groups) if gpus else 1
     if progress and todo:
-        print(grouping_line(study.name, len(todo), size, groups, keyed=size > 1 and keys is not None),
+        side = f"; {workers_per_gpu} worker(s) per GPU" if gpus else ""
+        print(grouping_line(study.name, len(todo), size, groups, keyed=size > 1 and keys is not None) + side,
               file=sys.stderr)
     bar = StudyProgress(study.name, len(todo), skipped=len(runs) - len(todo), enabled=progress)
     try:

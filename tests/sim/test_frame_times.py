@@ -41,3 +41,21 @@ def test_frames_land_on_their_nominal_times(build, dt):
     asked = dt if dt else None
     if asked:
         assert np.all(result.diagnostics["dt"][1:] <= asked * (1 + 1e-3))
+
+
+@pytest.mark.parametrize("build", [mpm_scene, dem_scene, coupled_scene], ids=["mpm", "dem", "coupled"])
+def test_steps_launched_ahead_are_the_steps_of_the_frame(build, device):
+    """``launch_ahead`` (the next frame's first steps launched while the host writes the last one, on
+    a GPU) takes the same steps as ``advance_to`` alone: with a fixed dt, the same count per frame
+    and no idle step (dt = 0) in any frame; on the CPU it launches nothing."""
+    dt = 7.0e-5
+    plain = Simulation(build(), SolverConfig(dt=dt), device=device)
+    counts = [plain.advance_to(END * k / FRAMES)[1] for k in range(1, FRAMES + 1)]
+    sim = Simulation(build(), SolverConfig(dt=dt), device=device)
+    ahead = sim.launch_ahead(0.0, END / FRAMES, dt)
+    assert ahead == (0 if device == "cpu" else int(0.5 * END / FRAMES / dt))
+    assert sim.advance_to(END / FRAMES)[1] == counts[0]
+    result = Simulation(build(), SolverConfig(dt=dt), device=device).run(END, frames=FRAMES)
+    assert list(result.diagnostics["steps"][1:]) == counts
+    assert np.all(result.diagnostics["dt"][1:] > 0.0)
+    np.testing.assert_allclose(result.times, np.linspace(0.0, END, FRAMES + 1), rtol=0, atol=1e-12)

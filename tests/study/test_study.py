@@ -208,3 +208,14 @@ def test_bench_sweeps_map_their_tasks_on_the_study_clusters(workers):
     assert sorted(r for r, _ in out) == [1, 4, 9, 16]
     pids = {p for _, p in out}
     assert (pids == {os.getpid()}) if workers == 1 else (os.getpid() not in pids)
+
+
+def test_batched_study_runs_its_batches_side_by_side_by_default():
+    """Unbatched studies keep one worker per GPU; batched ones get one per batch, at most
+    GPU_SIDE_BY_SIDE (a batch's frames leave the GPU idle for the others' steps)."""
+    from mpmdem.study.study import GPU_SIDE_BY_SIDE, default_workers_per_gpu
+
+    assert default_workers_per_gpu(None) == 1
+    assert default_workers_per_gpu([]) == 1
+    assert default_workers_per_gpu([["a"], ["b"], ["c"]]) == 3
+    assert default_workers_per_gpu([[k] for k in range(GPU_SIDE_BY_SIDE + 3)]) == GPU_SIDE_BY_SIDE
