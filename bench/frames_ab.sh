@@ -7,7 +7,7 @@
 #   BASE=.gpu/base CELLS="0.0035 0.0025" bash bench/frames_ab.sh
 set -uo pipefail
 out=${OUT:-/tmp/out}; base=${BASE:-.gpu/base}; root=$PWD; mkdir -p "$out"
-commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
+commit=${COMMIT:-$(git rev-parse --short HEAD 2>/dev/null || echo unknown)}
 for h in ${CELLS:-0.0035 0.0025}; do
   PYTHONPATH=$root/$base:${PYTHONPATH:-} python bench/batch_frames.py --cell-size "$h" --label base \
     --out "$out/batch_frames.jsonl" 2>/dev/null | tail -1 | cut -c1-400
