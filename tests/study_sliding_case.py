@@ -14,6 +14,8 @@ DEFAULTS = {"precision": "f64", "dt": 2.0e-5}
 
 def add_arguments(parser):
     parser.add_argument("--speed", type=float, default=0.0, help="initial speed of the sand to the right [m/s]")
+    parser.add_argument("--cell-capacity", type=int, default=None,
+                        help="points a cell of the point-body search holds (1 overflows at once)")
 
 
 def build(args) -> CaseSetup:
@@ -25,7 +27,8 @@ def build(args) -> CaseSetup:
     scene.add_rigid_body(rounded_rectangle(0.3, 0.02, 0.005), density=1000.0, position=(0.2, 0.05), motion="fixed",
                          name="floor")
     scene.add_mass_probe("low", hi=(math.inf, 0.1))
-    return CaseSetup(scene, end_time=0.004, frames=2)
+    config = {"imp_cell_capacity": args.cell_capacity} if args.cell_capacity else {}
+    return CaseSetup(scene, end_time=0.004, frames=2, config=config)
 
 
 def summarize(sim, result, args) -> dict:

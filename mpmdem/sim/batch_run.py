@@ -16,7 +16,8 @@ domain) and, at each frame, the energy check of each world and a check that its 
 inside its own domain, name the world; its file is marked "blown-up" with the message, and the
 batch starts again from t = 0 without it (the other worlds' files are written again, the same
 frames as they would be without the failed world). Checks that no point can be traced to a world
-(a granular node out of layers, overflowing contact lists) fail every world still running.
+(a granular node out of layers, overflowing contact lists) fail every world still running, marked
+``batch_wide`` (``RunResult.extra``): a study runs each of them again alone.
 """
 
 from __future__ import annotations
@@ -260,7 +261,7 @@ class BatchedSimulation:
         views = {w.index: WorldView(self, w) for w in worlds}
         failed: dict[int, str] = {}
 
-        def fail(k: int, message: str, t: float, left_tile: bool = False) -> None:
+        def fail(k: int, message: str, t: float, left_tile: bool = False, batch_wide: bool = False) -> None:
             failed[k] = message
             if writers[k] is not None:
                 writers[k].set_status("blown-up", message)
@@ -269,7 +270,7 @@ class BatchedSimulation:
             results[ids[k]] = RunResult(paths[k], np.array(times[:len(h.get("dt", []))]),
                                         {key: np.array(v) for key, v in h.items()}, "blown-up",
                                         int(h["steps"][-1]) if h.get("steps") else 0, message,
-                                        extra={"left_tile": left_tile})
+                                        extra={"left_tile": left_tile, "batch_wide": batch_wide})
 
         def record(t: float, steps: int, dt: float, bound: float, t_next: float | None) -> None:
             # (every device read first: the batch's and each world's sums and fields; then the next
@@ -313,8 +314,12 @@ class BatchedSimulation:
                     t, steps = sim.advance_to(frame_time(t_start, end_time, k, frames), on_batch=progress)
                 except BlowUpError as e:
                     stray = self.stray_worlds()
-                    for j in (stray or [w.index for w in worlds]):
-                        fail(j, f"world {ids[j]}: {stray.get(j, e)}", e.time, left_tile=LEFT_TILE in stray.get(j, ""))
+                    for j, why in stray.items():
+                        fail(j, f"world {ids[j]}: {why}", e.time, left_tile=LEFT_TILE in why)
+                    if not stray:  # (a check of the whole batch that no world can be named for)
+                        for w in worlds:
+                            fail(w.index, f"the batch of {len(worlds)} worlds (world {ids[w.index]} is one): {e}",
+                                 e.time, batch_wide=True)
                     break
                 clock = sim.stage.read_clock()
                 record(t, steps, clock.dt, clock.bound,

@@ -115,11 +115,13 @@ def execute_batch(case: str, runs: list, out: str, device: str | None) -> list[d
             alone += group
             continue
         for row in _run_group(module, group, prepared, folders, device):
-            if row.pop("left_tile", False):  # its material reached its side: the lone run has the wall
+            left_tile, batch_wide = row.pop("left_tile", False), row.pop("batch_wide", False)
+            if left_tile or batch_wide:  # (its side: the lone run has the wall; the batch: find the world)
                 run = next(r for r in group if r.id == row["id"])
                 lone = execute_run(case, run.id, run.values, list(run.argv), folders[run.id], device)
-                rows.append({**lone, "batch": row["batch"],
-                             "batch_note": "ran alone: it reached its side in the batch"})
+                why = ("it reached its side in the batch" if left_tile else
+                       "the batch failed in a check no world could be named for")
+                rows.append({**lone, "batch": row["batch"], "batch_note": f"ran alone: {why}"})
             else:
                 rows.append(row)
     for run in alone:
@@ -185,8 +187,9 @@ def _run_group(module, group: list, prepared: dict, folders: dict, device: str |
         row = {"id": run.id, **run.values, "status": summary["status"], "message": summary.get("message", ""),
                "wall_seconds": wall, "device": summary["device"], "worker": worker_name(), **tag, "batch_world": k}
         row.update(scalar_summary(summary, row))
-        if result.extra.get("left_tile"):
-            row["left_tile"] = True
+        for flag in ("left_tile", "batch_wide"):
+            if result.extra.get(flag):
+                row[flag] = True
         rows.append(row)
     return rows
 

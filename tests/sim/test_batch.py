@@ -17,7 +17,7 @@ import pytest
 import warp as wp
 
 import mpmdem as m
-from mpmdem.errors import InputError
+from mpmdem.errors import BlowUpError, InputError
 from mpmdem.io.reader import RunFile
 from mpmdem.model.config import SolverConfig
 from mpmdem.model.spheropolygons import rounded_rectangle
@@ -261,3 +261,34 @@ def test_batch_on_cuda_matches_lone_runs():
         for key in ("energy_kinetic", "energy_strain", "energy_gravity", "energy_contact"):
             np.testing.assert_allclose(d[key], ref[key], rtol=0, atol=1e-4 * scale, err_msg=key)
         np.testing.assert_allclose(d["mass_low"], ref["mass_low"], rtol=0, atol=1e-4 * ref["mass"][0])
+
+
+def test_a_failure_of_the_whole_batch_marks_every_world_for_a_lone_run(tmp_path):
+    """A check no point can be traced to a world (here the point–body search's cells overflow: at
+    most 1 point a cell) fails every world, each marked ``batch_wide`` so that a study runs it again
+    alone to find which world it was; the lone run of the same scene fails the same check."""
+    config = SolverConfig(precision="f64", dt=2.0e-5, imp_cell_capacity=1)
+    b = BatchedSimulation([sand_on_plate(), sand_on_plate(0.15)], config, device="cpu")
+    results = b.run(END, outs=[tmp_path / "w0", tmp_path / "w1"], frames=FRAMES, names="sand")
+    assert [r.status for r in results] == ["blown-up", "blown-up"]
+    assert all(r.extra["batch_wide"] and not r.extra["left_tile"] for r in results)
+    assert results[1].message.startswith("the batch of 2 worlds (world 1 is one): ")
+    assert "point–body search" in results[0].message
+    with RunFile(results[1].path) as f:
+        assert f.status == "blown-up"
+    with pytest.raises(BlowUpError, match="point–body search"):
+        Simulation(sand_on_plate(), config, device="cpu").run(END, frames=FRAMES)
+
+
+def test_study_runs_the_worlds_of_a_failed_batch_again_alone(tmp_path):
+    """A batch that fails a check of the whole batch (no world named) does not end its runs: each is
+    run again alone, and its row is then the lone run's (here the same check fails alone too, and
+    says so)."""
+    from mpmdem.study.study import Study, run_study
+
+    study = Study("overflow", "study_sliding_case", grid={"--speed": [0.0, 0.5]}, fixed={"--cell-capacity": 1})
+    rows = run_study(study, tmp_path / "batched", workers=0, device="cpu", progress=False, batch=2)
+    assert [r["status"] for r in rows] == ["blown-up", "blown-up"]
+    for row in rows:
+        assert row["batch_note"] == "ran alone: the batch failed in a check no world could be named for"
+        assert "point–body search" in row["message"] and not row["message"].startswith("the batch")
