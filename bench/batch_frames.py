@@ -4,7 +4,9 @@ For one grid of the Beverloo study (five silo worlds, D0 = 2 ... 6 cm, ``--cell-
 line with:
 - ``import_s``: importing Warp and mpmdem; ``build_s``: building the BatchedSimulation;
 - ``first_step_s``: the first step, which loads (and, with a cold kernel cache, compiles) every
-  module; ``cold``: whether the cache was empty (``--cold`` points Warp at a fresh folder);
+  module (on CUDA with the graphs recorded: ``Simulation._capture``; ``--load-workers``: the
+  threads that compile them); ``cold``: whether the cache was empty (``--cold`` points Warp at a
+  fresh folder);
 - ``steps_s``: stepping to the end time frame by frame as a run does (``advance_to`` per frame),
   with no frame written;
 - ``run_s``: the whole ``BatchedSimulation.run`` with its frames and files, on a fresh batch;
@@ -39,6 +41,8 @@ def main(argv=None) -> int:
     p.add_argument("--profile", action="store_true", help="cProfile the run with frames")
     p.add_argument("--kernels", type=int, default=0, metavar="STEPS",
                    help="also time STEPS eager steps per kernel (Warp's activity timing) at a quarter of the end time")
+    p.add_argument("--load-workers", type=int, default=None,
+                   help="Tuning.module_load_workers (default the Tuning's): threads compiling the modules")
     p.add_argument("--label", default="", help="a label for the row (e.g. which tree ran)")
     p.add_argument("--out", type=Path, default=None, help="append the JSON line here")
     args = p.parse_args(argv)
@@ -53,6 +57,7 @@ def main(argv=None) -> int:
 
     import mpmdem
     from mpmdem.sim.batch_run import BatchedSimulation
+    from mpmdem.sim.tuning import Tuning
     from mpmdem.study.runner import case_module, config_from_args, make_case_parser
 
     device = args.device or ("cuda" if wp.get_cuda_device_count() else "cpu")
@@ -66,7 +71,9 @@ def main(argv=None) -> int:
                                                      "--cell-size", str(args.cell_size)])
             setup = module.build(a)
             built.append((setup, config_from_args(setup, module, a)))
-        return BatchedSimulation([s.scene for s, _ in built], built[0][1], device=device), built[0][0]
+        tuning = Tuning() if args.load_workers is None else Tuning(module_load_workers=args.load_workers)
+        return (BatchedSimulation([s.scene for s, _ in built], built[0][1], device=device, tuning=tuning),
+                built[0][0])
 
     t0 = time.perf_counter()
     b, setup = batch()
@@ -74,8 +81,11 @@ def main(argv=None) -> int:
     end = args.end_time or setup.end_time
     frames = args.frames or setup.frames
     t0 = time.perf_counter()
-    b.sim.stage.set_stop_time(0.0)
-    b.sim.stage.step()
+    if b.sim.config.cuda_graph and device != "cpu":
+        b.sim._capture()  # (the modules loaded, then the graphs recorded, as a run's first frame does)
+    else:
+        b.sim.stage.set_stop_time(0.0)
+        b.sim.stage.step()
     wp.synchronize_device(device)
     first_step_s = time.perf_counter() - t0
     t0 = time.perf_counter()
@@ -124,7 +134,8 @@ def main(argv=None) -> int:
     row = {"bench": "batch_frames", "label": args.label, "package": str(Path(mpmdem.__file__).parent.parent),
            "case": "silo-discharge", "worlds": len(ORIFICES), "cell_size": args.cell_size,
            "points": b.sim.particle_count, "end_time": end, "frames": frames, "steps": steps,
-           "cold": args.cold, "import_s": round(import_s, 2), "build_s": round(build_s, 2),
+           "cold": args.cold, "load_workers": args.load_workers, "import_s": round(import_s, 2),
+           "build_s": round(build_s, 2),
            "first_step_s": round(first_step_s, 2), "steps_s": round(steps_s, 2), "run_s": round(run_s, 2),
            "frames_s": round(run_s - steps_s, 2), "profiled": args.profile,
            "kernel_us_per_step": round(sum(k[2] for k in kernels), 1) if kernels else None, "kernels": kernels,

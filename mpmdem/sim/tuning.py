@@ -157,6 +157,10 @@ class Tuning:
     """Fewest points for which the order is watched (below it points and grid fit in the L2 cache)."""
     auto_sort_check_steps: int = _knob(0, 0)
     """Fewest steps between two drift checks; 0: after every batch of ``advance_to``."""
+    module_load_workers: int = _knob(8, 0, 64)
+    """Threads that compile (or load from Warp's cache) the step's kernel modules at once before the
+    first step on CUDA (``wp.force_load``'s ``max_workers``; 0: one after another, as the first
+    launches would). Each kernel is a module of its own, so a cold cache compiles dozens."""
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
