@@ -2,7 +2,7 @@
 worker thread.
 
 A run copies a frame's fields to the host (the copies wait for the steps before it) and then writes
-them: HDF5 stores, the XDMF views and sidecars, the CSV row. On a GPU that write used to leave the
+them: HDF5 stores, the XDMF views (and sidecars, when their interval is up), the CSV row. On a GPU that write used to leave the
 device idle; here it goes to a worker thread, and the caller launches the next frame's steps at
 once (they wait in the device, while the host mostly waits on them with Python's lock released).
 One frame is written at a time and in order: a new frame, ``set_status`` and ``close`` first wait

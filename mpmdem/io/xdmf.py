@@ -1,6 +1,8 @@
 """XDMF 3 sidecars of a run file, for ParaView (both XDMF readers) and meshio.
 
-Beside ``<run>.h5`` the writer keeps two small XML files, rewritten atomically after every frame:
+Beside ``<run>.h5`` the writer keeps two small XML files, rewritten atomically (``XdmfSidecars.write``)
+when ``FrameWriter`` asks: after a frame at most every ``sidecar_interval`` seconds, and when the run
+ends:
 
 * ``<run>.xdmf`` (when the run has particles): a temporal collection "particles" of uniform grids,
   one per frame: Polyvertex topology (N elements of one node, connectivity 0..N-1), XYZ geometry
@@ -21,8 +23,8 @@ reader crashes on one, and meshio reads none). The frame-stacked datasets ``/par
 ``/bodies/<f>`` (n_frames, count, ...) are exposed per frame as HDF5 virtual datasets
 ``/xdmf/<group>/frame_<k>/<f>``, which store no data, only the mapping; the bodies' world outlines
 are real datasets ``/xdmf/bodies/frame_<k>/outline`` (M K, 3) [m]. The connectivities are written
-once. Only frames whose datasets were flushed are listed, so the sidecars are valid whenever the
-run stops.
+once. The views are made with each frame, before its flush; the sidecar text lists only flushed
+frames, so the sidecars are valid whenever the run stops (and list every frame once it ended).
 """
 
 from __future__ import annotations
