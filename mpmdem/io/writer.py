@@ -20,7 +20,7 @@ from typing import Any
 
 import h5py
 import numpy as np
-from h5py import h5s
+from h5py import h5s, h5t
 
 from ..errors import InputError
 from .closing import ClosesOnExit
@@ -65,21 +65,28 @@ class _Appender:
     """Appends frames to one frame-stacked dataset (first axis: frames) with h5py's low-level calls:
     the same bytes as ``ds.resize`` and ``ds[i] = value``, without their selection machinery
     (about 80 µs a call, which a frame of ~100 diagnostics paid twice each: most of a small scene's
-    frame writing, docs/bench-history.md)."""
+    frame writing, docs/bench-history.md). The memory type and the file dataspace are made once and
+    reused (``write`` would derive the same type from the array, and ``get_space`` give a new space
+    of the same extent, each call: most of a scalar append's time)."""
 
     def __init__(self, ds: h5py.Dataset):
         self.id = ds.id
         self.frame = tuple(ds.shape[1:])
         self.dtype = ds.dtype
         self.memory = h5s.create_simple((1, *self.frame))
+        self.memory_type = h5t.py_create(self.dtype)
+        self.file_space = self.id.get_space()
+        self.max_shape = (h5s.UNLIMITED, *self.frame)
         self.origin = tuple(0 for _ in self.frame)
 
     def append(self, i: int, value) -> None:
         """Grow the dataset to i + 1 frames and write frame i (``value``, shaped as one frame)."""
-        self.id.set_extent((i + 1, *self.frame))
-        file_space = self.id.get_space()
-        file_space.select_hyperslab((i, *self.origin), (1, *self.frame))
-        self.id.write(self.memory, file_space, np.ascontiguousarray(value, dtype=self.dtype))
+        shape = (i + 1, *self.frame)
+        self.id.set_extent(shape)
+        self.file_space.set_extent_simple(shape, self.max_shape)
+        self.file_space.select_hyperslab((i, *self.origin), (1, *self.frame))
+        self.id.write(self.memory, self.file_space, np.ascontiguousarray(value, dtype=self.dtype),
+                      mtype=self.memory_type)
 
 
 def _check_frame_fields(
