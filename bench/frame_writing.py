@@ -110,6 +110,7 @@ def main() -> None:
     p.add_argument("--frames", type=int, default=80)
     p.add_argument("--writers", type=int, default=1, help="writers at once, one thread each")
     p.add_argument("--intervals", default="0,1", help="sidecar intervals [s], comma-separated")
+    p.add_argument("--tag", default="", help="a label stored in each line (the tree measured, say)")
     p.add_argument("--out", type=Path, help="append the JSON lines to this file")
     args = p.parse_args()
     has_interval = "sidecar_interval" in inspect.signature(FrameWriter).parameters
@@ -132,7 +133,7 @@ def main() -> None:
                 for thread in threads:
                     thread.join()
             mean = {k: float(np.mean([r[k] for r in results])) for k in results[0]}
-            rows.append({"bench": "frame_writing", "points": args.points, "bodies": args.bodies,
+            rows.append({"bench": "frame_writing", "tag": args.tag, "points": args.points, "bodies": args.bodies,
                          "diagnostics": args.diagnostics, "frames": args.frames, "writers": args.writers,
                          "sidecar_interval": 0.0 if interval is None else interval,
                          "seconds_per_frame": mean["seconds"] / args.frames,
