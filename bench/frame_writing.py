@@ -12,7 +12,11 @@ seconds_per_frame (wall time over the frames of one writer), cpu_seconds_per_fra
 its thread, less disturbed by other processes than the wall time), sidecar_rewrites (``XdmfSidecars.write``
 calls of one writer), sidecar_seconds and append_seconds (the part of one writer's time in those
 rewrites and in its dataset appends, ``_Appender.append``: one per diagnostic, particle field, body
-field and the time per frame, timed by wrapping them). Nothing is asserted.
+field and the time per frame, timed by wrapping them), and main_wait_ms (mean, p95) with
+main_wait_idle_ms: while the writers write, the main thread sleeps 1 ms at a time, as a run's main
+thread waits for the device with Python's lock released, and records how much later than 1 ms it
+runs again (the wait for the lock a writer holds), against the same before the writers start.
+Nothing is asserted.
 
     python bench/frame_writing.py                              # 38k points, 80 frames, 90 diagnostics
     python bench/frame_writing.py --writers 5 --out bench/results/frame_writing/cpu.jsonl
@@ -101,6 +105,16 @@ def write_run(folder: Path, data: list[tuple], points: int, bodies: int, interva
         timers[0].take(), timers[1].take())
 
 
+def wake_delays(until) -> list[float]:
+    """Sleep 1 ms at a time until ``until()`` is true; how much later than 1 ms each sleep returned [s]."""
+    out = []
+    while not until():
+        start = time.perf_counter()
+        time.sleep(1e-3)
+        out.append(time.perf_counter() - start - 1e-3)
+    return out
+
+
 def main() -> None:
     """Parse the flags, write the runs, print (and append to --out) one JSON line per interval."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -128,8 +142,11 @@ def main() -> None:
                 threads = [threading.Thread(target=write_run, args=(folder, data, args.points, args.bodies, interval,
                                                                      timers, result))
                            for folder, result in zip(folders, results, strict=True)]
+                stop = time.perf_counter() + 0.3
+                idle = wake_delays(lambda stop=stop: time.perf_counter() > stop)
                 for thread in threads:
                     thread.start()
+                busy = wake_delays(lambda threads=threads: not any(t.is_alive() for t in threads))
                 for thread in threads:
                     thread.join()
             mean = {k: float(np.mean([r[k] for r in results])) for k in results[0]}
@@ -139,7 +156,9 @@ def main() -> None:
                          "seconds_per_frame": mean["seconds"] / args.frames,
                          "cpu_seconds_per_frame": mean["cpu_seconds"] / args.frames,
                          "sidecar_rewrites": mean["sidecar_rewrites"], "sidecar_seconds": mean["sidecar_seconds"],
-                         "append_seconds": mean["append_seconds"]})
+                         "append_seconds": mean["append_seconds"],
+                         "main_wait_ms": [1e3 * float(np.mean(busy)), 1e3 * float(np.percentile(busy, 95))],
+                         "main_wait_idle_ms": 1e3 * float(np.mean(idle))})
     finally:
         for timer in timers:
             timer.restore()
