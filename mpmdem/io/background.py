@@ -2,12 +2,12 @@
 worker thread.
 
 A run copies a frame's fields to the host (the copies wait for the steps before it) and then writes
-them: HDF5 stores, the XDMF views and sidecars, the CSV row. On a GPU that write used to leave the
-device idle; here it goes to a worker thread, and the caller launches the next frame's steps at
-once (they wait in the device, while the host mostly waits on them with Python's lock released).
-One frame is written at a time and in order: a new frame, ``set_status`` and ``close`` first wait
-for the one in progress, so a Ctrl-C or a blow-up still finds every frame before it whole in the
-file. An error of the write is raised by the next of those calls.
+them: HDF5 stores, the XDMF views (and sidecars, when their interval is up), the CSV row. On a GPU
+that write used to leave the device idle; here it goes to a worker thread, and the caller launches
+the next frame's steps at once (they wait in the device, while the host mostly waits on them with
+Python's lock released). One frame is written at a time and in order: a new frame, ``set_status``
+and ``close`` first wait for the one in progress, so a Ctrl-C or a blow-up still finds every frame
+before it whole in the file. An error of the write is raised by the next of those calls.
 """
 
 from __future__ import annotations

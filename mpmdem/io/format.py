@@ -23,8 +23,9 @@ The file is flushed after every frame and is never opened with the SWMR / "lates
 so a writer that crashes or is killed leaves a file that ``RunFile`` (or any HDF5 tool) reads up
 to the last complete frame. Next to it the writer keeps the XDMF 3 sidecars ``<name>.xdmf`` (the
 particles, when N > 0) and ``<name>_bodies.xdmf`` (the bodies' outlines, when M > 0), rewritten
-atomically after every frame, which ParaView (Xdmf3 and legacy XDMF readers) and meshio's
-``TimeSeriesReader`` open as time series.
+atomically at most every ``sidecar_interval`` seconds (1 s by default) and when the run ends, which
+ParaView (Xdmf3 and legacy XDMF readers) and meshio's ``TimeSeriesReader`` open as time series; a
+writer killed before its end leaves sidecars that may miss the frames of its last interval.
 """
 
 from __future__ import annotations

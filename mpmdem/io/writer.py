@@ -1,22 +1,28 @@
 """The HDF5 frame writer of a run file (format: ``mpmdem.io.format``).
 
 Every frame is appended to every dataset and the file is flushed, so a writer that crashes or is
-killed leaves a file readable up to its last complete frame; beside it the XDMF sidecars
-(``mpmdem.io.xdmf``) and the CSV energy log (``mpmdem.io.csv``) are kept up to date frame by frame.
+killed leaves a file readable up to its last complete frame; beside it the CSV energy log
+(``mpmdem.io.csv``) is kept up to date frame by frame and the XDMF sidecars (``mpmdem.io.xdmf``) at
+most ``sidecar_interval`` seconds of wall time behind (rewriting their whole text every frame cost a
+batched study's writer threads most of their time, issue 46), and complete once the run's status is
+set or the writer closed.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
+import time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import h5py
 import numpy as np
-from h5py import h5s
+from h5py import h5s, h5t
 
+from ..errors import InputError
 from .closing import ClosesOnExit
 from .csv import EnergyLog
 from .format import (
@@ -59,21 +65,28 @@ class _Appender:
     """Appends frames to one frame-stacked dataset (first axis: frames) with h5py's low-level calls:
     the same bytes as ``ds.resize`` and ``ds[i] = value``, without their selection machinery
     (about 80 µs a call, which a frame of ~100 diagnostics paid twice each: most of a small scene's
-    frame writing, docs/bench-history.md)."""
+    frame writing, docs/bench-history.md). The memory type and the file dataspace are made once and
+    reused (``write`` would derive the same type from the array, and ``get_space`` give a new space
+    of the same extent, each call: most of a scalar append's time)."""
 
     def __init__(self, ds: h5py.Dataset):
         self.id = ds.id
         self.frame = tuple(ds.shape[1:])
         self.dtype = ds.dtype
         self.memory = h5s.create_simple((1, *self.frame))
+        self.memory_type = h5t.py_create(self.dtype)
+        self.file_space = self.id.get_space()
+        self.max_shape = (h5s.UNLIMITED, *self.frame)
         self.origin = tuple(0 for _ in self.frame)
 
     def append(self, i: int, value) -> None:
         """Grow the dataset to i + 1 frames and write frame i (``value``, shaped as one frame)."""
-        self.id.set_extent((i + 1, *self.frame))
-        file_space = self.id.get_space()
-        file_space.select_hyperslab((i, *self.origin), (1, *self.frame))
-        self.id.write(self.memory, file_space, np.ascontiguousarray(value, dtype=self.dtype))
+        shape = (i + 1, *self.frame)
+        self.id.set_extent(shape)
+        self.file_space.set_extent_simple(shape, self.max_shape)
+        self.file_space.select_hyperslab((i, *self.origin), (1, *self.frame))
+        self.id.write(self.memory, self.file_space, np.ascontiguousarray(value, dtype=self.dtype),
+                      mtype=self.memory_type)
 
 
 def _check_frame_fields(
@@ -181,9 +194,13 @@ def _resolve_dtype(name: str, float_dtype: type) -> np.dtype:
 class FrameWriter(ClosesOnExit):
     """Write a run frame by frame to HDF5, with an XDMF sidecar and an optional energy CSV.
 
-    Every call of ``write_frame`` appends one frame to every particle and body dataset, one value
-    to every diagnostic, flushes the HDF5 file and the CSV, and rewrites the XDMF sidecar; a run
-    that dies keeps every frame written before.
+    Every call of ``write_frame`` appends one frame to every particle and body dataset (and its
+    XDMF views), one value to every diagnostic, and flushes the HDF5 file and the CSV; a run that
+    dies keeps every frame written before. The XDMF sidecar files are rewritten after a frame when
+    ``sidecar_interval`` seconds of wall time have passed since their last rewrite (and after the
+    first frame), and by ``set_status`` and ``close`` when they lag: a run that dies without either
+    has sidecars that may miss the frames of its last ``sidecar_interval`` seconds (the HDF5 file
+    has them all).
 
     Args:
         path: The HDF5 file to create (overwritten if it exists).
@@ -208,10 +225,13 @@ class FrameWriter(ClosesOnExit):
             radius (M,) sphero radius [m] >= 0, motion (M,) int (0 free, 1 fixed, 2 kinematic),
             mass (M,) [kg/m], name (M strings). Extra keys holding numeric per-body arrays
             (leading dimension M) are stored as given.
+        sidecar_interval: Least wall time between two rewrites of the XDMF sidecars by
+            ``write_frame`` [s], >= 0; 0 rewrites them after every frame.
 
     Raises:
         ValueError: particle_count or body_count is negative, precision is unknown, a field spec
             is invalid or body_geometry is missing or inconsistent.
+        InputError: sidecar_interval is negative or not finite (a ValueError).
         TypeError: an attrs value cannot be JSON-encoded.
     """
 
@@ -226,10 +246,18 @@ class FrameWriter(ClosesOnExit):
         body_count: int = 0,
         body_field_specs: Mapping[str, tuple[tuple[int, ...], str]] | None = None,
         body_geometry: Mapping[str, Any] | None = None,
+        sidecar_interval: float = 1.0,
     ) -> None:
         for what, count in (("particle_count", particle_count), ("body_count", body_count)):
             if int(count) != count or count < 0:
                 raise ValueError(f"{what} must be a non-negative integer, got {count!r}")
+        try:
+            interval = float(sidecar_interval)
+        except (TypeError, ValueError):
+            interval = math.nan
+        if not (math.isfinite(interval) and interval >= 0):
+            raise InputError("sidecar_interval", sidecar_interval, "a finite number of seconds >= 0 (0: every frame)")
+        self.sidecar_interval = interval
         self.path = Path(path)
         self.xdmf_path = particles_xdmf_path(self.path)
         self.bodies_xdmf_path = bodies_xdmf_path(self.path)
@@ -256,6 +284,8 @@ class FrameWriter(ClosesOnExit):
         self.bodies_xdmf_path.unlink(missing_ok=True)
         self._frames = 0
         self._times: list[float] = []
+        self._sidecar_frames = 0  # the frames the sidecars list
+        self._sidecar_written = -math.inf  # time.monotonic() of their last rewrite [s]
         self._diag_names: list[str] | None = None
         self._csv = EnergyLog(self.csv_path) if self.csv_path is not None else None
         self._closed = False
@@ -381,10 +411,12 @@ class FrameWriter(ClosesOnExit):
 
         if self._csv is not None:
             self._csv.write_row(time, diag)
-        self._write_xdmf()
+        if _clock() - self._sidecar_written >= self.sidecar_interval:
+            self._write_xdmf()
 
     def set_status(self, status: str, message: str = "") -> None:
-        """Mark how the run ended ("completed", "blown-up", "interrupted", ...) and flush.
+        """Mark how the run ended ("completed", "blown-up", "interrupted", ...), flush, and bring the
+        XDMF sidecars up to every frame written.
 
         Args:
             status: Short status word, stored as root attribute "status".
@@ -395,20 +427,37 @@ class FrameWriter(ClosesOnExit):
         self._file.attrs["status"] = str(status)
         self._file.attrs["status_message"] = str(message)
         self._file.flush()
+        self._catch_up_sidecars()
 
     def close(self) -> None:
-        """Flush and close the HDF5 file and the CSV; closing twice is harmless."""
+        """Bring the XDMF sidecars up to every frame written, flush and close the HDF5 file and the
+        CSV; closing twice is harmless."""
         if self._closed:
             return
         self._closed = True
         try:
-            if self._csv is not None:
-                self._csv.close()
+            self._catch_up_sidecars()
         finally:
-            self._file.close()
+            try:
+                if self._csv is not None:
+                    self._csv.close()
+            finally:
+                self._file.close()
 
     # ------------------------------------------------------------------ sidecars
 
     def _write_xdmf(self) -> None:
         """Rewrite the XDMF sidecars for all frames so far (see ``mpmdem.io.xdmf``)."""
         self._xdmf.write(self._times)
+        self._sidecar_frames = len(self._times)
+        self._sidecar_written = _clock()
+
+    def _catch_up_sidecars(self) -> None:
+        """Rewrite the XDMF sidecars if they miss frames (none without frames, as before any)."""
+        if self._sidecar_frames < len(self._times):
+            self._write_xdmf()
+
+
+def _clock() -> float:
+    """Monotonic wall time [s] that the sidecar interval is measured in."""
+    return time.monotonic()

@@ -1,6 +1,8 @@
 """XDMF 3 sidecars of a run file, for ParaView (both XDMF readers) and meshio.
 
-Beside ``<run>.h5`` the writer keeps two small XML files, rewritten atomically after every frame:
+Beside ``<run>.h5`` the writer keeps two small XML files, rewritten atomically (``XdmfSidecars.write``)
+when ``FrameWriter`` asks: after a frame at most every ``sidecar_interval`` seconds, and when the run
+ends:
 
 * ``<run>.xdmf`` (when the run has particles): a temporal collection "particles" of uniform grids,
   one per frame: Polyvertex topology (N elements of one node, connectivity 0..N-1), XYZ geometry
@@ -21,8 +23,8 @@ reader crashes on one, and meshio reads none). The frame-stacked datasets ``/par
 ``/bodies/<f>`` (n_frames, count, ...) are exposed per frame as HDF5 virtual datasets
 ``/xdmf/<group>/frame_<k>/<f>``, which store no data, only the mapping; the bodies' world outlines
 are real datasets ``/xdmf/bodies/frame_<k>/outline`` (M K, 3) [m]. The connectivities are written
-once. Only frames whose datasets were flushed are listed, so the sidecars are valid whenever the
-run stops.
+once. The views are made with each frame, before its flush; the sidecar text lists only flushed
+frames, so the sidecars are valid whenever the run stops (and list every frame once it ended).
 """
 
 from __future__ import annotations
@@ -123,6 +125,8 @@ class XdmfSidecars:
         # per group: (the layout its frame blocks were made for, the blocks of frames 0, 1, ...): a
         # frame's text is made once, so a write costs the file, not every frame's text again
         self._blocks: dict[str, tuple[tuple, list[str]]] = {}
+        # per group: (its source group, the source's member count, /xdmf/<group>, the view plan)
+        self._plans: dict[str, tuple] = {}
         bodies = file.get("bodies")
         has_x = self._m > 0 and bodies is not None and "x" in bodies
         # grains (the last bodies, ``grain`` 1): points of their own sidecar, not outlines
@@ -191,28 +195,47 @@ class XdmfSidecars:
         (source: ``group``), of its items rows[0] ≤ i < rows[1] (all when None).
 
         Made with h5py's low-level calls: the mappings ``h5py.VirtualLayout`` would store, without
-        its per-slice copies of the source (a third of a small scene's frame writing)."""
-        out = self._file[GROUP][group].create_group(f"frame_{k:06d}")
-        for name, ds in self._file[source or group].items():
+        its per-slice copies of the source (a third of a small scene's frame writing); what does not
+        depend on k is made once (``_view_plan``)."""
+        parent, plan = self._view_plan(group, source or group, rows)
+        out = parent.create_group(f"frame_{k:06d}")
+        for view, memory_type, space, source_name, ds_id, parts in plan:
+            shape = ds_id.shape  # (the frames written so far, count, ...)
+            dcpl = h5p.create(h5p.DATASET_CREATE)
+            dcpl.set_layout(h5d.VIRTUAL)
+            dcpl.set_fill_value(np.array([0]))
+            for target, key in parts:
+                frame = h5s.create_simple(shape)
+                frame.select_hyperslab(*_hyperslab(shape, (k, *key)))
+                dcpl.set_virtual(target, b".", source_name, frame)
+            h5d.create(out.id, view, memory_type, space, dcpl=dcpl)
+        return out
+
+    def _view_plan(self, group: str, source: str, rows: tuple[int, int] | None) -> tuple[h5py.Group, list]:
+        """/xdmf/<group> and what its frames' views need besides the frame: per view (name, type,
+        dataspace, source name, source dataset, [(target selection, source key after the frame)]);
+        made at the first frame and again if the datasets of /<source> change."""
+        cached = self._plans.get(group)
+        if cached is not None and cached[0].get_num_objs() == cached[1]:
+            return cached[2], cached[3]
+        src = self._file[source]
+        plan = []
+        for name, ds in src.items():
             if not isinstance(ds, h5py.Dataset):
                 continue
             first, last = rows if rows is not None else (0, ds.shape[1])
-            count = last - first
-            source_name = ds.name.encode("utf-8")
             for view, _, shape, parts in _views(name, ds.shape[2:]):
-                dims = (count, *shape)
-                dcpl = h5p.create(h5p.DATASET_CREATE)
-                dcpl.set_layout(h5d.VIRTUAL)
-                dcpl.set_fill_value(np.array([0]))
+                dims = (last - first, *shape)
+                targets = []
                 for columns, index in parts:
                     target = h5s.create_simple(dims)
                     target.select_hyperslab(*_hyperslab(dims, (slice(None), *columns)))
-                    frame = h5s.create_simple(ds.shape)
-                    frame.select_hyperslab(*_hyperslab(ds.shape, (k, slice(first, last), *index)))
-                    dcpl.set_virtual(target, b".", source_name, frame)
-                h5d.create(out.id, view.encode("utf-8"), h5t.py_create(ds.dtype, logical=1), h5s.create_simple(dims),
-                           dcpl=dcpl)
-        return out
+                    targets.append((target, (slice(first, last), *index)))
+                plan.append((view.encode("utf-8"), h5t.py_create(ds.dtype, logical=1), h5s.create_simple(dims),
+                             ds.name.encode("utf-8"), ds.id, targets))
+        parent = self._file[GROUP][group]
+        self._plans[group] = (src.id, src.id.get_num_objs(), parent, plan)
+        return parent, plan
 
     def write(self, times: list[float]) -> None:
         """Rewrite the sidecars for the frames at ``times`` [s] (temporary file, then ``os.replace``)."""

@@ -2,6 +2,8 @@
 file as the writer in the caller's thread, frames in order, every frame before an error or a Ctrl-C
 whole in the file, and a failed write raised by the next call."""
 
+import xml.etree.ElementTree as ET
+
 import numpy as np
 import pytest
 from test_io import N, make_fields
@@ -52,3 +54,15 @@ def test_a_failed_background_write_is_raised_and_keeps_the_frames_before(tmp_pat
     with RunFile(path) as rf:
         assert rf.frame_count == 2 and rf.status == "failed"
         np.testing.assert_array_equal(rf.times, [0.0, 0.1])
+
+
+def test_background_close_brings_the_sidecar_up_to_every_frame(tmp_path):
+    """Verify a background writer with a sidecar_interval longer than the test lists every frame in
+    its sidecar once closed (the worker's frames after the first did not rewrite it)."""
+    path = tmp_path / "run.h5"
+    with BackgroundFrameWriter(FrameWriter(path, particle_count=N, attrs={}, sidecar_interval=1e9)) as w:
+        for k in range(4):
+            w.write_frame(0.1 * k, make_fields(k), {"e": float(k)})
+        w.wait()
+        assert len(ET.parse(path.with_suffix(".xdmf")).getroot().find("Domain/Grid").findall("Grid")) == 1
+    assert len(ET.parse(path.with_suffix(".xdmf")).getroot().find("Domain/Grid").findall("Grid")) == 4

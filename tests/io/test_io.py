@@ -205,7 +205,7 @@ CHILD = textwrap.dedent(
     import mpmdem.io as io
     n = {n}
     w = io.FrameWriter({path!r}, particle_count=n, attrs={{"precision": "f64", "version": "test"}},
-                       csv_path={csv!r})
+                       csv_path={csv!r}, sidecar_interval={interval!r})
     for k in range(2):
         x = np.full((n, 2), float(k))
         w.write_frame(0.5 * k, {{"x": x, "v": x, "stress": np.zeros((n, 2, 2)), "volume": np.ones(n),
@@ -219,12 +219,13 @@ CHILD = textwrap.dedent(
 )
 
 
-@pytest.mark.parametrize("mode", ["exit", "sigkill"])
-def test_killed_writer_leaves_readable_file(tmp_path, mode):
-    """Verify a writer that dies without closing (os._exit / SIGKILL) leaves its 2 frames readable."""
+@pytest.mark.parametrize(("mode", "interval", "listed"), [("exit", 0.0, 2), ("sigkill", 0.0, 2), ("sigkill", 1e9, 1)])
+def test_killed_writer_leaves_readable_file(tmp_path, mode, interval, listed):
+    """Verify a writer that dies without closing (os._exit / SIGKILL) leaves its 2 frames readable, and
+    sidecars that list both with sidecar_interval 0 but only the first (written at once) with a long one."""
     path = tmp_path / "run.h5"
     csv = tmp_path / "energy.csv"
-    code = CHILD.format(pkg_dir=str(PKG_DIR), n=N, path=str(path), csv=str(csv), mode=mode)
+    code = CHILD.format(pkg_dir=str(PKG_DIR), n=N, path=str(path), csv=str(csv), mode=mode, interval=interval)
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == (1 if mode == "exit" else -9), proc.stderr
     with RunFile(path) as rf:
@@ -236,7 +237,7 @@ def test_killed_writer_leaves_readable_file(tmp_path, mode):
         text = rf.summary()
         assert "frames:      2" in text and "not set" in text
     assert len(csv.read_text().splitlines()) == 3
-    assert len(ET.parse(path.with_suffix(".xdmf")).getroot().find("Domain/Grid").findall("Grid")) == 2
+    assert len(ET.parse(path.with_suffix(".xdmf")).getroot().find("Domain/Grid").findall("Grid")) == listed
 
 
 def test_status_and_summary(tmp_path):
@@ -499,7 +500,7 @@ CHILD_BODIES = textwrap.dedent(
     geometry = {{"vertex_start": [0, 1], "vertex_count": [1, 2], "vertices": [[0, 0], [-0.1, 0], [0.1, 0]],
                  "radius": [0.1, 0.05], "motion": [0, 1], "mass": [1.0, 2.0], "name": ["ball", "bar"]}}
     w = io.FrameWriter({path!r}, particle_count=n, attrs={{"precision": "f64"}}, body_count=m,
-                       body_geometry=geometry)
+                       body_geometry=geometry, sidecar_interval=0)
     for k in range(2):
         x = np.full((n, 2), float(k))
         fields = {{"x": x, "v": x, "stress": np.zeros((n, 2, 2)), "volume": np.ones(n), "mass": np.ones(n),

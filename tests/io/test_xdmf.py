@@ -214,3 +214,86 @@ def test_paraview_opens_both_sidecars(tmp_path):
         assert [float(r[1]) for r in rows] == pytest.approx(TIMES * 4)
         for r in rows:
             assert (points is None or int(r[2]) == points) and int(r[3]) == cells and int(r[4]) == arrays
+
+
+def listed(xdmf: Path) -> int:
+    """The number of frames a sidecar lists (0 when it does not exist)."""
+    return len(ET.parse(xdmf).getroot().find("Domain/Grid").findall("Grid")) if xdmf.exists() else 0
+
+
+def body_writer(path: Path, interval: float):
+    """A FrameWriter of N particles and M bodies with the given sidecar_interval [s]."""
+    from mpmdem.io import FrameWriter
+
+    return FrameWriter(path, particle_count=N, attrs={}, body_count=M, body_geometry=make_geometry(),
+                       sidecar_interval=interval)
+
+
+def write_frame(w, k: int) -> None:
+    """Frame k of the made-up particles and bodies at t = 0.1 k."""
+    w.write_frame(0.1 * k, make_fields(k), {"e": float(k)}, body_fields=make_body_fields(k))
+
+
+def test_sidecars_with_interval_zero_are_current_after_every_frame(tmp_path):
+    """Verify sidecar_interval=0 rewrites both sidecars after each frame: they list every frame written."""
+    path = tmp_path / "run.h5"
+    w = body_writer(path, 0.0)
+    for k in range(3):
+        write_frame(w, k)
+        assert listed(path.with_suffix(".xdmf")) == listed(tmp_path / "run_bodies.xdmf") == k + 1
+    w.close()
+
+
+def test_long_sidecar_interval_rewrites_at_first_frame_status_and_close(tmp_path):
+    """Verify a sidecar_interval longer than the test keeps the sidecars at the first frame (a rewrite
+    would list every frame), and set_status and close bring them up to every frame, valid for ParaView."""
+    path = tmp_path / "run.h5"
+    w = body_writer(path, 1e9)
+    for k in range(3):
+        write_frame(w, k)
+        assert listed(path.with_suffix(".xdmf")) == listed(tmp_path / "run_bodies.xdmf") == 1
+    w.set_status("interrupted")
+    assert listed(path.with_suffix(".xdmf")) == listed(tmp_path / "run_bodies.xdmf") == 3
+    write_frame(w, 3)
+    assert listed(path.with_suffix(".xdmf")) == 3
+    w.close()
+    particles = check_paraview_rules(path.with_suffix(".xdmf"))
+    assert [f["time"] for f in particles] == pytest.approx([0.0, 0.1, 0.2, 0.3])
+    assert len(check_paraview_rules(tmp_path / "run_bodies.xdmf")) == 4
+    assert not list(tmp_path.glob("*.tmp"))
+
+
+def test_sidecar_interval_counts_wall_time_since_the_last_rewrite(tmp_path, monkeypatch):
+    """Verify, on a made-up clock, that a frame rewrites the sidecars once sidecar_interval seconds passed
+    since their last rewrite: interval 1 s, frames at clock 0, 0.5, 1.2, 1.7, 2.2 s → rewrites after
+    frames 0, 2 and 4 (1.2 - 0 >= 1, 2.2 - 1.2 >= 1)."""
+    import mpmdem.io.writer as writer_module
+
+    clock = iter([0.0, 0.0, 0.5, 1.2, 1.2, 1.7, 2.2, 2.2])  # (a rewrite reads the clock again)
+    monkeypatch.setattr(writer_module, "_clock", lambda: next(clock))
+    path = tmp_path / "run.h5"
+    w = body_writer(path, 1.0)
+    seen = []
+    for k in range(5):
+        write_frame(w, k)
+        seen.append(listed(path.with_suffix(".xdmf")))
+    assert seen == [1, 1, 3, 3, 5]
+    w.close()
+
+
+@pytest.mark.parametrize("bad", [-1.0, float("nan"), float("inf"), "soon"])
+def test_bad_sidecar_interval_is_an_input_error(tmp_path, bad):
+    """Verify a negative, non-finite or non-numeric sidecar_interval is an InputError naming it, and no file
+    is created."""
+    from mpmdem.errors import InputError
+
+    with pytest.raises(InputError, match="sidecar_interval"):
+        body_writer(tmp_path / "run.h5", bad)
+    assert not list(tmp_path.iterdir())
+
+
+def test_closing_a_writer_without_frames_writes_no_sidecar(tmp_path):
+    """Verify a writer closed before any frame leaves no sidecar (there is no frame to list)."""
+    path = tmp_path / "run.h5"
+    body_writer(path, 1.0).close()
+    assert not path.with_suffix(".xdmf").exists() and not (tmp_path / "run_bodies.xdmf").exists()
