@@ -66,7 +66,7 @@ def lattice_pack(n: int, polydispersity: float = 0.0, seed: int = 0) -> tuple[Sc
 
 
 def measure(scene: Scene, dt: float, n: int, disk_pass: bool, steps: int, warmup: int, device: str,
-            seed: int = 0) -> dict:
+            seed: int = 0, kernel_steps: int = 0) -> dict:
     """Grain-steps/s of ``scene`` with the disk–disk pass on or off (see the module docstring)."""
     t0 = time.perf_counter()
     sim = Simulation(scene, SolverConfig(precision="f32", dt=dt), device=device,
@@ -91,6 +91,19 @@ def measure(scene: Scene, dt: float, n: int, disk_pass: bool, steps: int, warmup
         "split_search": dem.split is not None, "energy_residual_over_kinetic": w["energy_residual_over_kinetic"],
         "setup_seconds": setup, "steps_total": w["steps_taken"] + warmup, "warp": wp.__version__,
     }
+    if kernel_steps:  # (µs per step of each kernel, launched one by one under Warp's activity timing)
+        from collections import defaultdict
+
+        wp.synchronize_device(device)
+        wp.timing_begin(cuda_filter=wp.TIMING_KERNEL | wp.TIMING_MEMSET | wp.TIMING_MEMCPY)
+        for _ in range(kernel_steps):
+            sim.stage.step()
+        per = defaultdict(lambda: [0, 0.0])
+        for r in wp.timing_end():
+            per[r.name][0] += 1
+            per[r.name][1] += 1e3 * r.elapsed / kernel_steps
+        row["kernels"] = sorted(([k.replace("forward kernel ", ""), n_ / kernel_steps, round(us, 2)]
+                                 for k, (n_, us) in per.items()), key=lambda x: -x[2])
     del sim, dem
     gc.collect()
     return row
@@ -115,6 +128,8 @@ def main(argv=None) -> int:
     p.add_argument("--paths", default="disk-pass,general", help="disk-pass, general, or both (comma-separated)")
     p.add_argument("--polydispersity", type=float, default=0.0, help="radii R (1 - p u), u in [0, 1)")
     p.add_argument("--probe", default=None, help="path of warp_dem2d.py: its disk row at each size, same process")
+    p.add_argument("--kernels", type=int, default=0, metavar="STEPS",
+                   help="also time STEPS eager steps per kernel after the timed window (CUDA)")
     p.add_argument("--out", default=None, help="append the JSON lines to this file")
     args = p.parse_args(argv)
     wp.init()
@@ -135,7 +150,7 @@ def main(argv=None) -> int:
             emit(ref)
         scene, dt = lattice_pack(n, args.polydispersity)
         for path in paths:
-            row = measure(scene, dt, n, path == "disk-pass", args.steps, args.warmup, device)
+            row = measure(scene, dt, n, path == "disk-pass", args.steps, args.warmup, device, kernel_steps=args.kernels)
             if ref is not None:
                 row["probe_grain_steps_per_s"] = ref["body_steps_per_s"]
                 row["ratio_to_probe"] = row["grain_steps_per_s"] / ref["body_steps_per_s"]

@@ -200,21 +200,24 @@ def mu_i_disks():
     return analyze_refinement(load_runs(STUDIES / "beverloo-mu-i-disks"), DENSITY, GRAVITY)
 
 
-def test_disks_own_mu_i_at_2p5mm_within_10_percent_of_the_grains(mu_i_disks):
+@pytest.mark.xfail(strict=True, reason=(
+    "the disks' own mu(I) (H100) on its finest grid run, 2 mm, is 9.3, 11.2, 9.9 and 9.8 % above the grains at "
+    "D0 = 3-6 cm (34.7, 54.6, 75.7, 99.7 against 31.8, 49.1, 68.9, 90.8 kg/(m s)), and still rising: it crossed "
+    "them near 2.5 mm (+0 to +5 %), as Drucker-Prager at the grains' angle did near 2 mm"))
+def test_disks_own_mu_i_on_its_finest_grid_within_10_percent_of_the_grains(mu_i_disks):
     """μ(I) with the r_p = 1 mm disks' own incline fit (μs 0.228, μ2 0.81, I0 0.38, d = 2 mm; study
-    beverloo-mu-i-disks, H100) on the finest grid where every run completed (2.5 mm) against the
-    r_p = 1 mm DEM silo, at the orifices at least MIN_CELLS_ACROSS (10) cells wide (3-6 cm): the
-    issue's 10 %."""
+    beverloo-mu-i-disks, H100) on the finest grid run against the r_p = 1 mm DEM silo, at the orifices
+    at least MIN_CELLS_ACROSS (10) cells wide on every grid compared (3-6 cm): the issue's 10 %."""
     grains = dem_study()["0.001"]["rate"]
+    h = min(mu_i_disks["per_orifice"]["0.04"]["h_m"])
     for d0 in (0.03, 0.04, 0.05, 0.06):
-        assert rate_at(mu_i_disks, d0, 0.0025) == pytest.approx(grains[f"{d0:g}"], rel=0.10), d0
+        assert rate_at(mu_i_disks, d0, h) == pytest.approx(grains[f"{d0:g}"], rel=0.10), d0
 
 
 @pytest.mark.xfail(strict=True, reason=(
-    "the disks' own mu(I) (H100) is not converged at 2.5 mm: W rises by 22, 10, 9 and 8 % from 3.5 to 2.5 mm "
-    "at D0 = 3-6 cm (26.2 -> 31.9, 46.3 -> 51.1, 66.2 -> 72.3, 88.0 -> 95.1 kg/(m s)), as Drucker-Prager at "
-    "the grains' angle does: its agreement with the grains at 2.5 mm is a crossing. The 2 mm batch failed at "
-    "t = 1.24 s (more than 256 points in one cell of the point-body search)"))
+    "the disks' own mu(I) (H100) is not converged at 2 mm: W changes by 8.1, 6.4, 4.6 and 4.6 % of its 2 mm value from 2.5 to 2 mm "
+    "at D0 = 3-6 cm (31.9 -> 34.7, 51.1 -> 54.6, 72.3 -> 75.7, 95.1 -> 99.7 kg/(m s)), as Drucker-Prager at "
+    "the grains' angle does (1.4 and 1 mm not run)"))
 def test_disks_own_mu_i_is_converged(mu_i_disks):
     """The issue's convergence target: W changes by < 3 % over the last refinement step run."""
     for d0 in (0.03, 0.04, 0.05, 0.06):
