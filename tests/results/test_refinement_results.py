@@ -215,9 +215,9 @@ def test_disks_own_mu_i_on_its_finest_grid_within_10_percent_of_the_grains(mu_i_
 
 
 @pytest.mark.xfail(strict=True, reason=(
-    "the disks' own mu(I) (H100) is not converged at 2 mm: W changes by 8.1, 6.4, 4.6 and 4.6 % of its 2 mm value from 2.5 to 2 mm "
-    "at D0 = 3-6 cm (31.9 -> 34.7, 51.1 -> 54.6, 72.3 -> 75.7, 95.1 -> 99.7 kg/(m s)), as Drucker-Prager at "
-    "the grains' angle does (1.4 and 1 mm not run)"))
+    "the disks' own mu(I) (H100) is not converged at 2 mm: W changes by 8.1, 6.4, 4.6 and 4.6 % of its 2 mm "
+    "value from 2.5 to 2 mm at D0 = 3-6 cm (31.9 -> 34.7, 51.1 -> 54.6, 72.3 -> 75.7, 95.1 -> 99.7 kg/(m s)), "
+    "as Drucker-Prager at the grains' angle does (1.4 and 1 mm not run)"))
 def test_disks_own_mu_i_is_converged(mu_i_disks):
     """The issue's convergence target: W changes by < 3 % over the last refinement step run."""
     for d0 in (0.03, 0.04, 0.05, 0.06):
