@@ -5,10 +5,11 @@
 # Rows go to $OUT/batch_frames.jsonl and $OUT/study_times.jsonl (label "base" or "new").
 #   git archive OLD mpmdem kernels cases | tar -x -C .gpu/base    # then, on the GPU machine:
 #   BASE=.gpu/base CELLS="0.0035 0.0025" bash bench/frames_ab.sh
+# CELLS="" skips the bench; STUDIES="new" runs only this tree's study; KERNEL_CACHE labels the rows.
 set -uo pipefail
 out=${OUT:-/tmp/out}; base=${BASE:-.gpu/base}; root=$PWD; mkdir -p "$out"
 commit=${COMMIT:-$(git rev-parse --short HEAD 2>/dev/null || echo unknown)}
-for h in ${CELLS:-0.0035 0.0025}; do
+for h in ${CELLS-0.0035 0.0025}; do
   PYTHONPATH=$root/$base:${PYTHONPATH:-} python bench/batch_frames.py --cell-size "$h" --label base \
     --out "$out/batch_frames.jsonl" 2>/dev/null | tail -1 | cut -c1-400
   python bench/batch_frames.py --cell-size "$h" --label new --out "$out/batch_frames.jsonl" 2>/dev/null \
@@ -21,7 +22,7 @@ for label in ${STUDIES:-base new}; do
     > "/tmp/bev-$label.log" 2>&1
   rc=$?; t1=$(date +%s.%N)
   python - "$label" "$rc" "$t0" "$t1" "$commit" "/tmp/bev-$label" <<'PY' | tee -a "$out/study_times.jsonl"
-import json, subprocess, sys
+import json, os, subprocess, sys
 label, rc, t0, t1, commit, d = sys.argv[1:]
 rows = [json.loads(line) for line in open(f"{d}/results.jsonl")] if rc == "0" else []
 log = open(f"{d}.log").read().splitlines()
@@ -32,6 +33,6 @@ print(json.dumps({"study": "beverloo", "label": label, "runs": len(rows), "rc": 
                   "wall_s": round(float(t1) - float(t0), 1), "commit": commit,
                   "batch_walls_s": sorted({round(r.get("wall_seconds") or 0, 1) for r in rows}),
                   "grouping": next((ln for ln in log if ln.startswith("study ")), ""), "device": gpu,
-                  "kernel_cache": "warm", "command": "mpmdem study beverloo --gpus 1"}))
+                  "kernel_cache": os.environ.get("KERNEL_CACHE", "warm"), "command": "mpmdem study beverloo --gpus 1"}))
 PY
 done
