@@ -279,8 +279,9 @@ class BatchedSimulation:
             batch_d = sim.stage.diagnostics()
             host = HostArrays()  # (each device array read back once this frame, for every world)
             sums = {w.index: world_diagnostics(sim, w, self._points.get(w.index), batch_d, host) for w in worlds}
+            # (read for the stray-world check below too, with or without files)
             frame = {w.index: (self.point_fields(w) if sim.mpm else {}, self.body_fields(w) if sim.dem else None)
-                     for w in worlds if writers[w.index] is not None}
+                     for w in worlds}
             if t_next is not None:
                 sim.launch_ahead(t, t_next, dt)
             times.append(t)
