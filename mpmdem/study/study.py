@@ -11,6 +11,7 @@ appends one row per run to ``OUT/results.jsonl`` as each finishes, and writes ``
 from __future__ import annotations
 
 import itertools
+import math
 import sys
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
@@ -227,10 +228,10 @@ GPU_BATCH = 8
 GPU_SIDE_BY_SIDE = 4
 
 
-def default_workers_per_gpu(groups: list | None) -> int:
-    """Workers per GPU when none is asked: one per batch up to ``GPU_SIDE_BY_SIDE`` when the study
-    is batched, else 1."""
-    return min(len(groups), GPU_SIDE_BY_SIDE) if groups else 1
+def default_workers_per_gpu(groups: list | None, gpus: int = 1) -> int:
+    """Workers per GPU when none is asked: the batches shared out over the ``gpus``, up to
+    ``GPU_SIDE_BY_SIDE`` side by side on each, when the study is batched; else 1."""
+    return min(math.ceil(len(groups) / max(1, gpus)), GPU_SIDE_BY_SIDE) if groups else 1
 
 
 def default_batch(device: str | None, gpus: int) -> int:
@@ -296,7 +297,7 @@ def run_study(study: Study, out: str | Path | None = None, *, workers: int | Non
         keys = run_keys(study.case, todo, str(out))
         groups = group_runs(todo, size, keys)
     if workers_per_gpu is None:
-        workers_per_gpu = default_workers_per_gpu(groups) if gpus else 1
+        workers_per_gpu = default_workers_per_gpu(groups, gpus) if gpus else 1
     if progress and todo:
         side = f"; {workers_per_gpu} worker(s) per GPU" if gpus else ""
         print(grouping_line(study.name, len(todo), size, groups, keyed=size > 1 and keys is not None) + side,

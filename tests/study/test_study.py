@@ -219,3 +219,5 @@ def test_batched_study_runs_its_batches_side_by_side_by_default():
     assert default_workers_per_gpu([]) == 1
     assert default_workers_per_gpu([["a"], ["b"], ["c"]]) == 3
     assert default_workers_per_gpu([[k] for k in range(GPU_SIDE_BY_SIDE + 3)]) == GPU_SIDE_BY_SIDE
+    assert default_workers_per_gpu([["a"], ["b"], ["c"]], gpus=2) == 2  # (3 batches over 2 GPUs)
+    assert default_workers_per_gpu([["a"], ["b"]], gpus=4) == 1
