@@ -273,8 +273,9 @@ class BatchedSimulation:
                                         extra={"left_tile": left_tile, "batch_wide": batch_wide})
 
         def record(t: float, steps: int, dt: float, bound: float, t_next: float | None) -> None:
-            # (every device read first: the batch's and each world's sums and fields; then the next
-            # frame's first steps go, and the host writes and checks the frame while they run)
+            # (every device read first: the batch's and each world's sums and fields; then the
+            # checks; then, unless a world failed, the next frame's first steps go, and the host
+            # writes the frame while they run: a failed world leaves the device at its frame)
             self._fresh_frame()
             batch_d = sim.stage.diagnostics()
             host = HostArrays()  # (each device array read back once this frame, for every world)
@@ -282,26 +283,32 @@ class BatchedSimulation:
             # (read for the stray-world check below too, with or without files)
             frame = {w.index: (self.point_fields(w) if sim.mpm else {}, self.body_fields(w) if sim.dem else None)
                      for w in worlds}
-            if t_next is not None:
-                sim.launch_ahead(t, t_next, dt)
-            times.append(t)
+            diags, failures = {}, {}
             for w in worlds:
                 d = balances[w.index].update(sums[w.index])
                 d.update(dt=dt, dt_bound=bound, steps=float(steps), wall_time=_time.perf_counter() - start_wall)
+                diags[w.index] = d
+                try:
+                    check_energy(w.scene, self.config, t, d, balances[w.index].initial,
+                                 lambda: sim.stage.likely_cause(dt, bound))
+                except BlowUpError as e:
+                    failures[w.index] = (f"world {ids[w.index]}: {e}", False)
+            for k, why in self.stray_worlds(fresh=False, time=t).items():
+                if k not in failures:
+                    failures[k] = (f"world {ids[k]}: {why} at t = {t:.6g} s", LEFT_TILE in why)
+            if t_next is not None and not failures:
+                sim.launch_ahead(t, t_next, dt)
+            times.append(t)
+            for w in worlds:
+                d = diags[w.index]
                 views[w.index].last_diagnostics = d
                 for key, v in d.items():
                     history[w.index].setdefault(key, []).append(v)
                 if writers[w.index] is not None:
                     fields, body_fields = frame[w.index]
                     writers[w.index].write_frame(t, fields, d, body_fields=body_fields)
-                try:
-                    check_energy(w.scene, self.config, t, d, balances[w.index].initial,
-                                 lambda: sim.stage.likely_cause(dt, bound))
-                except BlowUpError as e:
-                    fail(w.index, f"world {ids[w.index]}: {e}", t)
-            for k, why in self.stray_worlds(fresh=False, time=t).items():
-                if k not in failed:
-                    fail(k, f"world {ids[k]}: {why} at t = {t:.6g} s", t, left_tile=LEFT_TILE in why)
+            for k, (message, left_tile) in failures.items():
+                fail(k, message, t, left_tile=left_tile)
 
         ended = False
         try:

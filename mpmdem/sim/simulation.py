@@ -322,21 +322,29 @@ class Simulation:
         balance = EnergyBalance(self.stage.WORK_TERMS)
 
         def record(t: float, steps: int, dt: float, bound: float, t_next: float | None) -> None:
-            # (everything read from the device first; then the next frame's first steps go, and the
-            # host hands the frame to the writer and checks it while they run)
+            # (everything read from the device and the energy checked first; then, unless the frame
+            # blew up, the next frame's first steps go, and the host hands the frame to the writer
+            # while they run: a blow-up leaves the device at its frame)
             d = balance.update(self.stage.diagnostics())
             d.update(dt=dt, dt_bound=bound, steps=float(steps), wall_time=_time.perf_counter() - start_wall)
             fields = body_fields = None
             if writer is not None:
                 fields, body_fields = self.mpm.fields() if self.mpm else {}, self.dem.fields() if self.dem else None
-            if t_next is not None:
+            blow_up = None
+            try:
+                check_energy(self.model, self.config, t, d, balance.initial,
+                             lambda: self.stage.likely_cause(dt, bound))
+            except BlowUpError as e:
+                blow_up = e
+            if t_next is not None and blow_up is None:
                 self.launch_ahead(t, t_next, dt)
             times.append(t)
             for k, v in d.items():
                 history.setdefault(k, []).append(v)
             if writer is not None:
                 writer.write_frame(t, fields, d, body_fields=body_fields)
-            check_energy(self.model, self.config, t, d, balance.initial, lambda: self.stage.likely_cause(dt, bound))
+            if blow_up is not None:
+                raise blow_up
 
         status, message = "completed", ""
         try:
