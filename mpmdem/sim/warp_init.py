@@ -11,7 +11,7 @@ import warp as wp
 
 from ..errors import InputError
 
-__all__ = ["check_device", "cpu_only", "init_warp"]
+__all__ = ["check_device", "check_gpu_count", "cpu_only", "init_warp"]
 
 #: Warp's native warning on a machine without an NVIDIA driver (printed by its C++ library).
 DRIVER_WARNING = "Could not find or load the NVIDIA CUDA driver"
@@ -64,3 +64,14 @@ def check_device(device: str | None) -> None:
         if wp.get_cuda_device_count() == 0:
             raise InputError("device", device, "cpu: this machine has no CUDA device"
                              + (" (no NVIDIA driver)" if _state["missing"] else ""))
+
+
+def check_gpu_count(gpus: int) -> None:
+    """InputError when a local cluster is asked for more GPUs than this machine has (``--gpus``),
+    before any worker starts; initialises Warp."""
+    init_warp()
+    have = wp.get_cuda_device_count()
+    if gpus > have:
+        raise InputError("gpus", gpus, f"at most {have}: this machine has {have} CUDA device(s)"
+                         + (" (no NVIDIA driver)" if _state["missing"] else "")
+                         + "; --workers for CPU workers, or --scheduler for a cluster with GPUs")

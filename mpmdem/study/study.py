@@ -276,6 +276,10 @@ def run_study(study: Study, out: str | Path | None = None, *, workers: int | Non
     from .worker import FINAL_STATUSES
 
     device = device or ("cuda" if gpus else None)
+    if gpus and not scheduler:
+        from ..sim.warp_init import check_gpu_count
+
+        check_gpu_count(gpus)
     runs = plan_runs(study, device)
     out = Path(out or Path("results") / f"study-{study.name}").resolve()
     table = ResultsTable(out)
@@ -314,5 +318,9 @@ def run_study(study: Study, out: str | Path | None = None, *, workers: int | Non
     rows = [previous[r.id] for r in runs if r.id in previous]
     table.write_csv(rows)
     if study.analyze is not None:
-        study.analyze(rows, out)
+        if not any(row.get("status") == "completed" for row in rows):
+            print(f"study {study.name}: no run completed, so no analysis (the rows say why: {out / 'results.csv'})",
+                  file=sys.stderr)
+        else:
+            study.analyze(rows, out)
     return rows

@@ -165,6 +165,7 @@ def test_bad_study_file_exits_2_and_runs_nothing(tmp_path, capsys, top, grid, fi
 @pytest.mark.parametrize("argv", [
     ["no-such-study"], ["missing.toml"], ["disk-restitution", "--set", "angle=3"],
     ["disk-restitution", "--set", "restitution=0.5,x"], ["disk-restitution", "--gpus", "-1"],
+    ["disk-restitution", "--gpus", "64"],  # (more GPUs than the machine has: refused before any worker)
 ])
 def test_bad_command_line_exits_2_and_runs_nothing(tmp_path, capsys, argv):
     assert main(["study", *argv, "--out", str(tmp_path / "out")]) == 2
@@ -221,3 +222,17 @@ def test_batched_study_runs_its_batches_side_by_side_by_default():
     assert default_workers_per_gpu([[k] for k in range(GPU_SIDE_BY_SIDE + 3)]) == GPU_SIDE_BY_SIDE
     assert default_workers_per_gpu([["a"], ["b"], ["c"]], gpus=2) == 2  # (3 batches over 2 GPUs)
     assert default_workers_per_gpu([["a"], ["b"]], gpus=4) == 1
+
+
+def test_a_study_with_no_completed_run_skips_its_analysis(tmp_path, capsys):
+    """Every run failed (the case raises in build): the rows say why, and the analysis, which has
+    nothing to read, is not run (it would fail on an empty table) but named on stderr."""
+    path = tmp_path / "failing.toml"
+    path.write_text('case = "study_raising_case"\nanalyze = "study_raising_case:count_rows"\n'
+                    '[grid]\nfail = [true]\n')
+    out = tmp_path / "out"
+    assert main(["study", str(path), "--workers", "0", "--device", "cpu", "--out", str(out)]) == 0
+    captured = capsys.readouterr()
+    assert "no run completed, so no analysis" in captured.err
+    assert not (out / "rows.txt").exists()  # (count_rows writes it)
+    assert [r["status"] for r in jsonl_rows(out)] == ["error"]
