@@ -17,7 +17,7 @@ for h in ${CELLS-0.0035 0.0025}; do
   python bench/batch_frames.py --cell-size "$h" --label new --out "$out/batch_frames.jsonl" 2>/dev/null \
     | tail -1 | cut -c1-400
 done
-for label in ${STUDIES:-base new}; do
+for label in ${STUDIES-base new}; do
   dir=$root; [ "$label" = base ] && dir=$root/$base
   t0=$(date +%s.%N)
   (cd "$dir" && python -m mpmdem.cli study beverloo --gpus 1 --out "/tmp/bev-$label" ${STUDY_FLAGS:-}) \
