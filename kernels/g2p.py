@@ -18,6 +18,7 @@ from .reductions import make_speed_check
 from .shape_functions import CORNERS, SUPPORT_NODES, make_stencil
 from .state import make_state_structs
 from .stencil_loop import make_stencil_loop
+from .tiles import make_tiles
 from .transfer_terms import copy_row, make_momentum_term, make_point_on_grid
 from .types import kernel, scalar_types
 from .wall_images import make_mirrored_source
@@ -78,6 +79,7 @@ def make_g2p(
     K = SUPPORT_NODES[shape]
     NC = CORNERS.get(shape, 1)
     mirrored_source = make_mirrored_source(layered)
+    tile_walls = make_tiles(precision).walls
     Particles, Grid, Domain = make_state_structs(precision)
     stencil, contribution, on_grid = make_stencil(shape, precision)
     point_on_grid = make_point_on_grid(shape, precision)
@@ -169,9 +171,12 @@ def make_g2p(
         for k in range(wp.static(NC)):
             bx, by, wx, wy, dwx, dwy, g = stencil(P, D, p, k)
             at_wall = bool(False)  # (``mirror``: whether this stencil reaches past the walls' node lines)
+            wall_lo = D.node_lo
+            wall_hi = D.node_hi
             if wp.static(mirror):
-                at_wall = (bx < D.node_lo[0] or by < D.node_lo[1] or bx + wp.static(K - 1) > D.node_hi[0]
-                           or by + wp.static(K - 1) > D.node_hi[1])
+                wall_lo, wall_hi, first, end = tile_walls(D, bx)  # (its tile's walls: kernels/tiles.py)
+                at_wall = (bx < wall_lo[0] or by < wall_lo[1] or bx + wp.static(K - 1) > wall_hi[0]
+                           or by + wp.static(K - 1) > wall_hi[1])
             for i in range(wp.static(K)):
                 for j in range(wp.static(K)):
                     w, grad, gi, gj, n = node(bx, by, wx, wy, dwx, dwy, g, k, i, j, D.inv_h)
@@ -188,7 +193,7 @@ def make_g2p(
                     sy = 1.0
                     if wp.static(mirror):
                         if at_wall:
-                            src, sj, sx, sy = mirrored_source(G.owner, row, gi, gj, D.node_lo, D.node_hi,
+                            src, sj, sx, sy = mirrored_source(G.owner, row, gi, gj, wall_lo, wall_hi,
                                                               D.bc_kind, D.layer_rows, D.layers)
                     vt = read(G.vt, src, sj, sx, sy)
                     if wp.static(velocity or position):

@@ -7,6 +7,7 @@ import warp as wp
 from .clock import CLOCK_DT, CLOCK_T
 from .granular import COPY_RUN
 from .state import make_state_structs
+from .tiles import make_tiles
 from .types import kernel, scalar_types
 from .wall_images import make_fold_node
 from .wall_kinds import BC_FIXED, BC_FREE, BC_FRICTION, BC_SLIP
@@ -68,8 +69,8 @@ WORK_SLOTS = 1024
 
 @functools.cache
 def make_keep_inside_walls(precision: str):
-    """``keep_inside_walls(x, D) -> x``: a point position [m] clamped to the domain box on every
-    side that is a wall (fixed, slip or friction); free sides are left open.
+    """``keep_inside_walls(x, D) -> x``: a point position [m] clamped to the domain box (its tile's
+    in a batch: kernels/tiles.py) on every side that is a wall (fixed, slip or friction); free sides are left open.
 
     With image points the interpolated normal velocity vanishes on a wall, so in exact arithmetic a
     point approaching a wall under a stable step never reaches it; in floating point it can land a
@@ -79,14 +80,16 @@ def make_keep_inside_walls(precision: str):
     """
     t = scalar_types(precision)
     Domain = make_state_structs(precision)[2]
+    tile_shift = make_tiles(precision).shift
 
     @wp.func
     def keep_inside_walls(x: t.vec2, D: Domain):
         y = x
+        s = tile_shift(D, x[0])  # (the walls of the tile the point is on: kernels/tiles.py)
         if D.bc_kind[0] != BC_FREE:
-            y[0] = wp.max(y[0], D.lo[0])
+            y[0] = wp.max(y[0], D.lo[0] + s)
         if D.bc_kind[1] != BC_FREE:
-            y[0] = wp.min(y[0], D.hi[0])
+            y[0] = wp.min(y[0], D.hi[0] + s)
         if D.bc_kind[2] != BC_FREE:
             y[1] = wp.max(y[1], D.lo[1])
         if D.bc_kind[3] != BC_FREE:
@@ -116,7 +119,8 @@ def work_slot(term: int, i: int, j: int) -> int:
 
 @functools.cache
 def make_boundary(precision: str, bilateral_only: bool = False, moving: bool = False):
-    """``boundary(v, D, i, j)``: the wall conditions of every side the node (i, j) is on or beyond.
+    """``boundary(v, D, i, j)``: the wall conditions of every side the node (i, j) is on or beyond
+    (the walls of its tile in a batch: kernels/tiles.py).
 
     bilateral_only: apply only the fixed and slip (Dirichlet) conditions, not the unilateral
     Coulomb walls; used for the start-of-step velocity V (see make_grid_update).
@@ -127,6 +131,7 @@ def make_boundary(precision: str, bilateral_only: bool = False, moving: bool = F
     T = t.scalar
     Domain = make_state_structs(precision)[2]
     apply_bc = make_boundary_condition(precision)
+    tile_walls = make_tiles(precision).walls
 
     @wp.func
     def side(v: t.vec2, kind: int, mu: T, n: t.vec2, speed: T):
@@ -141,9 +146,10 @@ def make_boundary(precision: str, bilateral_only: bool = False, moving: bool = F
     @wp.func
     def boundary(v: t.vec2, D: Domain, i: int, j: int):
         out = v
-        if i <= D.node_lo[0]:
+        lo, hi, first, end = tile_walls(D, i)  # (the walls of node row i's tile: kernels/tiles.py)
+        if i <= lo[0]:
             out = side(out, D.bc_kind[0], D.bc_mu[0], t.vec2(T(-1.0), T(0.0)), D.bc_speed[0])
-        if i >= D.node_hi[0]:
+        if i >= hi[0]:
             out = side(out, D.bc_kind[1], D.bc_mu[1], t.vec2(T(1.0), T(0.0)), D.bc_speed[1])
         if j <= D.node_lo[1]:
             out = side(out, D.bc_kind[2], D.bc_mu[2], t.vec2(T(0.0), T(-1.0)), D.bc_speed[2])

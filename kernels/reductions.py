@@ -23,6 +23,7 @@ from .clock import (
 )
 from .constitutive import make_strain_energy_density
 from .state import make_state_structs
+from .tiles import make_tiles
 from .types import kernel, scalar_types
 
 __all__ = [
@@ -67,11 +68,12 @@ SPEED_SLOTS = 32
 @functools.cache
 def make_speed_check(precision: str):
     """``speed_check(P, D, materials, p, vol, max_speed, status)``: CFL speed c_p + |v_p| of point
-    p (volume ``vol`` [m²/m]) into ``max_speed``, and counts of non-finite and escaped points into
-    ``status``."""
+    p (volume ``vol`` [m²/m]) into ``max_speed``, and counts of non-finite and escaped points (out of
+    the domain; of its tile's, in a batch) into ``status``."""
     t = scalar_types(precision)
     T = t.scalar
     Particles, Grid, Domain = make_state_structs(precision)
+    tile_shift = make_tiles(precision).shift
 
     @wp.func
     def speed_check(
@@ -91,7 +93,8 @@ def make_speed_check(precision: str):
         if not (wp.isfinite(s) and wp.isfinite(x[0]) and wp.isfinite(x[1])):
             wp.atomic_add(status, STATUS_NONFINITE, 1)
             return
-        if x[0] < D.lo[0] or x[0] > D.hi[0] or x[1] < D.lo[1] or x[1] > D.hi[1]:
+        sx = tile_shift(D, x[0])  # (its tile's box in a batch: kernels/tiles.py)
+        if x[0] < D.lo[0] + sx or x[0] > D.hi[0] + sx or x[1] < D.lo[1] or x[1] > D.hi[1]:
             wp.atomic_add(status, STATUS_OUTSIDE, 1)
         slot = p % SPEED_SLOTS
         sf = wp.float32(s)

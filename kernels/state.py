@@ -69,5 +69,6 @@ def make_state_structs(precision: str):
         damping: t.scalar  # Cundall's local damping coefficient D
         layer_rows: int  # rows of one grid layer; layer s of node (i, j) is row s·layer_rows + i
         layers: int  # grid layers per node (1 unless granular mode)
+        tile_rows: int  # node rows of one tile: the x walls repeat every tile (kernels/tiles.py; layer_rows: one tile)
 
     return Particles, Grid, Domain

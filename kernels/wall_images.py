@@ -21,6 +21,7 @@ import warp as wp
 from .clock import CLOCK_DT
 from .granular import make_layer_row
 from .state import make_state_structs
+from .tiles import make_tiles
 from .types import Namespace, kernel, scalar_types
 from .wall_kinds import BC_FIXED, BC_FREE
 
@@ -116,32 +117,34 @@ def make_mirror_ghosts(precision: str, layered: bool = False, pair: bool = False
     T = t.scalar
     Domain = make_state_structs(precision)[2]
     find_row = _layer_row_find()
+    tile_walls = make_tiles(precision).walls
 
     @wp.func
-    def wall_offset(D: Domain, i: int, j: int):
-        # 2U [m/s] of the moving fixed wall that ghost node (i, j) lies beyond (zero if none)
+    def wall_offset(D: Domain, lo: wp.vec2i, hi: wp.vec2i, i: int, j: int):
+        # 2U [m/s] of the moving fixed wall that ghost node (i, j) lies beyond (zero if none);
+        # lo, hi: the walls' node indices (its tile's)
         ox = T(0.0)
         oy = T(0.0)
-        if i < D.node_lo[0] and D.bc_kind[0] == BC_FIXED:
+        if i < lo[0] and D.bc_kind[0] == BC_FIXED:
             oy = T(2.0) * D.bc_speed[0]
-        elif i > D.node_hi[0] and D.bc_kind[1] == BC_FIXED:
+        elif i > hi[0] and D.bc_kind[1] == BC_FIXED:
             oy = T(2.0) * D.bc_speed[1]
-        if j < D.node_lo[1] and D.bc_kind[2] == BC_FIXED:
+        if j < lo[1] and D.bc_kind[2] == BC_FIXED:
             ox = T(2.0) * D.bc_speed[2]
-        elif j > D.node_hi[1] and D.bc_kind[3] == BC_FIXED:
+        elif j > hi[1] and D.bc_kind[3] == BC_FIXED:
             ox = T(2.0) * D.bc_speed[3]
         return t.vec2(ox, oy)
 
     @wp.func
-    def reflect(v: t.vec2, D: Domain, i: int, j: int, sx: float, sy: float):
+    def reflect(v: t.vec2, D: Domain, lo: wp.vec2i, hi: wp.vec2i, i: int, j: int, sx: float, sy: float):
         u = t.vec2(T(sx) * v[0], T(sy) * v[1])
         if wp.static(moving):
-            u = u + wall_offset(D, i, j)
+            u = u + wall_offset(D, lo, hi, i, j)
         return u
 
     @wp.func
-    def mirror(field: wp.array2d(dtype=t.vec2), D: Domain, owner: wp.array2d(dtype=wp.int32), i: int, j: int,
-               si: int, sj: int, sx: float, sy: float):
+    def mirror(field: wp.array2d(dtype=t.vec2), D: Domain, owner: wp.array2d(dtype=wp.int32), lo: wp.vec2i,
+               hi: wp.vec2i, i: int, j: int, si: int, sj: int, sx: float, sy: float):
         if wp.static(layered):
             for s in range(D.layers):
                 r = s * D.layer_rows + i
@@ -152,10 +155,10 @@ def make_mirror_ghosts(precision: str, layered: bool = False, pair: bool = False
                 v = t.vec2()
                 if src >= 0:
                     v = field[src, sj]
-                field[r, j] = reflect(v, D, i, j, sx, sy)
+                field[r, j] = reflect(v, D, lo, hi, i, j, sx, sy)
         else:
             v = field[si, sj]
-            field[i, j] = reflect(v, D, i, j, sx, sy)
+            field[i, j] = reflect(v, D, lo, hi, i, j, sx, sy)
 
     @kernel
     def mirror_ghosts(field: wp.array2d(dtype=t.vec2), second: wp.array2d(dtype=t.vec2), D: Domain,
@@ -166,26 +169,28 @@ def make_mirror_ghosts(precision: str, layered: bool = False, pair: bool = False
         j = node[1]
         if clock[CLOCK_DT] <= wp.float64(0.0):
             return
-        si, sj, sx, sy, mirrored = _mirror_node(i, j, D.node_lo, D.node_hi, D.bc_kind)
+        lo, hi, first, end = tile_walls(D, i)  # (the walls of node row i's tile: kernels/tiles.py)
+        si, sj, sx, sy, mirrored = _mirror_node(i, j, lo, hi, D.bc_kind)
         if not mirrored:
             return
-        mirror(field, D, owner, i, j, si, sj, sx, sy)
+        mirror(field, D, owner, lo, hi, i, j, si, sj, sx, sy)
         if wp.static(pair):
-            mirror(second, D, owner, i, j, si, sj, sx, sy)
+            mirror(second, D, owner, lo, hi, i, j, si, sj, sx, sy)
 
     return mirror_ghosts
 
 
 @wp.func
-def _image(i: int, lo: int, hi: int, kind_lo: int, kind_hi: int, n: int):
-    """Ghost node whose mirror is node i (−1 if none), with the wall it lies beyond (0 lo, 1 hi)."""
+def _image(i: int, lo: int, hi: int, kind_lo: int, kind_hi: int, first: int, end: int):
+    """Ghost node whose mirror is node i (−1 if none), with the wall it lies beyond (0 lo, 1 hi);
+    ghosts lie in [first, end) (the grid, or along x the tile: kernels/tiles.py)."""
     if i > lo and (kind_lo != BC_FREE):
         g = 2 * lo - i
-        if g >= 0:
+        if g >= first:
             return g, 0
     if i < hi and (kind_hi != BC_FREE):
         g = 2 * hi - i
-        if g < n:
+        if g < end:
             return g, 1
     return -1, 0
 
@@ -212,6 +217,7 @@ def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, r
     T = t.scalar
     Particles, Grid, Domain = make_state_structs(precision)
     find_row = _layer_row_find()
+    tile_walls = make_tiles(precision).walls
 
     @wp.func
     def sign(kind: int, normal_axis: int, axis: int) -> float:
@@ -312,12 +318,11 @@ def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, r
 
     @wp.func
     def fold_node(G: Grid, D: Domain, i: int, j: int):
-        lo = D.node_lo
-        hi = D.node_hi
+        lo, hi, first, end = tile_walls(D, i)  # (the walls of node row i's tile: kernels/tiles.py)
         if i < lo[0] or i > hi[0] or j < lo[1] or j > hi[1]:
             return
-        gi, wx = _image(i, lo[0], hi[0], D.bc_kind[0], D.bc_kind[1], D.layer_rows)
-        gj, wy = _image(j, lo[1], hi[1], D.bc_kind[2], D.bc_kind[3], G.mass.shape[1])
+        gi, wx = _image(i, lo[0], hi[0], D.bc_kind[0], D.bc_kind[1], first, end)
+        gj, wy = _image(j, lo[1], hi[1], D.bc_kind[2], D.bc_kind[3], 0, G.mass.shape[1])
         if gi < 0 and gj < 0:
             return  # (most nodes: no ghost mirrors them)
         kx = D.bc_kind[wx]
@@ -338,8 +343,7 @@ def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, r
         """Whether copy r of ghost node (i, j) is read by a fold: the interior node that mirrors it
         has (i, j) as its image on each axis it lies out on, and (granular) a copy of the same
         component."""
-        lo = D.node_lo
-        hi = D.node_hi
+        lo, hi, first, end = tile_walls(D, i)
         ii = i
         jj = j
         if i < lo[0]:
@@ -353,11 +357,11 @@ def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, r
         if ii < lo[0] or ii > hi[0] or jj < lo[1] or jj > hi[1]:
             return False
         if ii != i:
-            gi, wx = _image(ii, lo[0], hi[0], D.bc_kind[0], D.bc_kind[1], D.layer_rows)
+            gi, wx = _image(ii, lo[0], hi[0], D.bc_kind[0], D.bc_kind[1], first, end)
             if gi != i:
                 return False
         if jj != j:
-            gj, wy = _image(jj, lo[1], hi[1], D.bc_kind[2], D.bc_kind[3], G.mass.shape[1])
+            gj, wy = _image(jj, lo[1], hi[1], D.bc_kind[2], D.bc_kind[3], 0, G.mass.shape[1])
             if gj != j:
                 return False
         if wp.static(layered):
@@ -369,8 +373,7 @@ def make_fold_node(precision: str, *, mass: bool, momentum: bool, force: bool, r
         """Whether node (i, j) is a ghost left out of the update (``make_grid_update``'s ``images``):
         out of the interior only beyond fixed or slip walls. Its copies that no fold reads are
         cleared here; the others by the node that folds them (``clear_images``)."""
-        lo = D.node_lo
-        hi = D.node_hi
+        lo, hi, first, end = tile_walls(D, i)
         out_x = i < lo[0] or i > hi[0]
         out_y = j < lo[1] or j > hi[1]
         if not (out_x or out_y):

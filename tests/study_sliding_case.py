@@ -1,5 +1,6 @@
 """A test-only case for batched studies: a sand block on a fixed plate in a 0.4 × 0.3 m box, sliding
-right at ``--speed`` (20 m/s brings it within reach of the right wall in 4 ms: tests/sim/test_batch.py)."""
+right at ``--speed`` (20 m/s brings it within reach of the right wall in 4 ms: tests/sim/test_batch.py),
+in a box ``--box`` wide (worlds of different widths batch without walls between them)."""
 
 import math
 
@@ -14,12 +15,13 @@ DEFAULTS = {"precision": "f64", "dt": 2.0e-5}
 
 def add_arguments(parser):
     parser.add_argument("--speed", type=float, default=0.0, help="initial speed of the sand to the right [m/s]")
+    parser.add_argument("--box", type=float, default=0.4, help="width of the box [m] (whole cells of 0.02 m)")
     parser.add_argument("--cell-capacity", type=int, default=None,
                         help="points a cell of the point-body search holds (1 overflows at once)")
 
 
 def build(args) -> CaseSetup:
-    scene = Scene(domain=((0.0, 0.0), (0.4, 0.3)), cell_size=0.02, gravity=(0.0, -10.0),
+    scene = Scene(domain=((0.0, 0.0), (args.box, 0.3)), cell_size=0.02, gravity=(0.0, -10.0),
                   contact=ContactLaw(1e5, restitution=0.5),
                   boundaries={"left": "slip", "right": "slip", "bottom": "slip", "top": "free"})
     scene.add_mpm_body(rectangle(0.1, 0.08, 0.25, 0.16), DruckerPrager(1e6, 0.3, 1500.0, friction_angle=30.0),

@@ -9,8 +9,8 @@ from typing import Literal
 
 from ..errors import InputError
 
-__all__ = ["BOUNDARY_KINDS", "SIDES", "Boundary", "as_boundary", "check_moving_walls", "check_periodic_sides",
-           "check_sides", "check_walls_on_grid_lines"]
+__all__ = ["BOUNDARY_KINDS", "SIDES", "Boundary", "WallTiles", "as_boundary", "check_moving_walls",
+           "check_periodic_sides", "check_sides", "check_walls_on_grid_lines"]
 
 SIDES = ("left", "right", "bottom", "top")
 BOUNDARY_KINDS = ("fixed", "slip", "friction", "free", "periodic")
@@ -49,6 +49,23 @@ class Boundary:
         open to the grid update and the wall images (free); the periodic fold and copy
         (``kernels/periodic.py``) join it to the opposite side."""
         return BOUNDARY_KINDS.index("free" if self.kind == "periodic" else self.kind)
+
+
+@dataclass(frozen=True)
+class WallTiles:
+    """The left and right walls repeated along x: the grid is ``count`` tiles of ``rows`` node rows,
+    each with its walls ``cells`` cells apart where a lone domain of that width has them (a batch's
+    worlds side by side, ``mpmdem.sim.batch_scene``; ``kernels/tiles.py``). The scene's domain runs
+    from the first tile's left wall to the last tile's right wall."""
+
+    count: int
+    rows: int
+    cells: int
+
+    def __post_init__(self):
+        if not (self.count >= 1 and self.cells >= 1 and self.rows > self.cells):
+            raise InputError("wall_tiles", (self.count, self.rows, self.cells),
+                             "count >= 1 tiles of rows > cells >= 1 node rows")
 
 
 def as_boundary(side: str, b) -> Boundary:

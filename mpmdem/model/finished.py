@@ -20,6 +20,7 @@ from .rigid_arrays import RigidArrays
 
 if TYPE_CHECKING:
     from .bodies import ContactLaw, RigidBody
+    from .boundaries import WallTiles
     from .grains import GrainSet
     from .materials import Material
     from .probes import MassProbe
@@ -64,6 +65,7 @@ class Model(StageKinds):
         arrays: the columns of every DEM body, rigid bodies then grains (``Scene.body_arrays``).
         body_names: the DEM bodies' names in ``arrays`` order.
         initial_overlaps: (body, body, depth [m]) of the pairs let start overlapping.
+        wall_tiles: the left and right walls repeated along x (``boundaries.WallTiles``), or None.
     """
 
     domain: tuple[tuple[float, float], tuple[float, float]]
@@ -85,6 +87,7 @@ class Model(StageKinds):
     arrays: RigidArrays
     body_names: tuple[str, ...]
     initial_overlaps: tuple[tuple[str, str, float], ...]
+    wall_tiles: WallTiles | None = None
 
     def body_arrays(self) -> RigidArrays:
         """The DEM bodies' columns, built once by ``finalize`` (``Scene.body_arrays``' name)."""
@@ -111,4 +114,4 @@ def finalize(scene) -> Model:
         bodies=tuple(scene.bodies), rigid_bodies=tuple(scene.rigid_bodies), grains=tuple(scene.grains),
         obstacles=tuple(scene.obstacles), mass_probes=tuple(scene.mass_probes), materials=tuple(scene.materials()),
         particles=MappingProxyType(particles) if particles is not None else None, arrays=arrays,
-        body_names=tuple(scene.body_names()), initial_overlaps=tuple(overlaps))
+        body_names=tuple(scene.body_names()), initial_overlaps=tuple(overlaps), wall_tiles=scene.wall_tiles)

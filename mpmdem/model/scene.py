@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import InputError
 from .bodies import ContactLaw, RigidBody, make_rigid_body
-from .boundaries import SIDES, Boundary, as_boundary, check_sides, check_walls_on_grid_lines
+from .boundaries import SIDES, Boundary, WallTiles, as_boundary, check_sides, check_walls_on_grid_lines
 from .finished import Model, StageKinds, finalize
 from .grains import GrainSet, as_region, place_grains
 from .materials import Material
@@ -102,6 +102,8 @@ class Scene(SceneChecks, StageKinds):
     coupling_friction: dict = field(default_factory=dict)
     #: free grains (``add_grains``): DEM bodies after ``rigid_bodies``, kept as arrays
     grains: list[GrainSet] = field(default_factory=list)
+    #: the left and right walls repeated along x (a batch's combined scene, ``mpmdem.sim.batch_scene``)
+    wall_tiles: WallTiles | None = None
 
     def __post_init__(self):
         try:

@@ -148,9 +148,10 @@ class BatchedSimulation:
     # -- checks -----------------------------------------------------------------------------------
     def stray_worlds(self, fresh: bool = True, time: float | None = None) -> dict[int, str]:
         """World → why it failed, for worlds with non-finite points or bodies, points that left their
-        own domain or came within ``STENCIL_CELLS`` cells of its left or right wall (a batch has no
-        walls between its worlds), or free bodies whose centroid left it. ``fresh``: read the device
-        again (False: the fields of the frame just written, at ``time`` [s]; None: the device's)."""
+        own domain or, without walls between the tiles (``WorldLayout.walls``), came within
+        ``STENCIL_CELLS`` cells of its left or right wall, or free bodies whose centroid left it.
+        ``fresh``: read the device again (False: the fields of the frame just written, at ``time``
+        [s]; None: the device's)."""
         if fresh:
             self._fresh_frame()
         now = self.sim.time if time is None else time
@@ -167,14 +168,17 @@ class BatchedSimulation:
                 if not (np.isfinite(x[live]).all() and np.isfinite(v[live]).all()):
                     bad[w.index] = f"{int((~np.isfinite(x[live]).all(1)).sum())} points have NaN/inf values"
                     continue
-                # (a wall acts on the nodes of its side: a point whose stencil reaches them feels it)
-                reach = STENCIL_CELLS * self.combined.cell_size
+                # (a wall acts on the nodes of its side: a point whose stencil reaches them feels it,
+                # which is right only where the tile has the world's walls)
+                reach = 0.0 if self.layout.walls else STENCIL_CELLS * self.combined.cell_size
                 lo = x0 + (reach if w.scene.boundaries["left"].kind != "free" else 0.0)
                 hi = x1 - (reach if w.scene.boundaries["right"].kind != "free" else 0.0)
                 out = live & ((xs[:, 0] < lo) | (xs[:, 0] > hi) | (xs[:, 1] < y0) | (xs[:, 1] > y1))
                 if out.any():
-                    bad[w.index] = (f"{int(out.sum())} points {LEFT_TILE} or came within {STENCIL_CELLS} cells of "
-                                    "its left or right wall (a batch has no walls between its worlds: run it alone)")
+                    bad[w.index] = (f"{int(out.sum())} points {LEFT_TILE}" if self.layout.walls else
+                                    f"{int(out.sum())} points {LEFT_TILE} or came within {STENCIL_CELLS} cells of "
+                                    "its left or right wall (a batch of worlds of different widths has no walls "
+                                    "between them: run it alone)")
                     continue
             if self.sim.dem is not None and len(w.bodies):
                 b = self.body_fields(w)
@@ -188,6 +192,12 @@ class BatchedSimulation:
                 if gone.any():
                     bad[w.index] = f"{int(gone.sum())} free bodies {LEFT_TILE}"
         return bad
+
+    def _beyond_tile(self, why: str) -> bool:
+        """Whether a world failed for what only the batch lacks (``stray_worlds``' reason ``why``): its
+        points left its tile without walls between the tiles (alone, its walls would have held
+        them). With walls, a world whose points leave its domain fails alone too."""
+        return LEFT_TILE in why and not self.layout.walls
 
     # -- running ----------------------------------------------------------------------------------
     def run(self, end_time: float, *, outs: list[str | Path | None] | None = None, frames: int = 20,
@@ -295,7 +305,7 @@ class BatchedSimulation:
                     failures[w.index] = (f"world {ids[w.index]}: {e}", False)
             for k, why in self.stray_worlds(fresh=False, time=t).items():
                 if k not in failures:
-                    failures[k] = (f"world {ids[k]}: {why} at t = {t:.6g} s", LEFT_TILE in why)
+                    failures[k] = (f"world {ids[k]}: {why} at t = {t:.6g} s", self._beyond_tile(why))
             if t_next is not None and not failures:
                 sim.launch_ahead(t, t_next, dt)
             times.append(t)
@@ -323,7 +333,7 @@ class BatchedSimulation:
                 except BlowUpError as e:
                     stray = self.stray_worlds()
                     for j, why in stray.items():
-                        fail(j, f"world {ids[j]}: {why}", e.time, left_tile=LEFT_TILE in why)
+                        fail(j, f"world {ids[j]}: {why}", e.time, left_tile=self._beyond_tile(why))
                     if not stray:  # (a check of the whole batch that no world can be named for)
                         for w in worlds:
                             fail(w.index, f"the batch of {len(worlds)} worlds (world {ids[w.index]} is one): {e}",

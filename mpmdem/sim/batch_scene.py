@@ -8,10 +8,15 @@ probes move with it; its points come in the combined scene contiguously and in t
 and likewise its rigid bodies and its grains. ``WorldLayout`` keeps where each world went, so
 that outputs can be split per world (``mpmdem.sim.batch_run``).
 
-Worlds stay independent only while their material stays inside their own domain: the combined
-scene has no walls between the tiles (a grid obstacle is not the same condition as a domain side),
-so a world whose points reach past its left or right side is failed and named by the batched run
-(run it alone). Top and bottom are shared: every world must have the same y range.
+Walls between the tiles (``walled``: worlds with a grid, all as many cells wide). Each tile is its
+world's lone grid (ghost nodes, domain, ghost nodes) and empty rows up to the tile's width, and the
+left and right walls of every world act on its own tile (``WallTiles``, ``kernels/tiles.py``): a
+world's material may lie against its walls as it does alone, and its wall images and clamps are
+those of its lone run. Worlds of different widths have no walls between their tiles (a grid obstacle
+is not the same condition as a domain side): they stay independent only while their material stays
+inside their own domain, so a world whose points reach past its left or right side is failed and
+named by the batched run (run it alone), and points may not start near a wall. Top and bottom are
+shared: every world must have the same y range.
 """
 
 from __future__ import annotations
@@ -25,12 +30,14 @@ import numpy as np
 import shapely.affinity
 
 from ..errors import InputError
+from ..model.boundaries import WallTiles
 from ..model.config import SolverConfig
 from ..model.scene import MPMBody, Obstacle, Scene
 from ..model.shapes import SeededPoints, Shape
+from .mpm_state import GHOST_NODES
 
 __all__ = ["World", "WorldLayout", "batch_key", "batch_refusal", "combine_scenes", "margin_cells", "side_refusal",
-           "tile_offsets"]
+           "tile_offsets", "walled"]
 
 #: empty cells between two tiles beyond the contact reach: the widest stencil (cubic B-spline,
 #: 4 nodes) plus the ghost layers a point on a side may touch (``mpm_state.GHOST_NODES``)
@@ -64,10 +71,12 @@ class World:
 
 @dataclass(frozen=True)
 class WorldLayout:
-    """The worlds of a batch, in order, and the margin between their tiles [cells]."""
+    """The worlds of a batch, in order, the margin between their tiles [cells], and whether each
+    tile has its world's walls (``walled``)."""
 
     worlds: tuple[World, ...]
     margin: int
+    walls: bool = False
 
     def world_of_point(self, p: int) -> int:
         """The world of point p (combined scene order)."""
@@ -106,13 +115,21 @@ def batch_key(scene: Scene, config: SolverConfig) -> str:
     }, sort_keys=True, default=str)
 
 
-def side_refusal(scene: Scene) -> str | None:
+def walled(scenes: list[Scene]) -> bool:
+    """Whether these worlds' tiles get their walls (the module docstring): every world has a grid,
+    is not periodic in x, and is as many cells wide as the first."""
+    if not all(s.has_mpm and s.cell_size and not s.periodic_x for s in scenes):
+        return False
+    return len({s.cell_counts[0] for s in scenes}) == 1
+
+
+def side_refusal(scene: Scene, walls: bool = False) -> str | None:
     """Why this scene cannot be a world of a batch (None when it can): x periodic (tiles would join
-    it to its neighbours), or material points starting within ``STENCIL_CELLS`` cells of a left or
-    right wall (a batch has no walls between its tiles: the wall would not hold them)."""
+    it to its neighbours), or, without walls between the tiles (``walls``), material points starting
+    within ``STENCIL_CELLS`` cells of a left or right wall (the wall would not hold them)."""
     if scene.periodic_x:
         return "it is periodic in x (tiles along x would join it to its neighbours)"
-    if not scene.has_mpm or not scene.cell_size:
+    if walls or not scene.has_mpm or not scene.cell_size:
         return None
     (x0, _), (x1, _) = scene.domain
     reach = STENCIL_CELLS * scene.cell_size
@@ -120,8 +137,8 @@ def side_refusal(scene: Scene) -> str | None:
         x = scene._seed(body).positions[:, 0]
         for side, near in (("left", x.min() - x0 < reach), ("right", x1 - x.max() < reach)):
             if near and scene.boundaries[side].kind != "free":
-                return (f"its points start within {STENCIL_CELLS} cells of its {side} wall (a batch has no walls "
-                        "between its worlds)")
+                return (f"its points start within {STENCIL_CELLS} cells of its {side} wall (a batch of worlds of "
+                        "different widths has no walls between them)")
     return None
 
 
@@ -130,8 +147,9 @@ def batch_refusal(scenes: list[Scene], configs: list[SolverConfig]) -> str | Non
     (``side_refusal``), or the first field of ``batch_key`` that differs from the first run's."""
     if not scenes:
         return "no runs to batch"
+    walls = walled(scenes)
     for k, scene in enumerate(scenes):
-        why = side_refusal(scene)
+        why = side_refusal(scene, walls)
         if why:
             return f"run {k} cannot be a world of a batch: {why}"
     first = json.loads(batch_key(scenes[0], configs[0]))
@@ -145,15 +163,30 @@ def batch_refusal(scenes: list[Scene], configs: list[SolverConfig]) -> str | Non
 
 
 def margin_cells(scenes: list[Scene], config: SolverConfig | None = None) -> int:
-    """Empty cells between two tiles: ``STENCIL_CELLS`` plus twice the widest contact reach of any
-    world (its points' contact radii, its rigid bodies' and grains' bounding radii, and the
-    point–body lists' Verlet skin, h/2 unless the config sets it; in cells), so that no contact
-    list of one world lists a body or point of another."""
+    """Empty cells between two tiles' sides: ``STENCIL_CELLS``, plus twice the widest contact reach
+    of any world (its points' contact radii, its rigid bodies' and grains' bounding radii, and the
+    point–body lists' Verlet skin, h/2 unless the config sets it), plus how far the rigid bodies
+    reach past a left and a right side (``_overhang``; in cells), so that no contact list of one
+    world lists a body or point of another."""
     h = scenes[0].cell_size
     if not h:
         return STENCIL_CELLS
     skin = (config.imp_skin if config is not None and config.imp_skin else 0.5 * h)
-    return STENCIL_CELLS + 2 * math.ceil((_reach(scenes) + skin) / h - 1e-9)
+    return STENCIL_CELLS + math.ceil((2.0 * (_reach(scenes) + skin) + _overhang(scenes)) / h - 1e-9)
+
+
+def _overhang(scenes: list[Scene]) -> float:
+    """How far [m] the rigid bodies at their start reach past their world's right side, at most,
+    plus the same past a left side (a flume's floor slab or outer wall)."""
+    left = right = 0.0
+    for s in scenes:
+        (x0, _), (x1, _) = s.domain
+        for b in s.rigid_bodies:
+            c, si = math.cos(b.angle), math.sin(b.angle)
+            x = b.position[0] + c * b.shape.vertices[:, 0] - si * b.shape.vertices[:, 1]
+            left = max(left, x0 - (float(x.min()) - b.shape.radius))
+            right = max(right, float(x.max()) + b.shape.radius - x1)
+    return left + right
 
 
 def _reach(scenes: list[Scene]) -> float:
@@ -187,12 +220,22 @@ def _body(scene: Scene, b: MPMBody, dx: float, k: int) -> MPMBody:
                                points=SeededPoints(x, pts.volumes, pts.half_sizes))
 
 
+def tile_rows(scenes: list[Scene], margin: int) -> int:
+    """Node rows of one walled tile (``walled``): the first world's lone grid, with its walls
+    ``margin`` cells from the next tile's, at least the ghost nodes of both apart."""
+    return scenes[0].cell_counts[0] + max(margin, 2 * GHOST_NODES + 1)
+
+
 def tile_offsets(scenes: list[Scene], margin: int) -> list[float]:
     """X_w [m] of each world: world 0 at 0, each next one with its left side ``margin`` cells past
     the previous tile's right side, on a grid line of the combined grid (DEM-only scenes, without
-    a grid: ``margin`` × the widest reach of a body apart)."""
+    a grid: ``margin`` × the widest reach of a body apart). Walled tiles (``walled``): world w's
+    left side w tiles (``tile_rows``) right of world 0's."""
     h = scenes[0].cell_size
     (x0, _), _ = scenes[0].domain
+    if walled(scenes):
+        rows = tile_rows(scenes, margin)
+        return [float(x0 - s.domain[0][0] + k * rows * h) for k, s in enumerate(scenes)]
     offsets, right = [], x0
     for k, scene in enumerate(scenes):
         (a, _), (b, _) = scene.domain
@@ -221,12 +264,16 @@ def combine_scenes(scenes: list[Scene], configs: list[SolverConfig], *,
     offsets = tile_offsets(scenes, margin) if offsets is None else list(offsets)
     (x0, y0), (_, y1) = first.domain
     right = max(s.domain[1][0] + dx for s, dx in zip(scenes, offsets, strict=True))
-    if h:  # (a wall side must lie on a grid line)
+    tiles = None
+    if walled(scenes):
+        tiles = _wall_tiles(scenes, offsets, tile_rows(scenes, margin))
+        right = x0 + ((tiles.count - 1) * tiles.rows + tiles.cells) * h
+    elif h:  # (a wall side must lie on a grid line)
         right = x0 + math.ceil((right - x0) / h - 1e-9) * h
     combined = Scene(domain=((x0, y0), (right, y1)), cell_size=h, gravity=first.gravity,
                      boundaries=dict(first.boundaries), gravity_ramp=first.gravity_ramp,
                      contact=first.contact, coupling_contact=first.coupling_contact,
-                     allow_initial_overlap=first.allow_initial_overlap)
+                     allow_initial_overlap=first.allow_initial_overlap, wall_tiles=tiles)
     worlds, grain_sets, n_points, n_rigid = [], [], 0, 0
     for k, (scene, dx) in enumerate(zip(scenes, offsets, strict=True)):
         bodies = [_body(scene, body, dx, k) for body in scene.bodies]
@@ -249,5 +296,21 @@ def combine_scenes(scenes: list[Scene], configs: list[SolverConfig], *,
         worlds[k][4].extend(range(start, start + len(g)))
         start += len(g)
     layout = WorldLayout(tuple(World(k, s, dx, pts, np.array(bodies, dtype=np.int64))
-                               for k, s, dx, pts, bodies in worlds), margin)
+                               for k, s, dx, pts, bodies in worlds), margin, walls=tiles is not None)
     return combined, layout
+
+
+def _wall_tiles(scenes: list[Scene], offsets: list[float], rows: int) -> WallTiles:
+    """The walled tiles of worlds at ``offsets`` [m]: each world's left side on the left wall of a
+    tile of ``rows`` node rows (tiles may stay empty: a batch started again without a failed world
+    keeps the others where they were), in increasing order. InputError otherwise."""
+    h = scenes[0].cell_size
+    (x0, _), _ = scenes[0].domain
+    slots = []
+    for k, (s, dx) in enumerate(zip(scenes, offsets, strict=True)):
+        at = (s.domain[0][0] + dx - x0) / (rows * h)
+        if abs(at - round(at)) > 1e-9 * max(1.0, at) or round(at) < 0 or (slots and round(at) <= slots[-1]):
+            raise InputError("offsets", offsets, f"world {k}'s left side on a tile's left wall, a whole number of "
+                             f"tiles ({rows} cells of {h:g} m) right of world 0's, one world a tile, in order")
+        slots.append(round(at))
+    return WallTiles(count=slots[-1] + 1, rows=rows, cells=scenes[0].cell_counts[0])

@@ -22,7 +22,7 @@ from ..model.config import SolverConfig
 from ..model.finished import Model
 from .launch_plan import Launch
 from .mpm_roles import WallFold
-from .mpm_state import wall_band
+from .mpm_state import GHOST_NODES, wall_band
 
 __all__ = ["GridEdges"]
 
@@ -58,7 +58,9 @@ class GridEdges:
         self.unfused = self.periodic or bool(self.moving)
         self.mirror_walls = any(b.kind not in ("free", "periodic") for b in scene.boundaries.values())
         # the wall images touch only the nodes near the grid's edge: their kernels run over those
-        band = wall_band(*grid_dim) if self.mirror_walls else np.zeros((1, 2), np.int32)
+        tiles = scene.wall_tiles
+        tiled = {"tile_rows": tiles.rows, "tile_end": tiles.cells + 1 + 2 * GHOST_NODES} if tiles else {}
+        band = wall_band(*grid_dim, **tiled) if self.mirror_walls else np.zeros((1, 2), np.int32)
         self.wall_band = wp.array(band, dtype=wp.vec2i, device=device)
         self.band_dim = len(band)
         self.mirror_in_g2p = mirror_in_g2p and self.mirror_walls and not self.unfused

@@ -319,7 +319,8 @@ class MPMSolver(ClockedStage):
         solid = self.G.solid.numpy()
         lo, hi = self.D.node_lo, self.D.node_hi
         inner = np.zeros(solid.shape, bool)
-        inner[lo[0]:hi[0] + 1, lo[1]:hi[1] + 1] = True
+        for first in range(0, solid.shape[0], self.D.tile_rows):  # (every tile's: kernels/tiles.py)
+            inner[first + lo[0]:first + hi[0] + 1, lo[1]:hi[1] + 1] = True
         return bool(np.any(solid[~inner] != 0))
 
     def p2g_tile(self) -> tuple:

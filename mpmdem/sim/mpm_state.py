@@ -116,14 +116,17 @@ def make_domain(scene: Model, config: SolverConfig, layers: int, min_mass: float
     g = GHOST_NODES
     h = scene.cell_size
     (x0, y0), _ = scene.domain
+    # tiles (a batch's worlds, kernels/tiles.py): the walls of tile 0, repeated every tile
+    tiles = scene.wall_tiles
+    wall_cells = tiles.cells if tiles is not None else nx
     domain = Domain()
     domain.origin = t.vec2(x0 - g * h, y0 - g * h)
     domain.h = t.scalar(h)
     domain.inv_h = t.scalar(1.0 / h)
     domain.lo = t.vec2(x0, y0)
-    domain.hi = t.vec2(x0 + nx * h, y0 + ny * h)
+    domain.hi = t.vec2(x0 + wall_cells * h, y0 + ny * h)
     domain.node_lo = wp.vec2i(g, g)
-    domain.node_hi = wp.vec2i(g + nx, g + ny)
+    domain.node_hi = wp.vec2i(g + wall_cells, g + ny)
     bcs = [scene.boundaries[s] for s in ("left", "right", "bottom", "top")]
     domain.bc_kind = wp.vec4i(*[b.kind_id for b in bcs])
     domain.bc_mu = t.vec4(*[b.friction for b in bcs])
@@ -134,18 +137,23 @@ def make_domain(scene: Model, config: SolverConfig, layers: int, min_mass: float
     domain.damping = t.scalar(config.damping)
     domain.layer_rows = nx + 1 + 2 * g
     domain.layers = layers
+    domain.tile_rows = tiles.rows if tiles is not None else domain.layer_rows
     return domain
 
 
-def wall_band(rows: int, cols: int, ghosts: int = GHOST_NODES) -> np.ndarray:
+def wall_band(rows: int, cols: int, ghosts: int = GHOST_NODES, tile_rows: int | None = None,
+              tile_end: int | None = None) -> np.ndarray:
     """(K, 2) int32: the nodes (i, j) of a layer of ``rows`` × ``cols`` nodes within 2 ``ghosts``
     nodes of its edge, each once: the ghost nodes and the interior nodes they mirror, the only
     nodes the wall images (kernels/wall_images.py: fold_ghosts, mirror_ghosts) touch. Those kernels run
     over this band instead of the whole grid (at 1M points on an H100 they cost 23 µs a step over
-    the grid, mostly threads that return at once)."""
+    the grid, mostly threads that return at once). Tiles (``WallTiles``, kernels/tiles.py): along x
+    the edges of every tile of ``tile_rows`` rows, whose lone grid ends at row ``tile_end``."""
     i, j = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
     w = 2 * ghosts
-    near = (i <= w) | (i >= rows - 1 - w) | (j <= w) | (j >= cols - 1 - w)
+    il = i % tile_rows if tile_rows else i
+    last = (tile_end if tile_rows else rows) - 1
+    near = (il <= w) | ((il >= last - w) & (il <= last)) | (j <= w) | (j >= cols - 1 - w)
     return np.stack([i[near], j[near]], axis=1).astype(np.int32)
 
 

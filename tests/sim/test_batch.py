@@ -31,10 +31,10 @@ END, FRAMES = 0.004, 2
 BATCH_WIDE = ("work_plastic", "work_boundary", "work_damping", "work_inflow", "wall_time")
 
 
-def sand_on_plate(width=0.2, speed=0.0, dx=0.0, left=0.1):
-    """A sand block on a fixed spheropolygon plate in a 0.4 × 0.3 m box (coupled: points and a body),
-    all moved dx along x."""
-    scene = m.Scene(domain=((dx, 0.0), (0.4 + dx, 0.3)), cell_size=0.02, gravity=(0.0, -10.0),
+def sand_on_plate(width=0.2, speed=0.0, dx=0.0, left=0.1, box=0.4):
+    """A sand block on a fixed spheropolygon plate in a ``box`` × 0.3 m box (coupled: points and a
+    body), all moved dx along x."""
+    scene = m.Scene(domain=((dx, 0.0), (box + dx, 0.3)), cell_size=0.02, gravity=(0.0, -10.0),
                     contact=m.ContactLaw(1e5, restitution=0.5),
                     boundaries={"left": "slip", "right": "slip", "bottom": "slip", "top": "free"})
     scene.add_mpm_body(m.rectangle(left + dx, 0.08, left + width + dx, 0.16),
@@ -138,10 +138,12 @@ def test_a_blow_up_fails_its_world_only(tmp_path):
 
 
 def test_a_world_reaching_its_side_wall_is_stopped_and_marked(tmp_path):
-    """World 1's sand slides right at 20 m/s: within 0.004 s it comes within 4 cells of its right
-    wall, which the batch does not model, so the world is stopped (marked for a lone run); world 0
-    completes bit for bit as alone (fixed dt: the restart without world 1 changes nothing in it)."""
-    b = BatchedSimulation([sand_on_plate(), sand_on_plate(0.15, speed=20.0)], CONFIG, device="cpu")
+    """Worlds of different widths (0.4 and 0.38 m) have no walls between their tiles. World 1's sand
+    slides right at 20 m/s: within 0.004 s it comes within 4 cells of its right wall, which the
+    batch does not model, so the world is stopped (marked for a lone run); world 0 completes bit for
+    bit as alone (fixed dt: the restart without world 1 changes nothing in it)."""
+    b = BatchedSimulation([sand_on_plate(), sand_on_plate(0.15, speed=20.0, box=0.38)], CONFIG, device="cpu")
+    assert not b.layout.walls
     results = b.run(END, frames=FRAMES)
     assert results[1].status == "blown-up" and results[1].extra["left_tile"]
     assert "within 4 cells of its left or right wall" in results[1].message
@@ -157,10 +159,12 @@ def test_runs_that_cannot_share_a_grid_are_refused():
     assert reason.startswith("run 1 differs from run 0 in gravity")
     with pytest.raises(InputError, match="runs that can share one grid: run 1 differs from run 0 in config"):
         combine_scenes([sand_on_plate(), sand_on_plate()], [CONFIG, SolverConfig(precision="f32")])
-    # sand against its left wall: the wall would not hold it in a batch (no walls between tiles)
-    reason = batch_refusal([sand_on_plate(), sand_on_plate(left=0.0)], [CONFIG, CONFIG])
+    # sand against its left wall in a world of another width: no walls between the tiles to hold it
+    reason = batch_refusal([sand_on_plate(), sand_on_plate(left=0.0, box=0.42)], [CONFIG, CONFIG])
     assert reason == ("run 1 cannot be a world of a batch: its points start within 4 cells of its left wall "
-                      "(a batch has no walls between its worlds)")
+                      "(a batch of worlds of different widths has no walls between them)")
+    # worlds of one width: each tile has its walls
+    assert batch_refusal([sand_on_plate(), sand_on_plate(left=0.0)], [CONFIG, CONFIG]) is None
 
 
 def test_study_batches_runs_of_one_key_and_says_how(tmp_path, capsys):
@@ -196,19 +200,120 @@ def test_groups_gather_runs_of_one_key():
 
 
 def test_study_runs_a_world_that_reached_its_wall_again_alone(tmp_path):
-    """Two sliding blocks batched: the one at 20 m/s nears its right wall in the batch, so the study
-    runs it again alone (the wall then holds it); the one at rest keeps its batched row, and both
-    rows equal their lone runs (the reference: world 0 bit for bit, the rerun is a lone run)."""
+    """Sliding blocks in boxes of two widths batched (no walls between the tiles): the two at 20 m/s
+    near their right walls in the batch, so the study runs them again alone (the wall then holds
+    them); the two at rest keep their batched rows, and every row equals its lone run (the
+    reference: world 0 bit for bit, world 1 to round-off, the reruns are lone runs)."""
+    from mpmdem.study.study import Study, run_study
+
+    study = Study("slide", "study_sliding_case", grid={"--speed": [0.0, 20.0], "--box": [0.4, 0.38]})
+    alone = run_study(study, tmp_path / "alone", workers=0, device="cpu", progress=False, batch=1)
+    batched = run_study(study, tmp_path / "batched", workers=0, device="cpu", progress=False, batch=4)
+    assert [r["status"] for r in batched] == ["completed"] * 4
+    assert [r.get("batch_note") for r in batched] == [None, None] + ["ran alone: it reached its side in the batch"] * 2
+    assert [r.get("batch_world") for r in batched[:2]] == [0, 1]
+    for a, b in zip(alone, batched, strict=True):
+        assert b["right_edge"] == pytest.approx(a["right_edge"], rel=1e-9, abs=1e-12)
+        assert b["low_mass"] == pytest.approx(a["low_mass"], rel=1e-9)
+    assert [(a["right_edge"], a["low_mass"]) for a in alone[::2]] == [(b["right_edge"], b["low_mass"])
+                                                                       for b in batched[::2]]
+
+
+def test_study_batch_with_walls_holds_a_world_at_its_wall(tmp_path):
+    """The same two blocks in boxes of one width: each tile has its world's walls, so the block at
+    20 m/s stays in the batch and both rows equal their lone runs (world 0 bit for bit, world 1 to
+    round-off), with no lone rerun."""
     from mpmdem.study.study import Study, run_study
 
     study = Study("slide", "study_sliding_case", grid={"--speed": [0.0, 20.0]})
     alone = run_study(study, tmp_path / "alone", workers=0, device="cpu", progress=False, batch=1)
     batched = run_study(study, tmp_path / "batched", workers=0, device="cpu", progress=False, batch=2)
     assert [r["status"] for r in batched] == ["completed", "completed"]
-    assert batched[0]["batch_world"] == 0 and "batch_note" not in batched[0]
-    assert batched[1]["batch_note"] == "ran alone: it reached its side in the batch"
-    for a, b in zip(alone, batched, strict=True):
-        assert (a["right_edge"], a["low_mass"]) == (b["right_edge"], b["low_mass"])
+    assert [(r.get("batch_world"), r.get("batch_note")) for r in batched] == [(0, None), (1, None)]
+    assert (alone[0]["right_edge"], alone[0]["low_mass"]) == (batched[0]["right_edge"], batched[0]["low_mass"])
+    assert batched[1]["right_edge"] == pytest.approx(alone[1]["right_edge"], rel=1e-9)
+    assert batched[1]["low_mass"] == pytest.approx(alone[1]["low_mass"], rel=1e-9)
+
+
+#: granular mode with quadratic B-splines (the block-impact case's scheme): wall images on every wall
+GRANULAR = SolverConfig(precision="f64", dt=2.0e-5, granular=True, shape="bspline2")
+
+
+@pytest.fixture(scope="module")
+def walled(tmp_path_factory):
+    """Two worlds of one width, sand against their walls: world 0 against its left wall, world 1
+    pressed into its right wall at 5 m/s."""
+    scenes = [sand_on_plate(left=0.0), sand_on_plate(0.2, speed=5.0, left=0.2)]
+    b = BatchedSimulation(scenes, GRANULAR, device="cpu")
+    return b, b.run(END, frames=FRAMES)
+
+
+def test_walled_tiles_are_the_worlds_lone_grids(walled):
+    """Each tile is its world's lone grid and empty rows: tile width at least the lone grid's nodes,
+    walls of tile 0 where the lone run has them, world 1 a whole number of tiles along."""
+    b, _ = walled
+    tiles = b.combined.wall_tiles
+    assert b.layout.walls and tiles.count == 2 and tiles.cells == 20
+    assert tiles.rows >= 20 + 1 + 2 * 3
+    assert b.worlds[1].offset == pytest.approx(tiles.rows * 0.02, rel=1e-12)
+    assert b.combined.domain[1][0] == pytest.approx((tiles.rows + 20) * 0.02, rel=1e-12)
+
+
+def test_walled_world_zero_is_its_lone_run_bit_for_bit(walled):
+    """World 0's sand lies against its left wall (wall images, clamp): bit for bit its lone run."""
+    b, results = walled
+    lone = Simulation(sand_on_plate(left=0.0), GRANULAR, device="cpu")
+    ref = lone.run(END, frames=FRAMES)
+    assert results[0].status == "completed"
+    for key, values in ref.diagnostics.items():
+        # (the world's own sums; counters such as list rebuilds and components are the batch's)
+        if key.startswith(("energy", "momentum", "mass", "points_", "bodies_", "work_imp")):
+            assert np.array_equal(values, results[0].diagnostics[key]), key
+    for key, values in lone.fields().items():
+        assert np.array_equal(values, b.view(0).fields()[key]), key
+
+
+def test_walled_world_one_is_held_by_its_own_wall(walled):
+    """World 1's sand is pushed into its right wall: its tile's wall holds it as its lone run's does
+    (no point past x = 0.4 m in its own coordinates), and it matches that lone run to round-off (the
+    scales of test_world_one_matches_its_lone_run_to_round_off)."""
+    b, results = walled
+    lone = Simulation(sand_on_plate(0.2, speed=5.0, left=0.2), GRANULAR, device="cpu")
+    ref = lone.run(END, frames=FRAMES)
+    assert results[1].status == "completed"
+    f, rf = b.view(1).fields(), lone.fields()
+    # (free flight would carry the outer points 2 cm past the wall, to x = 0.415 m)
+    assert f["x"][:, 0].max() < 0.4 and rf["x"][:, 0].max() < 0.4
+    np.testing.assert_allclose(f["x"], rf["x"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(f["v"], rf["v"], rtol=0, atol=1e-9)
+    scale = np.abs(ref.diagnostics["energy_gravity"]).max()
+    for key in ("energy_kinetic", "energy_strain", "energy_contact"):
+        np.testing.assert_allclose(results[1].diagnostics[key], ref.diagnostics[key], rtol=0, atol=1e-9 * scale,
+                                   err_msg=key)
+
+
+def test_walled_world_one_alone_in_the_batch_grid_is_bit_for_bit(walled):
+    """World 1 alone on the batch's grid (its tile, tile 0 left empty): bit for bit the batch's
+    world 1, so nothing of world 0 reaches it across the walls."""
+    b, results = walled
+    alone, layout = combine_scenes([sand_on_plate(0.2, speed=5.0, left=0.2)], [GRANULAR],
+                                   offsets=[b.worlds[1].offset])
+    assert alone.wall_tiles == b.combined.wall_tiles and alone.domain == b.combined.domain
+    sim = Simulation(alone, GRANULAR, device="cpu")
+    sim.run(END, frames=FRAMES)
+    rf = sim.fields()
+    f = b.view(1).fields()
+    rf["x"][:, 0] -= b.worlds[1].offset
+    for key, values in rf.items():
+        assert np.array_equal(values, f[key]), key
+
+
+def test_walled_offsets_must_sit_on_tiles():
+    """A world given an offset off its tile's left wall is refused, naming the tile width."""
+    scenes = [sand_on_plate(), sand_on_plate()]
+    _, layout = combine_scenes(scenes, [CONFIG, CONFIG])
+    with pytest.raises(InputError, match="a whole number of tiles"):
+        combine_scenes(scenes, [CONFIG, CONFIG], offsets=[0.0, layout.worlds[1].offset + 0.02])
 
 
 def test_every_part_of_a_world_moves_with_it():
@@ -250,17 +355,22 @@ def test_batch_on_cuda_matches_lone_runs():
     """On a GPU (f32, CUDA graphs): each world of a batch against its lone run. GPU atomics sum in no
     fixed order, so two lone runs differ too: f32 round-off (1e-7) grown over 200 steps of a
     dissipative flow; 1e-4 of the potential energy in play and of the mass bounds that."""
-    config = SolverConfig(precision="f32", dt=2.0e-5)
-    b = BatchedSimulation([sand_on_plate(), sand_on_plate(0.15)], config, device="cuda")
-    results = b.run(END, frames=FRAMES)
-    for k, width in enumerate((0.2, 0.15)):
-        ref = Simulation(sand_on_plate(width), config, device="cuda").run(END, frames=FRAMES).diagnostics
-        d = results[k].diagnostics
-        assert results[k].status == "completed"
-        scale = np.abs(ref["energy_gravity"]).max()
-        for key in ("energy_kinetic", "energy_strain", "energy_gravity", "energy_contact"):
-            np.testing.assert_allclose(d[key], ref[key], rtol=0, atol=1e-4 * scale, err_msg=key)
-        np.testing.assert_allclose(d["mass_low"], ref["mass_low"], rtol=0, atol=1e-4 * ref["mass"][0])
+    kinds = {"plain": (SolverConfig(precision="f32", dt=2.0e-5), [{}, {"width": 0.15}]),
+             # granular, B-splines, sand against the walls of both tiles (test_walled_*)
+             "walled": (SolverConfig(precision="f32", dt=2.0e-5, granular=True, shape="bspline2"),
+                        [{"left": 0.0}, {"width": 0.2, "speed": 5.0, "left": 0.2}])}
+    for name, (config, worlds) in kinds.items():
+        b = BatchedSimulation([sand_on_plate(**w) for w in worlds], config, device="cuda")
+        assert b.layout.walls
+        results = b.run(END, frames=FRAMES)
+        for k, world in enumerate(worlds):
+            ref = Simulation(sand_on_plate(**world), config, device="cuda").run(END, frames=FRAMES).diagnostics
+            d = results[k].diagnostics
+            assert results[k].status == "completed", (name, results[k].message)
+            scale = np.abs(ref["energy_gravity"]).max()
+            for key in ("energy_kinetic", "energy_strain", "energy_gravity", "energy_contact"):
+                np.testing.assert_allclose(d[key], ref[key], rtol=0, atol=1e-4 * scale, err_msg=f"{name} {key}")
+            np.testing.assert_allclose(d["mass_low"], ref["mass_low"], rtol=0, atol=1e-4 * ref["mass"][0])
 
 
 def test_a_failure_of_the_whole_batch_marks_every_world_for_a_lone_run(tmp_path):
