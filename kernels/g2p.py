@@ -80,6 +80,7 @@ def make_g2p(
     NC = CORNERS.get(shape, 1)
     mirrored_source = make_mirrored_source(layered)
     tile_walls = make_tiles(precision).walls
+    point_row = make_tiles(precision).row
     Particles, Grid, Domain = make_state_structs(precision)
     stencil, contribution, on_grid = make_stencil(shape, precision)
     point_on_grid = make_point_on_grid(shape, precision)
@@ -151,7 +152,8 @@ def make_g2p(
                 if P.release[p] > wp.float64(0.0):
                     vp = P.v[p]
                     e = P.mass[p] * (T(0.5) * wp.dot(vp, vp) - wp.dot(D.gravity, P.x[p]))
-                    wp.atomic_add(work, work_slot(WORK_INFLOW, p, 0), wp.float64(e))
+                    wp.atomic_add(work, work_slot(WORK_INFLOW, point_row(D, P.x[p][0]), p * 7, D.tile_rows,
+                                                  D.layer_rows), wp.float64(e))
                 P.release[p] = wp.float64(-1.0)
         if not point_on_grid(P, D, G, p):
             return  # escaped (or non-finite) point: skipped here, flagged by the status check
@@ -293,7 +295,8 @@ def make_g2p(
             diss, vol = point_update(P, p, materials[P.material[p]], L, dt * T(stress_dt))
             if wp.static(dissipative):
                 if diss != wp.float64(0.0):
-                    wp.atomic_add(work, work_slot(WORK_PLASTIC, p, 0), diss)
+                    wp.atomic_add(work, work_slot(WORK_PLASTIC, point_row(D, P.x[p][0]), p * 7, D.tile_rows,
+                                                  D.layer_rows), diss)
         if wp.static(position):
             # the kernel that moves the points is the last of the step: it also gathers the
             # CFL speed for the next step and flags non-finite or escaped points

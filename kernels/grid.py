@@ -113,8 +113,13 @@ GRID_UPDATE_REGISTERS = 32
 
 
 @wp.func
-def work_slot(term: int, i: int, j: int) -> int:
-    return term * WORK_SLOTS + (i * 7 + j) % WORK_SLOTS
+def work_slot(term: int, row: int, key: int, tile_rows: int, layer_rows: int) -> int:
+    """Address in the works array of a contribution to term ``term`` from node row ``row`` (a point:
+    the row it lies on), spread by ``key``: the term's WORK_SLOTS are shared evenly by the grid's
+    tiles (kernels/tiles.py), each tile's contributions in its own share, so that a batch's works
+    sum per world (one tile: the whole term)."""
+    per = WORK_SLOTS // ((layer_rows + tile_rows - 1) // tile_rows)
+    return term * WORK_SLOTS + (row // tile_rows) * per + key % per
 
 
 @functools.cache
@@ -209,8 +214,9 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     dirichlet = make_boundary(precision, bilateral_only=True, moving=moving)
 
     @wp.func
-    def push(work: wp.array(dtype=wp.float64), wall: int, axis: int, i: int, j: int, value: T):
-        wp.atomic_add(work, work_slot(IMPULSE_BASE + 2 * wall + axis, i, j), wp.float64(value))
+    def push(work: wp.array(dtype=wp.float64), D: Domain, wall: int, axis: int, i: int, j: int, value: T):
+        wp.atomic_add(work, work_slot(IMPULSE_BASE + 2 * wall + axis, i, i * 7 + j, D.tile_rows, D.layer_rows),
+                      wp.float64(value))
 
     @wp.func
     def wall_work(v: t.vec2, vb: t.vec2, m: T, D: Domain, G: Grid, i: int, j: int,
@@ -219,12 +225,13 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
         # zero for fixed and slip walls, negative for a sliding Coulomb wall. At obstacle nodes the
         # opposite impulse −m Δv is what the material exerts on the obstacle (a load cell's reading).
         if vb[0] != v[0] or vb[1] != v[1]:
-            wp.atomic_add(work, work_slot(0, i, j), wp.float64(m * wp.dot(vb - v, vb)))
+            wp.atomic_add(work, work_slot(0, i, i * 7 + j, D.tile_rows, D.layer_rows),
+                          wp.float64(m * wp.dot(vb - v, vb)))
             if wp.static(obstacles):
                 if G.solid[i, j] != 0:
                     on_obstacle = m * (v - vb)
-                    push(work, 0, 0, i, j, on_obstacle[0])
-                    push(work, 0, 1, i, j, on_obstacle[1])
+                    push(work, D, 0, 0, i, j, on_obstacle[0])
+                    push(work, D, 0, 1, i, j, on_obstacle[1])
         return vb
 
     @wp.func
@@ -316,7 +323,9 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
                 if v[1] == T(0.0):
                     fd = t.vec2(fd[0], T(0.0))
                 f = f + fd
-                wp.atomic_add(work, work_slot(1, i, j), wp.float64(wp.dot(fd, v) * dt))
+                # (row i holds a copy of node row ib in granular mode)
+                wp.atomic_add(work, work_slot(1, ib, i * 7 + j, D.tile_rows, D.layer_rows),
+                              wp.float64(wp.dot(fd, v) * dt))
             # Ṽ = V + a Δt, a = f/m + g ("Motion integration" eq. 28; "MPM notes" steps 5-7)
             G.vt[i, j] = constrain(v + dt * f * inv_m, m, D, G, ib, j, work)
 

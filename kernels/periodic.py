@@ -154,7 +154,7 @@ def make_wrap_point(precision: str):
         x_out = P.x[p]
         x_in = wrap_x(x_out, D)
         if x_in[0] != x_out[0]:
-            wp.atomic_add(work, work_slot(WORK_INFLOW, p, 0),
+            wp.atomic_add(work, work_slot(WORK_INFLOW, 0, p * 7, D.tile_rows, D.layer_rows),  # (one tile)
                           wp.float64(P.mass[p]) * wp.float64(D.gravity[0]) * wp.float64(x_out[0] - x_in[0]))
             P.x[p] = x_in
 

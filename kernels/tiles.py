@@ -29,7 +29,8 @@ def make_tiles(precision: str):
     """``walls(D, i) -> (lo, hi, first, end)``: the wall node indices (vec2i, x shifted to the tile
     of node row i), and the tile's first row and one past its last (within the grid);
     ``shift(D, x) -> s``: the x shift [m] of the walls of the tile that holds x-position x [m]
-    (0 left of the grid, the last tile's right of it)."""
+    (0 left of the grid, the last tile's right of it); ``row(D, x)``: the node row at or left of x
+    (clamped to the grid)."""
     t = scalar_types(precision)
     T = t.scalar
     Domain = make_state_structs(precision)[2]
@@ -42,9 +43,11 @@ def make_tiles(precision: str):
         return lo, hi, first, wp.min(first + D.tile_rows, D.layer_rows)
 
     @wp.func
-    def shift(D: Domain, x: T):
-        row = int(wp.floor((x - D.origin[0]) * D.inv_h))
-        first = tile_first(wp.clamp(row, 0, D.layer_rows - 1), D.tile_rows)
-        return T(first) * D.h
+    def row(D: Domain, x: T):
+        return wp.clamp(int(wp.floor((x - D.origin[0]) * D.inv_h)), 0, D.layer_rows - 1)
 
-    return Namespace(walls=walls, shift=shift)
+    @wp.func
+    def shift(D: Domain, x: T):
+        return T(tile_first(row(D, x), D.tile_rows)) * D.h
+
+    return Namespace(walls=walls, shift=shift, row=row)

@@ -30,14 +30,15 @@ import numpy as np
 import shapely.affinity
 
 from ..errors import InputError
+from ..kernels.grid import WORK_SLOTS
 from ..model.boundaries import WallTiles
 from ..model.config import SolverConfig
 from ..model.scene import MPMBody, Obstacle, Scene
 from ..model.shapes import SeededPoints, Shape
 from .mpm_state import GHOST_NODES
 
-__all__ = ["World", "WorldLayout", "batch_key", "batch_refusal", "combine_scenes", "margin_cells", "side_refusal",
-           "tile_offsets", "walled"]
+__all__ = ["World", "WorldLayout", "batch_key", "batch_refusal", "combine_scenes", "group_key", "margin_cells",
+           "side_refusal", "tile_offsets", "walled"]
 
 #: empty cells between two tiles beyond the contact reach: the widest stencil (cubic B-spline,
 #: 4 nodes) plus the ghost layers a point on a side may touch (``mpm_state.GHOST_NODES``)
@@ -54,6 +55,7 @@ class World:
         offset: X_w [m], its translation along x.
         points: its points in the combined scene's point order (a slice).
         bodies: indices of its DEM bodies in the combined scene's body order (rigid bodies, then grains).
+        tile: its tile (walled tiles, ``WallTiles``), None without walls between the tiles.
     """
 
     index: int
@@ -61,6 +63,7 @@ class World:
     offset: float
     points: slice
     bodies: np.ndarray
+    tile: int | None = None
 
     @property
     def domain(self) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -140,6 +143,16 @@ def side_refusal(scene: Scene, walls: bool = False) -> str | None:
                 return (f"its points start within {STENCIL_CELLS} cells of its {side} wall (a batch of worlds of "
                         "different widths has no walls between them)")
     return None
+
+
+def group_key(scene: Scene, config: SolverConfig) -> str | None:
+    """What a study groups runs by for batching (None: the run goes alone, ``side_refusal`` even with
+    walls): ``batch_key``, and for a scene whose material starts near its left or right wall also its
+    width in cells, so that it shares a grid only with worlds of its width (whose tiles get walls)."""
+    if side_refusal(scene, walls=True):
+        return None
+    key = batch_key(scene, config)
+    return key + f" | walled tiles of {scene.cell_counts[0]} cells" if side_refusal(scene) else key
 
 
 def batch_refusal(scenes: list[Scene], configs: list[SolverConfig]) -> str | None:
@@ -264,9 +277,9 @@ def combine_scenes(scenes: list[Scene], configs: list[SolverConfig], *,
     offsets = tile_offsets(scenes, margin) if offsets is None else list(offsets)
     (x0, y0), (_, y1) = first.domain
     right = max(s.domain[1][0] + dx for s, dx in zip(scenes, offsets, strict=True))
-    tiles = None
+    tiles, slots = None, [None] * len(scenes)
     if walled(scenes):
-        tiles = _wall_tiles(scenes, offsets, tile_rows(scenes, margin))
+        tiles, slots = _wall_tiles(scenes, offsets, tile_rows(scenes, margin))
         right = x0 + ((tiles.count - 1) * tiles.rows + tiles.cells) * h
     elif h:  # (a wall side must lie on a grid line)
         right = x0 + math.ceil((right - x0) / h - 1e-9) * h
@@ -295,15 +308,16 @@ def combine_scenes(scenes: list[Scene], configs: list[SolverConfig], *,
         combined.grains.append(g)
         worlds[k][4].extend(range(start, start + len(g)))
         start += len(g)
-    layout = WorldLayout(tuple(World(k, s, dx, pts, np.array(bodies, dtype=np.int64))
+    layout = WorldLayout(tuple(World(k, s, dx, pts, np.array(bodies, dtype=np.int64), slots[k])
                                for k, s, dx, pts, bodies in worlds), margin, walls=tiles is not None)
     return combined, layout
 
 
-def _wall_tiles(scenes: list[Scene], offsets: list[float], rows: int) -> WallTiles:
-    """The walled tiles of worlds at ``offsets`` [m]: each world's left side on the left wall of a
-    tile of ``rows`` node rows (tiles may stay empty: a batch started again without a failed world
-    keeps the others where they were), in increasing order. InputError otherwise."""
+def _wall_tiles(scenes: list[Scene], offsets: list[float], rows: int) -> tuple[WallTiles, list[int]]:
+    """The walled tiles of worlds at ``offsets`` [m], and each world's tile: each world's left side on
+    the left wall of a tile of ``rows`` node rows (tiles may stay empty: a batch started again
+    without a failed world keeps the others where they were), in increasing order, at most
+    ``kernels.grid.WORK_SLOTS`` tiles (the works' slots are shared by the tiles). InputError otherwise."""
     h = scenes[0].cell_size
     (x0, _), _ = scenes[0].domain
     slots = []
@@ -313,4 +327,6 @@ def _wall_tiles(scenes: list[Scene], offsets: list[float], rows: int) -> WallTil
             raise InputError("offsets", offsets, f"world {k}'s left side on a tile's left wall, a whole number of "
                              f"tiles ({rows} cells of {h:g} m) right of world 0's, one world a tile, in order")
         slots.append(round(at))
-    return WallTiles(count=slots[-1] + 1, rows=rows, cells=scenes[0].cell_counts[0])
+    if slots[-1] + 1 > WORK_SLOTS:
+        raise InputError("batch", f"{slots[-1] + 1} tiles", f"at most {WORK_SLOTS} tiles (worlds) in one grid")
+    return WallTiles(count=slots[-1] + 1, rows=rows, cells=scenes[0].cell_counts[0]), slots

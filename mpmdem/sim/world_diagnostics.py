@@ -5,10 +5,12 @@ Per world and exact (on the CPU, bit for bit the lone run's for world 0: the sam
 world's points, in the same relative order): the points' energies (kinetic, strain, gravity),
 momenta, mass and mass probes. Per world to round-off (host sums in float64): the free bodies'
 and grains' energies, momenta and mass, their contact energy, the point–body contact energy and
-its damping and friction works, the bodies' mass probes. Batch-wide (the sum over every world,
-as the device reduces it): the grid's works (walls, damping, plasticity, inflow), the forces on
-obstacles, the DEM bodies' dissipated works, list rebuilds and counters, granular components and
-layers, and dt (one step for the whole batch).
+its damping and friction works, the bodies' mass probes, the DEM bodies' dissipated works and the
+work of driven bodies. Per world to round-off with walled tiles (``World.tile``: each tile's
+contributions in its own share of the works' slots, ``kernels.grid.work_slot``), else batch-wide:
+the grid's works (walls, damping, plasticity, inflow) and the forces on obstacles. Batch-wide (the
+sum over every world, as the device reduces it): list rebuilds and counters, granular components
+and layers, and dt (one step for the whole batch).
 
 Translation: x is shifted back by the world's offset X, so the angular momentum about the origin
 and a gravity with an x component are corrected (Σ m ((x − X) v_y − y v_x) = L − X Σ m v_y).
@@ -20,6 +22,7 @@ import numpy as np
 import warp as wp
 
 from ..kernels import dem as dem_kernels
+from ..kernels import grid as grid_kernels
 from ..kernels import reductions as reduction_kernels
 from .batch_scene import World
 
@@ -51,6 +54,8 @@ class WorldPoints:
         self.mpm = mpm
         self._struct = None
         self._pid_seen = None
+        #: (t [s], impulses on the world's obstacles [N s/m]) at its last frame (``tile_works``)
+        self.impulse_mark = (0.0, np.zeros_like(mpm.impulse_mark[1]))
 
     def struct(self):
         """The world's ``Particles``: slices of the stage's arrays (a re-sort keeps each world's
@@ -90,6 +95,26 @@ def point_sums(mpm, wpts: WorldPoints, world: World) -> dict[str, float]:
     return out
 
 
+def tile_works(mpm, wpts: WorldPoints, world: World, host: HostArrays) -> dict[str, float]:
+    """The grid's works [J/m] and the forces on the obstacles [N/m] of one world's tile (walled tiles:
+    ``kernels.grid.work_slot`` gives each tile its share of every term's slots), as
+    ``diagnostics.point_diagnostics`` names them; the force is the impulse since the world's last
+    frame (``WorldPoints.impulse_mark``) over the time since then."""
+    sums = host("work", mpm.work).reshape(-1, grid_kernels.WORK_SLOTS)
+    per = grid_kernels.WORK_SLOTS // mpm.model.wall_tiles.count
+    sums = sums[:, world.tile * per:(world.tile + 1) * per].sum(axis=1)
+    out = {name: float(w) for name, w in zip(grid_kernels.WORK_TERMS, sums, strict=False)}
+    impulse = sums[grid_kernels.IMPULSE_BASE:]
+    t_now = mpm.sim_clock.time
+    t_prev, i_prev = wpts.impulse_mark
+    span = t_now - t_prev
+    force = (impulse - i_prev) / span if span > 0.0 else np.zeros_like(impulse)
+    for k, wall in enumerate(grid_kernels.WALLS if world.scene.obstacles else ()):
+        out[f"force_{wall}_x"], out[f"force_{wall}_y"] = float(force[2 * k]), float(force[2 * k + 1])
+    wpts.impulse_mark = (t_now, impulse)
+    return out
+
+
 def imp_sums(coupling, wpts: WorldPoints, host: HostArrays) -> dict[str, float]:
     """The point–body contact energy [J/m] and its damping and friction works of one world's points."""
     L = coupling.L
@@ -101,6 +126,7 @@ def imp_sums(coupling, wpts: WorldPoints, host: HostArrays) -> dict[str, float]:
 
 def body_sums(dem, world: World, host: HostArrays) -> dict[str, float]:
     """Energies [J/m], momenta and mass of one world's free bodies and grains, their contact energy,
+    the works of its contacts' damping and friction and of its driven bodies (``DEMSolver.WORK_TERMS``),
     and ``mass_<probe>`` of its free bodies (float64 sums on the host)."""
     B, C = dem.B, dem.C
     scene_of_device = dem.order
@@ -113,11 +139,17 @@ def body_sums(dem, world: World, host: HostArrays) -> dict[str, float]:
     m, inertia, v, w, xf = m[free], inertia[free], v[free], w[free], x[free]
     g = np.asarray(world.scene.gravity)
     energy = host("C.energy", C.energy).reshape(-1, C.slots)[idx].astype(float).sum()
+    # (what the diagnostics kernel sums: each body's dissipation in its slots and folded at rebuilds)
+    lost = (host("C.dissipated", C.dissipated).reshape(-1, C.slots, 2)[idx].sum(axis=(0, 1))
+            + host("C.body_dissipated", C.body_dissipated)[idx].sum(axis=0))
+    work = host("B.work", B.work)[idx]
+    driven = float(work[~free].sum() + (work[free].sum() if dem.model.periodic_x else 0.0))
     out = {"energy_kinetic": float(0.5 * (m * (v ** 2).sum(1) + inertia * w * w).sum()),
            "energy_gravity": float(-(m * (xf @ g)).sum()), "energy_contact": float(energy),
            "momentum_x": float((m * v[:, 0]).sum()), "momentum_y": float((m * v[:, 1]).sum()),
            "momentum_angular": float((m * (xf[:, 0] * v[:, 1] - xf[:, 1] * v[:, 0]) + inertia * w).sum()),
-           "mass": float(m.sum())}
+           "mass": float(m.sum()), "work_contact_damping": -float(lost[0]),
+           "work_contact_friction": -float(lost[1]), "work_driven": driven}
     for p in world.scene.mass_probes:
         inside = ((xf[:, 0] >= p.lo[0]) & (xf[:, 1] >= p.lo[1]) & (xf[:, 0] < p.hi[0]) & (xf[:, 1] < p.hi[1]))
         out[f"mass_{p.name}"] = float(m[inside].sum())
@@ -132,6 +164,8 @@ def world_diagnostics(sim, world: World, wpts: WorldPoints | None, batch: dict[s
     host = host if host is not None else HostArrays()
     d = {k: v for k, v in batch.items() if not k.startswith("mass_")}
     m = point_sums(sim.mpm, wpts, world) if sim.mpm is not None else None
+    if m is not None and world.tile is not None:
+        m.update(tile_works(sim.mpm, wpts, world, host))
     b = body_sums(sim.dem, world, host) if sim.dem is not None else None
     if m is not None and b is not None:
         imp = imp_sums(sim.coupling, wpts, host)
@@ -143,6 +177,7 @@ def world_diagnostics(sim, world: World, wpts: WorldPoints | None, batch: dict[s
         d["energy_contact_points"] = imp["energy_imp"]
         d["energy_contact"] = b["energy_contact"] + imp["energy_imp"]
         d["energy_total"] = d["energy_kinetic"] + d["energy_gravity"] + d["energy_strain"] + d["energy_contact"]
+        d.update({k: b[k] for k in ("work_contact_damping", "work_contact_friction", "work_driven")})
         d["work_imp_damping"] = -imp["dissipated_imp_damping"]
         d["work_imp_friction"] = -imp["dissipated_imp_friction"]
         d.update({k: m[k] + b[k] for k in m if k.startswith("mass_")})

@@ -46,7 +46,7 @@ def run_keys(case: str, runs: list, out: str, budget: float = 20.0) -> list | No
     build itself simulates (the case's optional ``costly_build(args)`` says so: grains settled behind
     a gate) or building them takes longer than ``budget`` [s]: the groups are then cut in grid order
     and the workers find the keys."""
-    from ..sim.batch_scene import batch_key, side_refusal
+    from ..sim.batch_scene import group_key
 
     module = load_case(case)
     if hasattr(module, "VARIANTS"):
@@ -68,7 +68,8 @@ def run_keys(case: str, runs: list, out: str, budget: float = 20.0) -> list | No
         try:
             with contextlib.redirect_stderr(io.StringIO()):
                 _, setup, config, end, frames = _prepare(module, run, str(Path(out) / "runs" / run.id))
-            keys.append(None if side_refusal(setup.scene) else (batch_key(setup.scene, config), end, frames))
+            key = group_key(setup.scene, config)
+            keys.append(None if key is None else (key, end, frames))
         except Exception:  # (the run's own path reports it)
             keys.append(None)
     return keys
@@ -87,7 +88,7 @@ def _prepare(module, run, run_dir: str):
 
 def execute_batch(case: str, runs: list, out: str, device: str | None) -> list[dict]:
     """The rows of ``runs`` (``study.Run``s; folders ``out/runs/<id>``), batched where they can be."""
-    from ..sim.batch_scene import batch_key, side_refusal
+    from ..sim.batch_scene import group_key
 
     module = load_case(case)
     folders = {r.id: str(Path(out) / "runs" / r.id) for r in runs}
@@ -105,10 +106,11 @@ def execute_batch(case: str, runs: list, out: str, device: str | None) -> list[d
     for run in runs:
         if run.id in prepared:
             _, setup, config, end, frames = prepared[run.id]
-            if side_refusal(setup.scene):
+            key = group_key(setup.scene, config)
+            if key is None:
                 alone.append(run)
                 continue
-            groups.setdefault((batch_key(setup.scene, config), end, frames), []).append(run)
+            groups.setdefault((key, end, frames), []).append(run)
     rows = []
     for group in groups.values():
         if len(group) == 1:

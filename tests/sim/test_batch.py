@@ -292,6 +292,24 @@ def test_walled_world_one_is_held_by_its_own_wall(walled):
                                    err_msg=key)
 
 
+@pytest.mark.parametrize("k", [0, 1])
+def test_walled_worlds_works_are_their_own(walled, k):
+    """With walls between the tiles each world's works (the grid's: walls, plasticity, damping,
+    inflow; the contacts'; the DEM's) and its energy balance are its lone run's, to round-off: each
+    tile sums into its own share of the works' slots, in another order than the lone run's (1e-9 of
+    world 1's initial kinetic energy, 300 J/m). World 1's sand dissipates a quarter of it in
+    plastic work, world 0's (at rest) none: a batch-wide sum fails for both."""
+    b, results = walled
+    lone = [sand_on_plate(left=0.0), sand_on_plate(0.2, speed=5.0, left=0.2)][k]
+    ref = Simulation(lone, GRANULAR, device="cpu").run(END, frames=FRAMES).diagnostics
+    d = results[k].diagnostics
+    scale = 300.0
+    if k == 1:
+        assert -ref["work_plastic"][-1] > 0.1 * scale  # (the test can fail: there is plastic work)
+    for key in [name for name in ref if name.startswith("work_")]:
+        np.testing.assert_allclose(d[key], ref[key], rtol=0, atol=1e-9 * scale, err_msg=key)
+
+
 def test_walled_world_one_alone_in_the_batch_grid_is_bit_for_bit(walled):
     """World 1 alone on the batch's grid (its tile, tile 0 left empty): bit for bit the batch's
     world 1, so nothing of world 0 reaches it across the walls."""
@@ -402,3 +420,26 @@ def test_study_runs_the_worlds_of_a_failed_batch_again_alone(tmp_path):
     for row in rows:
         assert row["batch_note"] == "ran alone: the batch failed in a check no world could be named for"
         assert "point–body search" in row["message"] and not row["message"].startswith("the batch")
+
+
+def test_dem_worlds_works_are_their_own():
+    """Two blocks sliding down a 30° incline (DEM only) at μ = 0.1 and 0.3, batched: each world's
+    contact works (friction, damping) are its lone run's to round-off (host sums over its bodies'
+    slots; 1e-9 of the friction work, 11 and 19 J/m: the batch's sum, 30 J/m, fails both)."""
+    from mpmdem.study.case import load_case
+    from mpmdem.study.runner import config_from_args, make_case_parser
+
+    module = load_case("block-on-incline")
+    setups = []
+    for mu in (0.1, 0.3):
+        args = make_case_parser(module).parse_args(["--quick", "--friction", str(mu), "--angle", "30", "--quiet"])
+        setup = module.build(args)
+        setups.append((setup.scene, config_from_args(setup, module, args)))
+    end = 0.4
+    results = BatchedSimulation([s for s, _ in setups], setups[0][1], device="cpu").run(end, frames=4)
+    for k, (scene, config) in enumerate(setups):
+        ref = Simulation(scene, config, device="cpu").run(end, frames=4).diagnostics
+        assert -ref["work_contact_friction"][-1] > 5.0
+        for key in ("work_contact_friction", "work_contact_damping", "work_driven", "work_numerical"):
+            np.testing.assert_allclose(results[k].diagnostics[key], ref[key], rtol=0,
+                                       atol=1e-9 * abs(ref["work_contact_friction"][-1]), err_msg=key)
