@@ -1,7 +1,8 @@
 """Where a batched study's time goes (issue 46): compilation, stepping, and the frames.
 
-For one grid of the Beverloo study (five silo worlds, D0 = 2 ... 6 cm, ``--cell-size``), one JSON
-line with:
+For one grid of the Beverloo study (five silo worlds, D0 = 2 ... 6 cm, ``--cell-size``), or with
+``--case sand-blocks`` the block impact's ensemble (``--worlds`` starts, ``--ensemble-seed`` 1 ... N),
+one JSON line with:
 - ``import_s``: importing Warp and mpmdem; ``build_s``: building the BatchedSimulation;
 - ``first_step_s``: the first step, which loads (and, with a cold kernel cache, compiles) every
   module (on CUDA with the graphs recorded: ``Simulation._capture``; ``--load-workers``: the
@@ -16,6 +17,7 @@ Nothing is asserted.
 
     python bench/batch_frames.py --device cuda --cell-size 0.0025 --cold --profile
     python bench/batch_frames.py --device cpu --cell-size 0.01 --end-time 0.05 --frames 5
+    python bench/batch_frames.py --device cuda --case sand-blocks --worlds 16 --cell-size 0.003125
 """
 
 from __future__ import annotations
@@ -29,11 +31,16 @@ import time
 from pathlib import Path
 
 ORIFICES = (0.02, 0.03, 0.04, 0.05, 0.06)  # [m] the Beverloo study's grid
+#: the flags of world k of each case's batch
+WORLD_FLAGS = {"silo-discharge": lambda k: ["--orifice", str(ORIFICES[k])],
+               "sand-blocks": lambda k: ["--ensemble-seed", str(k + 1)]}
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--device", default=None)
+    p.add_argument("--case", default="silo-discharge", choices=sorted(WORLD_FLAGS))
+    p.add_argument("--worlds", type=int, default=None, help="worlds in the batch (silo: at most 5, its default)")
     p.add_argument("--cell-size", type=float, default=0.0025)
     p.add_argument("--end-time", type=float, default=None, help="[s] (default the case's)")
     p.add_argument("--frames", type=int, default=None, help="(default the case's)")
@@ -62,12 +69,13 @@ def main(argv=None) -> int:
 
     device = args.device or ("cuda" if wp.get_cuda_device_count() else "cpu")
     import_s = time.perf_counter() - start
-    module = case_module("silo-discharge")
+    module = case_module(args.case)
+    worlds = args.worlds or len(ORIFICES)
 
     def batch():
         built = []
-        for d in ORIFICES:
-            a = make_case_parser(module).parse_args(["--device", device, "--quiet", "--orifice", str(d),
+        for k in range(worlds):
+            a = make_case_parser(module).parse_args(["--device", device, "--quiet", *WORLD_FLAGS[args.case](k),
                                                      "--cell-size", str(args.cell_size)])
             setup = module.build(a)
             built.append((setup, config_from_args(setup, module, a)))
@@ -113,7 +121,7 @@ def main(argv=None) -> int:
         del b3
     b2, _ = batch()
     out = Path(tempfile.mkdtemp(prefix="batch-frames-"))
-    outs = [out / f"w{k}" for k in range(len(ORIFICES))]
+    outs = [out / f"w{k}" for k in range(worlds)]
     profiler = None
     if args.profile:
         import cProfile
@@ -121,7 +129,7 @@ def main(argv=None) -> int:
         profiler = cProfile.Profile()
         profiler.enable()
     t0 = time.perf_counter()
-    results = b2.run(end, outs=outs, frames=frames, names="silo")
+    results = b2.run(end, outs=outs, frames=frames, names="run")
     run_s = time.perf_counter() - t0
     if profiler is not None:
         import io
@@ -132,7 +140,7 @@ def main(argv=None) -> int:
         pstats.Stats(profiler, stream=s).sort_stats("cumulative").print_stats(int(os.environ.get("PROFILE_ROWS", "25")))
         print(s.getvalue(), file=sys.stderr)
     row = {"bench": "batch_frames", "label": args.label, "package": str(Path(mpmdem.__file__).parent.parent),
-           "case": "silo-discharge", "worlds": len(ORIFICES), "cell_size": args.cell_size,
+           "case": args.case, "worlds": worlds, "cell_size": args.cell_size,
            "points": b.sim.particle_count, "end_time": end, "frames": frames, "steps": steps,
            "cold": args.cold, "load_workers": args.load_workers, "import_s": round(import_s, 2),
            "build_s": round(build_s, 2),

@@ -28,12 +28,17 @@ class BackgroundFrameWriter(ClosesOnExit):
 
     Args:
         writer: An open FrameWriter; this object owns it from now on (``close`` closes it).
+        pool: a one-thread executor shared with other writers (a batch's worlds: their frames are
+            written one after another in one thread, which HDF5's lock would serialize anyway,
+            without the threads contending for it); its owner shuts it down. None: a thread of its own.
     """
 
-    def __init__(self, writer: FrameWriter) -> None:
+    def __init__(self, writer: FrameWriter, pool: ThreadPoolExecutor | None = None) -> None:
         self.writer = writer
         self.path = writer.path
-        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mpmdem-frames")
+        self._own_pool = pool is None
+        self._pool = pool if pool is not None else ThreadPoolExecutor(max_workers=1,
+                                                                      thread_name_prefix="mpmdem-frames")
         self._pending: Future | None = None
 
     def write_frame(self, time: float, fields: Mapping[str, np.ndarray] | None, diagnostics: Mapping[str, float],
@@ -61,5 +66,6 @@ class BackgroundFrameWriter(ClosesOnExit):
         try:
             self.wait()
         finally:
-            self._pool.shutdown(wait=True)
+            if self._own_pool:
+                self._pool.shutdown(wait=True)
             self.writer.close()

@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 import time as _time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -237,7 +238,7 @@ class BatchedSimulation:
             view.last_diagnostics = {name: float(v[-1]) for name, v in results[k].diagnostics.items() if len(v)}
         return [results[k] for k in range(n)]
 
-    def _writer(self, world: World, out, name: str, end_time: float, attrs: dict | None):
+    def _writer(self, world: World, out, name: str, end_time: float, attrs: dict | None, pool=None):
         from ..io import FrameWriter, default_field_specs
         from ..io.background import BackgroundFrameWriter
 
@@ -253,14 +254,23 @@ class BatchedSimulation:
             geometry = _geometry(sim.dem.scene_geometry(), world.bodies, f"w{world.index}_")
         return BackgroundFrameWriter(FrameWriter(
             out / f"{name}.h5", particle_count=world.points.stop - world.points.start, attrs=meta,
-            csv_path=out / "energy.csv", body_count=len(world.bodies), field_specs=specs, body_geometry=geometry))
+            csv_path=out / "energy.csv", body_count=len(world.bodies), field_specs=specs, body_geometry=geometry),
+            pool=pool)
 
     def _attempt(self, end_time, outs, frames, names, attrs, progress, results, ids) -> set[int]:
         """One pass from t = 0 over the worlds of this batch (``ids``: their numbers in the caller's
-        batch); fills ``results`` for the worlds that end; returns those (by caller's number) that failed."""
+        batch); fills ``results`` for the worlds that end; returns those (by caller's number) that failed.
+        The worlds' frames are written in one shared thread (``BackgroundFrameWriter``'s pool)."""
+        pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mpmdem-batch-frames")
+        try:
+            return self._attempt_in(pool, end_time, outs, frames, names, attrs, progress, results, ids)
+        finally:
+            pool.shutdown(wait=True)
+
+    def _attempt_in(self, pool, end_time, outs, frames, names, attrs, progress, results, ids) -> set[int]:
         sim = self.sim
         worlds = self.worlds
-        writers = {w.index: self._writer(w, outs[w.index], names[w.index], end_time, attrs)
+        writers = {w.index: self._writer(w, outs[w.index], names[w.index], end_time, attrs, pool)
                    if outs[w.index] is not None else None for w in worlds}
         paths = {w.index: Path(outs[w.index]) / f"{names[w.index]}.h5" if outs[w.index] is not None else None
                  for w in worlds}

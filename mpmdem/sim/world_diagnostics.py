@@ -56,6 +56,13 @@ class WorldPoints:
         self._pid_seen = None
         #: (t [s], impulses on the world's obstacles [N s/m]) at its last frame (``tile_works``)
         self.impulse_mark = (0.0, np.zeros_like(mpm.impulse_mark[1]))
+        # the device arrays of ``point_sums``, made once (allocating and freeing them each frame
+        # waits for the device, a batch's worlds after one another)
+        self.diag = wp.zeros(len(reduction_kernels.DIAG_NAMES), dtype=wp.float64, device=mpm.device)
+        X, probes = world.offset, world.scene.mass_probes
+        self.probe_boxes = wp.array(np.array([[p.lo[0] + X, p.lo[1], p.hi[0] + X, p.hi[1]] for p in probes],
+                                             np.float64).reshape(-1, 4), dtype=wp.vec4d, device=mpm.device)
+        self.probe_mass = wp.zeros(max(1, len(probes)), dtype=wp.float64, device=mpm.device)
 
     def struct(self):
         """The world's ``Particles``: slices of the stage's arrays (a re-sort keeps each world's
@@ -78,17 +85,15 @@ def point_sums(mpm, wpts: WorldPoints, world: World) -> dict[str, float]:
     P = wpts.struct()
     n = len(wpts.index)
     t_now = mpm.sim_clock.time
-    diag = wp.zeros(len(reduction_kernels.DIAG_NAMES), dtype=wp.float64, device=mpm.device)
-    wp.launch(mpm.diagnostics_kernel, n, inputs=[P, mpm.D, mpm.materials, diag, t_now], device=mpm.device)
-    out = {name: float(v) for name, v in zip(reduction_kernels.DIAG_NAMES, diag.numpy(), strict=True)}
+    wpts.diag.zero_()
+    wp.launch(mpm.diagnostics_kernel, n, inputs=[P, mpm.D, mpm.materials, wpts.diag, t_now], device=mpm.device)
+    out = {name: float(v) for name, v in zip(reduction_kernels.DIAG_NAMES, wpts.diag.numpy(), strict=True)}
     X = world.offset
     probes = world.scene.mass_probes
     if probes:
-        boxes = wp.array(np.array([[p.lo[0] + X, p.lo[1], p.hi[0] + X, p.hi[1]] for p in probes], np.float64),
-                         dtype=wp.vec4d, device=mpm.device)
-        mass = wp.zeros(len(probes), dtype=wp.float64, device=mpm.device)
-        wp.launch(mpm.probe_mass_kernel, n, inputs=[P, boxes, mass, t_now], device=mpm.device)
-        out.update({f"mass_{p.name}": float(m) for p, m in zip(probes, mass.numpy(), strict=True)})
+        wpts.probe_mass.zero_()
+        wp.launch(mpm.probe_mass_kernel, n, inputs=[P, wpts.probe_boxes, wpts.probe_mass, t_now], device=mpm.device)
+        out.update({f"mass_{p.name}": float(m) for p, m in zip(probes, wpts.probe_mass.numpy(), strict=True)})
     if X:
         out["momentum_angular"] -= X * out["momentum_y"]
         out["energy_gravity"] += world.scene.gravity[0] * X * out["mass"]
