@@ -315,9 +315,18 @@ def head_commit(repo: Path | None = None) -> str | None:
     return f"{sha}+dirty" if dirty else sha
 
 
+def _on_gpu(device: str | None) -> bool:
+    """Whether runs on ``device`` (None: the runs' default, a GPU where there is one) go to a GPU."""
+    if device is not None:
+        return str(device).startswith("cuda")
+    import warp as wp
+
+    return wp.get_cuda_device_count() > 0
+
+
 def run_validation(out: Path, *, device: str | None = None, quick: bool = False, cases: list[str] | None = None,
                    summary_source: Callable[[str, tuple[str, ...]], dict | None] | None = None,
-                   resume: bool = False) -> list[dict]:
+                   resume: bool = False, batch_starts: bool | None = None) -> list[dict]:
     """Run every declared case (once per distinct flags) and evaluate its checks; writes
     OUT/validation.json and OUT/validation.md and returns the rows.
 
@@ -325,6 +334,9 @@ def run_validation(out: Path, *, device: str | None = None, quick: bool = False,
     those flags made elsewhere (the test suite shares its quick runs this way); None runs the case.
     ``resume``: a run whose completed summary.json is already in OUT/runs (a call cut short by a time
     limit) is read, not run again; only for the same code, so it is off unless asked for.
+    ``batch_starts``: run the starts of an ensemble check as batched simulations, as a study does
+    (``batch_worker.execute_batch``: one batch per batch key, each world written as its lone run);
+    None: on a GPU.
     """
     from .runner import case_module, run_case
 
@@ -332,6 +344,27 @@ def run_validation(out: Path, *, device: str | None = None, quick: bool = False,
     rows = []
     runs: dict[tuple, dict] = {}
     commit = head_commit()
+    if batch_starts is None:
+        batch_starts = _on_gpu(device)
+
+    def folder_of(name: str, flags: tuple[str, ...]) -> Path:
+        return out / "runs" / "_".join([name, *(f.strip("-") for f in flags)]).replace("/", "-")
+
+    def run_starts(name: str, flag_sets: list[tuple[str, ...]]) -> None:
+        """Run, as batches, the starts among ``flag_sets`` not run (or given, or resumed) yet."""
+        todo = [f for f in flag_sets if (name, f) not in runs
+                and (summary_source is None or summary_source(name, f) is None)
+                and not (resume and _completed(folder_of(name, f)))]
+        if len(todo) < 2:
+            return
+        from .batch_worker import execute_batch
+        from .study import Run
+
+        extra = ("--device", device) if device else ()
+        execute_batch(name, [Run(folder_of(name, f).name, {}, (*f, *extra)) for f in todo], str(out), device)
+        for f in todo:
+            path = folder_of(name, f) / "summary.json"
+            runs[name, f] = json.loads(path.read_text()) if path.is_file() else {"status": "error"}
 
     def summary_of(name: str, flags: tuple[str, ...]) -> dict:
         """The summary of case ``name`` run with ``flags`` (run once per distinct flags)."""
@@ -340,7 +373,7 @@ def run_validation(out: Path, *, device: str | None = None, quick: bool = False,
             if given is not None:
                 runs[name, flags] = given
                 return given
-            folder = out / "runs" / "_".join([name, *(f.strip("-") for f in flags)]).replace("/", "-")
+            folder = folder_of(name, flags)
             done = folder / "summary.json"
             if resume and done.is_file() and json.loads(done.read_text()).get("status") == "completed":
                 runs[name, flags] = json.loads(done.read_text())
@@ -355,8 +388,10 @@ def run_validation(out: Path, *, device: str | None = None, quick: bool = False,
         for check in checks:
             flags = check.run_flags(quick)
             if check.starts > 1 and not quick:
-                summary = ensemble_summary(check, [summary_of(name, (*flags, check.start_flag, str(k)))
-                                                   for k in range(1, check.starts + 1)])
+                starts = [(*flags, check.start_flag, str(k)) for k in range(1, check.starts + 1)]
+                if batch_starts:
+                    run_starts(name, starts)
+                summary = ensemble_summary(check, [summary_of(name, f) for f in starts])
             else:
                 summary = summary_of(name, flags)
             row = {"case": name, **evaluate(check, summary, quick=quick), "commit": commit,
@@ -371,6 +406,12 @@ def run_validation(out: Path, *, device: str | None = None, quick: bool = False,
     devices = sorted({str(r["device"]) for r in rows if r.get("device")})
     write_table(rows, out, quick=quick, commit=commit, device=", ".join(map(_device_name, devices)) or None)
     return rows
+
+
+def _completed(folder: Path) -> bool:
+    """Whether ``folder`` holds the summary.json of a completed run."""
+    done = folder / "summary.json"
+    return done.is_file() and json.loads(done.read_text()).get("status") == "completed"
 
 
 def _device_name(device: str) -> str:

@@ -3,6 +3,7 @@ check (run inside the suite), and the committed GPU table against the declared c
 
 import json
 import re
+from pathlib import Path
 
 import pytest
 from helpers import ROOT, quick_run
@@ -223,6 +224,40 @@ def test_an_ensemble_row_is_the_median_of_its_starts(tmp_path):
     assert quick[2]["starts"] == 1 and quick[2]["value"] == pytest.approx(0.40)
     with pytest.raises(InputError, match="coarser"):
         Check("x", 1.0, "r", 0.1, "t", starts=4, coarser=(("--cells", "8"),))
+
+
+def test_an_ensembles_starts_run_as_one_batched_call(tmp_path, monkeypatch):
+    """With ``batch_starts`` (the default on a GPU) the 16 starts of block 1's row go to the study's
+    batch executor in one call, in folders named as a lone start's, and the row reads their
+    summaries (the executor is replaced here by one writing made-up summaries)."""
+    from mpmdem.study import batch_worker
+
+    calls = []
+
+    def fake_batch(case, runs, out, device):
+        calls.append((case, [r.argv for r in runs], device))
+        for r in runs:
+            seed = int(r.argv[r.argv.index("--ensemble-seed") + 1])
+            folder = Path(out) / "runs" / r.id
+            folder.mkdir(parents=True)
+            times = {"block1_touch": 0.40 + 0.01 * (seed % 5)}
+            (folder / "summary.json").write_text(json.dumps({"status": "completed", "device": "cuda:0",
+                                                             "event_times_s": times}))
+        return []
+
+    def single_runs(case, flags):  # (the rows of one run each: made up; the starts: None, run here)
+        if "--ensemble-seed" in flags:
+            return None
+        return {"status": "completed", "device": "cpu", "event_times_s": {"reach": 0.25, "block2_touch": 0.33}}
+
+    monkeypatch.setattr(batch_worker, "execute_batch", fake_batch)
+    rows = run_validation(tmp_path, cases=["sand-blocks"], summary_source=single_runs, batch_starts=True)
+    assert len(calls) == 1 and calls[0][0] == "sand-blocks" and len(calls[0][1]) == 16
+    assert sorted(int(a[a.index("--ensemble-seed") + 1]) for a in calls[0][1]) == list(range(1, 17))
+    block1 = rows[2]
+    assert block1["starts"] == 16 and block1["value"] == pytest.approx(0.42)
+    folders = [p.name for p in (tmp_path / "runs").iterdir()]
+    assert sorted(int(n.rsplit("_", 1)[1]) for n in folders if "ensemble-seed" in n) == list(range(1, 17))
 
 
 def _shared_quick_summary(case: str, flags: tuple) -> dict | None:
