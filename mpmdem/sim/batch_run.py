@@ -125,12 +125,15 @@ class BatchedSimulation:
         return WorldView(self, self.layout.worlds[k])
 
     # -- per-world fields ------------------------------------------------------------------------
-    def point_fields(self, world: World) -> dict[str, np.ndarray]:
-        """World's point fields, in its own coordinates (copied once per frame from the device)."""
+    def point_fields(self, world: World, copy: bool = True) -> dict[str, np.ndarray]:
+        """World's point fields, in its own coordinates (copied once per frame from the device).
+        ``copy=False``: views of this frame's host copy where the values need no change (the frame's
+        writing and checks, which only read them)."""
         if self._frame_fields is None:
             self._frame_fields = self.sim.mpm.fields()
         f = self._frame_fields
-        out = {k: v[world.points].copy() for k, v in f.items()}
+        out = {k: v[world.points].copy() if copy else v[world.points] for k, v in f.items()}
+        out["x"] = out["x"].copy() if not copy else out["x"]  # (x changes: never a view)
         out["x"][:, 0] -= world.offset
         out["body"] = out["body"] - sum(len(w.scene.bodies) for w in self.worlds[:world.index])
         return out
@@ -160,7 +163,7 @@ class BatchedSimulation:
         for w in self.worlds:
             (x0, y0), (x1, y1) = w.domain
             if self.sim.mpm is not None and w.points.stop > w.points.start:
-                f = self.point_fields(w)
+                f = self.point_fields(w, copy=False)
                 x, v = f["x"], f["v"]
                 xs = x + np.array([w.offset, 0.0])
                 live = np.ones(len(x), bool)
@@ -301,8 +304,8 @@ class BatchedSimulation:
             host = HostArrays()  # (each device array read back once this frame, for every world)
             sums = {w.index: world_diagnostics(sim, w, self._points.get(w.index), batch_d, host) for w in worlds}
             # (read for the stray-world check below too, with or without files)
-            frame = {w.index: (self.point_fields(w) if sim.mpm else {}, self.body_fields(w) if sim.dem else None)
-                     for w in worlds}
+            frame = {w.index: (self.point_fields(w, copy=False) if sim.mpm else {},
+                               self.body_fields(w) if sim.dem else None) for w in worlds}
             diags, failures = {}, {}
             for w in worlds:
                 d = balances[w.index].update(sums[w.index])
