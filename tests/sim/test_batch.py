@@ -443,3 +443,32 @@ def test_dem_worlds_works_are_their_own():
         for key in ("work_contact_friction", "work_contact_damping", "work_driven", "work_numerical"):
             np.testing.assert_allclose(results[k].diagnostics[key], ref[key], rtol=0,
                                        atol=1e-9 * abs(ref["work_contact_friction"][-1]), err_msg=key)
+
+
+def test_walled_worlds_obstacle_forces_and_damping_are_their_own():
+    """Two blocks (0.2 and 0.1 m wide) settling on a ledge obstacle under Cundall damping, batched
+    with walls: each world's force on its obstacle and its damping work are its lone run's to
+    round-off (each tile sums into its own share of the slots; 1e-9 of the weight and of the
+    potential energy in play), where the batch's sums would be the two worlds' together."""
+    config = SolverConfig(precision="f64", transfer="PIC", damping=0.1, shape="linear", dt=2.0e-4)
+
+    def block(width):
+        scene = m.Scene(domain=((0.0, 0.0), (0.4, 0.4)), cell_size=0.02, gravity=(0.0, -9.81))
+        scene.add_obstacle(m.rectangle(-0.1, -0.1, 0.5, 0.1))
+        scene.add_mpm_body(m.rectangle(0.1, 0.1, 0.1 + width, 0.2),
+                           m.MohrCoulomb(1.0e6, 0.3, 1000.0, 30.0, cohesion=5.0e3, critical_density=990.0),
+                           points_per_cell=2)
+        return scene
+
+    end = 0.04
+    results = BatchedSimulation([block(0.2), block(0.1)], config, device="cpu").run(end, frames=4)
+    for k, width in enumerate((0.2, 0.1)):
+        ref = Simulation(block(width), config, device="cpu").run(end, frames=4).diagnostics
+        d = results[k].diagnostics
+        weight = 1000.0 * width * 0.1 * 9.81
+        assert -ref["force_obstacles_y"][-1] > 0.5 * weight  # (the ledge carries the block)
+        np.testing.assert_allclose(d["force_obstacles_y"], ref["force_obstacles_y"], rtol=0, atol=1e-9 * weight)
+        np.testing.assert_allclose(d["force_obstacles_x"], ref["force_obstacles_x"], rtol=0, atol=1e-9 * weight)
+        assert -ref["work_damping"][-1] > 0.0
+        scale = np.abs(ref["energy_gravity"]).max()
+        np.testing.assert_allclose(d["work_damping"], ref["work_damping"], rtol=0, atol=1e-9 * scale)
