@@ -189,7 +189,8 @@ def ensemble_summary(check: Check, summaries: list[dict]) -> dict:
     """One summary standing for several starts of a case: the median of ``check.quantity`` over the
     starts that completed with a value (None if fewer than half did), the reference from the first,
     and ``starts`` (the number of starts), ``start_values`` (each start's value, None where it gave
-    none) and ``start_spread`` ([min, max] of the values)."""
+    none), ``start_spread`` ([min, max] of the values) and ``wall_seconds`` (the starts' wall times
+    summed, a batch's once for all its starts)."""
     values = []
     for s in summaries:
         v = _lookup(s, check.quantity) if s.get("status") == "completed" else None
@@ -215,7 +216,10 @@ def ensemble_summary(check: Check, summaries: list[dict]) -> dict:
     node[leaf] = median
     for key in ("device", "particles"):
         out[key] = summaries[0].get(key)
-    out["wall_seconds"] = sum(s.get("wall_seconds") or 0.0 for s in summaries)
+    # (the starts of one batch share its wall time: counted once per batch)
+    walls = {(s["batch"], s.get("wall_seconds")) if s.get("batch") else (k, s.get("wall_seconds"))
+             for k, s in enumerate(summaries)}
+    out["wall_seconds"] = sum(w or 0.0 for _, w in walls)
     out["start_values"] = values
     out["start_spread"] = [have[0], have[-1]] if have else None
     return out

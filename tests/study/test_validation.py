@@ -242,7 +242,8 @@ def test_an_ensembles_starts_run_as_one_batched_call(tmp_path, monkeypatch):
             folder.mkdir(parents=True)
             times = {"block1_touch": 0.40 + 0.01 * (seed % 5)}
             (folder / "summary.json").write_text(json.dumps({"status": "completed", "device": "cuda:0",
-                                                             "event_times_s": times}))
+                                                             "event_times_s": times, "batch": "b1",
+                                                             "wall_seconds": 12.5}))
         return []
 
     def single_runs(case, flags):  # (the rows of one run each: made up; the starts: None, run here)
@@ -256,6 +257,7 @@ def test_an_ensembles_starts_run_as_one_batched_call(tmp_path, monkeypatch):
     assert sorted(int(a[a.index("--ensemble-seed") + 1]) for a in calls[0][1]) == list(range(1, 17))
     block1 = rows[2]
     assert block1["starts"] == 16 and block1["value"] == pytest.approx(0.42)
+    assert block1["wall_seconds"] == 12.5  # (one batch's wall time, not 16 of them)
     folders = [p.name for p in (tmp_path / "runs").iterdir()]
     assert sorted(int(n.rsplit("_", 1)[1]) for n in folders if "ensemble-seed" in n) == list(range(1, 17))
 
