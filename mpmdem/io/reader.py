@@ -76,18 +76,21 @@ class RunFile(ClosesOnExit):
         return self._frames
 
     def _particle_datasets(self) -> dict[str, h5py.Dataset]:
-        """The per-frame particle datasets (none in a bodies-only file)."""
-        parts = self._file.get("particles")
-        if parts is None:
-            return {}
-        return {k: v for k, v in parts.items() if isinstance(v, h5py.Dataset)}
+        """The per-frame particle datasets (none in a bodies-only file); looked up once (a writer adds
+        no dataset after its first frame, and the frames counted are fixed at opening)."""
+        if getattr(self, "_particles", None) is None:
+            parts = self._file.get("particles")
+            self._particles = ({} if parts is None else
+                               {k: v for k, v in parts.items() if isinstance(v, h5py.Dataset)})
+        return self._particles
 
     def _body_datasets(self) -> dict[str, h5py.Dataset]:
-        """The per-frame body datasets (none in a file without bodies)."""
-        bodies = self._file.get("bodies")
-        if bodies is None:
-            return {}
-        return {k: v for k, v in bodies.items() if isinstance(v, h5py.Dataset)}
+        """The per-frame body datasets (none in a file without bodies); looked up once."""
+        if getattr(self, "_bodies", None) is None:
+            bodies = self._file.get("bodies")
+            self._bodies = ({} if bodies is None else
+                            {k: v for k, v in bodies.items() if isinstance(v, h5py.Dataset)})
+        return self._bodies
 
     @property
     def particle_count(self) -> int:
@@ -105,13 +108,14 @@ class RunFile(ClosesOnExit):
     @property
     def body_count(self) -> int:
         """M, the number of rigid DEM bodies (0 for files without bodies, including older ones)."""
-        geo = self._file.get("bodies/geometry")
-        if geo is not None and "vertex_count" in geo:
-            return int(geo["vertex_count"].shape[0])
-        bodies = self._body_datasets()
-        if not bodies:
-            return 0
-        return int(next(iter(bodies.values())).shape[1])
+        if getattr(self, "_body_count", None) is None:
+            geo = self._file.get("bodies/geometry")
+            if geo is not None and "vertex_count" in geo:
+                self._body_count = int(geo["vertex_count"].shape[0])
+            else:
+                bodies = self._body_datasets()
+                self._body_count = int(next(iter(bodies.values())).shape[1]) if bodies else 0
+        return self._body_count
 
     @property
     def body_fields(self) -> list[str]:
@@ -139,7 +143,7 @@ class RunFile(ClosesOnExit):
         """
         if name not in self.fields:
             raise KeyError(f"no particle field {name!r} in {self.path}; fields: {', '.join(self.fields)}")
-        return self._file["particles"][name][self._frame_index(frame)]
+        return self._particle_datasets()[name][self._frame_index(frame)]
 
     def body_field(self, name: str, frame: int) -> np.ndarray:
         """One body field at one frame.
@@ -158,7 +162,7 @@ class RunFile(ClosesOnExit):
         """
         if name not in self.body_fields:
             raise KeyError(f"no body field {name!r} in {self.path}; body fields: {', '.join(self.body_fields)}")
-        return self._file["bodies"][name][self._frame_index(frame)]
+        return self._body_datasets()[name][self._frame_index(frame)]
 
     def body_geometry(self) -> dict[str, Any]:
         """The static per-body data of /bodies/geometry.
