@@ -29,11 +29,14 @@ def analyze_methods(rows: list[dict], out: Path) -> dict:
     return methods_report(load_runs(out), out)
 
 
+#: the orifice widths D0 [m] of every Beverloo study (MPM-SDEM Fig. 16's range)
+ORIFICES = [0.02, 0.03, 0.04, 0.05, 0.06]
+
 BEVERLOO = Study(
     name="beverloo",
     case="silo-discharge",
     description="silo discharge rate vs orifice at three grids, fitted to the 2D Beverloo law (MPM-SDEM Fig. 16)",
-    grid={"--orifice": [0.02, 0.03, 0.04, 0.05, 0.06], "--cell-size": [0.0025, 0.0035, 0.005]},
+    grid={"--orifice": ORIFICES, "--cell-size": [0.0025, 0.0035, 0.005]},
     analyze=analyze_rates,
 )
 
@@ -79,7 +82,7 @@ REFINED = Study(
     case="silo-discharge",
     description="Drucker-Prager (Table 3) silo rate vs orifice on six grids, 5 to 1 mm: Richardson W_inf per D0 "
                 "and the Beverloo intercept against h",
-    grid={"--orifice": [0.02, 0.03, 0.04, 0.05, 0.06], "--cell-size": REFINED_GRIDS},
+    grid={"--orifice": ORIFICES, "--cell-size": REFINED_GRIDS},
     analyze=_refinement("beverloo-refined"),
 )
 
@@ -87,7 +90,7 @@ MU_I = Study(
     name="beverloo-mu-i",
     case="silo-discharge",
     description="mu(I) silo rate vs orifice on six grids, 5 to 1 mm (d = 2 mm): does W converge?",
-    grid={"--orifice": [0.02, 0.03, 0.04, 0.05, 0.06], "--cell-size": REFINED_GRIDS},
+    grid={"--orifice": ORIFICES, "--cell-size": REFINED_GRIDS},
     fixed={"--material": "mu-i"},
     analyze=_refinement("beverloo-mu-i"),
 )
@@ -97,7 +100,7 @@ CALIBRATED = Study(
     case="silo-discharge",
     description="Drucker-Prager silo with the DEM disks' angle of repose as phi (psi = 0) on six grids, 5 to 1 mm: "
                 "the continuum calibrated on the grains against the grains' own silo (beverloo-dem)",
-    grid={"--orifice": [0.02, 0.03, 0.04, 0.05, 0.06], "--cell-size": REFINED_GRIDS},
+    grid={"--orifice": ORIFICES, "--cell-size": REFINED_GRIDS},
     # φ: the heaps of the r_p = 1 mm disks (mpmdem.study.references.grain_calibration); ψ = 0: a flow at the
     # critical state changes no volume, and the grains' dilatancy is not measured
     fixed={"--friction-angle": DISK_REPOSE_DEG, "--dilatancy-angle": 0.0},
@@ -109,7 +112,7 @@ MU_I_DISKS = Study(
     case="silo-discharge",
     description="mu(I) silo with the DEM disks' own incline fit (grain-incline: mu_s, mu_2, I0, d = 2 mm, their grain "
                 "density) on six grids, 5 to 1 mm, against the DEM silo of those disks (beverloo-dem)",
-    grid={"--orifice": [0.02, 0.03, 0.04, 0.05, 0.06], "--cell-size": REFINED_GRIDS},
+    grid={"--orifice": ORIFICES, "--cell-size": REFINED_GRIDS},
     fixed={"--material": "mu-i", "--mu-i-set": "dem-disks"},
     analyze=_refinement("beverloo-mu-i-disks"),
 )
@@ -138,7 +141,7 @@ DEM = Study(
     case="silo-discharge",
     description="the silo with DEM grains (sphero-disks, r_p = 1 and 0.5 mm) at D0 = 2-6 cm: the grains' "
                 "Beverloo C and k, the reference for the continuum",
-    grid={"--orifice": [0.02, 0.03, 0.04, 0.05, 0.06], "--grain-radius": [0.001, 0.0005]},
+    grid={"--orifice": ORIFICES, "--grain-radius": [0.001, 0.0005]},
     fixed={"--sand": "dem"},
     analyze=analyze_dem_runs,
 )
