@@ -23,6 +23,7 @@ Usage: python bench/grain_throughput.py --sizes 10000,100000,1000000 --probe ../
 from __future__ import annotations
 
 import argparse
+import ast
 import gc
 import importlib.util
 import json
@@ -66,11 +67,12 @@ def lattice_pack(n: int, polydispersity: float = 0.0, seed: int = 0) -> tuple[Sc
 
 
 def measure(scene: Scene, dt: float, n: int, disk_pass: bool, steps: int, warmup: int, device: str,
-            seed: int = 0, kernel_steps: int = 0) -> dict:
-    """Grain-steps/s of ``scene`` with the disk–disk pass on or off (see the module docstring)."""
+            seed: int = 0, kernel_steps: int = 0, tune: dict | None = None) -> dict:
+    """Grain-steps/s of ``scene`` with the disk–disk pass on or off (see the module docstring);
+    ``tune``: other ``Tuning`` fields."""
     t0 = time.perf_counter()
     sim = Simulation(scene, SolverConfig(precision="f32", dt=dt), device=device,
-                     tuning=Tuning(disk_pairs=disk_pass))
+                     tuning=Tuning(disk_pairs=disk_pass, **(tune or {})))
     setup = time.perf_counter() - t0
     dem = sim.dem
     if dem.disk_pairs != disk_pass:
@@ -90,6 +92,7 @@ def measure(scene: Scene, dt: float, n: int, disk_pass: bool, steps: int, warmup
         "steps_per_rebuild": steps / max(1, rebuilds), "slots": dem.slots, "cuda_graph": sim._graph is not None,
         "split_search": dem.split is not None, "energy_residual_over_kinetic": w["energy_residual_over_kinetic"],
         "setup_seconds": setup, "steps_total": w["steps_taken"] + warmup, "warp": wp.__version__,
+        "tune": tune or {},
     }
     if kernel_steps:  # (µs per step of each kernel, launched one by one under Warp's activity timing)
         from collections import defaultdict
@@ -130,6 +133,8 @@ def main(argv=None) -> int:
     p.add_argument("--probe", default=None, help="path of warp_dem2d.py: its disk row at each size, same process")
     p.add_argument("--kernels", type=int, default=0, metavar="STEPS",
                    help="also time STEPS eager steps per kernel after the timed window (CUDA)")
+    p.add_argument("--tune", action="append", default=[], metavar="FIELD=VALUE",
+                   help="a Tuning field for our rows (repeatable; VALUE as a Python literal, e.g. 40 or None)")
     p.add_argument("--out", default=None, help="append the JSON lines to this file")
     args = p.parse_args(argv)
     wp.init()
@@ -137,6 +142,10 @@ def main(argv=None) -> int:
     paths = [s.strip() for s in args.paths.split(",") if s.strip()]
     if not paths or any(s not in ("disk-pass", "general") for s in paths):
         p.error(f"--paths {args.paths!r}: disk-pass, general, or both")
+    tune = {}
+    for item in args.tune:
+        field, _, value = item.partition("=")
+        tune[field.strip()] = ast.literal_eval(value.strip())
     lines = []
 
     def emit(row):
@@ -150,7 +159,8 @@ def main(argv=None) -> int:
             emit(ref)
         scene, dt = lattice_pack(n, args.polydispersity)
         for path in paths:
-            row = measure(scene, dt, n, path == "disk-pass", args.steps, args.warmup, device, kernel_steps=args.kernels)
+            row = measure(scene, dt, n, path == "disk-pass", args.steps, args.warmup, device, kernel_steps=args.kernels,
+                          tune=tune)
             if ref is not None:
                 row["probe_grain_steps_per_s"] = ref["body_steps_per_s"]
                 row["ratio_to_probe"] = row["grain_steps_per_s"] / ref["body_steps_per_s"]

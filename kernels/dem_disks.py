@@ -41,10 +41,12 @@ __all__ = ["make_disk_pairs"]
 
 
 @functools.cache
-def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool = False):
+def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool = False,
+                    max_registers: int | None = None):
     """Struct ``DiskPairs`` and kernels ``list_incoming``, ``sort_incoming``, ``disk_forces`` of the
     disk–disk pass for one precision (the structs of ``make_dem_structs(precision)``); ``periodic``:
-    x periodic, a pair computed with the partner's image nearest the owner (``kernels.dem_period``)."""
+    x periodic, a pair computed with the partner's image nearest the owner (``kernels.dem_period``);
+    ``max_registers``: the register cap of ``disk_forces`` on CUDA (None: the compiler's choice)."""
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2
@@ -128,7 +130,7 @@ def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool 
             tj -= cross(p - xj, F)
         return touching, fi, ti, fj, tj, slip, energy, lost
 
-    @kernel(deterministic=deterministic)
+    @kernel(deterministic=deterministic, max_registers=max_registers)
     def disk_forces(B: Bodies, C: Contacts, D: DiskPairs, prm: Params, clock: wp.array(dtype=wp.float64)):
         """Disk b's disk–disk forces and torques (eq. 39-40), its partners in the order of their
         indices (incoming, then owned), added to its force and torque; the owner's slot updated."""

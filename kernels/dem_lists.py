@@ -25,12 +25,14 @@ __all__ = ["make_dem_lists"]
 
 
 @functools.cache
-def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool = False, periodic: bool = False):
+def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool = False, periodic: bool = False,
+                   max_registers: int | None = None):
     """Kernels ``bin_bodies`` and ``build_lists`` of the body-pair lists for one precision (the
     packing of the listed slots only outside deterministic mode; with ``disk_pairs`` the pairs of
     two bodies flagged ``B.disk`` are left out of the packed list: ``kernels.dem_disks`` takes them).
     ``periodic``: x periodic, the cell columns wrap and distances take the partner's nearest image
-    (``kernels.dem_period``), a large body's outline tested against the image of the body nearest it."""
+    (``kernels.dem_period``), a large body's outline tested against the image of the body nearest it.
+    ``max_registers``: the register cap of ``build_lists`` on CUDA (None: the compiler's choice)."""
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2
@@ -168,7 +170,7 @@ def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool
         disk–disk pass)."""
         return B.disk[i] == 0 or B.disk[C.nbr[i * C.slots + s]] == 0
 
-    @kernel
+    @kernel(max_registers=max_registers)
     def build_lists(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
                     is_large: wp.array(dtype=wp.int32), large: wp.array(dtype=wp.int32), n_large: int,
                     flags: wp.array(dtype=wp.int32), cell_count: wp.array(dtype=wp.int32),

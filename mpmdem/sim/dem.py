@@ -273,7 +273,8 @@ class DEMSolver(ClockedStage):
         self.D = None
         if self.disk_pairs:
             self.contact_kernel = self.k.make_contact_forces(None, True)
-            self.disks = dem_disks.make_disk_pairs(self.config.precision, self.config.deterministic, self.periodic)
+            self.disks = dem_disks.make_disk_pairs(self.config.precision, self.config.deterministic, self.periodic,
+                                                   self.tuning.disk_force_registers)
             self.D = self.disks.DiskPairs()
             self.D.incoming = wp.zeros(n * K, dtype=wp.int32, device=dev)
             self.D.fill = wp.zeros(n, dtype=wp.int32, device=dev)
@@ -358,7 +359,7 @@ class DEMSolver(ClockedStage):
         five launches (built once: the arrays it names live as long as the stage)."""
         k, B, C, params = self.k, self.B, self.C, self.params
         lists = dem_lists.make_dem_lists(self.config.precision, self.config.deterministic, self.disk_pairs,
-                                         self.periodic)
+                                         self.periodic, self.tuning.list_build_registers)
         rebuild = [Launch(k.clear_cells, len(self.cell_count), [self.flags, self.cell_count])]
         if len(self.small):
             rebuild.append(Launch(lists.bin_bodies, len(self.small),

@@ -132,6 +132,12 @@ class Tuning:
     split_assemble_registers: int | None = _knob(128, 16, 255)
     """Registers per thread of the split search's ``assemble`` on CUDA (None: the compiler's choice,
     which takes one block of 256 threads an SM)."""
+    disk_force_registers: int | None = _knob(None, 16, 255)
+    """Registers per thread of the disk–disk pass's force kernel on CUDA (``kernels.dem_disks``; None:
+    the compiler's choice)."""
+    list_build_registers: int | None = _knob(None, 16, 255)
+    """Registers per thread of the DEM list build (``kernels.dem_lists.build_lists``) on CUDA (None:
+    the compiler's choice)."""
     split_cpu_threads: int = _knob(4096, 1)
     """Threads of the split search's kernels on a CPU (they run one after another: fewer take the
     candidates out of order)."""
