@@ -92,9 +92,7 @@ def make_dem_structs(precision: str):
         energy: wp.array(dtype=T)  # (bodies * K) elastic energy of the pair's contacts [J/m]
         dissipated: wp.array(dtype=wp.vec2d)  # (bodies * K) damping, friction work since build [J/m]
         body_dissipated: wp.array(dtype=wp.vec2d)  # (bodies) folded in at each rebuild
-        old_nbr: wp.array(dtype=wp.int32)
-        old_key: wp.array(dtype=wp.vec4i)
-        old_slip: wp.array(dtype=vec4)
+        old_nbr: wp.array(dtype=wp.int32)  # (bodies * K) the partners before a rebuild (history hand-over)
         pairs: wp.array(dtype=wp.int32)  # listed slots packed at the front (non-deterministic mode)
         total: wp.array(dtype=wp.int32)  # (1) listed pairs
         slots: int  # K

@@ -69,6 +69,52 @@ def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool
         return n + 1
 
     @wp.func
+    def match_old(C: Contacts, base: int, old_count: int, j: int, o: int):
+        """The first old slot at or after o whose partner is not below j (the old partners are
+        sorted): o, and whether that slot holds j."""
+        while o < old_count and C.old_nbr[base + o] < j:
+            o += 1
+        return o, o < old_count and C.old_nbr[base + o] == j
+
+    @wp.func
+    def hand_over(C: Contacts, base: int, n: int, old_count: int):
+        """The tangential history of the pairs that stay listed moved from their old slot o to their
+        new slot s (both lists sorted by partner, so o rises with s); new pairs start without one,
+        slots no longer listed are cleared, every listed pair's energy is reset.
+
+        In place, without a copy of the old histories: a pair with o = s (most pairs, at a rebuild)
+        stays where it is; those with o > s are moved in rising s, those with o < s in falling s,
+        and only then are the new pairs' slots cleared. A move never reads a slot written before it:
+        in rising s, the slots written lie below s <= o; in falling s, above s > o; and a slot
+        written by one sweep is never the source of the other's (the matching is monotone)."""
+        o = int(0)
+        for s in range(n):
+            o, found = match_old(C, base, old_count, C.nbr[base + s], o)
+            if found and o > s:
+                C.key[base + s] = C.key[base + o]
+                C.slip[base + s] = C.slip[base + o]
+        o_hi = old_count - 1
+        for r in range(n):  # (falling s: j falls, so the old slot searched from the top falls too)
+            s = n - 1 - r
+            j = C.nbr[base + s]
+            while o_hi >= 0 and C.old_nbr[base + o_hi] > j:
+                o_hi -= 1
+            if o_hi >= 0 and o_hi < s and C.old_nbr[base + o_hi] == j:
+                C.key[base + s] = C.key[base + o_hi]
+                C.slip[base + s] = C.slip[base + o_hi]
+        o = int(0)
+        for s in range(n):
+            o, found = match_old(C, base, old_count, C.nbr[base + s], o)
+            if not found:
+                C.key[base + s] = wp.vec4i(-1, -1, -1, -1)
+                C.slip[base + s] = vec4()
+            C.energy[base + s] = T(0.0)
+        for s in range(n, old_count):  # (the slots this list no longer uses; those past old_count are clean)
+            C.key[base + s] = wp.vec4i(-1, -1, -1, -1)
+            C.slip[base + s] = vec4()
+            C.energy[base + s] = T(0.0)
+
+    @wp.func
     def list_pairs(B: Bodies, C: Contacts, prm: Params, world: wp.array(dtype=vec2),
                    is_large: wp.array(dtype=wp.int32), large: wp.array(dtype=wp.int32), n_large: int,
                    cell_count: wp.array(dtype=wp.int32), cell_items: wp.array(dtype=wp.int32),
@@ -77,15 +123,14 @@ def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool
         how many."""
         K = C.slots
         base = i * K
-        # keep the old list for the history hand-over, fold the slots' dissipated work. Only the
+        # keep the old partners for the history hand-over, fold the slots' dissipated work. Only the
         # old_count slots listed are read and cleared: the slots past a list are kept clean (nbr −1,
-        # no key, slip, energy or work: the end of this function), and a body lists ~2 of its K
+        # no key, slip, energy or work: the end of this function), and a body lists ~2 of its K.
+        # The histories stay in their slots: ``hand_over`` moves those whose slot changes.
         old_count = C.count[i]
         folded = C.body_dissipated[i]
         for s in range(old_count):
             C.old_nbr[base + s] = C.nbr[base + s]
-            C.old_key[base + s] = C.key[base + s]
-            C.old_slip[base + s] = C.slip[base + s]
             folded = folded + C.dissipated[base + s]
             C.dissipated[base + s] = wp.vec2d(0.0, 0.0)
             C.nbr[base + s] = -1
@@ -142,24 +187,7 @@ def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool
         # insertion sort by partner: the pair order (and so the force sums) do not depend on the
         # order in which threads filled the cells
         sort_ids(C.nbr, base, n)
-        # history of pairs that stay listed (both lists are sorted)
-        o = int(0)
-        for s in range(n):
-            j = C.nbr[base + s]
-            key = wp.vec4i(-1, -1, -1, -1)
-            slip = vec4()
-            while o < old_count and C.old_nbr[base + o] < j:
-                o += 1
-            if o < old_count and C.old_nbr[base + o] == j:
-                key = C.old_key[base + o]
-                slip = C.old_slip[base + o]
-            C.key[base + s] = key
-            C.slip[base + s] = slip
-            C.energy[base + s] = T(0.0)
-        for s in range(n, old_count):  # (the slots this list no longer uses; those past old_count are clean)
-            C.key[base + s] = wp.vec4i(-1, -1, -1, -1)
-            C.slip[base + s] = vec4()
-            C.energy[base + s] = T(0.0)
+        hand_over(C, base, n, old_count)
         B.x_ref[i] = xi
         B.angle_ref[i] = B.angle[i]
         return n

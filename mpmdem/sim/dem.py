@@ -265,8 +265,6 @@ class DEMSolver(ClockedStage):
         C.dissipated = wp.zeros(n * K, dtype=wp.vec2d, device=dev)
         C.body_dissipated = wp.zeros(n, dtype=wp.vec2d, device=dev)
         C.old_nbr = wp.full(n * K, -1, dtype=wp.int32, device=dev)
-        C.old_key = wp.full(n * K, wp.vec4i(-1, -1, -1, -1), dtype=wp.vec4i, device=dev)
-        C.old_slip = wp.zeros(n * K, dtype=self._vec4, device=dev)
         C.pairs = wp.zeros(n * K, dtype=wp.int32, device=dev)
         C.total = wp.zeros(1, dtype=wp.int32, device=dev)
         self.C = C
