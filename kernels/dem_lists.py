@@ -108,8 +108,10 @@ def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool
             if not found:
                 C.key[base + s] = wp.vec4i(-1, -1, -1, -1)
                 C.slip[base + s] = vec4()
-            C.energy[base + s] = T(0.0)
+            if C.energy[base + s] != T(0.0):
+                C.energy[base + s] = T(0.0)
         for s in range(n, old_count):  # (the slots this list no longer uses; those past old_count are clean)
+            C.nbr[base + s] = -1
             C.key[base + s] = wp.vec4i(-1, -1, -1, -1)
             C.slip[base + s] = vec4()
             C.energy[base + s] = T(0.0)
@@ -129,11 +131,14 @@ def make_dem_lists(precision: str, deterministic: bool = False, disk_pairs: bool
         # The histories stay in their slots: ``hand_over`` moves those whose slot changes.
         old_count = C.count[i]
         folded = C.body_dissipated[i]
+        # (the stores are skipped where they would write what is there: a slot that saw no touch
+        # since the last build has no work, and the new list's partners overwrite nbr below n)
         for s in range(old_count):
             C.old_nbr[base + s] = C.nbr[base + s]
-            folded = folded + C.dissipated[base + s]
-            C.dissipated[base + s] = wp.vec2d(0.0, 0.0)
-            C.nbr[base + s] = -1
+            work = C.dissipated[base + s]
+            if work[0] != 0.0 or work[1] != 0.0:
+                folded = folded + work
+                C.dissipated[base + s] = wp.vec2d(0.0, 0.0)
         C.body_dissipated[i] = folded
         xi = B.x[i]
         ri = B.core_radius[i] + B.radius[i]
