@@ -84,44 +84,35 @@ def make_dem_contacts(precision: str, deterministic: bool = False, periodic: boo
 
     # -- contact forces (MPM-SDEM eq. 38-43) ------------------------------------------------------
     @wp.func
-    def touch_law(prm: Params, side: int, X: vec2, N: vec2, d: T, reach: T, a_r: T, slip0: T, dt: T, xi: vec2,
-                  xj: vec2, vi: vec2, wi: T, vj: vec2, wj: T, inv_mi: T, inv_ii: T, inv_mj: T, inv_ij: T, mu_i: T,
-                  mu_j: T):
-        """``touch_force`` of bodies given by value: centroids xi, xj [m] (xj as stored: its image is
-        taken here), velocities [m/s], spins [rad/s], inverse masses [m/kg] and inertias, frictions.
-        The disk–disk pass calls it with a disk's packed record (``kernels.dem_disks``)."""
+    def touch_force(B: Bodies, prm: Params, i: int, j: int, side: int, X: vec2, N: vec2, d: T, reach: T, a_r: T,
+                    slip0: T, dt: T):
+        """The force on body i [N/m] of one touching vertex X (a vertex of i on side 0, of j on side
+        1, of sphero radius a_r [m]) at distance d along N (from the other core towards X), with the
+        tangential stretch δ_t = slip0 [m] of the last step: overlap eq. 38, contact point eq. 41 (in
+        the middle of the overlap), spring–dashpot and Coulomb cap eq. 43. Returns (F on i, contact
+        point p [m], δ_t, stored energy, dissipated work). The bodies' velocities and masses are read
+        here, at a touch, and not held through the feature search (registers: ``mpmdem.sim.dem``). The
+        vertex–edge search (``vertex_contact``) and the disk–disk pass (``kernels.dem_disks``) share it."""
         delta, p = contact_point(X, N, d, reach, a_r)
+        xi = B.x[i]
+        xj = B.x[j]
         if wp.static(periodic):  # (X, and so p, in i's frame: j's image nearest i)
             xj = xj + image(xi, xj, prm)
-        vel = point_velocity(vi, wi, p - xi) - point_velocity(vj, wj, p - xj)
+        vel = point_velocity(B.v[i], B.omega[i], p - xi) - point_velocity(B.v[j], B.omega[j], p - xj)
         if side == 1:
             vel = -vel
         # normal dashpot with the effective mass of the two bodies at p along N, rotation included
         # (1/m + (r×N)²/I each), so that ζ, and so e, hold for off-centre impacts too
         lever_i = cross(p - xi, N)
         lever_j = cross(p - xj, N)
-        inv_eff = inv_mi + inv_ii * lever_i * lever_i + inv_mj + inv_ij * lever_j * lever_j
-        mu = wp.min(mu_i, mu_j)
+        inv_eff = (B.inv_mass[i] + B.inv_inertia[i] * lever_i * lever_i + B.inv_mass[j]
+                   + B.inv_inertia[j] * lever_j * lever_j)
+        mu = wp.min(B.friction[i], B.friction[j])
         F, slip, e_pair, lost_pair = spring_dashpot(prm.law.kn, prm.law.kt, prm.law.zeta, mu, delta, vel, N, inv_eff,
                                                     slip0, dt)
         if side == 1:
             F = -F  # force on i
         return F, p, slip, e_pair, lost_pair
-
-    @wp.func
-    def touch_force(B: Bodies, prm: Params, i: int, j: int, side: int, X: vec2, N: vec2, d: T, reach: T, a_r: T,
-                    slip0: T, dt: T):
-        """The force on body i [N/m] of one touching vertex X (a vertex of i on side 0, of j on side
-        1, of sphero radius a_r [m]) at distance d along N (from the other core towards X), with the
-        tangential stretch δ_t = slip0 [m] of the last step: overlap eq. 38, contact point eq. 41 (in
-        the middle of the overlap), spring–dashpot and Coulomb cap eq. 43 (``touch_law``). Returns
-        (F on i, contact point p [m], δ_t, stored energy, dissipated work). The bodies' velocities and
-        masses are read here, at a touch, and not held through the feature search (registers:
-        ``mpmdem.sim.dem``). The vertex–edge search (``vertex_contact``) uses it, the disk–disk pass
-        (``kernels.dem_disks``) its law."""
-        return touch_law(prm, side, X, N, d, reach, a_r, slip0, dt, B.x[i], B.x[j], B.v[i], B.omega[i], B.v[j],
-                         B.omega[j], B.inv_mass[i], B.inv_inertia[i], B.inv_mass[j], B.inv_inertia[j], B.friction[i],
-                         B.friction[j])
 
     @wp.func
     def vertex_contact(B: Bodies, C: Contacts, prm: Params, tid: int, i: int, j: int, side: int, X: vec2, N: vec2,
@@ -310,8 +301,7 @@ def make_dem_contacts(precision: str, deterministic: bool = False, periodic: boo
         C.dissipated[tid] = C.dissipated[tid] + lost
 
     return Namespace(
-        start_contacts=start_contacts, clear_loads=clear_loads, touch_force=touch_force, touch_law=touch_law,
-        cross=cross,
+        start_contacts=start_contacts, clear_loads=clear_loads, touch_force=touch_force, cross=cross,
         # the pieces of the pair search, for the search split over candidate vertices (kernels/dem_split.py)
         pair_side=pair_side, no_touches=no_touches, vertex_search=vertex_search, add_touch=add_touch,
         search_pair=search_pair, pair_bodies=pair_bodies,

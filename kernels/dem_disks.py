@@ -13,8 +13,6 @@ is listed once, by its owner (the lower index), sorted by partner. The pass adds
 * ``list_incoming`` / ``sort_incoming`` (in the list rebuild): each disk's pairs owned by a lower
   disk, as slot indices sorted by owner (``DiskPairs.incoming``), so every disk sees all its disk
   partners in the order of their indices;
-* ``pack_records`` (each step, before the forces): what a touch reads of a body, copied into one
-  record a body, so that a partner costs one or two cache sectors, not one from each of eight arrays;
 * ``disk_forces`` (each step): one thread a disk gathers its disk–disk forces in that order and adds
   them to its own force and torque with one atomic each. A pair is computed by both its disks, by
   one call of the same function with the same arguments (owner first), so the two results are the
@@ -39,11 +37,7 @@ from .dem_period import make_dem_period
 from .types import Namespace, kernel, scalar_types
 from .verlet import make_verlet
 
-__all__ = ["RECORD", "make_disk_pairs"]
-
-#: Scalars of a body's record (``pack_records``): ten used, padded to a power of two so that a record
-#: never straddles more cache sectors than it fills.
-RECORD = 16
+__all__ = ["make_disk_pairs"]
 
 
 @functools.cache
@@ -60,8 +54,7 @@ def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool 
     Bodies, Contacts, Params = make_dem_structs(precision)
     contacts = make_dem_contacts(precision, deterministic, periodic)
     image = make_dem_period(precision).image
-    touch_law, cross, sort_ids = contacts.touch_law, contacts.cross, make_verlet(precision).sort_ids
-    record = wp.types.vector(length=RECORD, dtype=T)
+    touch_force, cross, sort_ids = contacts.touch_force, contacts.cross, make_verlet(precision).sort_ids
 
     @wp.struct
     class DiskPairs:
@@ -69,19 +62,6 @@ def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool 
         fill: wp.array(dtype=wp.int32)  # (bodies) entries appended in a rebuild (0 between rebuilds)
         count: wp.array(dtype=wp.int32)  # (bodies) entries of ``incoming``
         slip: wp.array(dtype=T)  # (bodies * K) the partner's copy of each incoming pair's δ_t [m]
-        records: wp.array(dtype=record)  # (bodies) what a touch reads of a body, this step (``pack_records``)
-
-    @kernel
-    def pack_records(B: Bodies, D: DiskPairs):
-        """Body b's centroid [m], velocity [m/s], spin [rad/s], sphero radius [m], inverse mass and
-        inertia, friction and disk flag copied into one record at the start of the pass, so that a
-        partner's touch reads one or two cache sectors instead of one from each of eight arrays."""
-        b = wp.tid()
-        x = B.x[b]
-        v = B.v[b]
-        zero = T(0.0)
-        D.records[b] = record(x[0], x[1], v[0], v[1], B.omega[b], B.radius[b], B.inv_mass[b], B.inv_inertia[b],
-                              B.friction[b], T(B.disk[b]), zero, zero, zero, zero, zero, zero)
 
     @kernel
     def list_incoming(B: Bodies, C: Contacts, D: DiskPairs, flags: wp.array(dtype=wp.int32),
@@ -121,17 +101,15 @@ def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool 
             D.slip[j * K + r] = C.slip[D.incoming[j * K + r]][0]
 
     @wp.func
-    def disk_pair(prm: Params, ri: record, rj: record, slip0: T, dt: T):
-        """Disks i (the owner) and j of records ri, rj (``pack_records``) with δ_t = slip0 [m]:
-        (touching, force [N/m] and torque [N m/m] on i, on j, δ_t, stored energy [J/m], dissipated
-        work [J/m]). The general search's sums of its one vertex–vertex touch (``search_pair``: side 0,
-        X = x_i, N from j towards i), in its order, with its law (``touch_law``)."""
-        xi = vec2(ri[0], ri[1])
-        xj_stored = vec2(rj[0], rj[1])
-        xj = xj_stored
-        if wp.static(periodic):  # (as touch_law: j's image nearest i)
+    def disk_pair(B: Bodies, prm: Params, i: int, j: int, slip0: T, dt: T):
+        """Disks i (the owner) and j with δ_t = slip0 [m]: (touching, force [N/m] and torque [N m/m] on
+        i, on j, δ_t, stored energy [J/m], dissipated work [J/m]). The general search's sums of its one
+        vertex–vertex touch (``search_pair``: side 0, X = x_i, N from j towards i), in its order."""
+        xi = B.x[i]
+        xj = B.x[j]
+        if wp.static(periodic):  # (as touch_force: j's image nearest i)
             xj = xj + image(xi, xj, prm)
-        reach = ri[5] + rj[5]
+        reach = B.radius[i] + B.radius[j]
         D = xi - xj
         d = wp.length(D)
         fi = vec2()
@@ -143,9 +121,7 @@ def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool 
         lost = wp.vec2d(0.0, 0.0)
         touching = d < reach and d > T(1.0e-12) * reach
         if touching:
-            F, p, slip, e_pair, lost_pair = touch_law(prm, 0, xi, D / d, d, reach, ri[5], slip0, dt, xi, xj_stored,
-                                                      vec2(ri[2], ri[3]), ri[4], vec2(rj[2], rj[3]), rj[4], ri[6],
-                                                      ri[7], rj[6], rj[7], ri[8], rj[8])
+            F, p, slip, e_pair, lost_pair = touch_force(B, prm, i, j, 0, xi, D / d, d, reach, B.radius[i], slip0, dt)
             lost = lost + lost_pair
             energy += e_pair
             fi += F
@@ -166,27 +142,21 @@ def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool 
         n_in = D.count[b]
         f = vec2()
         tq = T(0.0)
-        rb = D.records[b]
         for r in range(n_in + C.count[b]):
             own = r >= n_in
+            i = b
+            j = b
             at = b * K + r
             slip0 = T(0.0)
-            partner = int(0)
             if own:
                 at = b * K + r - n_in
-                partner = C.nbr[at]
+                j = C.nbr[at]
                 slip0 = C.slip[at][0]
             else:
-                partner = D.incoming[at] // K
+                i = D.incoming[at] // K
                 slip0 = D.slip[at]
-            rp = D.records[partner]
-            if rp[9] != T(0.0):  # (an owned pair with another kind: the general search's)
-                ri = rp
-                rj = rb
-                if own:
-                    ri = rb
-                    rj = rp
-                touching, fi, ti, fj, tj, slip, energy, lost = disk_pair(prm, ri, rj, slip0, dt)
+            if B.disk[i] != 0 and B.disk[j] != 0:  # (an owned pair with another kind: the general search's)
+                touching, fi, ti, fj, tj, slip, energy, lost = disk_pair(B, prm, i, j, slip0, dt)
                 if own:
                     f += fi
                     tq += ti
@@ -207,4 +177,4 @@ def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool 
         wp.atomic_add(B.torque, b, tq)
 
     return Namespace(DiskPairs=DiskPairs, list_incoming=list_incoming, sort_incoming=sort_incoming,
-                     pack_records=pack_records, disk_forces=disk_forces, disk_pair=disk_pair, record=record)
+                     disk_forces=disk_forces, disk_pair=disk_pair)

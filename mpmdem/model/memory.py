@@ -30,13 +30,12 @@ def available_host_memory() -> float:
 
 
 def device_bytes_per_body(slots: int, vertices_per_body: float, precision: str) -> float:
-    """Device memory one DEM body takes [B]: its ~24 per-body scalars and vectors and the disk pass's
-    record of 16 scalars, its core
+    """Device memory one DEM body takes [B]: its ~24 per-body scalars and vectors, its core
     vertices (body frame and world, owner), its ``slots`` Verlet slots (neighbour, history keys and
     slips, energy, dissipated work, old partner: ~44 B + 5 scalars each), its broad-phase cell share
     and the split search's records (16 candidates, 4 pairs of 8 hits: bounded by 2 kB)."""
     s = 4 if precision == "f32" else 8
-    per_body = 40 * s + 64
+    per_body = 24 * s + 64
     per_vertex = 4 * s + 4
     per_slot = 44 + 5 * s
     return per_body + vertices_per_body * per_vertex + slots * per_slot + 2048

@@ -278,7 +278,6 @@ class DEMSolver(ClockedStage):
             self.D.fill = wp.zeros(n, dtype=wp.int32, device=dev)
             self.D.count = wp.zeros(n, dtype=wp.int32, device=dev)
             self.D.slip = wp.zeros(n * K, dtype=self._scalar, device=dev)
-            self.D.records = wp.zeros(n, dtype=self.disks.record, device=dev)
         self.split = self._split_search(n, int(np.max(counts)) if n else 0)
 
         law = self.model.contact
@@ -440,7 +439,6 @@ class DEMSolver(ClockedStage):
         B, C, world, dev = self.B, self.C, self.world, self.device
         pairs = self.body_count * self.slots
         if self.disk_pairs:  # (before the general search: a disk's sum starts with its disk partners)
-            wp.launch(self.disks.pack_records, self.body_count, inputs=[B, self.D], device=dev)
             wp.launch(self.disks.disk_forces, self.body_count, inputs=[B, C, self.D, self.params, self.clock],
                       device=dev)
         if self.split is None:

@@ -219,7 +219,6 @@ def test_disk_pass_compiles_for_sm90(tmp_path):
     assert dem.disk_pairs
     disks = dem_disks.make_disk_pairs("f32", False)
     lists = dem_lists.make_dem_lists("f32", False, True)
-    for k in (disks.list_incoming, disks.sort_incoming, disks.pack_records, disks.disk_forces, lists.build_lists,
-              dem.contact_kernel):
+    for k in (disks.list_incoming, disks.sort_incoming, disks.disk_forces, lists.build_lists, dem.contact_kernel):
         paths = wp.compile_aot_module(k.module, arch=90, module_dir=str(tmp_path))
         assert paths and all(p.exists() for p in paths), k.key
