@@ -1,5 +1,6 @@
 """Where a study's runs execute: a Dask cluster (local CPU processes, one process per GPU, or any
-running cluster by its scheduler address), or this process one run after another.
+running cluster by its scheduler address), or this process one run after another (``--workers 0``,
+or where a local cluster would be one worker: ``runs_here``).
 
 Every worker is a process with one thread, so Warp's per-process state is never shared by two runs
 at once. GPU workers are Nannies whose environment pins ``CUDA_VISIBLE_DEVICES`` to one card
@@ -18,7 +19,7 @@ from pathlib import Path
 from .batch_worker import execute_batch
 from .worker import execute_run, failed_row
 
-__all__ = ["DASK_MISSING", "dask_available", "execute_runs", "map_tasks"]
+__all__ = ["DASK_MISSING", "dask_available", "execute_runs", "local_workers", "map_tasks", "runs_here"]
 
 DASK_MISSING = 'the study runner needs Dask: pip install "mpmdem[study]" (or run serially with --workers 0)'
 
@@ -63,10 +64,31 @@ def study_client(workers: int, gpus: int = 0, workers_per_gpu: int = 1, schedule
         yield client
 
 
+def local_workers(workers: int | None, tasks: int) -> int:
+    """CPU worker processes of a local cluster for ``tasks`` tasks: ``workers``, else one per core,
+    at most one per task."""
+    return workers if workers else min(tasks, os.cpu_count() or 1)
+
+
+def runs_here(workers: int | None, tasks: int, gpus: int = 0, workers_per_gpu: int = 1,
+              scheduler: str | None = None) -> bool:
+    """Whether a study's ``tasks`` (runs, or groups of runs) execute in this process, one after
+    another: ``workers == 0``, or a local cluster that would be one worker (one CPU worker; one GPU
+    with one worker on it), which would run them in that order too, after starting a scheduler and
+    a worker process that imports Warp and loads its modules again. Never with ``scheduler``. A run
+    that ends its process (a crash) then ends the study; its finished rows stay (a rerun resumes)."""
+    if scheduler:
+        return False
+    if gpus:
+        return gpus == 1 and workers_per_gpu == 1
+    return workers == 0 or local_workers(workers, tasks) == 1
+
+
 def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | None, gpus: int = 0,
                  workers_per_gpu: int = 1, scheduler: str | None = None, groups: list | None = None) -> Iterator[dict]:
-    """The row of every run, in the order they finish; ``workers == 0``: in this process, in order.
-    ``groups`` (``batch_worker.group_runs``): each group one task that batches what it can."""
+    """The row of every run, in the order they finish; in this process, in order, where
+    ``runs_here`` says so. ``groups`` (``batch_worker.group_runs``): each group one task that
+    batches what it can."""
     def args(run):
         return case, run.id, run.values, list(run.argv), str(out / "runs" / run.id), device
 
@@ -75,7 +97,7 @@ def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | 
     if groups is not None:
         yield from _execute_groups(groups, case, out, device, workers, gpus, workers_per_gpu, scheduler)
         return
-    if workers == 0 and not scheduler and gpus == 0:
+    if runs_here(workers, len(runs), gpus, workers_per_gpu, scheduler):
         for run in runs:
             row = execute_run(*args(run))
             yield row
@@ -84,8 +106,7 @@ def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | 
         return
     from distributed import as_completed
 
-    n = workers if workers else min(len(runs), os.cpu_count() or 1)
-    with study_client(n, gpus, workers_per_gpu, scheduler) as client:
+    with study_client(local_workers(workers, len(runs)), gpus, workers_per_gpu, scheduler) as client:
         token = uuid.uuid4().hex[:8]  # keys unique on a shared scheduler
         futures = {client.submit(execute_run, *args(run), key=f"{run.id}-{token}", pure=False): run for run in runs}
         for future in as_completed(futures):
@@ -98,7 +119,7 @@ def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | 
 
 def _execute_groups(groups, case, out, device, workers, gpus, workers_per_gpu, scheduler) -> Iterator[dict]:
     """The rows of every group of runs (``execute_batch``), a group's rows when it finishes."""
-    if workers == 0 and not scheduler and gpus == 0:
+    if runs_here(workers, len(groups), gpus, workers_per_gpu, scheduler):
         for group in groups:
             rows = execute_batch(case, group, str(out), device)
             yield from rows
@@ -107,8 +128,7 @@ def _execute_groups(groups, case, out, device, workers, gpus, workers_per_gpu, s
         return
     from distributed import as_completed
 
-    n = workers if workers else min(len(groups), os.cpu_count() or 1)
-    with study_client(n, gpus, workers_per_gpu, scheduler) as client:
+    with study_client(local_workers(workers, len(groups)), gpus, workers_per_gpu, scheduler) as client:
         token = uuid.uuid4().hex[:8]
         futures = {client.submit(execute_batch, case, group, str(out), device, key=f"{group[0].id}-batch-{token}",
                                  pure=False): group for group in groups}

@@ -3,6 +3,7 @@
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -236,3 +237,38 @@ def test_a_study_with_no_completed_run_skips_its_analysis(tmp_path, capsys):
     assert "no run completed, so no analysis" in captured.err
     assert not (out / "rows.txt").exists()  # (count_rows writes it)
     assert [r["status"] for r in jsonl_rows(out)] == ["error"]
+
+
+@pytest.mark.parametrize("workers, tasks, gpus, per_gpu, scheduler, here", [
+    (0, 5, 0, 1, None, True),  # serial, as asked
+    (1, 5, 0, 1, None, True),  # one CPU worker: its runs one after another, as here
+    (None, 1, 0, 1, None, True),  # one task: one worker at most
+    (None, 2, 0, 1, None, (os.cpu_count() or 1) == 1),
+    (2, 1, 0, 1, None, False),  # (two workers asked: a cluster, though one task)
+    (None, 2, 1, 1, None, True),  # one GPU, one worker on it
+    (None, 2, 1, 2, None, False),  # batches side by side: one process each
+    (None, 2, 2, 1, None, False),
+    (0, 2, 0, 1, "tcp://elsewhere:8786", False),
+])
+def test_a_cluster_of_one_local_worker_is_this_process(workers, tasks, gpus, per_gpu, scheduler, here):
+    """A local cluster of one worker would run its tasks one after another, as this process does,
+    after starting a scheduler and a worker process that imports Warp again: the study runs here."""
+    assert study_cluster.runs_here(workers, tasks, gpus, per_gpu, scheduler) is here
+
+
+def test_one_worker_study_starts_no_cluster(tmp_path, monkeypatch):
+    """--workers 1, and a batched study of one batch: every row from this process, no Dask cluster
+    started; the rows and the table as a cluster's worker writes them."""
+    def no_cluster(*args, **kwargs):
+        raise AssertionError("a Dask cluster was started")
+
+    monkeypatch.setattr(study_cluster, "study_client", no_cluster)
+    here = f"{socket.gethostname()}:{os.getpid()}"
+    rows = run_study(INCLINE, tmp_path / "one", workers=1, device="cpu", progress=False)
+    assert [r["status"] for r in rows] == ["completed"] * 2 and {r["worker"] for r in rows} == {here}
+    assert [r["id"] for r in jsonl_rows(tmp_path / "one")] == ["angle=20.0", "angle=30.0"]
+    starts = Study("starts", "sand-blocks", grid={"--ensemble-seed": [1, 2]},
+                   fixed={"--cell-size": 0.02, "--end-time": 0.004, "--frames": 1})
+    batched = run_study(starts, tmp_path / "batched", device="cpu", progress=False, batch=2)
+    assert [r["status"] for r in batched] == ["completed"] * 2 and {r["worker"] for r in batched} == {here}
+    assert [r.get("batch_worlds") for r in batched] == [2, 2]
