@@ -136,6 +136,7 @@ class XdmfSidecars:
         self._lcpl.set_char_encoding(h5t.CSET_ASCII)
         self._gcpl = h5p.create(h5p.GROUP_CREATE)
         self._gcpl.set_obj_track_times(False)
+        self._outline: tuple | None = None  # (creation list, type, dataspace) of the outlines
         bodies = file.get("bodies")
         has_x = self._m > 0 and bodies is not None and "x" in bodies
         # grains (the last bodies, ``grain`` 1): points of their own sidecar, not outlines
@@ -192,14 +193,21 @@ class XdmfSidecars:
         if self._has_bodies:
             m = self._outlined
             rows = None if m == self._m else (0, m)
-            g = h5py.Group(self._add_views("bodies", k, rows=rows))
+            g = self._add_views("bodies", k, rows=rows)
             if bodies is None:
                 stored = self._file["bodies"]
                 x, angle = stored["x"][k], stored["angle"][k] if "angle" in stored else None
             else:
                 x, angle = bodies["x"], bodies.get("angle")
             ring = place_rings(self._rings, x[:m], None if angle is None else angle[:m]).reshape(-1, 2)
-            g.create_dataset("outline", data=np.column_stack([ring, np.zeros(len(ring))]))
+            outline = np.column_stack([ring, np.zeros(len(ring))])
+            if self._outline is None:  # (h5py makes the first; the later ones are made as it made that one)
+                ds = h5py.Group(g).create_dataset("outline", data=outline)
+                self._outline = (ds.id.get_create_plist(), ds.id.get_type(), ds.id.get_space())
+            else:
+                dcpl, stored_type, space = self._outline
+                h5d.create(g, b"outline", stored_type, space, dcpl=dcpl, lcpl=self._lcpl).write(h5s.ALL, h5s.ALL,
+                                                                                                 outline)
         if self._has_grains:
             self._add_views("grains", k, source="bodies", rows=(self._outlined, self._m))
 
