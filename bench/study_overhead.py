@@ -205,7 +205,9 @@ def main(argv=None) -> int:
             cmd += ["--gpus", str(args.gpus)] if args.gpus else []
             cmd += ["--workers", str(args.workers)] if args.workers is not None else []
             t = time.perf_counter()
-            subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            # (from the folder above the package this process imported: `python -m` puts its folder first)
+            subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                           cwd=Path(study_module.__file__).resolve().parents[2])
             cli_wall_s = time.perf_counter() - t
     statuses = {}
     for row in rows:
@@ -217,6 +219,7 @@ def main(argv=None) -> int:
             "plan_s": round(plan_s, 3), **{k: round(v, 3) for k, v in times.items()}, "groups": groups,
             "study_s": round(study_s, 3), "wall_s": round(time.perf_counter() - _START, 3),
             "cli_wall_s": None if cli_wall_s is None else round(cli_wall_s, 3), "commit": _commit(),
+            "package": str(Path(study_module.__file__).resolve().parents[2]),
             "cpus": os.cpu_count()}
     text = json.dumps(line)
     print(text, flush=True)
