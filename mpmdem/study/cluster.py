@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import threading
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
@@ -19,7 +20,8 @@ from pathlib import Path
 from .batch_worker import execute_batch
 from .worker import execute_run, failed_row
 
-__all__ = ["DASK_MISSING", "dask_available", "execute_runs", "local_workers", "map_tasks", "runs_here"]
+__all__ = ["DASK_MISSING", "dask_available", "execute_runs", "local_workers", "map_tasks", "runs_here",
+           "wait_for_clusters"]
 
 DASK_MISSING = 'the study runner needs Dask: pip install "mpmdem[study]" (or run serially with --workers 0)'
 
@@ -43,10 +45,17 @@ def gpu_worker_specs(gpus: int, workers_per_gpu: int) -> dict:
             for card in cards for k in range(workers_per_gpu)}
 
 
+#: the threads closing the local clusters of studies whose runs all returned (``wait_for_clusters``)
+_CLOSING: list[threading.Thread] = []
+
+
 @contextlib.contextmanager
-def study_client(workers: int, gpus: int = 0, workers_per_gpu: int = 1, scheduler: str | None = None):
+def study_client(workers: int, gpus: int = 0, workers_per_gpu: int = 1, scheduler: str | None = None,
+                 close_later: bool = False):
     """A Dask client: of the cluster at ``scheduler``, else of a local cluster started here (and
-    closed on exit) with ``gpus × workers_per_gpu`` GPU workers or ``workers`` CPU processes."""
+    closed on exit) with ``gpus × workers_per_gpu`` GPU workers or ``workers`` CPU processes.
+    ``close_later``: a local cluster left without an error is closed in a thread (its worker
+    processes take a while to end) that ``wait_for_clusters`` waits for."""
     from distributed import Client, LocalCluster, Scheduler, SpecCluster
 
     if scheduler:
@@ -60,8 +69,24 @@ def study_client(workers: int, gpus: int = 0, workers_per_gpu: int = 1, schedule
     else:
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                                **quiet)
-    with cluster, Client(cluster) as client:
-        yield client
+    if not close_later:
+        with cluster, Client(cluster) as client:
+            yield client
+        return
+    with contextlib.ExitStack() as now:  # (unwound at once on an error, or when the caller stops early)
+        now.enter_context(cluster)
+        with Client(cluster) as client:  # (closed here: a client leaves its context in its own thread)
+            yield client
+        later = now.pop_all()
+    thread = threading.Thread(target=later.close, name="mpmdem-cluster-close")
+    thread.start()
+    _CLOSING.append(thread)
+
+
+def wait_for_clusters() -> None:
+    """Return once the clusters ``study_client(close_later=True)`` left closing are closed."""
+    while _CLOSING:
+        _CLOSING.pop().join()
 
 
 def local_workers(workers: int | None, tasks: int) -> int:
@@ -106,7 +131,7 @@ def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | 
         return
     from distributed import as_completed
 
-    with study_client(local_workers(workers, len(runs)), gpus, workers_per_gpu, scheduler) as client:
+    with study_client(local_workers(workers, len(runs)), gpus, workers_per_gpu, scheduler, close_later=True) as client:
         token = uuid.uuid4().hex[:8]  # keys unique on a shared scheduler
         futures = {client.submit(execute_run, *args(run), key=f"{run.id}-{token}", pure=False): run for run in runs}
         for future in as_completed(futures):
@@ -128,7 +153,8 @@ def _execute_groups(groups, case, out, device, workers, gpus, workers_per_gpu, s
         return
     from distributed import as_completed
 
-    with study_client(local_workers(workers, len(groups)), gpus, workers_per_gpu, scheduler) as client:
+    with study_client(local_workers(workers, len(groups)), gpus, workers_per_gpu, scheduler,
+                      close_later=True) as client:
         token = uuid.uuid4().hex[:8]
         futures = {client.submit(execute_batch, case, group, str(out), device, key=f"{group[0].id}-batch-{token}",
                                  pure=False): group for group in groups}

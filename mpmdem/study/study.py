@@ -272,7 +272,7 @@ def run_study(study: Study, out: str | Path | None = None, *, workers: int | Non
     again. Raises InputError (nothing has run) for
     a study the case cannot take, ImportError when Dask is needed but missing.
     """
-    from .cluster import DASK_MISSING, dask_available, execute_runs, runs_here
+    from .cluster import DASK_MISSING, dask_available, execute_runs, runs_here, wait_for_clusters
     from .progress import StudyProgress
     from .table import ResultsTable
     from .worker import FINAL_STATUSES
@@ -319,11 +319,14 @@ def run_study(study: Study, out: str | Path | None = None, *, workers: int | Non
     finally:
         bar.close()
     rows = [previous[r.id] for r in runs if r.id in previous]
-    table.write_csv(rows)
-    if study.analyze is not None:
-        if not any(row.get("status") == "completed" for row in rows):
-            print(f"study {study.name}: no run completed, so no analysis (the rows say why: {out / 'results.csv'})",
-                  file=sys.stderr)
-        else:
-            study.analyze(rows, out)
+    try:  # (while the cluster of the runs closes: cluster.study_client)
+        table.write_csv(rows)
+        if study.analyze is not None:
+            if not any(row.get("status") == "completed" for row in rows):
+                print(f"study {study.name}: no run completed, so no analysis (the rows say why: "
+                      f"{out / 'results.csv'})", file=sys.stderr)
+            else:
+                study.analyze(rows, out)
+    finally:
+        wait_for_clusters()
     return rows

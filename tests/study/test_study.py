@@ -272,3 +272,27 @@ def test_one_worker_study_starts_no_cluster(tmp_path, monkeypatch):
     batched = run_study(starts, tmp_path / "batched", device="cpu", progress=False, batch=2)
     assert [r["status"] for r in batched] == ["completed"] * 2 and {r["worker"] for r in batched} == {here}
     assert [r.get("batch_worlds") for r in batched] == [2, 2]
+
+
+@pytest.mark.filterwarnings("error::pytest.PytestUnhandledThreadExceptionWarning")
+def test_a_finished_studys_cluster_closes_while_its_table_and_analysis_are_written(tmp_path):
+    """The local cluster of a study whose runs all returned closes in a thread (its worker
+    processes take their time to end) while the table and the analysis are written; run_study
+    returns once it has closed. A study stopped early closes it before going on."""
+    import threading
+
+    closing_during_analysis = []
+
+    def analyze(rows, out):
+        closing_during_analysis.append(any(t.name == "mpmdem-cluster-close" for t in threading.enumerate()))
+
+    study = Study("incline", INCLINE.case, INCLINE.grid, INCLINE.fixed, analyze=analyze)
+    rows = run_study(study, tmp_path / "a", workers=2, device="cpu", progress=False)
+    assert [r["status"] for r in rows] == ["completed"] * 2
+    assert closing_during_analysis == [True]
+    assert not any(t.name == "mpmdem-cluster-close" for t in threading.enumerate())
+    runs = plan_runs(INCLINE, "cpu")
+    stream = study_cluster.execute_runs(runs, INCLINE.case, tmp_path / "b", "cpu", workers=2)
+    next(stream)
+    stream.close()  # (the consumer stopped: the cluster is closed at once)
+    assert not any(t.name == "mpmdem-cluster-close" for t in threading.enumerate())
