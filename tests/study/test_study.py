@@ -296,3 +296,16 @@ def test_a_finished_studys_cluster_closes_while_its_table_and_analysis_are_writt
     next(stream)
     stream.close()  # (the consumer stopped: the cluster is closed at once)
     assert not any(t.name == "mpmdem-cluster-close" for t in threading.enumerate())
+
+
+def test_a_study_in_its_own_process_does_not_import_dask(tmp_path):
+    """A study whose runs go in its own process (one worker) needs no Dask and imports none (its
+    import is a quarter of a second): the rows name the process, not a Dask worker."""
+    code = ("import sys\nfrom mpmdem.study.study import Study, run_study\n"
+            "study = Study('one', 'study_raising_case', grid={'--end-time': [0.01]})\n"
+            f"rows = run_study(study, {str(tmp_path)!r}, workers=1, device='cpu', progress=False)\n"
+            "print(rows[0]['status'], 'distributed' in sys.modules)\n")
+    tests = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # (the test case's folder)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.path.dirname(tests), tests])}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert done.stdout.split() == ["completed", "False"], done.stderr[-2000:]
