@@ -114,6 +114,7 @@ def main(argv=None) -> int:
     p.add_argument("--device", default=None)
     p.add_argument("--workers", type=int, default=None)
     p.add_argument("--gpus", type=int, default=0)
+    p.add_argument("--workers-per-gpu", type=int, default=None, help="(default: run_study's)")
     p.add_argument("--batch", type=int, default=None, help="(default: 8, as on a GPU, also on a CPU)")
     p.add_argument("--cli", action="store_true", help="also time the same study as one `mpmdem study` command")
     p.add_argument("--label", default="")
@@ -189,7 +190,7 @@ def main(argv=None) -> int:
         out = Path(tmp) / "study"
         t = time.perf_counter()
         rows = study_module.run_study(study, out, workers=args.workers, gpus=args.gpus, device=args.device,
-                                      batch=batch, progress=False)
+                                      batch=batch, progress=False, workers_per_gpu=args.workers_per_gpu)
         study_s = time.perf_counter() - t
         groups = []
         for path in sorted((out / "_timings").glob("*.json")):
@@ -204,6 +205,7 @@ def main(argv=None) -> int:
             cmd += ["--device", args.device] if args.device else []
             cmd += ["--gpus", str(args.gpus)] if args.gpus else []
             cmd += ["--workers", str(args.workers)] if args.workers is not None else []
+            cmd += ["--workers-per-gpu", str(args.workers_per_gpu)] if args.workers_per_gpu else []
             t = time.perf_counter()
             # (from the folder above the package this process imported: `python -m` puts its folder first)
             subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
@@ -215,6 +217,7 @@ def main(argv=None) -> int:
     times.pop("submit_wall", None)
     line = {"bench": "study_overhead", "label": args.label, "study": args.study, "settings": settings,
             "device": args.device or ("cuda" if args.gpus else "default"), "gpus": args.gpus, "workers": args.workers,
+            "workers_per_gpu": args.workers_per_gpu,
             "batch": batch, "runs": len(rows), "statuses": statuses, "import_s": round(import_s, 3),
             "plan_s": round(plan_s, 3), **{k: round(v, 3) for k, v in times.items()}, "groups": groups,
             "study_s": round(study_s, 3), "wall_s": round(time.perf_counter() - _START, 3),
