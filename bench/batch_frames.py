@@ -50,6 +50,8 @@ def main(argv=None) -> int:
                    help="also time STEPS eager steps per kernel (Warp's activity timing) at a quarter of the end time")
     p.add_argument("--load-workers", type=int, default=None,
                    help="Tuning.module_load_workers (default the Tuning's): threads compiling the modules")
+    p.add_argument("--switch-interval", type=float, default=None,
+                   help="Tuning.writer_switch_interval [s] (default the Tuning's; 0: Python's own, 5 ms)")
     p.add_argument("--label", default="", help="a label for the row (e.g. which tree ran)")
     p.add_argument("--out", type=Path, default=None, help="append the JSON line here")
     args = p.parse_args(argv)
@@ -79,7 +81,9 @@ def main(argv=None) -> int:
                                                      "--cell-size", str(args.cell_size)])
             setup = module.build(a)
             built.append((setup, config_from_args(setup, module, a)))
-        tuning = Tuning() if args.load_workers is None else Tuning(module_load_workers=args.load_workers)
+        knobs = {k: v for k, v in (("module_load_workers", args.load_workers),
+                                    ("writer_switch_interval", args.switch_interval)) if v is not None}
+        tuning = Tuning(**knobs)
         return (BatchedSimulation([s.scene for s, _ in built], built[0][1], device=device, tuning=tuning),
                 built[0][0])
 
@@ -142,7 +146,8 @@ def main(argv=None) -> int:
     row = {"bench": "batch_frames", "label": args.label, "package": str(Path(mpmdem.__file__).parent.parent),
            "case": args.case, "worlds": worlds, "cell_size": args.cell_size,
            "points": b.sim.particle_count, "end_time": end, "frames": frames, "steps": steps,
-           "cold": args.cold, "load_workers": args.load_workers, "import_s": round(import_s, 2),
+           "cold": args.cold, "load_workers": args.load_workers, "switch_interval": args.switch_interval,
+           "import_s": round(import_s, 2),
            "build_s": round(build_s, 2),
            "first_step_s": round(first_step_s, 2), "steps_s": round(steps_s, 2), "run_s": round(run_s, 2),
            "frames_s": round(run_s - steps_s, 2), "profiled": args.profile,

@@ -16,10 +16,16 @@ field and the time per frame, timed by wrapping them), and main_wait_ms (mean, p
 main_wait_idle_ms: while the writers write, the main thread sleeps 1 ms at a time, as a run's main
 thread waits for the device with Python's lock released, and records how much later than 1 ms it
 runs again (the wait for the lock a writer holds), against the same before the writers start.
-Nothing is asserted.
+``--main busy``: the main thread instead runs Python without a pause until the writers end (as a
+batch's main thread does while it reads a frame's sums and checks the worlds): h5py lets Python's
+lock go around each HDF5 write, and a writer that wants it back waits for the busy thread to give
+it up, at most ``sys.getswitchinterval()`` later (``--switch-interval``; Python's default 5 ms);
+``main_busy_share`` is the busy thread's progress against its rate alone. The files are the same
+whatever the flags. Nothing is asserted.
 
     python bench/frame_writing.py                              # 38k points, 80 frames, 90 diagnostics
     python bench/frame_writing.py --writers 5 --out bench/results/frame_writing/cpu.jsonl
+    python bench/frame_writing.py --points 8192 --bodies 5 --diagnostics 45 --frames 60 --intervals 1 --main busy
 """
 
 from __future__ import annotations
@@ -27,6 +33,7 @@ from __future__ import annotations
 import argparse
 import inspect
 import json
+import sys
 import tempfile
 import threading
 import time
@@ -115,6 +122,21 @@ def wake_delays(until) -> list[float]:
     return out
 
 
+def spin(until) -> int:
+    """Run Python without a pause until ``until()`` is true; the loop's count."""
+    n = 0
+    while not until():
+        for _ in range(1000):
+            n += 1
+    return n
+
+
+def spin_rate(seconds: float = 0.3) -> float:
+    """``spin``'s count per second with no other thread running."""
+    start = time.perf_counter()
+    return spin(lambda: time.perf_counter() > start + seconds) / (time.perf_counter() - start)
+
+
 def main() -> None:
     """Parse the flags, write the runs, print (and append to --out) one JSON line per interval."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -124,6 +146,10 @@ def main() -> None:
     p.add_argument("--frames", type=int, default=80)
     p.add_argument("--writers", type=int, default=1, help="writers at once, one thread each")
     p.add_argument("--intervals", default="0,1", help="sidecar intervals [s], comma-separated")
+    p.add_argument("--main", choices=("sleep", "busy"), default="sleep",
+                   help="what the main thread does while the writers write: sleep 1 ms at a time, or run Python")
+    p.add_argument("--switch-interval", type=float, default=None,
+                   help="sys.setswitchinterval [s] while the writers write (default Python's)")
     p.add_argument("--tag", default="", help="a label stored in each line (the tree measured, say)")
     p.add_argument("--out", type=Path, help="append the JSON lines to this file")
     args = p.parse_args()
@@ -144,11 +170,24 @@ def main() -> None:
                            for folder, result in zip(folders, results, strict=True)]
                 stop = time.perf_counter() + 0.3
                 idle = wake_delays(lambda stop=stop: time.perf_counter() > stop)
+                rate = spin_rate() if args.main == "busy" else None
+                switch = sys.getswitchinterval()
+                if args.switch_interval is not None:
+                    sys.setswitchinterval(args.switch_interval)
+                started = time.perf_counter()
                 for thread in threads:
                     thread.start()
-                busy = wake_delays(lambda threads=threads: not any(t.is_alive() for t in threads))
-                for thread in threads:
-                    thread.join()
+                try:
+                    if args.main == "busy":
+                        spun = spin(lambda threads=threads: not any(t.is_alive() for t in threads))
+                        busy = [0.0]
+                    else:
+                        busy = wake_delays(lambda threads=threads: not any(t.is_alive() for t in threads))
+                    for thread in threads:
+                        thread.join()
+                finally:
+                    sys.setswitchinterval(switch)
+                share = spun / (time.perf_counter() - started) / rate if rate else None
             mean = {k: float(np.mean([r[k] for r in results])) for k in results[0]}
             rows.append({"bench": "frame_writing", "tag": args.tag, "points": args.points, "bodies": args.bodies,
                          "diagnostics": args.diagnostics, "frames": args.frames, "writers": args.writers,
@@ -158,7 +197,8 @@ def main() -> None:
                          "sidecar_rewrites": mean["sidecar_rewrites"], "sidecar_seconds": mean["sidecar_seconds"],
                          "append_seconds": mean["append_seconds"],
                          "main_wait_ms": [1e3 * float(np.mean(busy)), 1e3 * float(np.percentile(busy, 95))],
-                         "main_wait_idle_ms": 1e3 * float(np.mean(idle))})
+                         "main_wait_idle_ms": 1e3 * float(np.mean(idle)), "main": args.main,
+                         "main_busy_share": share, "switch_interval": args.switch_interval or switch})
     finally:
         for timer in timers:
             timer.restore()

@@ -273,6 +273,10 @@ def block_penetration(x: np.ndarray, centre, angle: float, radius: float) -> flo
     angle) with corner radius ``radius``: radius minus the distance to its core, where positive."""
     c, s = math.cos(angle), math.sin(angle)
     d = x - np.asarray(centre)
+    # only points within the block's half diagonal plus its rounding of the centre can be inside it
+    # (the others give radius − distance < 0): the rest are skipped, with a factor 2 to spare
+    reach = math.hypot(*BLOCK) + radius
+    d = d[(np.abs(d[:, 0]) <= reach) & (np.abs(d[:, 1]) <= reach)]
     local = np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
     core = np.array([0.5 * BLOCK[0] - radius, 0.5 * BLOCK[1] - radius])
     q = np.abs(local) - core

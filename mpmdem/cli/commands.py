@@ -161,10 +161,12 @@ def _study(argv: list[str]) -> int:
     p.add_argument("study", help="a built-in study's name or a .toml study file")
     p.add_argument("--out", default=None, help="output folder (default results/study-NAME)")
     p.add_argument("--workers", type=_count(0), default=None,
-                   help="CPU worker processes of a local Dask cluster (default: one per core; 0: serial, here)")
+                   help="CPU worker processes of a local Dask cluster (default: one per core; 0 or 1: one run "
+                        "after another, in this process)")
     p.add_argument("--gpus", type=_count(0), default=0, help="a local cluster of workers pinned one GPU each instead")
     p.add_argument("--workers-per-gpu", type=_count(1), default=None,
-                   help="workers sharing each GPU (default: one per batch, up to 4, when batched; else 1)")
+                   help="workers sharing each GPU (default: one per batch, up to 4, when batched; else 1); one "
+                        "GPU with one worker runs in this process")
     p.add_argument("--scheduler", default=None, help="address of a running Dask scheduler to use instead")
     p.add_argument("--device", default=None, help="passed to every run: cpu, cuda (default: cuda with --gpus)")
     p.add_argument("--rerun-failed", action="store_true", help="run again every run not completed")

@@ -8,11 +8,19 @@ the next frame's steps at once (they wait in the device, while the host mostly w
 Python's lock released). One frame is written at a time and in order: a new frame, ``set_status``
 and ``close`` first wait for the one in progress, so a Ctrl-C or a blow-up still finds every frame
 before it whole in the file. An error of the write is raised by the next of those calls.
+
+h5py lets Python's lock go around each HDF5 write; to take it back the writer waits for the thread
+holding it to give it up, which a main thread running Python does only every
+``sys.getswitchinterval()`` (5 ms by default): a frame of ~60 writes then took a hundred times its
+own time. A run writing its frames lowers the interval while it runs (``thread_switch_interval``
+with ``Tuning.writer_switch_interval``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import contextlib
+import sys
+from collections.abc import Iterator, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 
 import numpy as np
@@ -20,7 +28,7 @@ import numpy as np
 from .closing import ClosesOnExit
 from .writer import FrameWriter
 
-__all__ = ["BackgroundFrameWriter"]
+__all__ = ["BackgroundFrameWriter", "thread_switch_interval"]
 
 
 class BackgroundFrameWriter(ClosesOnExit):
@@ -69,3 +77,18 @@ class BackgroundFrameWriter(ClosesOnExit):
             if self._own_pool:
                 self._pool.shutdown(wait=True)
             self.writer.close()
+
+
+@contextlib.contextmanager
+def thread_switch_interval(seconds: float) -> Iterator[None]:
+    """Python's thread switch interval lowered to ``seconds`` [s] inside (``sys.setswitchinterval``;
+    never raised; 0: left as it is), and set back after."""
+    previous = sys.getswitchinterval()
+    lower = 0.0 < seconds < previous
+    if lower:
+        sys.setswitchinterval(seconds)
+    try:
+        yield
+    finally:
+        if lower:
+            sys.setswitchinterval(previous)

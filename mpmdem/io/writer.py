@@ -403,7 +403,7 @@ class FrameWriter(ClosesOnExit):
                 self._diag_appenders[k] = _Appender(self._diag_ds[k])
         for k in self._diag_names:
             self._diag_appenders[k].append(i, diag[k])
-        self._xdmf.add_frame(i)
+        self._xdmf.add_frame(i, bodies=body_arrays)
         self._time_appender.append(i, time)
         self._file.flush()
         self._frames = i + 1

@@ -36,7 +36,7 @@ from xml.sax.saxutils import escape, quoteattr
 
 import h5py
 import numpy as np
-from h5py import h5d, h5p, h5s, h5t
+from h5py import h5d, h5g, h5p, h5s, h5t
 
 from ..model.outlines import outline_rings, place_rings
 
@@ -127,6 +127,16 @@ class XdmfSidecars:
         self._blocks: dict[str, tuple[tuple, list[str]]] = {}
         # per group: (its source group, the source's member count, /xdmf/<group>, the view plan)
         self._plans: dict[str, tuple] = {}
+        # (made once, copied or passed for every frame: see _add_views)
+        self._dcpl = h5p.create(h5p.DATASET_CREATE)
+        self._dcpl.set_layout(h5d.VIRTUAL)
+        self._dcpl.set_fill_value(np.array([0]))
+        self._lcpl = h5p.create(h5p.LINK_CREATE)
+        self._lcpl.set_create_intermediate_group(True)
+        self._lcpl.set_char_encoding(h5t.CSET_ASCII)
+        self._gcpl = h5p.create(h5p.GROUP_CREATE)
+        self._gcpl.set_obj_track_times(False)
+        self._outline: tuple | None = None  # (creation list, type, dataspace) of the outlines
         bodies = file.get("bodies")
         has_x = self._m > 0 and bodies is not None and "x" in bodies
         # grains (the last bodies, ``grain`` 1): points of their own sidecar, not outlines
@@ -174,46 +184,58 @@ class XdmfSidecars:
         """The bodies sidecar (``run_bodies.xdmf``)."""
         return bodies_xdmf_path(self._h5)
 
-    def add_frame(self, k: int) -> None:
-        """Create frame k's views (and the bodies' world outlines) in the HDF5 file; call before its flush."""
+    def add_frame(self, k: int, bodies: Mapping[str, np.ndarray] | None = None) -> None:
+        """Create frame k's views (and the bodies' world outlines) in the HDF5 file; call before its flush.
+        ``bodies``: frame k's body fields as stored (the outlines are placed from their x and angle;
+        None: read back from the file)."""
         if self._n > 0:
             self._add_views("particles", k)
         if self._has_bodies:
             m = self._outlined
             rows = None if m == self._m else (0, m)
             g = self._add_views("bodies", k, rows=rows)
-            bodies = self._file["bodies"]
-            angle = bodies["angle"][k][:m] if "angle" in bodies else None
-            ring = place_rings(self._rings, bodies["x"][k][:m], angle).reshape(-1, 2)
-            g.create_dataset("outline", data=np.column_stack([ring, np.zeros(len(ring))]))
+            if bodies is None:
+                stored = self._file["bodies"]
+                x, angle = stored["x"][k], stored["angle"][k] if "angle" in stored else None
+            else:
+                x, angle = bodies["x"], bodies.get("angle")
+            ring = place_rings(self._rings, x[:m], None if angle is None else angle[:m]).reshape(-1, 2)
+            outline = np.column_stack([ring, np.zeros(len(ring))])
+            if self._outline is None:  # (h5py makes the first; the later ones are made as it made that one)
+                ds = h5py.Group(g).create_dataset("outline", data=outline)
+                self._outline = (ds.id.get_create_plist(), ds.id.get_type(), ds.id.get_space())
+            else:
+                dcpl, stored_type, space = self._outline
+                h5d.create(g, b"outline", stored_type, space, dcpl=dcpl, lcpl=self._lcpl).write(h5s.ALL, h5s.ALL,
+                                                                                                 outline)
         if self._has_grains:
             self._add_views("grains", k, source="bodies", rows=(self._outlined, self._m))
 
     def _add_views(self, group: str, k: int, *, source: str | None = None,
-                   rows: tuple[int, int] | None = None) -> h5py.Group:
+                   rows: tuple[int, int] | None = None) -> h5g.GroupID:
         """Virtual datasets /xdmf/<group>/frame_<k>/<view> of frame k of every /<source>/<field>
-        (source: ``group``), of its items rows[0] ≤ i < rows[1] (all when None).
+        (source: ``group``), of its items rows[0] ≤ i < rows[1] (all when None); returns the frame's group.
 
         Made with h5py's low-level calls: the mappings ``h5py.VirtualLayout`` would store, without
         its per-slice copies of the source (a third of a small scene's frame writing); what does not
-        depend on k is made once (``_view_plan``)."""
+        depend on k is made once (``_view_plan``): the views' types, dataspaces and selections, a
+        creation property list to copy (a new one and its fill value cost as much again), and the
+        frame group's property lists (those ``h5py.Group.create_group`` makes for an ASCII name)."""
         parent, plan = self._view_plan(group, source or group, rows)
-        out = parent.create_group(f"frame_{k:06d}")
+        out = h5g.create(parent.id, b"frame_%06d" % k, lcpl=self._lcpl, gcpl=self._gcpl)
         for view, memory_type, space, source_name, ds_id, parts in plan:
-            shape = ds_id.shape  # (the frames written so far, count, ...)
-            dcpl = h5p.create(h5p.DATASET_CREATE)
-            dcpl.set_layout(h5d.VIRTUAL)
-            dcpl.set_fill_value(np.array([0]))
-            for target, key in parts:
-                frame = h5s.create_simple(shape)
-                frame.select_hyperslab(*_hyperslab(shape, (k, *key)))
-                dcpl.set_virtual(target, b".", source_name, frame)
-            h5d.create(out.id, view, memory_type, space, dcpl=dcpl)
+            frame = ds_id.get_space()  # (the frames written so far, count, ...)
+            dcpl = self._dcpl.copy()
+            for target, start, count in parts:
+                frame.select_hyperslab((k, *start), (1, *count))
+                dcpl.set_virtual(target, b".", source_name, frame)  # (copies the selection)
+            h5d.create(out, view, memory_type, space, dcpl=dcpl)
         return out
 
     def _view_plan(self, group: str, source: str, rows: tuple[int, int] | None) -> tuple[h5py.Group, list]:
         """/xdmf/<group> and what its frames' views need besides the frame: per view (name, type,
-        dataspace, source name, source dataset, [(target selection, source key after the frame)]);
+        dataspace, source name, source dataset, [(target selection, the source block's start and count
+        on the axes after the frame's)]);
         made at the first frame and again if the datasets of /<source> change."""
         cached = self._plans.get(group)
         if cached is not None and cached[0].get_num_objs() == cached[1]:
@@ -230,7 +252,8 @@ class XdmfSidecars:
                 for columns, index in parts:
                     target = h5s.create_simple(dims)
                     target.select_hyperslab(*_hyperslab(dims, (slice(None), *columns)))
-                    targets.append((target, (slice(first, last), *index)))
+                    # (the source block of a frame: the frame's index, then these on the axes after it)
+                    targets.append((target, *_hyperslab(ds.shape[1:], (slice(first, last), *index))))
                 plan.append((view.encode("utf-8"), h5t.py_create(ds.dtype, logical=1), h5s.create_simple(dims),
                              ds.name.encode("utf-8"), ds.id, targets))
         parent = self._file[GROUP][group]

@@ -264,9 +264,14 @@ class BatchedSimulation:
         """One pass from t = 0 over the worlds of this batch (``ids``: their numbers in the caller's
         batch); fills ``results`` for the worlds that end; returns those (by caller's number) that failed.
         The worlds' frames are written in one shared thread (``BackgroundFrameWriter``'s pool)."""
+        from ..io.background import thread_switch_interval
+
         pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mpmdem-batch-frames")
+        # (the writer thread gets Python's lock back sooner from a busy main thread: io.background)
+        switch = self.sim.tuning.writer_switch_interval if any(o is not None for o in outs) else 0.0
         try:
-            return self._attempt_in(pool, end_time, outs, frames, names, attrs, progress, results, ids)
+            with thread_switch_interval(switch):
+                return self._attempt_in(pool, end_time, outs, frames, names, attrs, progress, results, ids)
         finally:
             pool.shutdown(wait=True)
 

@@ -346,38 +346,42 @@ class Simulation:
             if blow_up is not None:
                 raise blow_up
 
+        from ..io.background import thread_switch_interval
+
         status, message = "completed", ""
-        try:
-            start = self.stage.read_clock()
-            t_start = start.t
-            if t_start >= end_time:
-                raise InputError("end_time", end_time, f"a time after the current time {t_start:g} s")
-            record(t_start, start.steps, *self.initial_step(), frame_time(t_start, end_time, 1, frames))
-            for k in range(1, frames + 1):
-                t, steps = self.advance_to(frame_time(t_start, end_time, k, frames), on_batch=progress)
-                clock = self.stage.read_clock()
-                record(t, steps, clock.dt, clock.bound,
-                       frame_time(t_start, end_time, k + 1, frames) if k < frames else None)
-        except BlowUpError as e:
-            status, message = "blown-up", str(e)
+        # (the writer thread gets Python's lock back sooner from a busy main thread: io.background)
+        with thread_switch_interval(self.tuning.writer_switch_interval if writer is not None else 0.0):
+            try:
+                start = self.stage.read_clock()
+                t_start = start.t
+                if t_start >= end_time:
+                    raise InputError("end_time", end_time, f"a time after the current time {t_start:g} s")
+                record(t_start, start.steps, *self.initial_step(), frame_time(t_start, end_time, 1, frames))
+                for k in range(1, frames + 1):
+                    t, steps = self.advance_to(frame_time(t_start, end_time, k, frames), on_batch=progress)
+                    clock = self.stage.read_clock()
+                    record(t, steps, clock.dt, clock.bound,
+                           frame_time(t_start, end_time, k + 1, frames) if k < frames else None)
+            except BlowUpError as e:
+                status, message = "blown-up", str(e)
+                if writer is not None:
+                    writer.set_status(status, message)
+                    writer.close()
+                raise
+            except KeyboardInterrupt as e:
+                # (mpmdem.study.signals.Interrupted names its signal: SIGTERM from a batch scheduler, or Ctrl-C)
+                status, message = "interrupted", str(e) or "stopped by the user (Ctrl-C)"
+                if writer is not None:
+                    writer.set_status(status, message)
+                    writer.close()
+                raise
+            except BaseException:
+                if writer is not None:
+                    writer.close()  # (the frames written so far stay readable; the error goes on)
+                raise
             if writer is not None:
                 writer.set_status(status, message)
                 writer.close()
-            raise
-        except KeyboardInterrupt as e:
-            # (mpmdem.study.signals.Interrupted names its signal: SIGTERM from a batch scheduler, or Ctrl-C)
-            status, message = "interrupted", str(e) or "stopped by the user (Ctrl-C)"
-            if writer is not None:
-                writer.set_status(status, message)
-                writer.close()
-            raise
-        except BaseException:
-            if writer is not None:
-                writer.close()  # (the frames written so far stay readable; the error goes on)
-            raise
-        if writer is not None:
-            writer.set_status(status, message)
-            writer.close()
         return RunResult(path, np.array(times), {k: np.array(v) for k, v in history.items()}, status,
                          int(history["steps"][-1]), message)
 

@@ -167,6 +167,10 @@ class Tuning:
     """Threads that compile (or load from Warp's cache) the step's kernel modules at once before the
     first step on CUDA (``wp.force_load``'s ``max_workers``; 0: one after another, as the first
     launches would). Each kernel is a module of its own, so a cold cache compiles dozens."""
+    writer_switch_interval: float = _knob(0.0005, 0.0, 1.0)
+    """Python's thread switch interval [s] while a run writes its frames in a worker thread
+    (``mpmdem.io.background.thread_switch_interval``; 0: Python's own, 5 ms): how long the writer,
+    having let Python's lock go around an HDF5 write, may wait for a busy main thread to give it back."""
 
     def __post_init__(self):
         for f in dataclasses.fields(self):

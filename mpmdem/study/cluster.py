@@ -1,5 +1,6 @@
 """Where a study's runs execute: a Dask cluster (local CPU processes, one process per GPU, or any
-running cluster by its scheduler address), or this process one run after another.
+running cluster by its scheduler address), or this process one run after another (``--workers 0``,
+or where a local cluster would be one worker: ``runs_here``).
 
 Every worker is a process with one thread, so Warp's per-process state is never shared by two runs
 at once. GPU workers are Nannies whose environment pins ``CUDA_VISIBLE_DEVICES`` to one card
@@ -11,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import threading
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
@@ -18,7 +20,8 @@ from pathlib import Path
 from .batch_worker import execute_batch
 from .worker import execute_run, failed_row
 
-__all__ = ["DASK_MISSING", "dask_available", "execute_runs", "map_tasks"]
+__all__ = ["DASK_MISSING", "dask_available", "execute_runs", "local_workers", "map_tasks", "runs_here",
+           "wait_for_clusters"]
 
 DASK_MISSING = 'the study runner needs Dask: pip install "mpmdem[study]" (or run serially with --workers 0)'
 
@@ -42,10 +45,17 @@ def gpu_worker_specs(gpus: int, workers_per_gpu: int) -> dict:
             for card in cards for k in range(workers_per_gpu)}
 
 
+#: the threads closing the local clusters of studies whose runs all returned (``wait_for_clusters``)
+_CLOSING: list[threading.Thread] = []
+
+
 @contextlib.contextmanager
-def study_client(workers: int, gpus: int = 0, workers_per_gpu: int = 1, scheduler: str | None = None):
+def study_client(workers: int, gpus: int = 0, workers_per_gpu: int = 1, scheduler: str | None = None,
+                 close_later: bool = False):
     """A Dask client: of the cluster at ``scheduler``, else of a local cluster started here (and
-    closed on exit) with ``gpus × workers_per_gpu`` GPU workers or ``workers`` CPU processes."""
+    closed on exit) with ``gpus × workers_per_gpu`` GPU workers or ``workers`` CPU processes.
+    ``close_later``: a local cluster left without an error is closed in a thread (its worker
+    processes take a while to end) that ``wait_for_clusters`` waits for."""
     from distributed import Client, LocalCluster, Scheduler, SpecCluster
 
     if scheduler:
@@ -59,14 +69,51 @@ def study_client(workers: int, gpus: int = 0, workers_per_gpu: int = 1, schedule
     else:
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                                **quiet)
-    with cluster, Client(cluster) as client:
-        yield client
+    if not close_later:
+        with cluster, Client(cluster) as client:
+            yield client
+        return
+    with contextlib.ExitStack() as now:  # (unwound at once on an error, or when the caller stops early)
+        now.enter_context(cluster)
+        with Client(cluster) as client:  # (closed here: a client leaves its context in its own thread)
+            yield client
+        later = now.pop_all()
+    thread = threading.Thread(target=later.close, name="mpmdem-cluster-close")
+    thread.start()
+    _CLOSING.append(thread)
+
+
+def wait_for_clusters() -> None:
+    """Return once the clusters ``study_client(close_later=True)`` left closing are closed."""
+    while _CLOSING:
+        _CLOSING.pop().join()
+
+
+def local_workers(workers: int | None, tasks: int) -> int:
+    """CPU worker processes of a local cluster for ``tasks`` tasks: ``workers``, else one per core,
+    at most one per task."""
+    return workers if workers else min(tasks, os.cpu_count() or 1)
+
+
+def runs_here(workers: int | None, tasks: int, gpus: int = 0, workers_per_gpu: int = 1,
+              scheduler: str | None = None) -> bool:
+    """Whether a study's ``tasks`` (runs, or groups of runs) execute in this process, one after
+    another: ``workers == 0``, or a local cluster that would be one worker (one CPU worker; one GPU
+    with one worker on it), which would run them in that order too, after starting a scheduler and
+    a worker process that imports Warp and loads its modules again. Never with ``scheduler``. A run
+    that ends its process (a crash) then ends the study; its finished rows stay (a rerun resumes)."""
+    if scheduler:
+        return False
+    if gpus:
+        return gpus == 1 and workers_per_gpu == 1
+    return workers == 0 or local_workers(workers, tasks) == 1
 
 
 def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | None, gpus: int = 0,
                  workers_per_gpu: int = 1, scheduler: str | None = None, groups: list | None = None) -> Iterator[dict]:
-    """The row of every run, in the order they finish; ``workers == 0``: in this process, in order.
-    ``groups`` (``batch_worker.group_runs``): each group one task that batches what it can."""
+    """The row of every run, in the order they finish; in this process, in order, where
+    ``runs_here`` says so. ``groups`` (``batch_worker.group_runs``): each group one task that
+    batches what it can."""
     def args(run):
         return case, run.id, run.values, list(run.argv), str(out / "runs" / run.id), device
 
@@ -75,7 +122,7 @@ def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | 
     if groups is not None:
         yield from _execute_groups(groups, case, out, device, workers, gpus, workers_per_gpu, scheduler)
         return
-    if workers == 0 and not scheduler and gpus == 0:
+    if runs_here(workers, len(runs), gpus, workers_per_gpu, scheduler):
         for run in runs:
             row = execute_run(*args(run))
             yield row
@@ -84,8 +131,7 @@ def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | 
         return
     from distributed import as_completed
 
-    n = workers if workers else min(len(runs), os.cpu_count() or 1)
-    with study_client(n, gpus, workers_per_gpu, scheduler) as client:
+    with study_client(local_workers(workers, len(runs)), gpus, workers_per_gpu, scheduler, close_later=True) as client:
         token = uuid.uuid4().hex[:8]  # keys unique on a shared scheduler
         futures = {client.submit(execute_run, *args(run), key=f"{run.id}-{token}", pure=False): run for run in runs}
         for future in as_completed(futures):
@@ -98,7 +144,7 @@ def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | 
 
 def _execute_groups(groups, case, out, device, workers, gpus, workers_per_gpu, scheduler) -> Iterator[dict]:
     """The rows of every group of runs (``execute_batch``), a group's rows when it finishes."""
-    if workers == 0 and not scheduler and gpus == 0:
+    if runs_here(workers, len(groups), gpus, workers_per_gpu, scheduler):
         for group in groups:
             rows = execute_batch(case, group, str(out), device)
             yield from rows
@@ -107,8 +153,8 @@ def _execute_groups(groups, case, out, device, workers, gpus, workers_per_gpu, s
         return
     from distributed import as_completed
 
-    n = workers if workers else min(len(groups), os.cpu_count() or 1)
-    with study_client(n, gpus, workers_per_gpu, scheduler) as client:
+    with study_client(local_workers(workers, len(groups)), gpus, workers_per_gpu, scheduler,
+                      close_later=True) as client:
         token = uuid.uuid4().hex[:8]
         futures = {client.submit(execute_batch, case, group, str(out), device, key=f"{group[0].id}-batch-{token}",
                                  pure=False): group for group in groups}

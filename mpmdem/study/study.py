@@ -265,12 +265,14 @@ def run_study(study: Study, out: str | Path | None = None, *, workers: int | Non
     ``workers``: CPU worker processes of a local Dask cluster (None: one per core, at most one per
     run; 0: in this process); ``gpus``: a local cluster of ``workers_per_gpu`` workers per GPU
     instead (None: ``default_workers_per_gpu``, batches side by side); ``scheduler``: the address
-    of a running Dask cluster to use instead. ``device`` is passed to every run (``cuda`` by default
-    with ``gpus``). Runs whose last row is completed, blown-up or bad-input are skipped;
-    ``rerun_failed`` runs all but the completed ones again. Raises InputError (nothing has run) for
+    of a running Dask cluster to use instead. Where the local cluster would be one worker (one CPU
+    worker, one GPU with one worker) the runs go in this process instead (``cluster.runs_here``).
+    ``device`` is passed to every run (``cuda`` by default with ``gpus``). Runs whose last row is
+    completed, blown-up or bad-input are skipped; ``rerun_failed`` runs all but the completed ones
+    again. Raises InputError (nothing has run) for
     a study the case cannot take, ImportError when Dask is needed but missing.
     """
-    from .cluster import DASK_MISSING, dask_available, execute_runs
+    from .cluster import DASK_MISSING, dask_available, execute_runs, runs_here, wait_for_clusters
     from .progress import StudyProgress
     from .table import ResultsTable
     from .worker import FINAL_STATUSES
@@ -288,9 +290,6 @@ def run_study(study: Study, out: str | Path | None = None, *, workers: int | Non
     kept = ("completed",) if rerun_failed else FINAL_STATUSES
     previous = table.latest()
     todo = [r for r in runs if previous.get(r.id, {}).get("status") not in kept]
-    if todo and (workers != 0 or gpus or scheduler) and not dask_available():
-        raise ImportError(DASK_MISSING)
-    table.write_spec(spec)
     size = default_batch(device, gpus) if batch is None else int(batch)
     if size < 1:
         raise InputError("batch", batch, "a number of runs per batch >= 1 (1: no batching)")
@@ -302,6 +301,10 @@ def run_study(study: Study, out: str | Path | None = None, *, workers: int | Non
         groups = group_runs(todo, size, keys)
     if workers_per_gpu is None:
         workers_per_gpu = default_workers_per_gpu(groups, gpus) if gpus else 1
+    tasks = len(groups) if groups is not None else len(todo)
+    if todo and not runs_here(workers, tasks, gpus, workers_per_gpu, scheduler) and not dask_available():
+        raise ImportError(DASK_MISSING)
+    table.write_spec(spec)
     if progress and todo:
         side = f"; {workers_per_gpu} worker(s) per GPU" if gpus else ""
         print(grouping_line(study.name, len(todo), size, groups, keyed=size > 1 and keys is not None) + side,
@@ -316,11 +319,14 @@ def run_study(study: Study, out: str | Path | None = None, *, workers: int | Non
     finally:
         bar.close()
     rows = [previous[r.id] for r in runs if r.id in previous]
-    table.write_csv(rows)
-    if study.analyze is not None:
-        if not any(row.get("status") == "completed" for row in rows):
-            print(f"study {study.name}: no run completed, so no analysis (the rows say why: {out / 'results.csv'})",
-                  file=sys.stderr)
-        else:
-            study.analyze(rows, out)
+    try:  # (while the cluster of the runs closes: cluster.study_client)
+        table.write_csv(rows)
+        if study.analyze is not None:
+            if not any(row.get("status") == "completed" for row in rows):
+                print(f"study {study.name}: no run completed, so no analysis (the rows say why: "
+                      f"{out / 'results.csv'})", file=sys.stderr)
+            else:
+                study.analyze(rows, out)
+    finally:
+        wait_for_clusters()
     return rows

@@ -13,6 +13,7 @@ import io
 import json
 import os
 import socket
+import sys
 import threading
 import time
 import traceback
@@ -32,13 +33,16 @@ RUN_LOCK = threading.Lock()
 
 
 def worker_name() -> str:
-    """The Dask worker's name, or host:pid outside a worker."""
-    try:
-        from distributed import get_worker
+    """The Dask worker's name, or host:pid outside a worker (a process without Dask imported is not
+    one: a study run in its own process does not import it for this)."""
+    if "distributed" in sys.modules:
+        try:
+            from distributed import get_worker
 
-        return str(get_worker().name)
-    except (ImportError, ValueError):
-        return f"{socket.gethostname()}:{os.getpid()}"
+            return str(get_worker().name)
+        except (ImportError, ValueError):
+            pass
+    return f"{socket.gethostname()}:{os.getpid()}"
 
 
 def scalar_summary(summary: dict, row: dict) -> dict:

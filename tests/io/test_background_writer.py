@@ -66,3 +66,23 @@ def test_background_close_brings_the_sidecar_up_to_every_frame(tmp_path):
         w.wait()
         assert len(ET.parse(path.with_suffix(".xdmf")).getroot().find("Domain/Grid").findall("Grid")) == 1
     assert len(ET.parse(path.with_suffix(".xdmf")).getroot().find("Domain/Grid").findall("Grid")) == 4
+
+
+def test_switch_interval_is_lowered_inside_and_restored_after():
+    """Verify ``thread_switch_interval`` lowers Python's thread switch interval inside (a writer
+    that gave up Python's lock around an HDF5 write gets it back sooner from a busy main thread),
+    never raises it, leaves it for 0, and restores it after, also after an exception."""
+    import sys
+
+    from mpmdem.io.background import thread_switch_interval
+
+    before = sys.getswitchinterval()
+    with thread_switch_interval(before / 10):
+        assert sys.getswitchinterval() == pytest.approx(before / 10)
+    assert sys.getswitchinterval() == before
+    for unchanged in (0.0, 10 * before):
+        with thread_switch_interval(unchanged):
+            assert sys.getswitchinterval() == before
+    with pytest.raises(RuntimeError), thread_switch_interval(before / 10):
+        raise RuntimeError("a failed run")
+    assert sys.getswitchinterval() == before

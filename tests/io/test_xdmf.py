@@ -297,3 +297,24 @@ def test_closing_a_writer_without_frames_writes_no_sidecar(tmp_path):
     path = tmp_path / "run.h5"
     body_writer(path, 1.0).close()
     assert not path.with_suffix(".xdmf").exists() and not (tmp_path / "run_bodies.xdmf").exists()
+
+
+def test_outlines_are_placed_from_the_stored_body_fields(tmp_path):
+    """Each frame's /xdmf/bodies outline is the body-frame ring placed at the x and angle the file
+    holds (f32 here, from f64 input): the writer hands the stored values, not the caller's, to
+    ``XdmfSidecars.add_frame``, which places them as reading them back would."""
+    from mpmdem.io.writer import FrameWriter
+    from mpmdem.model.outlines import outline_rings, place_rings
+
+    path = tmp_path / "run.h5"
+    geometry = make_geometry()
+    with FrameWriter(path, particle_count=0, attrs={"precision": "f32"}, body_count=M, body_geometry=geometry) as w:
+        for k in range(3):
+            w.write_frame(0.1 * k, {}, {"dt": 1e-3}, body_fields=make_body_fields(k))
+    rings = outline_rings(geometry)
+    with h5py.File(path, "r") as f:
+        for k in range(3):
+            x, angle = f["bodies/x"][k], f["bodies/angle"][k]
+            assert x.dtype == np.float32 and not np.array_equal(x, make_body_fields(k)["x"])
+            ring = place_rings(rings, x, angle).reshape(-1, 2)
+            np.testing.assert_array_equal(f[f"xdmf/bodies/frame_{k:06d}/outline"][:, :2], ring)

@@ -34,6 +34,7 @@ from mpmdem.model.spheropolygons import rounded_rectangle
     ("critical_band", 0.0),  # below one quantum (2^-20 cells)
     ("critical_band", 0.3),  # wider than the widest band
     ("conditional_below", 0.6),  # not below inline_above: would switch at every window
+    ("writer_switch_interval", -1e-3),  # an interval [s] >= 0
 ])
 def test_bad_values_name_their_field(field, value):
     """Verify a bad value raises InputError naming the field and the value, before anything runs."""
@@ -79,3 +80,34 @@ def test_simulation_passes_its_tuning_to_every_stage():
     assert m.Simulation(free_disk_scene(cell_size=0.05), device="cpu").tuning == m.Tuning()
     with pytest.raises(m.InputError, match="tuning"):
         m.Simulation(free_disk_scene(cell_size=0.05), device="cpu", tuning={"disk_pairs": False})
+
+
+@pytest.mark.parametrize("batched", [False, True])
+def test_frames_are_written_under_the_tunings_switch_interval(tmp_path, batched):
+    """Verify a run (lone or batched) that writes its frames steps under the Tuning's
+    writer_switch_interval (seen from its progress callback) and restores Python's after; a run
+    without files leaves it alone."""
+    import sys
+
+    from mpmdem.sim.batch_run import BatchedSimulation
+
+    before = sys.getswitchinterval()
+    tuning = m.Tuning(writer_switch_interval=before / 4)
+    seen = []
+
+    def progress(t, dt):
+        seen.append(sys.getswitchinterval())
+
+    def run(out):
+        scene = free_disk_scene(cell_size=0.2)
+        if batched:
+            b = BatchedSimulation([scene, free_disk_scene(cell_size=0.2)], device="cpu", tuning=tuning)
+            b.run(0.002, outs=None if out is None else [out / "a", out / "b"], frames=1, progress=progress)
+        else:
+            m.Simulation(scene, device="cpu", tuning=tuning).run(0.002, out=out, frames=1, progress=progress)
+
+    run(tmp_path)
+    assert seen and seen == pytest.approx([before / 4] * len(seen)) and sys.getswitchinterval() == before
+    seen.clear()
+    run(None)
+    assert seen and set(seen) == {before}

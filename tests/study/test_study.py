@@ -3,6 +3,7 @@
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -236,3 +237,75 @@ def test_a_study_with_no_completed_run_skips_its_analysis(tmp_path, capsys):
     assert "no run completed, so no analysis" in captured.err
     assert not (out / "rows.txt").exists()  # (count_rows writes it)
     assert [r["status"] for r in jsonl_rows(out)] == ["error"]
+
+
+@pytest.mark.parametrize("workers, tasks, gpus, per_gpu, scheduler, here", [
+    (0, 5, 0, 1, None, True),  # serial, as asked
+    (1, 5, 0, 1, None, True),  # one CPU worker: its runs one after another, as here
+    (None, 1, 0, 1, None, True),  # one task: one worker at most
+    (None, 2, 0, 1, None, (os.cpu_count() or 1) == 1),
+    (2, 1, 0, 1, None, False),  # (two workers asked: a cluster, though one task)
+    (None, 2, 1, 1, None, True),  # one GPU, one worker on it
+    (None, 2, 1, 2, None, False),  # batches side by side: one process each
+    (None, 2, 2, 1, None, False),
+    (0, 2, 0, 1, "tcp://elsewhere:8786", False),
+])
+def test_a_cluster_of_one_local_worker_is_this_process(workers, tasks, gpus, per_gpu, scheduler, here):
+    """A local cluster of one worker would run its tasks one after another, as this process does,
+    after starting a scheduler and a worker process that imports Warp again: the study runs here."""
+    assert study_cluster.runs_here(workers, tasks, gpus, per_gpu, scheduler) is here
+
+
+def test_one_worker_study_starts_no_cluster(tmp_path, monkeypatch):
+    """--workers 1, and a batched study of one batch: every row from this process, no Dask cluster
+    started; the rows and the table as a cluster's worker writes them."""
+    def no_cluster(*args, **kwargs):
+        raise AssertionError("a Dask cluster was started")
+
+    monkeypatch.setattr(study_cluster, "study_client", no_cluster)
+    here = f"{socket.gethostname()}:{os.getpid()}"
+    rows = run_study(INCLINE, tmp_path / "one", workers=1, device="cpu", progress=False)
+    assert [r["status"] for r in rows] == ["completed"] * 2 and {r["worker"] for r in rows} == {here}
+    assert [r["id"] for r in jsonl_rows(tmp_path / "one")] == ["angle=20.0", "angle=30.0"]
+    starts = Study("starts", "sand-blocks", grid={"--ensemble-seed": [1, 2]},
+                   fixed={"--cell-size": 0.02, "--end-time": 0.004, "--frames": 1})
+    batched = run_study(starts, tmp_path / "batched", device="cpu", progress=False, batch=2)
+    assert [r["status"] for r in batched] == ["completed"] * 2 and {r["worker"] for r in batched} == {here}
+    assert [r.get("batch_worlds") for r in batched] == [2, 2]
+
+
+@pytest.mark.filterwarnings("error::pytest.PytestUnhandledThreadExceptionWarning")
+def test_a_finished_studys_cluster_closes_while_its_table_and_analysis_are_written(tmp_path):
+    """The local cluster of a study whose runs all returned closes in a thread (its worker
+    processes take their time to end) while the table and the analysis are written; run_study
+    returns once it has closed. A study stopped early closes it before going on."""
+    import threading
+
+    closing_during_analysis = []
+
+    def analyze(rows, out):
+        closing_during_analysis.append(any(t.name == "mpmdem-cluster-close" for t in threading.enumerate()))
+
+    study = Study("incline", INCLINE.case, INCLINE.grid, INCLINE.fixed, analyze=analyze)
+    rows = run_study(study, tmp_path / "a", workers=2, device="cpu", progress=False)
+    assert [r["status"] for r in rows] == ["completed"] * 2
+    assert closing_during_analysis == [True]
+    assert not any(t.name == "mpmdem-cluster-close" for t in threading.enumerate())
+    runs = plan_runs(INCLINE, "cpu")
+    stream = study_cluster.execute_runs(runs, INCLINE.case, tmp_path / "b", "cpu", workers=2)
+    next(stream)
+    stream.close()  # (the consumer stopped: the cluster is closed at once)
+    assert not any(t.name == "mpmdem-cluster-close" for t in threading.enumerate())
+
+
+def test_a_study_in_its_own_process_does_not_import_dask(tmp_path):
+    """A study whose runs go in its own process (one worker) needs no Dask and imports none (its
+    import is a quarter of a second): the rows name the process, not a Dask worker."""
+    code = ("import sys\nfrom mpmdem.study.study import Study, run_study\n"
+            "study = Study('one', 'study_raising_case', grid={'--end-time': [0.01]})\n"
+            f"rows = run_study(study, {str(tmp_path)!r}, workers=1, device='cpu', progress=False)\n"
+            "print(rows[0]['status'], 'distributed' in sys.modules)\n")
+    tests = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # (the test case's folder)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.path.dirname(tests), tests])}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert done.stdout.split() == ["completed", "False"], done.stderr[-2000:]
