@@ -28,32 +28,10 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-import numpy as np
+from frame_writing import frame_data, geometry  # (a script beside this one)
 
 from mpmdem.io import FrameWriter, default_field_specs
 from mpmdem.io.background import BackgroundFrameWriter
-
-
-def frames_of(points: int, bodies: int, diagnostics: int, frames: int) -> list[tuple]:
-    """Per frame (time [s], particle fields, diagnostics, body fields) of made-up values."""
-    rng = np.random.default_rng(0)
-    out = []
-    for k in range(frames):
-        fields = {"x": rng.random((points, 2)), "v": rng.random((points, 2)), "stress": rng.random((points, 2, 2)),
-                  "volume": rng.random(points), "mass": rng.random(points), "F": rng.random((points, 2, 2)),
-                  "body": np.zeros(points, np.int32), "contact_force": rng.random((points, 2))}
-        body_fields = {"x": rng.random((bodies, 2)), "angle": rng.random(bodies), "v": rng.random((bodies, 2)),
-                       "omega": rng.random(bodies), "force": rng.random((bodies, 2)), "torque": rng.random(bodies)}
-        out.append((1e-3 * k, fields, {f"d{j:03d}": float(rng.random()) for j in range(diagnostics)}, body_fields))
-    return out
-
-
-def geometry(bodies: int) -> dict:
-    """Unit squares of radius 1 mm, free, 1 kg/m each."""
-    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
-    return {"vertex_start": 4 * np.arange(bodies), "vertex_count": np.full(bodies, 4),
-            "vertices": np.tile(square, (bodies, 1)), "radius": np.full(bodies, 1e-3),
-            "motion": np.zeros(bodies, np.int32), "mass": np.ones(bodies), "name": [f"b{i}" for i in range(bodies)]}
 
 
 def busy(seconds: float) -> None:
@@ -78,7 +56,7 @@ def main() -> None:
     p.add_argument("--tag", default="")
     p.add_argument("--out", type=Path, default=None, help="append the JSON line here")
     args = p.parse_args()
-    data = frames_of(args.points, args.bodies, args.diagnostics, args.frames)
+    data = frame_data(args.points, args.bodies, args.diagnostics, args.frames, contact_force=True)
     specs = {**default_field_specs(), "contact_force": ((2,), "float")}
     switch = sys.getswitchinterval()
     with tempfile.TemporaryDirectory() as tmp:

@@ -44,14 +44,17 @@ import numpy as np
 from mpmdem.io import FrameWriter, writer, xdmf
 
 
-def frame_data(points: int, bodies: int, diagnostics: int, frames: int) -> list[tuple]:
-    """Per frame (time [s], particle fields, diagnostics, body fields) of made-up values."""
+def frame_data(points: int, bodies: int, diagnostics: int, frames: int, contact_force: bool = False) -> list[tuple]:
+    """Per frame (time [s], particle fields, diagnostics, body fields) of made-up values; with
+    ``contact_force`` the coupled runs' extra particle field of that name."""
     rng = np.random.default_rng(0)
     out = []
     for k in range(frames):
         fields = {"x": rng.random((points, 2)), "v": rng.random((points, 2)), "stress": rng.random((points, 2, 2)),
                   "volume": rng.random(points), "mass": rng.random(points),
                   "F": rng.random((points, 2, 2)), "body": np.zeros(points, np.int32)}
+        if contact_force:
+            fields["contact_force"] = rng.random((points, 2))
         body_fields = {"x": rng.random((bodies, 2)), "angle": rng.random(bodies), "v": rng.random((bodies, 2)),
                        "omega": rng.random(bodies), "force": rng.random((bodies, 2)), "torque": rng.random(bodies)}
         diag = {f"diagnostic_{j:03d}": float(rng.random()) for j in range(diagnostics)}
