@@ -7,6 +7,7 @@
 #   study_overhead.jsonl bench/study_overhead.py: the study's phases and `cli_wall_s`, the whole
 #                        `mpmdem study block-impact-ensemble --set=--cell-size=0.003125 --gpus 1`;
 #                        on this tree also with --workers-per-gpu 1 (label "new-1wpg": in its process)
+#                        and with --batch 16 (label "new-b16": the 16 starts one batch, in its process)
 #   batch_frames.jsonl  bench/batch_frames.py --case sand-blocks, WORLDS worlds, on BASE and on this
 #                       tree at the Tuning's writer switch interval and at Python's own (label "new-si0")
 #   git archive OLD mpmdem kernels cases | tar -x -C .gpu/base      # then, on the GPU machine:
@@ -39,6 +40,7 @@ lone base 0 > /dev/null; lone new 0 > /dev/null  # (warm caches; not kept)
 for round in $(seq 1 "${LONE:-2}"); do lone base "$round"; lone new "$round"; done
 for round in $(seq 1 "${ROUNDS:-2}"); do
   study base "$round"; study new "$round"; study new-1wpg "$round" --workers-per-gpu 1
+  study new-b16 "$round" --batch 16
 done
 for w in ${WORLDS-8 16}; do
   PYTHONPATH=$root/$base:${PYTHONPATH:-} python bench/batch_frames.py --device cuda --case sand-blocks \
