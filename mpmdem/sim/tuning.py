@@ -138,8 +138,8 @@ class Tuning:
     """Registers per thread of the split search's ``assemble`` on CUDA (None: the compiler's choice,
     which takes one block of 256 threads an SM)."""
     disk_force_registers: int | None = _knob(None, 16, 255)
-    """Registers per thread of the disk–disk pass's force kernel on CUDA (``kernels.dem_disks``; None:
-    the compiler's choice)."""
+    """Registers per thread of the disk–disk pass's force kernel on CUDA (``kernels.dem_disks``: its
+    ``disk_forces``, or ``pair_shares`` with ``disk_pairs_once``; None: the compiler's choice)."""
     list_build_registers: int | None = _knob(None, 16, 255)
     """Registers per thread of the DEM list build (``kernels.dem_lists.build_lists``) on CUDA (None:
     the compiler's choice)."""

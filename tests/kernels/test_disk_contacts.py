@@ -95,6 +95,21 @@ def test_disk_pass_restarts_bit_for_bit(tmp_path, once):
     assert np.abs(a["torque"]).max() > 0.0
 
 
+def test_checkpoint_of_the_pass_continues_with_each_pair_once(tmp_path):
+    """Verify a checkpoint written with the pass's default (each pair by both disks) continues under
+    ``Tuning(disk_pairs_once=True)`` with the same bits as the run that wrote it (the partners' copies
+    of δ_t it holds are not read; tolerance 0, as for the pour)."""
+    ref = simulate(pour(), True, 1000)
+    ref.save_checkpoint(tmp_path / "disks.npz")
+    second = simulate(pour(), True, 0, once=True)
+    second.load_checkpoint(tmp_path / "disks.npz")
+    for sim in (ref, second):
+        sim.advance(500)
+    a, b = ref.body_fields(), second.body_fields()
+    for name in a:
+        assert np.array_equal(a[name], b[name]), name
+
+
 def test_mixed_scene_forces_match_to_round_off(device):
     """Verify a first step of squeezed disk grains among free pentagons and free rigid disks (pairs of
     every kind touching at once) gives the general search's forces and torques. Each pair's force is
