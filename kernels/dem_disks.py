@@ -25,16 +25,18 @@ search keeps a vertex–vertex touch), the partner a copy in ``DiskPairs.slip``;
 also keeps the pair's stored energy and dissipated work in its slot (the diagnostics read them there).
 Pairs of a disk with any other body (a wall, a polygon, a large disk) stay in the general search.
 
-Each pair once (``once``, ``Tuning.disk_pairs_once``): two kernels instead of ``disk_forces``, the same
-bits. ``pair_shares`` (a thread a disk, its owned slots in slot order) computes each disk–disk pair
-once, with the same call of ``disk_pair``, updates the owner's slot as ``disk_forces`` does and
-stores the pair's shares in ``DiskPairs.share`` (per-step scratch: written for every listed slot
-before it is read, so no checkpoint holds it); ``sum_shares`` (a thread a disk) adds them up in
-``disk_forces``'s order, incoming then owned, with the same two atomics. A share is (F, τ_i, τ_j):
-the owner's force F = 0 + F_pair, its torque and the partner's; the partner's force is −F, where
-``disk_forces`` adds 0 − F_pair: the same float but for the sign of a zero, which a sum started at
-+0 cannot see (in round-to-nearest x + (±0) = x for x ≠ −0, and such a sum is never −0). The
-partner needs no copy of δ_t then: ``DiskPairs.slip`` is not allocated and not kept.
+Each pair once (``once``, ``Tuning.disk_pairs_once``): two kernels instead of ``disk_forces``, the
+same bits. ``pair_shares`` (a thread a disk, its owned slots in slot order) computes each disk–disk
+pair once, with the same call of ``disk_pair``, updates the owner's slot as ``disk_forces`` does
+and stores the pair's shares in ``DiskPairs.share`` (per-step scratch: written for every listed
+slot before it is read, so no checkpoint holds it; slot-major, slot s of body b at s n + b, so
+that a warp's threads store and load slot s of consecutive disks side by side); ``sum_shares`` (a
+thread a disk) adds them up in ``disk_forces``'s order, incoming then owned, with the same two
+atomics. A share is (F, τ_i, τ_j): the owner's force F = 0 + F_pair, its torque and the partner's;
+the partner's force is −F, where ``disk_forces`` adds 0 − F_pair: the same float but for the sign
+of a zero, which a sum started at +0 cannot see (in round-to-nearest x + (±0) = x for x ≠ −0, and
+such a sum is never −0). The partner needs no copy of δ_t then: ``DiskPairs.slip`` is not
+allocated and not kept.
 """
 
 import functools
@@ -76,7 +78,8 @@ def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool 
         fill: wp.array(dtype=wp.int32)  # (bodies) entries appended in a rebuild (0 between rebuilds)
         count: wp.array(dtype=wp.int32)  # (bodies) entries of ``incoming``
         slip: wp.array(dtype=T)  # (bodies * K) the partner's copy of each incoming pair's δ_t [m] (not once)
-        # (bodies * K, once) per owned slot: force [N/m] on the owner, torques [N m/m] on owner and partner
+        # (K * bodies, once) per owned slot, slot s of body b at s * bodies + b: force [N/m] on the owner,
+        # torques [N m/m] on owner and partner
         share: wp.array(dtype=vec4)
 
     @kernel
@@ -202,6 +205,7 @@ def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool 
         if B.disk[b] == 0:
             return
         K = C.slots
+        n = B.disk.shape[0]
         dt = T(clock[CLOCK_DT])
         for s in range(C.count[b]):
             at = b * K + s
@@ -218,7 +222,7 @@ def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool 
                     C.energy[at] = energy
                 if touching:
                     C.dissipated[at] = C.dissipated[at] + lost
-            D.share[at] = share  # (every listed slot, apart or not: ``sum_shares`` reads them all)
+            D.share[s * n + b] = share  # (every listed slot, apart or not: ``sum_shares`` reads them all)
 
     @kernel(deterministic=deterministic)
     def sum_shares(B: Bodies, C: Contacts, D: DiskPairs):
@@ -229,14 +233,17 @@ def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool 
         if B.disk[b] == 0:
             return
         K = C.slots
+        n = B.disk.shape[0]
         f = vec2()
         tq = T(0.0)
         for r in range(D.count[b]):
-            share = D.share[D.incoming[b * K + r]]
+            at = D.incoming[b * K + r]  # (slot at % K of body at // K)
+            i = at // K
+            share = D.share[(at - i * K) * n + i]
             f -= vec2(share[0], share[1])  # (−F: ``disk_forces`` adds 0 − F, the same float; module docstring)
             tq += share[3]
         for s in range(C.count[b]):
-            share = D.share[b * K + s]  # (0 for a partner of the general search: adds nothing)
+            share = D.share[s * n + b]  # (0 for a partner of the general search: adds nothing)
             f += vec2(share[0], share[1])
             tq += share[2]
         wp.atomic_add(B.force, b, f)
