@@ -171,7 +171,7 @@ def _study(argv: list[str]) -> int:
     p.add_argument("--device", default=None, help="passed to every run: cpu, cuda (default: cuda with --gpus)")
     p.add_argument("--rerun-failed", action="store_true", help="run again every run not completed")
     p.add_argument("--batch", type=_count(1), default=None, metavar="N",
-                   help="up to N runs of one batch key as one batched simulation on one device (default: 8 on a "
+                   help="up to N runs of one batch key as one batched simulation on one device (default: 16 on a "
                         "GPU, none on a CPU; docs/studies/running.md)")
     p.add_argument("--no-batch", dest="batch", action="store_const", const=1, help="run every run alone")
     p.add_argument("--set", type=_setting, action="append", default=[], metavar="FLAG=VALUE",

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import sys
+import threading
 from collections.abc import Iterator, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 
@@ -79,16 +80,29 @@ class BackgroundFrameWriter(ClosesOnExit):
             self.writer.close()
 
 
+#: the blocks inside ``thread_switch_interval`` now, of any thread, and the interval before the first
+_switch_lock = threading.Lock()
+_switch_holders: list[float] = []
+_switch_before: list[float] = []
+
+
 @contextlib.contextmanager
 def thread_switch_interval(seconds: float) -> Iterator[None]:
     """Python's thread switch interval lowered to ``seconds`` [s] inside (``sys.setswitchinterval``;
-    never raised; 0: left as it is), and set back after."""
-    previous = sys.getswitchinterval()
-    lower = 0.0 < seconds < previous
-    if lower:
-        sys.setswitchinterval(seconds)
+    never raised; 0: left as it is), and set back after. Blocks of several threads may overlap
+    (runs side by side: ``mpmdem.sim.device_turns``): the interval is then the least asked of those
+    still inside, and the one from before the first comes back when the last leaves."""
+    if not seconds > 0.0:
+        yield
+        return
+    with _switch_lock:
+        if not _switch_holders:
+            _switch_before[:] = [sys.getswitchinterval()]
+        _switch_holders.append(seconds)
+        sys.setswitchinterval(min([_switch_before[0], *_switch_holders]))
     try:
         yield
     finally:
-        if lower:
-            sys.setswitchinterval(previous)
+        with _switch_lock:
+            _switch_holders.remove(seconds)
+            sys.setswitchinterval(min([_switch_before[0], *_switch_holders]))

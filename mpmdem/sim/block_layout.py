@@ -27,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from .host_copy import host_copy
 from .launch_plan import IfFlag
 from .tuning import Tuning
 
@@ -62,7 +63,7 @@ class BlockLayout:
         """Steps that ran the block so far, from ``counts`` (the counters already copied to the
         host, which layouts sharing one counter array read once) or one small device-to-host copy."""
         if counts is None:
-            counts = self.counters.numpy()
+            counts = host_copy(self.counters)
         return int(np.sum(counts[list(self.slots)], dtype=np.int64))
 
     def after_batch(self, steps: int, counts: np.ndarray | None = None) -> bool:

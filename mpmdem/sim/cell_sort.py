@@ -10,6 +10,7 @@ import warp as wp
 
 from ..kernels import sorting as sorting_kernels
 from ..kernels.state import make_state_structs
+from .host_copy import host_copy
 from .mpm_state import POINT_FIELDS
 
 __all__ = ["PointSorter", "device_order"]
@@ -85,7 +86,7 @@ class PointSorter:
         rows, cols = self._rows_cols()
         wp.launch(sorting_kernels.make_order_drift(self.precision), n - 1,
                   inputs=[self.points, self.domain, rows, cols, count], device=self.device)
-        return int(count.numpy()[0]) / (n - 1)
+        return int(host_copy(count)[0]) / (n - 1)
 
     def reorder(self, order: wp.array | None = None) -> None:
         """new[p] = old[order[p]] for every per-point array; None: by grid cell (radix sort)."""

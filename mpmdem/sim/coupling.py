@@ -32,6 +32,7 @@ from ..model.finished import Model
 from ..model.scene import Scene
 from .dem import DEMSolver, spring_time_step_bound
 from .diagnostics import coupled_likely_cause
+from .host_copy import host_copy
 from .launch_plan import IfAny, IfFlag, Launch, group_conditionals, run_plan, split_after_conditionals
 from .mpm import AFTER_FORCE_UPDATE, MPMSolver
 from .stage import ClockedStage
@@ -101,7 +102,7 @@ class CoupledStage(ClockedStage):
         self.clock, self.steps = mpm.clock, mpm.steps
         law = model.coupling_contact or model.contact
         self.law = law
-        host_mass = self.points.mass.numpy()
+        host_mass = host_copy(self.points.mass)
         self.contact_bound = contact_time_step_bound(model, float(host_mass.min()))
         self.dt_bound = min(self.contact_bound, dem.dt_bound)
         kappa = math.pi * config.dem_kappa
@@ -185,7 +186,7 @@ class CoupledStage(ClockedStage):
         own = bodies.columns.friction[bodies.order].tolist()  # (grains: their set's μ; no per-grain override)
         mu = np.array([[model.coupling_friction.get((m, name), f) for name, f in zip(names, own, strict=True)]
                        for m in mats], T)
-        vols = pts.vol.numpy()
+        vols = host_copy(pts.vol)
         per_cell = h * h / float(vols.min())
         self.skin = float(cfg.imp_skin) if cfg.imp_skin is not None else 0.5 * h
         self.cell_cap = cfg.imp_cell_capacity or int(max(16, math.ceil(4.0 * per_cell)))
@@ -387,7 +388,7 @@ class CoupledStage(ClockedStage):
 
     def status_counts(self) -> CoupledStatus:
         """Status counts of both stages and of the coupling, by name."""
-        return CoupledStatus(self.mpm.status_counts(), self.dem.status_counts(), self.status.numpy())
+        return CoupledStatus(self.mpm.status_counts(), self.dem.status_counts(), host_copy(self.status))
 
     def likely_cause(self, dt: float, bound: float) -> str:
         """The rigid bodies' initial overlap, the points' causes, the contact stiffness."""
@@ -421,7 +422,7 @@ class CoupledStage(ClockedStage):
         d = self.dem.diagnostics()
         self.diag.zero_()
         wp.launch(self.k.diagnostics, self.points.count, inputs=[self.L, self.diag], device=self.device)
-        imp = dict(zip(coupling_kernels.IMP_DIAG_NAMES, (float(v) for v in self.diag.numpy()), strict=True))
+        imp = dict(zip(coupling_kernels.IMP_DIAG_NAMES, (float(v) for v in host_copy(self.diag)), strict=True))
         out = dict(m)
         for name in self._SUMMED:
             out[f"points_{name}"] = m[name]
@@ -437,7 +438,7 @@ class CoupledStage(ClockedStage):
         out["work_imp_damping"] = -imp["dissipated_imp_damping"]
         out["work_imp_friction"] = -imp["dissipated_imp_friction"]
         out["list_rebuilds"] = d["list_rebuilds"]
-        out["imp_rebuilds"] = float(self.rebuilds.numpy()[0])
+        out["imp_rebuilds"] = float(host_copy(self.rebuilds)[0])
         out["imp_pairs"] = imp["imp_pairs"]
         out["imp_contacts"] = imp["imp_contacts"]
         for name in d:  # mass probes: the points' mass and the free bodies' (grains included)

@@ -35,6 +35,7 @@ from ..model.memory import check_device_memory
 from ..model.rigid_arrays import RigidArrays
 from ..model.scene import Scene
 from .dem_period import periodic_cells
+from .host_copy import host_copy
 from .launch_plan import IfFlag, Launch, run_plan
 from .stage import Clock, ClockedStage
 from .tuning import Tuning
@@ -470,7 +471,7 @@ class DEMSolver(ClockedStage):
 
     def status_counts(self) -> np.ndarray:
         """The DEM status counters (``kernels/dem.py`` STATUS_*)."""
-        return self.status.numpy()
+        return host_copy(self.status)
 
     def check_status(self, t: float, dt: float, bound: float, status: np.ndarray) -> None:
         """Raise BlowUpError for non-finite or escaped bodies and overflowing lists."""
@@ -518,7 +519,7 @@ class DEMSolver(ClockedStage):
         self.diag.zero_()
         wp.launch(self.k.diagnostics, self.body_count, inputs=[self.B, self.C, self.params, self.diag],
                   device=self.device)
-        vals = dict(zip(dem_kernels.DIAG_NAMES, (float(v) for v in self.diag.numpy()), strict=True))
+        vals = dict(zip(dem_kernels.DIAG_NAMES, (float(v) for v in host_copy(self.diag)), strict=True))
         out = {name: vals[name] for name in ("energy_kinetic", "energy_gravity", "energy_contact")}
         out["energy_total"] = out["energy_kinetic"] + out["energy_gravity"] + out["energy_contact"]
         out.update({name: vals[name] for name in ("momentum_x", "momentum_y", "momentum_angular", "mass")})
@@ -526,9 +527,9 @@ class DEMSolver(ClockedStage):
         out["work_contact_damping"] = -vals["dissipated_damping"]
         out["work_contact_friction"] = -vals["dissipated_friction"]
         out["work_driven"] = vals["work_driven"]  # by kinematic bodies (and, periodic x, across the seam)
-        out["list_rebuilds"] = float(self.rebuilds.numpy()[0])
-        out["listed_pairs"] = float(self.C.count.numpy().sum())
-        out["history_overflows"] = float(self.status.numpy()[dem_kernels.STATUS_HISTORY_OVERFLOW])
+        out["list_rebuilds"] = float(host_copy(self.rebuilds)[0])
+        out["listed_pairs"] = float(host_copy(self.C.count).sum())
+        out["history_overflows"] = float(host_copy(self.status)[dem_kernels.STATUS_HISTORY_OVERFLOW])
         out.update(self.probe_masses())
         return out
 
@@ -547,7 +548,7 @@ class DEMSolver(ClockedStage):
         wp.launch(self._probe_kernel, self.body_count,
                   inputs=[self.B.x, self.B.mass, self.B.motion, self._probe_boxes, self._probe_mass],
                   device=self.device)
-        return {f"mass_{p.name}": float(m) for p, m in zip(probes, self._probe_mass.numpy(), strict=True)}
+        return {f"mass_{p.name}": float(m) for p, m in zip(probes, host_copy(self._probe_mass), strict=True)}
 
     #: Diagnostics that are works done on the system (for the energy balance).
     WORK_TERMS = ("work_contact_damping", "work_contact_friction", "work_driven")
@@ -558,7 +559,7 @@ class DEMSolver(ClockedStage):
         out = {}
         for name, a in (("x", B.x), ("angle", B.angle), ("v", B.v), ("omega", B.omega), ("force", B.force),
                         ("torque", B.torque)):
-            values = a.numpy()
+            values = host_copy(a)
             out[name] = np.empty_like(values)
             out[name][self.order] = values
         return out

@@ -19,6 +19,7 @@ from ..kernels import reductions as reduction_kernels
 from ..model.config import SolverConfig
 from ..model.finished import Model
 from .granular_state import GranularPlan
+from .host_copy import host_copy
 from .stage import Clock
 
 __all__ = ["EnergyBalance", "PointStage", "check_energy", "check_point_status", "coupled_likely_cause",
@@ -106,15 +107,15 @@ def point_diagnostics(stage: PointStage, mark: tuple[float, np.ndarray]) -> tupl
     t_now = stage.sim_clock.time
     wp.launch(stage.diagnostics_kernel, stage.particle_count,
               inputs=[stage.points, stage.D, stage.materials, stage.diag, t_now], device=stage.device)
-    vals = stage.diag.numpy()
+    vals = host_copy(stage.diag)
     out = {name: float(v) for name, v in zip(reduction_kernels.DIAG_NAMES, vals, strict=True)}
     if stage.model.mass_probes:
         stage.probe_mass.zero_()
         wp.launch(stage.probe_mass_kernel, stage.particle_count,
                   inputs=[stage.points, stage.probe_boxes, stage.probe_mass, t_now], device=stage.device)
-        for probe, m in zip(stage.model.mass_probes, stage.probe_mass.numpy(), strict=True):
+        for probe, m in zip(stage.model.mass_probes, host_copy(stage.probe_mass), strict=True):
             out[f"mass_{probe.name}"] = float(m)
-    sums = stage.work.numpy().reshape(-1, grid_kernels.WORK_SLOTS).sum(axis=1)
+    sums = host_copy(stage.work).reshape(-1, grid_kernels.WORK_SLOTS).sum(axis=1)
     works = sums[: len(grid_kernels.WORK_TERMS)]
     out.update({name: float(w) for name, w in zip(grid_kernels.WORK_TERMS, works, strict=True)})
     # force on the obstacles [N/m]: impulse since the previous call / time since then

@@ -18,6 +18,7 @@ from ..errors import InputError
 from ..kernels import granular as granular_kernels
 from ..kernels import scan as scan_kernels
 from ..kernels.shape_functions import SUPPORT_NODES
+from .host_copy import host_copy
 from .launch_plan import IfFlag, Launch
 from .tuning import Tuning
 
@@ -190,7 +191,7 @@ class GranularPlan:
 
     def counts(self) -> tuple[int, int]:
         """(rebuilds, relabels) of the interaction graph since the start (one host sync)."""
-        flags = self.interaction.flags.numpy()
+        flags = host_copy(self.interaction.flags)
         return int(flags[granular_kernels.FLAG_COUNT]), int(flags[granular_kernels.FLAG_RELABELS])
 
     def invalidate(self) -> None:
@@ -207,15 +208,15 @@ class GranularPlan:
         dim = max(self.particle_count, self.layer_nodes)
         wp.launch(granular_kernels.make_granular_statistics(self.precision, self.staged), dim,
                   inputs=[self.points, self.G, self.D, self.clock, self.stats], device=self.device)
-        c, layers = self.stats.numpy()
+        c, layers = host_copy(self.stats)
         return int(c), int(layers)
 
     def components(self) -> np.ndarray:
         """Component label of every point in the scene's order: the smallest scene index among the
         points of its component."""
         n = self.particle_count
-        comp = self.points.comp.numpy()
-        pid = self.points.pid.numpy()
+        comp = host_copy(self.points.comp)
+        pid = host_copy(self.points.pid)
         # labels are device indices of the root points (kernels/granular.py ``priority``): in the
         # scene's order, each component named by its smallest member
         root = np.empty(n, np.int64)
@@ -230,8 +231,8 @@ class GranularPlan:
         non-deforming shape (no critical density) gets zeros: it interacts through its nodes."""
         S = self.interaction
         if self.deforming:
-            return S.dom_a.numpy().copy(), S.dom_b.numpy().copy()
-        ext = np.maximum(S.ext.numpy(), 0.0)  # the half-extents of the search's axis-aligned records
+            return host_copy(S.dom_a).copy(), host_copy(S.dom_b).copy()
+        ext = np.maximum(host_copy(S.ext), 0.0)  # the half-extents of the search's axis-aligned records
         zero = np.zeros(len(ext))
         return np.column_stack([ext[:, 0], zero]), np.column_stack([zero, ext[:, 1]])
 
@@ -312,4 +313,4 @@ def node_ranges(points, D, shape: str, precision: str, device) -> np.ndarray:
     n = len(points.x)
     out = wp.empty(n, dtype=wp.vec4i, device=device)
     wp.launch(granular_kernels.make_node_ranges(shape, precision), n, inputs=[points, D, out], device=device)
-    return out.numpy()
+    return host_copy(out)

@@ -34,6 +34,7 @@ from . import granular_state
 from .block_layout import BlockLayout
 from .cell_sort import PointSorter, device_order
 from .grid_edges import GridEdges
+from .host_copy import host_copy
 from .launch_plan import Launch, Zero, plan_blocks, plan_kernels, run_plan
 from .mpm_orders import AFTER_FORCE_UPDATE, ORDER_PLANS, StepPieces
 from .mpm_roles import GridUpdate, WallFold, last_grid_update, launches
@@ -316,7 +317,7 @@ class MPMSolver(ClockedStage):
         reads the obstacle's load, so the ghosts must be updated."""
         if not self.model.obstacles:
             return False
-        solid = self.G.solid.numpy()
+        solid = host_copy(self.G.solid)
         lo, hi = self.D.node_lo, self.D.node_hi
         inner = np.zeros(solid.shape, bool)
         for first in range(0, solid.shape[0], self.D.tile_rows):  # (every tile's: kernels/tiles.py)
@@ -449,7 +450,7 @@ class MPMSolver(ClockedStage):
 
     def status_counts(self) -> np.ndarray:
         """Non-finite points, points outside, point-node contributions with no grid layer left."""
-        return self.status.numpy()
+        return host_copy(self.status)
 
     def refresh_derived(self) -> None:
         """Hyperelastic scenes (``derived_stress``): write every point's volume and stress from its F
@@ -525,7 +526,7 @@ class MPMSolver(ClockedStage):
                                            device=self.device)
         wp.launch(output_kernels.make_pack_output(self.config.precision, self.coupled), n,
                   inputs=[self.points, self._packed_output], device=self.device)
-        packed = self._packed_output.numpy()
+        packed = host_copy(self._packed_output)
         out = {}
         for name, (first, shape) in output_kernels.OUTPUT_COLUMNS.items():
             if name == "contact_force":

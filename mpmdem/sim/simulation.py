@@ -15,6 +15,7 @@ bars and Ctrl-C handling belong to the command line (``mpmdem.study.runner``, ``
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import time as _time
@@ -30,9 +31,11 @@ from ..errors import BlowUpError, InputError
 from ..kernels.clock import ROUND_OFF
 from ..model.config import SolverConfig
 from ..model.scene import Scene
+from . import device_turns
 from .auto_sort import AutoSort, auto_sort_applies
 from .dem import DEMSolver
 from .diagnostics import EnergyBalance, check_energy
+from .host_copy import host_copy
 from .mpm import MPMSolver
 from .stage import Clock, Stage
 from .tuning import Tuning
@@ -107,6 +110,9 @@ class Simulation:
             allowed = ", ".join(str(d) for d in wp.get_devices())
             raise InputError("device", device, f"one of {allowed}") from None
         self.device = str(wp.get_device(device))
+        #: the turns this run takes on its device beside other runs of this process (built inside
+        #: ``DeviceTurns.turn``: ``mpmdem.sim.device_turns``), else None
+        self.turns = device_turns.current(self.device)
         #: the finished scene every stage is built from: checked as a whole (points starting inside
         #: rigid bodies, overlapping bodies), points seeded and DEM bodies laid out, once, before any kernel
         self.model = model = scene.finalize()
@@ -173,19 +179,23 @@ class Simulation:
                 pass
         self.stage.set_stop_time(t)  # dt = 0: loads every module, changes nothing
         self.stage.step()
-        wp.synchronize_device(self.device)
+        if self.turns is not None:
+            self.turns.wait()  # (this run's stream; the other runs' go on)
+        else:
+            wp.synchronize_device(self.device)
         self._record_graphs()
 
     def _record_graphs(self) -> None:
         """Record the one-step and the ``tuning.steps_per_graph``-step graphs (modules loaded); again
         when the step's layout changed (``block_layouts``): recording launches nothing."""
-        with wp.ScopedCapture(device=self.device) as cap:
-            self.stage.step()
-        self._graph = cap.graph
-        with wp.ScopedCapture(device=self.device) as cap:
-            for _ in range(self.tuning.steps_per_graph):
+        with self.turns.capturing() if self.turns is not None else contextlib.nullcontext():
+            with wp.ScopedCapture(device=self.device) as cap:
                 self.stage.step()
-        self._graph_many = cap.graph
+            self._graph = cap.graph
+            with wp.ScopedCapture(device=self.device) as cap:
+                for _ in range(self.tuning.steps_per_graph):
+                    self.stage.step()
+            self._graph_many = cap.graph
 
     def advance(self, steps: int) -> None:
         """Launch ``steps`` explicit steps without any host synchronisation (with an explicit
@@ -245,6 +255,8 @@ class Simulation:
         batch = 1
         while t < t_stop:
             self.advance(batch)
+            if self.turns is not None:
+                self.turns.wait()  # (the other runs of this process launch theirs meanwhile)
             clock = stage.read_clock()
             stage.check_status(clock.t, clock.dt, clock.bound, clock.status)
             t, dt, steps = clock.t, clock.dt, clock.steps
@@ -252,7 +264,7 @@ class Simulation:
                 self._auto_sort.after_batch(steps)
             if self._graph is not None and self.block_layouts:
                 # (one copy of the counters they share; every layout reads its rate: no short-circuit)
-                counts = self.block_layouts[0].counters.numpy()
+                counts = host_copy(self.block_layouts[0].counters)
                 if sum([layout.after_batch(steps, counts) for layout in self.block_layouts]):
                     self._record_graphs()
             if on_batch is not None:
@@ -401,7 +413,7 @@ class Simulation:
         count, CFL speeds) to an .npz file. Restoring it into a Simulation of the same scene and
         config on the same device continues bit for bit."""
         path = Path(path)
-        arrays = {name: a.numpy() for name, a in self.stage.state_arrays().items()}
+        arrays = {name: host_copy(a) for name, a in self.stage.state_arrays().items()}
         with open(path, "wb") as f:
             np.savez(f, **arrays, meta=np.array(json.dumps(
                 {"version": __version__, "scene": self.scene.to_dict(), "config": self.config.to_dict()})))

@@ -26,6 +26,7 @@ from ..kernels.clock import (
     CLOCK_T,
     CLOCK_T_STOP,
 )
+from .host_copy import host_copy
 
 __all__ = ["Clock", "ClockReading", "ClockedStage", "Stage"]
 
@@ -79,14 +80,14 @@ class Clock:
 
     def read(self) -> ClockReading:
         """(t, dt, bound, steps) of the last step taken: one host sync."""
-        c = self.values.numpy()
+        c = host_copy(self.values)
         return ClockReading(float(c[CLOCK_T]), float(c[CLOCK_DT_TAKEN]), float(c[CLOCK_BOUND_TAKEN]),
-                            int(self.steps.numpy()[0]))
+                            int(host_copy(self.steps)[0]))
 
     @property
     def time(self) -> float:
         """t [s] (one host sync)."""
-        return float(self.values.numpy()[CLOCK_T])
+        return float(host_copy(self.values)[CLOCK_T])
 
 
 class ClockedStage:

@@ -25,6 +25,7 @@ from ..kernels import dem as dem_kernels
 from ..kernels import grid as grid_kernels
 from ..kernels import reductions as reduction_kernels
 from .batch_scene import World
+from .host_copy import host_copy
 
 __all__ = ["HostArrays", "WorldPoints", "body_sums", "imp_sums", "point_sums", "world_diagnostics"]
 
@@ -39,7 +40,7 @@ class HostArrays:
     def __call__(self, name: str, array) -> np.ndarray:
         """``array`` on the host, read back at the first call of this frame under ``name``."""
         if name not in self._arrays:
-            self._arrays[name] = array.numpy()
+            self._arrays[name] = host_copy(array)
         return self._arrays[name]
 
 
@@ -49,7 +50,7 @@ class WorldPoints:
     of views onto them for the stage's own reduction kernels."""
 
     def __init__(self, mpm, world: World):
-        pid = mpm.points.pid.numpy()
+        pid = host_copy(mpm.points.pid)
         self.index = np.flatnonzero((pid >= world.points.start) & (pid < world.points.stop))
         self.mpm = mpm
         self._struct = None
@@ -87,13 +88,13 @@ def point_sums(mpm, wpts: WorldPoints, world: World) -> dict[str, float]:
     t_now = mpm.sim_clock.time
     wpts.diag.zero_()
     wp.launch(mpm.diagnostics_kernel, n, inputs=[P, mpm.D, mpm.materials, wpts.diag, t_now], device=mpm.device)
-    out = {name: float(v) for name, v in zip(reduction_kernels.DIAG_NAMES, wpts.diag.numpy(), strict=True)}
+    out = {name: float(v) for name, v in zip(reduction_kernels.DIAG_NAMES, host_copy(wpts.diag), strict=True)}
     X = world.offset
     probes = world.scene.mass_probes
     if probes:
         wpts.probe_mass.zero_()
         wp.launch(mpm.probe_mass_kernel, n, inputs=[P, wpts.probe_boxes, wpts.probe_mass, t_now], device=mpm.device)
-        out.update({f"mass_{p.name}": float(m) for p, m in zip(probes, wpts.probe_mass.numpy(), strict=True)})
+        out.update({f"mass_{p.name}": float(m) for p, m in zip(probes, host_copy(wpts.probe_mass), strict=True)})
     if X:
         out["momentum_angular"] -= X * out["momentum_y"]
         out["energy_gravity"] += world.scene.gravity[0] * X * out["mass"]

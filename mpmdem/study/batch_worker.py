@@ -11,7 +11,6 @@ a row says which batch it ran in (``batch``: the group's first run id, ``batch_w
 
 from __future__ import annotations
 
-import contextlib
 import gc
 import io
 import json
@@ -23,7 +22,8 @@ from ..errors import InputError
 from .case import load_case
 from .run_progress import run_callback
 from .signals import deferred_stop, sigterm_raises
-from .worker import RUN_LOCK, execute_run, failed_row, scalar_summary, worker_name
+from .thread_stderr import captured_stderr
+from .worker import execute_run, failed_row, run_lock, scalar_summary, worker_name
 
 __all__ = ["execute_batch", "group_runs", "run_keys"]
 
@@ -66,7 +66,7 @@ def run_keys(case: str, runs: list, out: str, budget: float = 20.0) -> list | No
             keys.append(None)
             continue
         try:
-            with contextlib.redirect_stderr(io.StringIO()):
+            with captured_stderr(io.StringIO()):
                 _, setup, config, end, frames = _prepare(module, run, str(Path(out) / "runs" / run.id))
             key = group_key(setup.scene, config)
             keys.append(None if key is None else (key, end, frames))
@@ -98,7 +98,7 @@ def execute_batch(case: str, runs: list, out: str, device: str | None) -> list[d
             alone.append(run)
             continue
         try:
-            with contextlib.redirect_stderr(io.StringIO()):
+            with captured_stderr(io.StringIO()):
                 prepared[run.id] = _prepare(module, run, folders[run.id])
         except Exception:  # (bad input and the like: the lone path reports it as its row)
             alone.append(run)
@@ -142,7 +142,7 @@ def _run_group(module, group: list, prepared: dict, folders: dict, device: str |
     for run in group:
         (Path(folders[run.id]) / "summary.json").unlink(missing_ok=True)
     try:
-        with RUN_LOCK, sigterm_raises(), deferred_stop() as received:
+        with run_lock(), sigterm_raises(), deferred_stop() as received:
             batch = BatchedSimulation([prepared[r.id][1].scene for r in group], config, device=device)
             results = batch.run(end_time, outs=[folders[r.id] for r in group], frames=frames,
                                 names=module.NAME.replace("-", "_"), progress=run_callback(None, received))

@@ -21,7 +21,7 @@ from .batch_worker import execute_batch
 from .worker import execute_run, failed_row
 
 __all__ = ["DASK_MISSING", "dask_available", "execute_runs", "local_workers", "map_tasks", "runs_here",
-           "wait_for_clusters"]
+           "side_by_side", "wait_for_clusters"]
 
 DASK_MISSING = 'the study runner needs Dask: pip install "mpmdem[study]" (or run serially with --workers 0)'
 
@@ -96,17 +96,30 @@ def local_workers(workers: int | None, tasks: int) -> int:
 
 
 def runs_here(workers: int | None, tasks: int, gpus: int = 0, workers_per_gpu: int = 1,
-              scheduler: str | None = None) -> bool:
+              scheduler: str | None = None, batched: bool = False) -> bool:
     """Whether a study's ``tasks`` (runs, or groups of runs) execute in this process, one after
     another: ``workers == 0``, or a local cluster that would be one worker (one CPU worker; one GPU
     with one worker on it), which would run them in that order too, after starting a scheduler and
     a worker process that imports Warp and loads its modules again. Never with ``scheduler``. A run
-    that ends its process (a crash) then ends the study; its finished rows stay (a rerun resumes)."""
+    that ends its process (a crash) then ends the study; its finished rows stay (a rerun resumes).
+    ``batched`` (the tasks are groups of runs): one GPU runs them here whatever ``workers_per_gpu``,
+    that many side by side (``side_by_side``)."""
     if scheduler:
         return False
     if gpus:
-        return gpus == 1 and workers_per_gpu == 1
+        return gpus == 1 and (workers_per_gpu == 1 or batched)
     return workers == 0 or local_workers(workers, tasks) == 1
+
+
+def side_by_side(tasks: int, gpus: int = 0, workers_per_gpu: int = 1, scheduler: str | None = None) -> int:
+    """Threads of this process that run ``tasks`` groups of runs side by side on one GPU, each group
+    on its own CUDA stream (``mpmdem.sim.device_turns``): ``workers_per_gpu``, at most one a group,
+    with one local GPU; 0 otherwise (and for 1: one group after another). Separate processes would
+    time-slice the GPU (no MPS): their small steps would not overlap."""
+    if scheduler or gpus != 1:
+        return 0
+    threads = min(workers_per_gpu, tasks)
+    return threads if threads > 1 else 0
 
 
 def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | None, gpus: int = 0,
@@ -144,7 +157,11 @@ def execute_runs(runs, case: str, out: Path, device: str | None, workers: int | 
 
 def _execute_groups(groups, case, out, device, workers, gpus, workers_per_gpu, scheduler) -> Iterator[dict]:
     """The rows of every group of runs (``execute_batch``), a group's rows when it finishes."""
-    if runs_here(workers, len(groups), gpus, workers_per_gpu, scheduler):
+    threads = side_by_side(len(groups), gpus, workers_per_gpu, scheduler)
+    if threads:
+        yield from _groups_side_by_side(groups, case, out, device, threads)
+        return
+    if runs_here(workers, len(groups), gpus, workers_per_gpu, scheduler, batched=True):
         for group in groups:
             rows = execute_batch(case, group, str(out), device)
             yield from rows
@@ -165,6 +182,49 @@ def _execute_groups(groups, case, out, device, workers, gpus, workers_per_gpu, s
             except Exception as e:  # the worker itself died
                 for run in group:
                     yield failed_row(run.id, run.values, f"worker lost: {type(e).__name__}: {e}", device=device)
+
+
+def _in_turn(turns, group, case, out, device) -> list[dict]:
+    with turns.turn():
+        return execute_batch(case, group, out, device)
+
+
+def _groups_side_by_side(groups, case, out, device, threads: int) -> Iterator[dict]:
+    """The rows of every group, ``threads`` groups at a time in threads of this process taking turns
+    on the device (``mpmdem.sim.device_turns``); a stop signal stops them all between two batches of
+    steps (``signals.deferred_stop``), and the groups not begun are not begun."""
+    import concurrent.futures as cf
+
+    from ..sim.device_turns import DeviceTurns
+    from ..sim.warp_init import init_warp
+    from .signals import deferred_stop
+    from .thread_stderr import routed_stderr
+
+    init_warp()
+    turns = DeviceTurns(device or "cuda")
+    interrupted = False
+    with deferred_stop() as received, routed_stderr(), cf.ThreadPoolExecutor(
+            threads, thread_name_prefix="mpmdem-batch") as pool:
+        futures = {pool.submit(_in_turn, turns, group, case, str(out), device): group for group in groups}
+        pending = set(futures)
+        while pending:
+            done, pending = cf.wait(pending, timeout=0.5, return_when=cf.FIRST_COMPLETED)
+            if received:
+                for future in pending:
+                    future.cancel()
+            for future in done:
+                if future.cancelled():
+                    continue
+                group = futures[future]
+                try:
+                    rows = future.result()
+                except Exception as e:  # (execute_batch makes rows of its failures; this is a bug)
+                    rows = [failed_row(run.id, run.values, f"{type(e).__name__}: {e}", device=device)
+                            for run in group]
+                interrupted |= any(row["status"] == "interrupted" for row in rows)
+                yield from rows
+    if interrupted or received:
+        raise KeyboardInterrupt
 
 
 def map_tasks(fn, tasks: list, workers: int = 1, gpus: int = 0, workers_per_gpu: int = 1,

@@ -30,12 +30,22 @@ def exit_code(error: KeyboardInterrupt) -> int:
     return 128 + getattr(error, "signum", signal.SIGINT)
 
 
+#: the list of the main thread's ``deferred_stop`` while one is open: runs in other threads of the
+#: process (side by side on one GPU: ``mpmdem.study.cluster``) stop on the signals it receives
+_main_received: list[list[int]] = []
+
+
 @contextlib.contextmanager
 def deferred_stop() -> Iterator[list]:
     """Within the block, SIGINT or SIGTERM only appends its number to the list yielded; a second
     one raises ``Interrupted`` at once. The run's progress callback (``mpmdem.study.run_progress.run_callback``)
     raises ``Interrupted`` between batches of steps once the list is not empty. Outside the main
-    thread (where signal handlers cannot be set) the signals are left as they are."""
+    thread (where signal handlers cannot be set) the signals are left as they are, and the list
+    yielded is that of the main thread's open block, if there is one."""
+    main = threading.current_thread() is threading.main_thread()
+    if not main:
+        yield _main_received[-1] if _main_received else []
+        return
     received: list[int] = []
 
     def on_signal(signum, frame):
@@ -43,12 +53,12 @@ def deferred_stop() -> Iterator[list]:
             raise Interrupted(signum)
         received.append(signum)
 
-    previous = {}
-    if threading.current_thread() is threading.main_thread():
-        previous = {s: signal.signal(s, on_signal) for s in STOP_SIGNALS}
+    previous = {s: signal.signal(s, on_signal) for s in STOP_SIGNALS}
+    _main_received.append(received)
     try:
         yield received
     finally:
+        _main_received.remove(received)
         for s, handler in previous.items():
             signal.signal(s, handler)
 

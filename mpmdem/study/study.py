@@ -219,19 +219,25 @@ def safe_id(text: str) -> str:
     return "".join(c if c.isalnum() or c in ".=,+-_" else "_" for c in text)
 
 
-#: runs per batch on a GPU by default: the silo at the study's sizes is launch-bound below ~8 worlds
-GPU_BATCH = 8
+#: runs per batch on a GPU by default: the silo at the study's sizes is launch-bound below ~8 worlds,
+#: and the 16 block-impact starts ran faster as one batch than as two (docs/benchmarks.md)
+GPU_BATCH = 16
 
 
-#: batches sharing one GPU at a time by default (each its own worker process): a batch's frames
-#: leave the GPU idle while its host reads and writes them, which another batch's steps fill
+#: batches sharing one GPU at a time by default on a machine of several GPUs: worker processes per
+#: GPU, whose steps time-slice it but fill it while another batch's host reads and writes its frames
 GPU_SIDE_BY_SIDE = 4
 
 
 def default_workers_per_gpu(groups: list | None, gpus: int = 1) -> int:
     """Workers per GPU when none is asked: the batches shared out over the ``gpus``, up to
-    ``GPU_SIDE_BY_SIDE`` side by side on each, when the study is batched; else 1."""
-    return min(math.ceil(len(groups) / max(1, gpus)), GPU_SIDE_BY_SIDE) if groups else 1
+    ``GPU_SIDE_BY_SIDE`` side by side on each, when the study is batched on several GPUs; else 1.
+    On one GPU a batched study runs its batches one after another in this process: side by side
+    in threads (``--workers-per-gpu K``, ``cluster.side_by_side``) they were measured no faster
+    yet (docs/studies/running.md)."""
+    if not groups or gpus <= 1:
+        return 1
+    return min(math.ceil(len(groups) / gpus), GPU_SIDE_BY_SIDE)
 
 
 def default_batch(device: str | None, gpus: int) -> int:
@@ -272,7 +278,7 @@ def run_study(study: Study, out: str | Path | None = None, *, workers: int | Non
     again. Raises InputError (nothing has run) for
     a study the case cannot take, ImportError when Dask is needed but missing.
     """
-    from .cluster import DASK_MISSING, dask_available, execute_runs, runs_here, wait_for_clusters
+    from .cluster import DASK_MISSING, dask_available, execute_runs, runs_here, side_by_side, wait_for_clusters
     from .progress import StudyProgress
     from .table import ResultsTable
     from .worker import FINAL_STATUSES
@@ -302,11 +308,15 @@ def run_study(study: Study, out: str | Path | None = None, *, workers: int | Non
     if workers_per_gpu is None:
         workers_per_gpu = default_workers_per_gpu(groups, gpus) if gpus else 1
     tasks = len(groups) if groups is not None else len(todo)
-    if todo and not runs_here(workers, tasks, gpus, workers_per_gpu, scheduler) and not dask_available():
+    if todo and not runs_here(workers, tasks, gpus, workers_per_gpu, scheduler, batched=groups is not None) \
+            and not dask_available():
         raise ImportError(DASK_MISSING)
     table.write_spec(spec)
     if progress and todo:
         side = f"; {workers_per_gpu} worker(s) per GPU" if gpus else ""
+        threads = side_by_side(tasks, gpus, workers_per_gpu, scheduler) if groups is not None else 0
+        if threads:
+            side = f"; {threads} batches side by side on the GPU (threads of this process, a CUDA stream each)"
         print(grouping_line(study.name, len(todo), size, groups, keyed=size > 1 and keys is not None) + side,
               file=sys.stderr)
     bar = StudyProgress(study.name, len(todo), skipped=len(runs) - len(todo), enabled=progress)

@@ -20,16 +20,27 @@ import traceback
 from pathlib import Path
 
 from .case import load_case
+from .thread_stderr import captured_stderr
 
-__all__ = ["FINAL_STATUSES", "execute_run", "failed_row", "scalar_summary"]
+__all__ = ["FINAL_STATUSES", "execute_run", "failed_row", "run_lock", "scalar_summary"]
 
 #: statuses a resumed study does not run again (unless --rerun-failed: then only "completed")
 FINAL_STATUSES = ("completed", "blown-up", "bad-input")
 #: summary.json keys the row takes from elsewhere (or, for config, keeps only in the run folder)
 SUMMARY_SKIPPED = ("case", "status", "message", "device", "config", "output")
 STATUS_OF_EXIT_CODE = {0: "completed", 2: "bad-input", 3: "blown-up", 130: "interrupted", 143: "interrupted"}
-#: one run at a time per process, also on a worker of several threads (Warp's state and sys.stderr are per process)
+#: one run at a time per process, also on a worker of several threads (Warp's state and sys.stderr are per
+#: process), except runs that take turns on one GPU (``run_lock``)
 RUN_LOCK = threading.Lock()
+
+
+def run_lock():
+    """``RUN_LOCK``, or nothing for a thread that holds turns on its device beside other runs of this
+    process (``mpmdem.sim.device_turns``: the turns order their launches, and a run waiting for its
+    stream must not hold a lock the others need)."""
+    from ..sim.device_turns import current
+
+    return contextlib.nullcontext() if current() is not None else RUN_LOCK
 
 
 def worker_name() -> str:
@@ -78,7 +89,7 @@ def execute_run(case: str, run_id: str, values: dict, argv: list[str], run_dir: 
     stderr = io.StringIO()
     row = {"id": run_id, **values}
     try:
-        with RUN_LOCK, contextlib.redirect_stderr(stderr):
+        with run_lock(), captured_stderr(stderr):
             code = run_case(load_case(case), [*argv, "--out", str(folder), "--quiet"], prog=f"mpmdem run {case}")
         summary = _read_summary(folder)
         lines = [ln.removeprefix("mpmdem: ").removeprefix("error: ") for ln in stderr.getvalue().splitlines()

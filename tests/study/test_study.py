@@ -213,14 +213,15 @@ def test_bench_sweeps_map_their_tasks_on_the_study_clusters(workers):
 
 
 def test_batched_study_runs_its_batches_side_by_side_by_default():
-    """Unbatched studies keep one worker per GPU; batched ones get one per batch, at most
-    GPU_SIDE_BY_SIDE (a batch's frames leave the GPU idle for the others' steps)."""
+    """Unbatched studies keep one worker per GPU; batched ones on several GPUs get one per batch,
+    at most GPU_SIDE_BY_SIDE (a batch's frames leave the GPU idle for the others' steps); on one
+    GPU the batches run one after another in the study's process."""
     from mpmdem.study.study import GPU_SIDE_BY_SIDE, default_workers_per_gpu
 
     assert default_workers_per_gpu(None) == 1
     assert default_workers_per_gpu([]) == 1
-    assert default_workers_per_gpu([["a"], ["b"], ["c"]]) == 3
-    assert default_workers_per_gpu([[k] for k in range(GPU_SIDE_BY_SIDE + 3)]) == GPU_SIDE_BY_SIDE
+    assert default_workers_per_gpu([["a"], ["b"], ["c"]]) == 1
+    assert default_workers_per_gpu([[k] for k in range(2 * GPU_SIDE_BY_SIDE + 6)], gpus=2) == GPU_SIDE_BY_SIDE
     assert default_workers_per_gpu([["a"], ["b"], ["c"]], gpus=2) == 2  # (3 batches over 2 GPUs)
     assert default_workers_per_gpu([["a"], ["b"]], gpus=4) == 1
 
