@@ -165,8 +165,9 @@ def _study(argv: list[str]) -> int:
                         "after another, in this process)")
     p.add_argument("--gpus", type=_count(0), default=0, help="a local cluster of workers pinned one GPU each instead")
     p.add_argument("--workers-per-gpu", type=_count(1), default=None,
-                   help="workers sharing each GPU (default: one per batch, up to 4, when batched; else 1); one "
-                        "GPU with one worker runs in this process")
+                   help="workers sharing each GPU (default: on several GPUs one per batch, up to 4, when "
+                        "batched; else 1); on one GPU the study runs in this process, K batches side by side in "
+                        "threads, a CUDA stream each")
     p.add_argument("--scheduler", default=None, help="address of a running Dask scheduler to use instead")
     p.add_argument("--device", default=None, help="passed to every run: cpu, cuda (default: cuda with --gpus)")
     p.add_argument("--rerun-failed", action="store_true", help="run again every run not completed")
