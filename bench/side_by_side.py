@@ -55,6 +55,9 @@ def main(argv=None) -> int:
     p.add_argument("--cells", default="0.0025,0.0035,0.005", help="one batch per grid [m]")
     p.add_argument("--worlds", type=int, default=5)
     p.add_argument("--steps", type=int, default=3000)
+    p.add_argument("--build", choices=("in-turn", "outside"), default="in-turn",
+                   help="side by side: each batch built (and its graphs recorded) in its thread's turn, as a "
+                        "study does, or all built here on the device's stream first (then handed their turns)")
     p.add_argument("--out", type=Path)
     args, flags = p.parse_known_args(argv)
     cells = [float(c) for c in args.cells.split(",")]
@@ -77,13 +80,22 @@ def main(argv=None) -> int:
     ready = threading.Barrier(len(cells) + 1)
     go = threading.Barrier(len(cells) + 1)
 
-    def worker(k):
-        with turns.turn():
-            batches[k] = make_batch(cells[k], args.worlds, device, flags)
+    if args.build == "outside":
+        for k, c in enumerate(cells):
+            batches[k] = make_batch(c, args.worlds, device, flags)
             step(batches[k], 50)
-            turns.wait()
+
+    def worker(k):
+        if args.build == "in-turn":
+            with turns.turn():
+                batches[k] = make_batch(cells[k], args.worlds, device, flags)
+                step(batches[k], 50)
+                turns.wait()
+        else:
+            batches[k].sim.turns = turns
         ready.wait()
         go.wait()
+        turns.seconds.pop(threading.current_thread().name, None)  # (the timed turn's alone)
         with turns.turn():
             own[k] = step(batches[k], args.steps)
 
@@ -97,12 +109,15 @@ def main(argv=None) -> int:
     for t in threads:
         t.join()
     side = time.perf_counter() - start
-    rows.append({"mode": "side-by-side", "seconds": side, "batch_seconds": own, "overlap": sequential / side})
+    # (where each thread's time went in the timed turns: issuing, waiting for the turn, for its stream)
+    split = {name: {k: round(v, 4) for k, v in parts.items()} for name, parts in turns.seconds.items()}
+    rows.append({"mode": "side-by-side", "seconds": side, "batch_seconds": own, "overlap": sequential / side,
+                 "thread_seconds": split})
 
     name = wp.get_device(device).name if device != "cpu" else "cpu"
     for row in rows:
-        row.update(bench="side_by_side", cells=cells, worlds=args.worlds, steps=args.steps, flags=flags,
-                   device=name, commit=commit())
+        row.update(bench="side_by_side", build=args.build, cells=cells, worlds=args.worlds, steps=args.steps,
+                   flags=flags, device=name, commit=commit())
         print(json.dumps(row), flush=True)
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -24,6 +24,7 @@ import collections
 import contextlib
 import gc
 import threading
+import time
 from collections.abc import Iterator
 
 import warp as wp
@@ -76,6 +77,9 @@ class DeviceTurns:
     def __init__(self, device):
         self.device = wp.get_device(device)
         self._lock = _TurnQueue()
+        #: seconds per thread name: ``held`` (issuing work, the turn held), ``queued`` (waiting for
+        #: the turn), ``device`` (waiting for its own stream); what ``bench/side_by_side.py`` reports
+        self.seconds: dict[str, dict[str, float]] = {}
         #: the device's stream before any turn, made current again when a thread's turn ends
         self._home = self.device.stream if self.device.is_cuda else None
 
@@ -84,7 +88,11 @@ class DeviceTurns:
         """Hold the turn inside, on a stream of this thread's own (CUDA); ``current()`` is these turns."""
         if getattr(_local, "turns", None) is not None:
             raise RuntimeError("a thread holds one turn at a time")
+        mine = self.seconds.setdefault(threading.current_thread().name, {"held": 0.0, "queued": 0.0, "device": 0.0})
+        asked = time.perf_counter()
         self._lock.acquire()
+        _local.since = time.perf_counter()
+        mine["queued"] += _local.since - asked
         try:
             _local.stream = self._new_stream() if self.device.is_cuda else None
             _local.turns = self
@@ -97,6 +105,7 @@ class DeviceTurns:
                     wp.synchronize_stream(_local.stream)
                     self.device.set_stream(self._home, sync=False)
                 _local.stream = None
+                mine["held"] += time.perf_counter() - _local.since
         finally:
             self._lock.release()
 
@@ -111,12 +120,19 @@ class DeviceTurns:
         """Return once the work this thread issued so far has run, letting the other threads issue
         theirs meanwhile (the turn is given up and taken back after the threads already waiting)."""
         event = wp.record_event() if self.device.is_cuda else None
+        mine = self.seconds[threading.current_thread().name]
+        given = time.perf_counter()
+        mine["held"] += given - _local.since
         self._lock.release()
         try:
             if event is not None:
                 wp.synchronize_event(event)
         finally:
+            ran = time.perf_counter()
+            mine["device"] += ran - given
             self._lock.acquire()
+            _local.since = time.perf_counter()
+            mine["queued"] += _local.since - ran
             self._make_current()
 
     @contextlib.contextmanager

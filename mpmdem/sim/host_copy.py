@@ -20,9 +20,11 @@ __all__ = ["host_copy"]
 _buffers: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def host_copy(array: wp.array) -> np.ndarray:
+def host_copy(array: wp.array, fresh: bool = True) -> np.ndarray:
     """The values of ``array`` on the host, once the work issued on the current stream has run (a
-    view of the array itself for a CPU array, as ``numpy()`` gives)."""
+    view of the array itself for a CPU array, as ``numpy()`` gives). ``fresh`` False: on CUDA, the
+    pinned buffer itself, valid until the next ``host_copy`` of the array (for a caller that copies
+    out what it keeps)."""
     if not array.device.is_cuda or not array.is_contiguous or array.size == 0:
         return array.numpy()
     buf = _buffers.get(array)
@@ -31,4 +33,4 @@ def host_copy(array: wp.array) -> np.ndarray:
         _buffers[array] = buf
     wp.copy(buf, array)
     wp.synchronize_stream(wp.get_stream(array.device))
-    return np.array(buf.numpy(), copy=True)
+    return np.array(buf.numpy(), copy=True) if fresh else buf.numpy()

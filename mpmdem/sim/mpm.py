@@ -526,7 +526,7 @@ class MPMSolver(ClockedStage):
                                            device=self.device)
         wp.launch(output_kernels.make_pack_output(self.config.precision, self.coupled), n,
                   inputs=[self.points, self._packed_output], device=self.device)
-        packed = host_copy(self._packed_output)
+        packed = host_copy(self._packed_output, fresh=False)  # (every field is copied out below)
         out = {}
         for name, (first, shape) in output_kernels.OUTPUT_COLUMNS.items():
             if name == "contact_force":

@@ -501,6 +501,8 @@ def test_runs_taking_turns_on_a_device_are_their_runs_alone(tmp_path, device):
         t.start()
     for t in threads:
         t.join()
+    assert sorted(turns.seconds) == sorted(t.name for t in threads)
+    assert all(parts["held"] > 0.0 for parts in turns.seconds.values())
     for a, s in zip(alone, side, strict=True):
         assert s is not None and s.status == a.status == "completed"
         with RunFile(a.path) as ra, RunFile(s.path) as rs:
