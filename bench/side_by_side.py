@@ -115,15 +115,13 @@ def main(argv=None) -> int:
                  "thread_seconds": split})
 
     name = wp.get_device(device).name if device != "cpu" else "cpu"
-    for row in rows:
-        row.update(bench="side_by_side", build=args.build, cells=cells, worlds=args.worlds, steps=args.steps,
-                   flags=flags, device=name, commit=commit())
-        print(json.dumps(row), flush=True)
+    lines = [json.dumps({**row, "bench": "side_by_side", "build": args.build, "cells": cells, "worlds": args.worlds,
+                         "steps": args.steps, "flags": flags, "device": name, "commit": commit()}) for row in rows]
+    print("\n".join(lines), flush=True)
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         with args.out.open("a") as f:
-            for row in rows:
-                f.write(json.dumps(row) + "\n")
+            f.write("".join(line + "\n" for line in lines))
     return 0
 
 
