@@ -5,6 +5,8 @@ study's orifices) per ``--cells`` grid, as the Beverloo study's groups are, and 
 start for ``--steps`` of its steps (``advance_to``, as a run steps; no frames):
 
 - ``sequential``: one batch after the other in this thread (the device's stream);
+- ``round-robin`` (CUDA): from this thread, each batch on a stream of its own, 400 steps at a time in
+  turn, nothing read back until the end: how far the batches' steps can overlap at all;
 - ``side-by-side``: each batch in its own thread, taking turns on the device on its own CUDA
   stream (``mpmdem.sim.device_turns``, as ``mpmdem study --gpus 1`` runs its batches).
 
@@ -32,6 +34,10 @@ from small_scenes import commit  # noqa: E402
 
 from mpmdem.sim.batch_run import BatchedSimulation  # noqa: E402
 from mpmdem.sim.device_turns import DeviceTurns  # noqa: E402
+
+
+#: steps a batch launches at a time in the round-robin mode (``advance_to``'s largest batch on a GPU)
+ROUND_STEPS = 400
 
 
 def make_batch(cell: float, worlds: int, device: str, flags: list[str]) -> BatchedSimulation:
@@ -72,6 +78,21 @@ def main(argv=None) -> int:
     own = [step(b, args.steps) for b in seq]
     sequential = time.perf_counter() - start
     rows.append({"mode": "sequential", "seconds": sequential, "batch_seconds": own})
+    if wp.get_device(device).is_cuda:
+        # one thread, a stream a batch, chunks of ``ROUND_STEPS`` launched in turn and nothing read
+        # until the end: how far these batches' steps can overlap on the GPU at all
+        streams = [wp.Stream(device) for _ in seq]
+        for b in seq:
+            b.sim.stage.set_stop_time(1.0e9)
+        wp.synchronize_device(device)
+        start = time.perf_counter()
+        for _ in range(0, args.steps, ROUND_STEPS):
+            for b, s in zip(seq, streams, strict=True):
+                with wp.ScopedStream(s, sync_enter=False):
+                    b.sim.advance(ROUND_STEPS)
+        wp.synchronize_device(device)
+        rows.append({"mode": "round-robin", "seconds": time.perf_counter() - start,
+                     "overlap": sequential / (time.perf_counter() - start)})
     del seq
 
     turns = DeviceTurns(device)
