@@ -35,7 +35,6 @@ from small_scenes import commit  # noqa: E402
 from mpmdem.sim.batch_run import BatchedSimulation  # noqa: E402
 from mpmdem.sim.device_turns import DeviceTurns  # noqa: E402
 
-
 #: steps a batch launches at a time in the round-robin mode (``advance_to``'s largest batch on a GPU)
 ROUND_STEPS = 400
 
@@ -91,8 +90,8 @@ def main(argv=None) -> int:
                 with wp.ScopedStream(s, sync_enter=False):
                     b.sim.advance(ROUND_STEPS)
         wp.synchronize_device(device)
-        rows.append({"mode": "round-robin", "seconds": time.perf_counter() - start,
-                     "overlap": sequential / (time.perf_counter() - start)})
+        rounds = time.perf_counter() - start
+        rows.append({"mode": "round-robin", "seconds": rounds, "overlap": sequential / rounds})
     del seq
 
     turns = DeviceTurns(device)
