@@ -32,6 +32,7 @@ from frame_writing import frame_data, geometry  # (a script beside this one)
 
 from mpmdem.io import FrameWriter, default_field_specs
 from mpmdem.io.background import BackgroundFrameWriter
+from mpmdem.io.writer_process import WriterProcess
 
 
 def busy(seconds: float) -> None:
@@ -53,6 +54,8 @@ def main() -> None:
     p.add_argument("--step-ms", type=float, default=70.0, help="the device's steps per frame [ms]")
     p.add_argument("--launches", type=int, default=20, help="waits the steps are cut in")
     p.add_argument("--switch-interval", type=float, default=None, help="[s] (default Python's)")
+    p.add_argument("--process", action="store_true", help="the frames written by a child process "
+                   "(mpmdem.io.writer_process), not a thread of this one")
     p.add_argument("--tag", default="")
     p.add_argument("--out", type=Path, default=None, help="append the JSON line here")
     args = p.parse_args()
@@ -61,10 +64,15 @@ def main() -> None:
     switch = sys.getswitchinterval()
     with tempfile.TemporaryDirectory() as tmp:
         pool = ThreadPoolExecutor(max_workers=1)
-        writers = [BackgroundFrameWriter(FrameWriter(
-            Path(tmp) / f"w{k}" / "run.h5", particle_count=args.points, attrs={"precision": "f32"},
-            csv_path=Path(tmp) / f"w{k}" / "energy.csv", body_count=args.bodies, field_specs=specs,
-            body_geometry=geometry(args.bodies)), pool=pool) for k in range(args.worlds)]
+        child = WriterProcess() if args.process else None
+        kwargs = [{"particle_count": args.points, "attrs": {"precision": "f32"},
+                   "csv_path": Path(tmp) / f"w{k}" / "e.csv", "body_count": args.bodies, "field_specs": specs,
+                   "body_geometry": geometry(args.bodies)} for k in range(args.worlds)]
+        for k in range(args.worlds):
+            (Path(tmp) / f"w{k}").mkdir()
+        writers = ([child.open(Path(tmp) / f"w{k}" / "run.h5", **kwargs[k]) for k in range(args.worlds)] if child else
+                   [BackgroundFrameWriter(FrameWriter(Path(tmp) / f"w{k}" / "run.h5", **kwargs[k]), pool=pool)
+                    for k in range(args.worlds)])
         if args.switch_interval:
             sys.setswitchinterval(args.switch_interval)
         try:
@@ -82,7 +90,10 @@ def main() -> None:
         finally:
             sys.setswitchinterval(switch)
             pool.shutdown(wait=True)
-    row = {"bench": "batch_host", "tag": args.tag, "worlds": args.worlds, "points": args.points,
+            if child is not None:
+                child.close()
+    row = {"bench": "batch_host", "tag": args.tag,
+           "writer": "process" if args.process else "thread", "worlds": args.worlds, "points": args.points,
            "bodies": args.bodies, "diagnostics": args.diagnostics, "frames": args.frames,
            "record_ms": args.record_ms, "step_ms": args.step_ms, "launches": args.launches,
            "switch_interval": args.switch_interval or switch, "seconds_per_frame": wall / args.frames,

@@ -241,7 +241,9 @@ class BatchedSimulation:
             view.last_diagnostics = {name: float(v[-1]) for name, v in results[k].diagnostics.items() if len(v)}
         return [results[k] for k in range(n)]
 
-    def _writer(self, world: World, out, name: str, end_time: float, attrs: dict | None, pool=None):
+    def _writer(self, world: World, out, name: str, end_time: float, attrs: dict | None, pool=None, child=None):
+        """World ``world``'s writer: a ``BackgroundFrameWriter`` on ``pool``, or a file of ``child``
+        (a ``WriterProcess``)."""
         from ..io import FrameWriter, default_field_specs
         from ..io.background import BackgroundFrameWriter
 
@@ -255,20 +257,29 @@ class BatchedSimulation:
         geometry = None
         if sim.dem is not None:
             geometry = _geometry(sim.dem.scene_geometry(), world.bodies, f"w{world.index}_")
-        return BackgroundFrameWriter(FrameWriter(
-            out / f"{name}.h5", particle_count=world.points.stop - world.points.start, attrs=meta,
-            csv_path=out / "energy.csv", body_count=len(world.bodies), field_specs=specs, body_geometry=geometry),
-            pool=pool)
+        kwargs = {"particle_count": world.points.stop - world.points.start, "attrs": meta,
+                  "csv_path": out / "energy.csv", "body_count": len(world.bodies), "field_specs": specs,
+                  "body_geometry": geometry}
+        if child is not None:
+            return child.open(out / f"{name}.h5", **kwargs)
+        return BackgroundFrameWriter(FrameWriter(out / f"{name}.h5", **kwargs), pool=pool)
 
     def _attempt(self, end_time, outs, frames, names, attrs, progress, results, ids) -> set[int]:
         """One pass from t = 0 over the worlds of this batch (``ids``: their numbers in the caller's
         batch); fills ``results`` for the worlds that end; returns those (by caller's number) that failed.
-        The worlds' frames are written in one shared thread (``BackgroundFrameWriter``'s pool)."""
+        The worlds' frames are written in one shared thread (``BackgroundFrameWriter``'s pool), or with
+        ``Tuning.batch_frames_in_process`` by one child process (``mpmdem.io.writer_process``)."""
         from ..io.background import thread_switch_interval
 
+        writing = any(o is not None for o in outs)
+        if writing and self.sim.tuning.batch_frames_in_process:
+            from ..io.writer_process import WriterProcess
+
+            with WriterProcess() as child:
+                return self._attempt_in(child, end_time, outs, frames, names, attrs, progress, results, ids)
         pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mpmdem-batch-frames")
         # (the writer thread gets Python's lock back sooner from a busy main thread: io.background)
-        switch = self.sim.tuning.writer_switch_interval if any(o is not None for o in outs) else 0.0
+        switch = self.sim.tuning.writer_switch_interval if writing else 0.0
         try:
             with thread_switch_interval(switch):
                 return self._attempt_in(pool, end_time, outs, frames, names, attrs, progress, results, ids)
@@ -278,7 +289,10 @@ class BatchedSimulation:
     def _attempt_in(self, pool, end_time, outs, frames, names, attrs, progress, results, ids) -> set[int]:
         sim = self.sim
         worlds = self.worlds
-        writers = {w.index: self._writer(w, outs[w.index], names[w.index], end_time, attrs, pool)
+        from ..io.writer_process import WriterProcess
+
+        where = {"child": pool} if isinstance(pool, WriterProcess) else {"pool": pool}
+        writers = {w.index: self._writer(w, outs[w.index], names[w.index], end_time, attrs, **where)
                    if outs[w.index] is not None else None for w in worlds}
         paths = {w.index: Path(outs[w.index]) / f"{names[w.index]}.h5" if outs[w.index] is not None else None
                  for w in worlds}

@@ -512,3 +512,32 @@ def test_runs_taking_turns_on_a_device_are_their_runs_alone(tmp_path, device):
                     assert np.array_equal(ra.field(name, frame), rs.field(name, frame)), (frame, name)
                 for name in ra.body_fields:
                     assert np.array_equal(ra.body_field(name, frame), rs.body_field(name, frame)), (frame, name)
+
+
+def test_a_batch_writing_its_frames_in_a_child_process_writes_the_same_files(tmp_path):
+    """``Tuning(batch_frames_in_process=True)``: the two worlds' files, written by a child process,
+    hold every dataset of the files the shared writer thread writes, bit for bit (the wall times
+    aside), and the same status."""
+    import h5py
+
+    from mpmdem.sim.tuning import Tuning
+
+    def files(out, tuning):
+        b = BatchedSimulation([sand_on_plate(), sand_on_plate(0.15)], CONFIG, device="cpu", tuning=tuning)
+        results = b.run(END, outs=[out / "w0", out / "w1"], frames=FRAMES, names="sand")
+        assert [r.status for r in results] == ["completed"] * 2
+        found = []
+        for r in results:
+            data = {}
+            with h5py.File(r.path, "r") as f:
+                f.visititems(lambda n, o: data.__setitem__(n, o[()]) if isinstance(o, h5py.Dataset) else None)
+                data["status"] = f.attrs["status"]
+            found.append(data)
+        return found
+
+    for a, b in zip(files(tmp_path / "thread", None), files(tmp_path / "child", Tuning(batch_frames_in_process=True)),
+                    strict=True):
+        assert a.keys() == b.keys()
+        for name in a:
+            if not name.endswith("wall_time"):
+                assert np.array_equal(a[name], b[name]), name
