@@ -528,9 +528,10 @@ def test_a_batch_writing_its_frames_in_a_child_process_writes_the_same_files(tmp
         assert [r.status for r in results] == ["completed"] * 2
         found = []
         for r in results:
-            data = {}
             with h5py.File(r.path, "r") as f:
-                f.visititems(lambda n, o: data.__setitem__(n, o[()]) if isinstance(o, h5py.Dataset) else None)
+                names = []
+                f.visit(names.append)
+                data = {n: f[n][()] for n in names if isinstance(f[n], h5py.Dataset)}
                 data["status"] = f.attrs["status"]
             found.append(data)
         return found
