@@ -52,6 +52,8 @@ def main(argv=None) -> int:
                    help="Tuning.module_load_workers (default the Tuning's): threads compiling the modules")
     p.add_argument("--switch-interval", type=float, default=None,
                    help="Tuning.writer_switch_interval [s] (default the Tuning's; 0: Python's own, 5 ms)")
+    p.add_argument("--in-process", action="store_true",
+                   help="Tuning.batch_frames_in_process: the frames written by a child process")
     p.add_argument("--label", default="", help="a label for the row (e.g. which tree ran)")
     p.add_argument("--out", type=Path, default=None, help="append the JSON line here")
     args = p.parse_args(argv)
@@ -82,7 +84,8 @@ def main(argv=None) -> int:
             setup = module.build(a)
             built.append((setup, config_from_args(setup, module, a)))
         knobs = {k: v for k, v in (("module_load_workers", args.load_workers),
-                                    ("writer_switch_interval", args.switch_interval)) if v is not None}
+                                    ("writer_switch_interval", args.switch_interval),
+                                    ("batch_frames_in_process", args.in_process or None)) if v is not None}
         tuning = Tuning(**knobs)
         return (BatchedSimulation([s.scene for s, _ in built], built[0][1], device=device, tuning=tuning),
                 built[0][0])
@@ -147,6 +150,7 @@ def main(argv=None) -> int:
            "case": args.case, "worlds": worlds, "cell_size": args.cell_size,
            "points": b.sim.particle_count, "end_time": end, "frames": frames, "steps": steps,
            "cold": args.cold, "load_workers": args.load_workers, "switch_interval": args.switch_interval,
+           "frames_in_process": args.in_process,
            "import_s": round(import_s, 2),
            "build_s": round(build_s, 2),
            "first_step_s": round(first_step_s, 2), "steps_s": round(steps_s, 2), "run_s": round(run_s, 2),
