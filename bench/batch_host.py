@@ -28,6 +28,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numpy as np
 from frame_writing import frame_data, geometry  # (a script beside this one)
 
 from mpmdem.io import FrameWriter, default_field_specs
@@ -60,6 +61,9 @@ def main() -> None:
     p.add_argument("--out", type=Path, default=None, help="append the JSON line here")
     args = p.parse_args()
     data = frame_data(args.points, args.bodies, args.diagnostics, args.frames, contact_force=True)
+    # (the points' fields in f32, as an f32 run hands them over; the bodies' stay f64)
+    data = [(t, {k: v.astype(np.float32) if v.dtype == np.float64 else v for k, v in fields.items()}, diag, bodies)
+            for t, fields, diag, bodies in data]
     specs = {**default_field_specs(), "contact_force": ((2,), "float")}
     switch = sys.getswitchinterval()
     with tempfile.TemporaryDirectory() as tmp:

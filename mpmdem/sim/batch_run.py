@@ -276,6 +276,7 @@ class BatchedSimulation:
             from ..io.writer_process import WriterProcess
 
             with WriterProcess() as child:
+                self.sim._capture()  # (the kernels load and the graphs are recorded while the child starts)
                 return self._attempt_in(child, end_time, outs, frames, names, attrs, progress, results, ids)
         pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mpmdem-batch-frames")
         # (the writer thread gets Python's lock back sooner from a busy main thread: io.background)
