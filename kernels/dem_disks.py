@@ -24,19 +24,6 @@ search keeps a vertex–vertex touch), the partner a copy in ``DiskPairs.slip``;
 δ_t each step from the same value, so the copies stay equal (re-copied at each rebuild). The owner
 also keeps the pair's stored energy and dissipated work in its slot (the diagnostics read them there).
 Pairs of a disk with any other body (a wall, a polygon, a large disk) stay in the general search.
-
-Each pair once (``once``, ``Tuning.disk_pairs_once``): two kernels instead of ``disk_forces``, the
-same bits. ``pair_shares`` (a thread a disk, its owned slots in slot order) computes each disk–disk
-pair once, with the same call of ``disk_pair``, updates the owner's slot as ``disk_forces`` does
-and stores the pair's shares in ``DiskPairs.share`` (per-step scratch: written for every listed
-slot before it is read, so no checkpoint holds it; slot-major, slot s of body b at s n + b, so
-that a warp's threads store and load slot s of consecutive disks side by side); ``sum_shares`` (a
-thread a disk) adds them up in ``disk_forces``'s order, incoming then owned, with the same two
-atomics. A share is (F, τ_i, τ_j): the owner's force F = 0 + F_pair, its torque and the partner's;
-the partner's force is −F, where ``disk_forces`` adds 0 − F_pair: the same float but for the sign
-of a zero, which a sum started at +0 cannot see (in round-to-nearest x + (±0) = x for x ≠ −0, and
-such a sum is never −0). The partner needs no copy of δ_t then: ``DiskPairs.slip`` is not
-allocated and not kept.
 """
 
 import functools
@@ -55,14 +42,11 @@ __all__ = ["make_disk_pairs"]
 
 @functools.cache
 def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool = False,
-                    max_registers: int | None = None, once: bool = False):
-    """Struct ``DiskPairs`` and kernels ``list_incoming``, ``sort_incoming``, ``disk_forces`` (and
-    ``pair_shares``, ``sum_shares``) of the disk–disk pass for one precision (the structs of
-    ``make_dem_structs(precision)``); ``periodic``: x periodic, a pair computed with the partner's
-    image nearest the owner (``kernels.dem_period``); ``max_registers``: the register cap of the
-    kernel that computes the pairs on CUDA (None: the compiler's choice); ``once``: the forces by
-    ``pair_shares`` then ``sum_shares`` (each pair computed once), ``sort_incoming`` without the
-    partners' copies of δ_t."""
+                    max_registers: int | None = None):
+    """Struct ``DiskPairs`` and kernels ``list_incoming``, ``sort_incoming``, ``disk_forces`` of the
+    disk–disk pass for one precision (the structs of ``make_dem_structs(precision)``); ``periodic``:
+    x periodic, a pair computed with the partner's image nearest the owner (``kernels.dem_period``);
+    ``max_registers``: the register cap of ``disk_forces`` on CUDA (None: the compiler's choice)."""
     t = scalar_types(precision)
     T = t.scalar
     vec2 = t.vec2
@@ -77,10 +61,7 @@ def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool 
         incoming: wp.array(dtype=wp.int32)  # (bodies * K) slots of the disk pairs owned by a lower disk
         fill: wp.array(dtype=wp.int32)  # (bodies) entries appended in a rebuild (0 between rebuilds)
         count: wp.array(dtype=wp.int32)  # (bodies) entries of ``incoming``
-        slip: wp.array(dtype=T)  # (bodies * K) the partner's copy of each incoming pair's δ_t [m] (not once)
-        # (K * bodies, once) per owned slot, slot s of body b at s * bodies + b: force [N/m] on the owner,
-        # torques [N m/m] on owner and partner
-        share: wp.array(dtype=vec4)
+        slip: wp.array(dtype=T)  # (bodies * K) the partner's copy of each incoming pair's δ_t [m]
 
     @kernel
     def list_incoming(B: Bodies, C: Contacts, D: DiskPairs, flags: wp.array(dtype=wp.int32),
@@ -106,8 +87,8 @@ def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool 
     @kernel
     def sort_incoming(C: Contacts, D: DiskPairs, flags: wp.array(dtype=wp.int32)):
         """Body j's incoming entries sorted by slot (so by owner: the order does not depend on the
-        order of the appends), counted, and (not ``once``) their δ_t copied from the owners' slots
-        (handed over by ``build_lists``); the fill counter reset for the next rebuild."""
+        order of the appends), counted, and their δ_t copied from the owners' slots (handed over by
+        ``build_lists``); the fill counter reset for the next rebuild."""
         if flags[0] == 0:
             return
         j = wp.tid()
@@ -116,9 +97,8 @@ def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool 
         D.fill[j] = 0
         D.count[j] = n
         sort_ids(D.incoming, j * K, n)
-        if wp.static(not once):
-            for r in range(n):
-                D.slip[j * K + r] = C.slip[D.incoming[j * K + r]][0]
+        for r in range(n):
+            D.slip[j * K + r] = C.slip[D.incoming[j * K + r]][0]
 
     @wp.func
     def disk_pair(B: Bodies, prm: Params, i: int, j: int, slip0: T, dt: T):
@@ -196,58 +176,5 @@ def make_disk_pairs(precision: str, deterministic: bool = False, periodic: bool 
         wp.atomic_add(B.force, b, f)
         wp.atomic_add(B.torque, b, tq)
 
-    @kernel(deterministic=deterministic, max_registers=max_registers)
-    def pair_shares(B: Bodies, C: Contacts, D: DiskPairs, prm: Params, clock: wp.array(dtype=wp.float64)):
-        """Each disk–disk pair owned by disk b computed once (eq. 39-43), in slot order: its shares
-        (force [N/m] on b, torques [N m/m] on b and on the partner; 0 where the partner is not a disk,
-        a pair of the general search) stored in ``D.share``, b's slot updated as ``disk_forces`` does."""
-        b = wp.tid()
-        if B.disk[b] == 0:
-            return
-        K = C.slots
-        n = B.disk.shape[0]
-        dt = T(clock[CLOCK_DT])
-        for s in range(C.count[b]):
-            at = b * K + s
-            j = C.nbr[at]
-            share = vec4()
-            if B.disk[j] != 0:
-                slip0 = C.slip[at][0]
-                touching, fi, ti, fj, tj, slip, energy, lost = disk_pair(B, prm, b, j, slip0, dt)
-                share = vec4(fi[0], fi[1], ti, tj)
-                # (the stores of ``disk_forces``, skipped where a pair stays apart)
-                if touching or slip0 != T(0.0):
-                    C.slip[at] = vec4(slip, T(0.0), T(0.0), T(0.0))
-                if touching or C.energy[at] != T(0.0):
-                    C.energy[at] = energy
-                if touching:
-                    C.dissipated[at] = C.dissipated[at] + lost
-            D.share[s * n + b] = share  # (every listed slot, apart or not: ``sum_shares`` reads them all)
-
-    @kernel(deterministic=deterministic)
-    def sum_shares(B: Bodies, C: Contacts, D: DiskPairs):
-        """Disk b's disk–disk forces [N/m] and torques [N m/m] from the shares of ``pair_shares``,
-        summed in ``disk_forces``'s order (incoming by owner, then owned by slot) and added to its
-        force and torque: the same terms in the same order, the same bits."""
-        b = wp.tid()
-        if B.disk[b] == 0:
-            return
-        K = C.slots
-        n = B.disk.shape[0]
-        f = vec2()
-        tq = T(0.0)
-        for r in range(D.count[b]):
-            at = D.incoming[b * K + r]  # (slot at % K of body at // K)
-            i = at // K
-            share = D.share[(at - i * K) * n + i]
-            f -= vec2(share[0], share[1])  # (−F: ``disk_forces`` adds 0 − F, the same float; module docstring)
-            tq += share[3]
-        for s in range(C.count[b]):
-            share = D.share[s * n + b]  # (0 for a partner of the general search: adds nothing)
-            f += vec2(share[0], share[1])
-            tq += share[2]
-        wp.atomic_add(B.force, b, f)
-        wp.atomic_add(B.torque, b, tq)
-
     return Namespace(DiskPairs=DiskPairs, list_incoming=list_incoming, sort_incoming=sort_incoming,
-                     disk_forces=disk_forces, disk_pair=disk_pair, pair_shares=pair_shares, sum_shares=sum_shares)
+                     disk_forces=disk_forces, disk_pair=disk_pair)

@@ -273,15 +273,12 @@ class DEMSolver(ClockedStage):
         if self.disk_pairs:
             self.contact_kernel = self.k.make_contact_forces(None, True)
             self.disks = dem_disks.make_disk_pairs(self.config.precision, self.config.deterministic, self.periodic,
-                                                   self.tuning.disk_force_registers, self.tuning.disk_pairs_once)
+                                                   self.tuning.disk_force_registers)
             self.D = self.disks.DiskPairs()
             self.D.incoming = wp.zeros(n * K, dtype=wp.int32, device=dev)
             self.D.fill = wp.zeros(n, dtype=wp.int32, device=dev)
             self.D.count = wp.zeros(n, dtype=wp.int32, device=dev)
-            if self.tuning.disk_pairs_once:  # each pair's shares (per-step scratch), no partner copy of δ_t
-                self.D.share = wp.zeros(n * K, dtype=self._vec4, device=dev)
-            else:
-                self.D.slip = wp.zeros(n * K, dtype=self._scalar, device=dev)
+            self.D.slip = wp.zeros(n * K, dtype=self._scalar, device=dev)
         self.split = self._split_search(n, int(np.max(counts)) if n else 0)
 
         law = self.model.contact
@@ -442,11 +439,7 @@ class DEMSolver(ClockedStage):
             return
         B, C, world, dev = self.B, self.C, self.world, self.device
         pairs = self.body_count * self.slots
-        if self.disk_pairs and self.tuning.disk_pairs_once:  # (each pair computed once, then summed: the same bits)
-            wp.launch(self.disks.pair_shares, self.body_count, inputs=[B, C, self.D, self.params, self.clock],
-                      device=dev)
-            wp.launch(self.disks.sum_shares, self.body_count, inputs=[B, C, self.D], device=dev)
-        elif self.disk_pairs:  # (before the general search: a disk's sum starts with its disk partners)
+        if self.disk_pairs:  # (before the general search: a disk's sum starts with its disk partners)
             wp.launch(self.disks.disk_forces, self.body_count, inputs=[B, C, self.D, self.params, self.clock],
                       device=dev)
         if self.split is None:
@@ -599,9 +592,8 @@ class DEMSolver(ClockedStage):
         """Every time-varying device array, by a stable name."""
         arrays = {f"B.{name}": getattr(self.B, name) for name in _BODY_STATE}
         arrays.update({f"C.{name}": getattr(self.C, name) for name in _CONTACT_STATE})
-        if self.D is not None:  # (``D.share``, written each step before it is read, needs no keeping)
-            kept = ("incoming", "count") if self.tuning.disk_pairs_once else ("incoming", "count", "slip")
-            arrays.update({f"D.{name}": getattr(self.D, name) for name in kept})
+        if self.D is not None:
+            arrays.update({f"D.{name}": getattr(self.D, name) for name in ("incoming", "count", "slip")})
         arrays.update(world=self.world, flags=self.flags, rebuilds=self.rebuilds, status=self.status,
                       clock=self.clock, steps=self.steps)
         return arrays

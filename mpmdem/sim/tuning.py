@@ -111,11 +111,6 @@ class Tuning:
     """Scenes with disk grains compute the pairs of two small sphero-disks in the disk–disk pass
     (``kernels.dem_disks``: no feature search, the same forces); False: the general search for
     every pair (bench/grain_throughput.py compares the two)."""
-    disk_pairs_once: bool = False
-    """The disk–disk pass computes each pair once (``kernels.dem_disks``' ``once``: the pair's shares
-    stored per slot by its owner, then each disk sums its shares in the same order) instead of once
-    by each of its two disks: the same bits, half the force-law evaluations, two launches and a
-    per-slot scratch array (16 B in f32) instead of one launch and the partners' copies of δ_t."""
     split_search_bodies: int = _knob(65536, 0)
     """From this many bodies on ``split_search_devices``, outside deterministic mode, the pair search
     is split over candidate vertices (``kernels.dem_split``): the same bits as the one-kernel search."""
@@ -138,8 +133,8 @@ class Tuning:
     """Registers per thread of the split search's ``assemble`` on CUDA (None: the compiler's choice,
     which takes one block of 256 threads an SM)."""
     disk_force_registers: int | None = _knob(None, 16, 255)
-    """Registers per thread of the disk–disk pass's force kernel on CUDA (``kernels.dem_disks``: its
-    ``disk_forces``, or ``pair_shares`` with ``disk_pairs_once``; None: the compiler's choice)."""
+    """Registers per thread of the disk–disk pass's force kernel on CUDA (``kernels.dem_disks``; None:
+    the compiler's choice)."""
     list_build_registers: int | None = _knob(None, 16, 255)
     """Registers per thread of the DEM list build (``kernels.dem_lists.build_lists``) on CUDA (None:
     the compiler's choice)."""

@@ -73,10 +73,8 @@ def test_periodic_dem_step_compiles_for_sm90(tmp_path):
     assert dem.periodic and dem.disk_pairs
     lists = dem_lists.make_dem_lists("f32", False, True, True)
     disks = dem_disks.make_disk_pairs("f32", False, True)
-    once = dem_disks.make_disk_pairs("f32", False, True, once=True)  # (Tuning.disk_pairs_once)
-    kernels = [dem.contact_kernel, dem.k.integrate, lists.bin_bodies, lists.build_lists, disks.disk_forces,
-               once.pair_shares]
-    assert _compile(kernels, tmp_path) == 6
+    kernels = [dem.contact_kernel, dem.k.integrate, lists.bin_bodies, lists.build_lists, disks.disk_forces]
+    assert _compile(kernels, tmp_path) == 5
 
 
 def test_coupled_step_compiles_for_sm90(tmp_path):

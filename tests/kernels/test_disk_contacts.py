@@ -34,9 +34,8 @@ def disk_set(name: str, positions, radius: float, *, density: float = 1000.0, fr
 
 
 def simulate(scene: Scene, disk_pairs: bool, steps: int, config: SolverConfig = F64,
-             device: str = "cpu", once: bool = False) -> Simulation:
-    """``steps`` steps of ``scene`` with the disk–disk pass on or off (``once``: each pair computed once)."""
-    sim = Simulation(scene, config, device=device, tuning=Tuning(disk_pairs=disk_pairs, disk_pairs_once=once))
+             device: str = "cpu") -> Simulation:
+    sim = Simulation(scene, config, device=device, tuning=Tuning(disk_pairs=disk_pairs))
     assert sim.dem.disk_pairs == disk_pairs
     sim.stage.set_stop_time(1e30)
     sim.advance(steps)
@@ -52,20 +51,16 @@ def pour() -> Scene:
     return s
 
 
-@pytest.mark.parametrize("once,precision", [(False, "f64"), (True, "f64"), (True, "f32")])
-def test_disk_pass_is_the_general_search_to_the_bit(once, precision):
+def test_disk_pass_is_the_general_search_to_the_bit():
     """Verify a pour of disk grains onto walls (~1500 steps: contacts made, held with history,
     lists rebuilt) gives the same bits with the disk–disk pass as with the general search:
     positions, velocities, forces, torques, tangential history, contact energy and dissipated
     work. Tolerance 0: each pair's force is ``touch_force`` of the same arguments in both, and a
     disk sums its partners in the order of their indices, walls (the highest indices) last, as the
-    general search's atomics add them on a CPU. (A pack is chaotic: one ulp would grow to 1e-3 by then.)
-    ``once`` (``Tuning.disk_pairs_once``): each pair computed once by its owner, its shares summed by
-    both disks in that order, the disks' walls owned by the disks (shares of 0 there)."""
-    config = SolverConfig(precision=precision)
+    general search's atomics add them on a CPU. (A pack is chaotic: one ulp would grow to 1e-3 by then.)"""
     runs = []
     for disk_pairs in (True, False):
-        sim = simulate(pour(), disk_pairs, 1500, config, once=once and disk_pairs)
+        sim = simulate(pour(), disk_pairs, 1500)
         C = sim.dem.C
         runs.append({**sim.body_fields(), "slip": C.slip.numpy()[:, 0], "energy": C.energy.numpy(),
                      "dissipated": C.dissipated.numpy(), "rebuilds": sim.diagnostics()["list_rebuilds"]})
@@ -76,16 +71,13 @@ def test_disk_pass_is_the_general_search_to_the_bit(once, precision):
     assert fast["rebuilds"] > 10
 
 
-@pytest.mark.parametrize("once", [False, True])
-def test_disk_pass_restarts_bit_for_bit(tmp_path, once):
+def test_disk_pass_restarts_bit_for_bit(tmp_path):
     """Verify a checkpoint of a pour with the disk–disk pass (its incoming lists and the partners'
-    copies of δ_t included; ``once``: no copies, and the pairs' shares are per-step scratch, not
-    kept) continues bit for bit."""
-    ref = simulate(pour(), True, 1000, once=once)  # (the pack lands at about step 900)
+    copies of δ_t included) continues bit for bit."""
+    ref = simulate(pour(), True, 1000)  # (the pack lands at about step 900)
     ref.save_checkpoint(tmp_path / "disks.npz")
-    kept = {name for name in ref.stage.state_arrays() if name.startswith("D.")}
-    assert kept == ({"D.incoming", "D.count"} if once else {"D.incoming", "D.count", "D.slip"})
-    second = simulate(pour(), True, 0, once=once)
+    assert any(name.startswith("D.") for name in ref.stage.state_arrays())
+    second = simulate(pour(), True, 0)
     second.load_checkpoint(tmp_path / "disks.npz")
     for sim in (ref, second):
         sim.advance(500)
@@ -93,21 +85,6 @@ def test_disk_pass_restarts_bit_for_bit(tmp_path, once):
     for name in a:
         assert np.array_equal(a[name], b[name]), name
     assert np.abs(a["torque"]).max() > 0.0
-
-
-def test_checkpoint_of_the_pass_continues_with_each_pair_once(tmp_path):
-    """Verify a checkpoint written with the pass's default (each pair by both disks) continues under
-    ``Tuning(disk_pairs_once=True)`` with the same bits as the run that wrote it (the partners' copies
-    of δ_t it holds are not read; tolerance 0, as for the pour)."""
-    ref = simulate(pour(), True, 1000)
-    ref.save_checkpoint(tmp_path / "disks.npz")
-    second = simulate(pour(), True, 0, once=True)
-    second.load_checkpoint(tmp_path / "disks.npz")
-    for sim in (ref, second):
-        sim.advance(500)
-    a, b = ref.body_fields(), second.body_fields()
-    for name in a:
-        assert np.array_equal(a[name], b[name]), name
 
 
 def test_mixed_scene_forces_match_to_round_off(device):
@@ -130,18 +107,14 @@ def test_mixed_scene_forces_match_to_round_off(device):
         s.add_rigid_body(shape, density=1000.0, position=tuple(g.position[p] + [0.0008, 0.0]),
                          angle=float(rng.uniform(0, 6.3)), velocity=(0.01, -0.02), friction=0.5)
     forces = []
-    for disk_pairs, once in ((True, False), (False, False), (True, True)):
-        sim = simulate(s, disk_pairs, 1, device=device, once=once)
+    for disk_pairs in (True, False):
+        sim = simulate(s, disk_pairs, 1, device=device)
         forces.append(sim.body_fields())
-    fast, general, each_once = forces
+    fast, general = forces
     for name in ("force", "torque"):
         scale = np.abs(general[name]).max()
         assert scale > 0.0
         np.testing.assert_allclose(fast[name], general[name], rtol=0.0, atol=1e-13 * scale, err_msg=name)
-        # each pair once: the same terms summed in the same order as the pass, the same bits on a CPU
-        # (on a GPU the compiler may fuse the force law differently in another kernel: the tolerance above)
-        tol = 0.0 if device == "cpu" else 1e-13 * scale
-        np.testing.assert_allclose(each_once[name], fast[name], rtol=0.0, atol=tol, err_msg=name)
 
 
 @pytest.mark.parametrize("restitution", [1.0, 0.4])
@@ -245,9 +218,7 @@ def test_disk_pass_compiles_for_sm90(tmp_path):
     dem = sim.dem
     assert dem.disk_pairs
     disks = dem_disks.make_disk_pairs("f32", False)
-    once = dem_disks.make_disk_pairs("f32", False, once=True)  # (each pair once: Tuning.disk_pairs_once)
     lists = dem_lists.make_dem_lists("f32", False, True)
-    for k in (disks.list_incoming, disks.sort_incoming, disks.disk_forces, lists.build_lists, dem.contact_kernel,
-              once.sort_incoming, once.pair_shares, once.sum_shares):
+    for k in (disks.list_incoming, disks.sort_incoming, disks.disk_forces, lists.build_lists, dem.contact_kernel):
         paths = wp.compile_aot_module(k.module, arch=90, module_dir=str(tmp_path))
         assert paths and all(p.exists() for p in paths), k.key

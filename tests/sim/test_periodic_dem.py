@@ -40,10 +40,8 @@ def scene() -> Scene:
                  contact=ContactLaw(1e5, restitution=0.5))
 
 
-def run(s: Scene, steps: int, disk_pairs: bool = True, device: str = "cpu", once: bool = False) -> dict:
-    """The body fields after ``steps`` steps (``disk_pairs``, ``once``: the disk–disk pass's ``Tuning``)."""
-    sim = Simulation(s, F64, device=device, tuning=Tuning(disk_pairs=disk_pairs, disk_pairs_once=once))
-    assert sim.dem.tuning.disk_pairs_once == once
+def run(s: Scene, steps: int, disk_pairs: bool = True, device: str = "cpu") -> dict:
+    sim = Simulation(s, F64, device=device, tuning=Tuning(disk_pairs=disk_pairs))
     sim.stage.set_stop_time(1e30)
     sim.advance(steps)
     return sim.body_fields()
@@ -84,37 +82,26 @@ def test_disk_falling_along_x_keeps_the_energy_balance():
     assert d["work_driven"] - d0["work_driven"] > 3.0 * m * 9.81 * L
 
 
-def collision(offset: float, disk_pairs: bool, device: str, once: bool = False) -> dict:
+def collision(offset: float, disk_pairs: bool, device: str) -> dict:
     """Two disks meeting obliquely (friction and rolling act), their contact point at x = offset [m]."""
     s = scene()
     at = [((offset - 1.2 * R) % L, 0.0095), ((offset + 1.2 * R) % L, 0.0105)]
     for g in disks(at, [(0.4, 0.0), (-0.4, 0.05)]):
         s.add_grain_set(g)
-    return run(s, 300, disk_pairs, device, once)
+    return run(s, 300, disk_pairs, device)
 
 
-@pytest.mark.parametrize("disk_pairs,once", [(True, False), (True, True), (False, False)])
-def test_disk_collision_across_the_seam_is_the_interior_collision(disk_pairs, once, device):
-    """Verify a two-disk collision straddling the seam (the disk–disk pass, each pair computed once
-    or by both disks, and the general search) gives the interior collision's velocities and spins
-    to round-off: tolerance 1e-9 of the impact speed, far above the ulps of the shifted positions
-    (1e-17 m against overlaps of 1e-5 m) and far below the change the impact makes (the velocities
-    turn by O(1))."""
-    inside, seam = collision(0.5 * L, disk_pairs, device, once), collision(0.0, disk_pairs, device, once)
+@pytest.mark.parametrize("disk_pairs", [True, False])
+def test_disk_collision_across_the_seam_is_the_interior_collision(disk_pairs, device):
+    """Verify a two-disk collision straddling the seam (the disk–disk pass, and the general search)
+    gives the interior collision's velocities and spins to round-off: tolerance 1e-9 of the
+    impact speed, far above the ulps of the shifted positions (1e-17 m against overlaps of 1e-5 m)
+    and far below the change the impact makes (the velocities turn by O(1))."""
+    inside, seam = collision(0.5 * L, disk_pairs, device), collision(0.0, disk_pairs, device)
     assert np.abs(inside["v"] - np.array([[0.4, 0.0], [-0.4, 0.05]])).max() > 0.1  # (they met)
     assert np.abs(inside["omega"]).max() > 1.0
     np.testing.assert_allclose(seam["v"], inside["v"], rtol=0.0, atol=0.4e-9)
     np.testing.assert_allclose(seam["omega"], inside["omega"], rtol=0.0, atol=0.4e-9 / R)
-
-
-def test_each_pair_once_across_the_seam_is_the_disk_pass_to_the_bit():
-    """Verify the seam collision with each pair computed once (``Tuning.disk_pairs_once``: the owner
-    computes the pair with the partner's image, both disks sum its shares) gives the disk–disk pass's
-    bits (tolerance 0: the same terms summed in the same order, on a CPU)."""
-    once, both = collision(0.0, True, "cpu", once=True), collision(0.0, True, "cpu")
-    assert np.abs(both["omega"]).max() > 1.0  # (they met)
-    for name in both:
-        assert np.array_equal(once[name], both[name]), name
 
 
 def pentagons(offset: float, device: str) -> dict:

@@ -20,7 +20,6 @@ from mpmdem.model.spheropolygons import rounded_rectangle
 
 @pytest.mark.parametrize("field, value", [
     ("disk_pairs", 1),  # a bool, not a number
-    ("disk_pairs_once", "yes"),  # a bool, not a string
     ("mirror_in_g2p", "yes"),
     ("link_lanes", 0),  # at least one thread a point
     ("relink_lanes", 33),  # at most a warp
