@@ -9,7 +9,6 @@ run's buffer). ``routed_stderr`` puts a proxy in ``sys.stderr`` for the time the
 from __future__ import annotations
 
 import contextlib
-import io
 import sys
 import threading
 from collections.abc import Iterator
@@ -17,8 +16,9 @@ from collections.abc import Iterator
 __all__ = ["captured_stderr", "routed_stderr"]
 
 
-class _ThreadStderr(io.TextIOBase):
-    """Writes go to the calling thread's buffer, if it set one, else to the stream it replaced."""
+class _ThreadStderr:
+    """Writes go to the calling thread's buffer, if it set one, else to the stream it replaced; every
+    other attribute (encoding, fileno, isatty, ...) is the replaced stream's."""
 
     def __init__(self, base):
         self.base = base
