@@ -119,6 +119,10 @@ class DeviceTurns:
     def wait(self) -> None:
         """Return once the work this thread issued so far has run, letting the other threads issue
         theirs meanwhile (the turn is given up and taken back after the threads already waiting)."""
+        if getattr(_local, "turns", None) is not self:  # (a run used after its turn ended: no turn to give up)
+            if self.device.is_cuda:
+                wp.synchronize_stream()
+            return
         event = wp.record_event() if self.device.is_cuda else None
         mine = self.seconds[threading.current_thread().name]
         given = time.perf_counter()

@@ -137,3 +137,26 @@ def test_switch_intervals_of_threads_that_overlap_come_back_in_any_order():
     assert sys.getswitchinterval() == pytest.approx(before / 4)
     b.__exit__(None, None, None)
     assert sys.getswitchinterval() == pytest.approx(before)
+
+
+def test_a_run_used_after_its_turn_waits_without_taking_a_turn_it_does_not_hold():
+    """``wait`` outside the thread's turn (a Simulation built in a turn, stepped after it) gives
+    no turn up: another thread's turn is not broken."""
+    turns = device_turns.DeviceTurns("cpu")
+    with turns.turn():
+        pass
+    held = threading.Event()
+    done = threading.Event()
+
+    def other():
+        with turns.turn():
+            held.set()
+            done.wait(5)
+
+    t = threading.Thread(target=other)
+    t.start()
+    assert held.wait(5)
+    turns.wait()  # (not in a turn here: must not release the other thread's)
+    assert turns._lock._held
+    done.set()
+    t.join()
