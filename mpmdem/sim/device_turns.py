@@ -94,7 +94,7 @@ class DeviceTurns:
         _local.since = time.perf_counter()
         mine["queued"] += _local.since - asked
         try:
-            _local.stream = self._new_stream() if self.device.is_cuda else None
+            _local.stream = wp.Stream(self.device) if self.device.is_cuda else None
             _local.turns = self
             self._make_current()
             try:
@@ -108,9 +108,6 @@ class DeviceTurns:
                 mine["held"] += time.perf_counter() - _local.since
         finally:
             self._lock.release()
-
-    def _new_stream(self):
-        return wp.Stream(self.device)
 
     def _make_current(self) -> None:
         if self.device.is_cuda:
