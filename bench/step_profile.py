@@ -41,6 +41,21 @@ def timed(fn, device: str, steps: int) -> float:
 def profile_case(name: str, device: str, warmup: int, steps: int, flags: list[str]) -> dict:
     """Graph and eager µs per step of one case and its per-kernel device time."""
     sim, _ = build_case(name, device, flags)
+    return profile_sim(name, sim, device, warmup, steps)
+
+
+def profile_silo_batch(spec: str, device: str, warmup: int, steps: int, flags: list[str]) -> dict:
+    """The same split for a Beverloo batch ``CELL:WORLDS`` (bench/side_by_side.py's silo worlds)."""
+    from side_by_side import make_batch
+
+    cell, worlds = spec.split(":")
+    batch = make_batch(float(cell), int(worlds), device, flags)
+    row = profile_sim(f"silo-batch {cell} m x {worlds}", batch.sim, device, warmup, steps)
+    return {**row, "cell_size": float(cell), "worlds": int(worlds)}
+
+
+def profile_sim(name: str, sim, device: str, warmup: int, steps: int) -> dict:
+    """Graph and eager µs per step of a built Simulation and its per-kernel device time."""
     sim.advance(warmup)
 
     def eager(n):
@@ -72,9 +87,15 @@ def main(argv=None) -> int:
     p.add_argument("--warmup", type=int, default=200, help="steps before timing")
     p.add_argument("--steps", type=int, default=200, help="profiled eager steps (the graph runs 10x as many)")
     p.add_argument("--out", type=Path, default=None, help="also append the JSON lines to this file")
+    p.add_argument("--silo-batches", default="", help="comma-separated CELL:WORLDS Beverloo batches to "
+                   "profile instead of the cases, e.g. 0.0025:5")
     args, flags = p.parse_known_args(argv)
-    for name in [c.strip() for c in args.cases.split(",") if c.strip()]:
-        row = profile_case(name, args.device, args.warmup, args.steps, flags)
+    if args.silo_batches:
+        jobs = [(profile_silo_batch, s.strip()) for s in args.silo_batches.split(",") if s.strip()]
+    else:
+        jobs = [(profile_case, c.strip()) for c in args.cases.split(",") if c.strip()]
+    for profile, name in jobs:
+        row = profile(name, args.device, args.warmup, args.steps, flags)
         print(json.dumps(row), flush=True)
         if args.out:
             with args.out.open("a") as f:
