@@ -11,7 +11,7 @@ one JSON line with:
 - ``steps_s``: stepping to the end time frame by frame as a run does (``advance_to`` per frame),
   with no frame written;
 - ``run_s``: the whole ``BatchedSimulation.run`` with its frames and files, on a fresh batch;
-- ``frames_s`` = run_s - steps_s: what the frames add;
+- ``frames_s`` = run_s - steps_s: what the frames add (``--no-files``: their reads and checks alone);
 - with ``--profile``, the 25 functions of the run with the most cumulative time (cProfile).
 Nothing is asserted.
 
@@ -52,8 +52,10 @@ def main(argv=None) -> int:
                    help="Tuning.module_load_workers (default the Tuning's): threads compiling the modules")
     p.add_argument("--switch-interval", type=float, default=None,
                    help="Tuning.writer_switch_interval [s] (default the Tuning's; 0: Python's own, 5 ms)")
-    p.add_argument("--in-process", action="store_true",
-                   help="Tuning.batch_frames_in_process: the frames written by a child process")
+    p.add_argument("--writer-processes", type=int, default=None,
+                   help="Tuning.batch_writer_processes: the frames written by N child processes (0: a thread)")
+    p.add_argument("--no-files", action="store_true",
+                   help="run without files (outs None): the frame's reads and checks without the writers")
     p.add_argument("--label", default="", help="a label for the row (e.g. which tree ran)")
     p.add_argument("--out", type=Path, default=None, help="append the JSON line here")
     args = p.parse_args(argv)
@@ -85,7 +87,7 @@ def main(argv=None) -> int:
             built.append((setup, config_from_args(setup, module, a)))
         knobs = {k: v for k, v in (("module_load_workers", args.load_workers),
                                     ("writer_switch_interval", args.switch_interval),
-                                    ("batch_frames_in_process", args.in_process or None)) if v is not None}
+                                    ("batch_writer_processes", args.writer_processes)) if v is not None}
         tuning = Tuning(**knobs)
         return (BatchedSimulation([s.scene for s, _ in built], built[0][1], device=device, tuning=tuning),
                 built[0][0])
@@ -128,7 +130,7 @@ def main(argv=None) -> int:
         del b3
     b2, _ = batch()
     out = Path(tempfile.mkdtemp(prefix="batch-frames-"))
-    outs = [out / f"w{k}" for k in range(worlds)]
+    outs = [None if args.no_files else out / f"w{k}" for k in range(worlds)]
     profiler = None
     if args.profile:
         import cProfile
@@ -150,7 +152,7 @@ def main(argv=None) -> int:
            "case": args.case, "worlds": worlds, "cell_size": args.cell_size,
            "points": b.sim.particle_count, "end_time": end, "frames": frames, "steps": steps,
            "cold": args.cold, "load_workers": args.load_workers, "switch_interval": args.switch_interval,
-           "frames_in_process": args.in_process,
+           "writer_processes": args.writer_processes, "files": not args.no_files,
            "import_s": round(import_s, 2),
            "build_s": round(build_s, 2),
            "first_step_s": round(first_step_s, 2), "steps_s": round(steps_s, 2), "run_s": round(run_s, 2),

@@ -55,8 +55,8 @@ def main() -> None:
     p.add_argument("--step-ms", type=float, default=70.0, help="the device's steps per frame [ms]")
     p.add_argument("--launches", type=int, default=20, help="waits the steps are cut in")
     p.add_argument("--switch-interval", type=float, default=None, help="[s] (default Python's)")
-    p.add_argument("--process", action="store_true", help="the frames written by a child process "
-                   "(mpmdem.io.writer_process), not a thread of this one")
+    p.add_argument("--processes", type=int, default=0, help="the frames written by N child processes "
+                   "(mpmdem.io.writer_process, worlds dealt in turn), not a thread of this one (0)")
     p.add_argument("--tag", default="")
     p.add_argument("--out", type=Path, default=None, help="append the JSON line here")
     args = p.parse_args()
@@ -68,13 +68,14 @@ def main() -> None:
     switch = sys.getswitchinterval()
     with tempfile.TemporaryDirectory() as tmp:
         pool = ThreadPoolExecutor(max_workers=1)
-        child = WriterProcess() if args.process else None
+        children = [WriterProcess() for _ in range(args.processes)]
         kwargs = [{"particle_count": args.points, "attrs": {"precision": "f32"},
                    "csv_path": Path(tmp) / f"w{k}" / "e.csv", "body_count": args.bodies, "field_specs": specs,
                    "body_geometry": geometry(args.bodies)} for k in range(args.worlds)]
         for k in range(args.worlds):
             (Path(tmp) / f"w{k}").mkdir()
-        writers = ([child.open(Path(tmp) / f"w{k}" / "run.h5", **kwargs[k]) for k in range(args.worlds)] if child else
+        writers = ([children[k % len(children)].open(Path(tmp) / f"w{k}" / "run.h5", **kwargs[k])
+                    for k in range(args.worlds)] if children else
                    [BackgroundFrameWriter(FrameWriter(Path(tmp) / f"w{k}" / "run.h5", **kwargs[k]), pool=pool)
                     for k in range(args.worlds)])
         if args.switch_interval:
@@ -94,10 +95,11 @@ def main() -> None:
         finally:
             sys.setswitchinterval(switch)
             pool.shutdown(wait=True)
-            if child is not None:
+            for child in children:
                 child.close()
     row = {"bench": "batch_host", "tag": args.tag,
-           "writer": "process" if args.process else "thread", "worlds": args.worlds, "points": args.points,
+           "writer": f"{args.processes} processes" if args.processes else "thread", "worlds": args.worlds,
+           "points": args.points,
            "bodies": args.bodies, "diagnostics": args.diagnostics, "frames": args.frames,
            "record_ms": args.record_ms, "step_ms": args.step_ms, "launches": args.launches,
            "switch_interval": args.switch_interval or switch, "seconds_per_frame": wall / args.frames,

@@ -4,7 +4,7 @@
 #                       sequential / round-robin / side-by-side, batches built in their turn or outside,
 #                       and with CUDA_DEVICE_MAX_CONNECTIONS=32: do the streams share hardware queues?)
 #   batch_frames.jsonl  a 16-start batch with its frames written by a thread or by a child process
-#                       (Tuning.batch_frames_in_process), alternated twice
+#                       (Tuning.batch_writer_processes 1), alternated twice
 #   OUT=$OUT bash bench/issue46_gpu.sh
 set -uo pipefail
 out=${OUT:-/tmp/out}; mkdir -p "$out"
@@ -17,8 +17,8 @@ for worlds in 1 5; do
     --out "$out/side_by_side_32_connections.jsonl" 2>/dev/null | cut -c1-300
 done
 for round in 1 2; do
-  for how in "" --in-process; do
+  for how in "" "--writer-processes 1"; do
     python bench/batch_frames.py --device cuda --case sand-blocks --worlds 16 --cell-size 0.003125 $how \
-      --label "round $round${how:+ in-process}" --out "$out/batch_frames.jsonl" 2>/dev/null | tail -1 | cut -c1-400
+      --label "round $round${how:+ one writer process}" --out "$out/batch_frames.jsonl" 2>/dev/null | tail -1 | cut -c1-400
   done
 done

@@ -56,6 +56,8 @@ def profile_silo_batch(spec: str, device: str, warmup: int, steps: int, flags: l
 
 def profile_sim(name: str, sim, device: str, warmup: int, steps: int) -> dict:
     """Graph and eager µs per step of a built Simulation and its per-kernel device time."""
+    sim._capture()  # as a run does before its first advance_to; advance() replays the graphs
+    sim.stage.set_stop_time(1.0e9)
     sim.advance(warmup)
 
     def eager(n):

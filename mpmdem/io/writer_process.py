@@ -49,20 +49,48 @@ POLL_S = 0.5
 
 
 def _write_message(stream, message) -> None:
-    data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
-    stream.write(len(data).to_bytes(8, "little"))
+    """Send ``message`` pickled (protocol 5), its arrays' bytes out of band: written straight from
+    their memory after the pickle, not copied into it. Framing: the pickle's size, the count of
+    buffers and each buffer's size (8-byte little-endian each), the pickle, the buffers."""
+    buffers: list[pickle.PickleBuffer] = []
+    data = pickle.dumps(message, protocol=5, buffer_callback=buffers.append)
+    raws = [b.raw() for b in buffers]
+    stream.write(b"".join(n.to_bytes(8, "little") for n in (len(data), len(raws), *(r.nbytes for r in raws))))
     stream.write(data)
+    for raw in raws:
+        stream.write(raw)
     stream.flush()
+
+
+def _read_exactly(stream, size: int) -> bytearray | None:
+    """``size`` bytes of ``stream``, or None if it ends first."""
+    out = bytearray(size)
+    view, got = memoryview(out), 0
+    while got < size:
+        n = stream.readinto(view[got:])
+        if not n:
+            return None
+        got += n
+    return out
 
 
 def _read_message(stream):
     """The next message, or None at the end of the stream."""
-    head = stream.read(8)
-    if len(head) < 8:
+    head = _read_exactly(stream, 16)
+    if head is None:
         return None
-    size = int.from_bytes(head, "little")
-    data = stream.read(size)
-    return None if len(data) < size else pickle.loads(data)
+    size, count = int.from_bytes(head[:8], "little"), int.from_bytes(head[8:], "little")
+    sizes = _read_exactly(stream, 8 * count)
+    data = _read_exactly(stream, size)
+    if sizes is None or data is None:
+        return None
+    buffers = []
+    for k in range(count):
+        buffer = _read_exactly(stream, int.from_bytes(sizes[8 * k:8 * k + 8], "little"))
+        if buffer is None:
+            return None
+        buffers.append(buffer)
+    return pickle.loads(data, buffers=buffers)
 
 
 def serve(requests, replies) -> None:

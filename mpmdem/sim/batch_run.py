@@ -268,16 +268,24 @@ class BatchedSimulation:
         """One pass from t = 0 over the worlds of this batch (``ids``: their numbers in the caller's
         batch); fills ``results`` for the worlds that end; returns those (by caller's number) that failed.
         The worlds' frames are written in one shared thread (``BackgroundFrameWriter``'s pool), or with
-        ``Tuning.batch_frames_in_process`` by one child process (``mpmdem.io.writer_process``)."""
+        ``Tuning.batch_writer_processes`` by child processes (``mpmdem.io.writer_process``), world k's
+        by child k mod N."""
         from ..io.background import thread_switch_interval
 
         writing = any(o is not None for o in outs)
-        if writing and self.sim.tuning.batch_frames_in_process:
+        processes = min(self.sim.tuning.batch_writer_processes, sum(o is not None for o in outs))
+        if writing and processes:
+            from contextlib import ExitStack
+
             from ..io.writer_process import WriterProcess
 
-            with WriterProcess() as child:
-                self.sim._capture()  # (the kernels load and the graphs are recorded while the child starts)
-                return self._attempt_in(child, end_time, outs, frames, names, attrs, progress, results, ids)
+            with ExitStack() as stack:
+                # (their feeder threads get Python's lock back sooner from a busy main thread, as the
+                # writer thread does)
+                stack.enter_context(thread_switch_interval(self.sim.tuning.writer_switch_interval))
+                children = [stack.enter_context(WriterProcess()) for _ in range(processes)]
+                self.sim._capture()  # (the kernels load and the graphs are recorded while the children start)
+                return self._attempt_in(children, end_time, outs, frames, names, attrs, progress, results, ids)
         pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mpmdem-batch-frames")
         # (the writer thread gets Python's lock back sooner from a busy main thread: io.background)
         switch = self.sim.tuning.writer_switch_interval if writing else 0.0
@@ -290,11 +298,12 @@ class BatchedSimulation:
     def _attempt_in(self, pool, end_time, outs, frames, names, attrs, progress, results, ids) -> set[int]:
         sim = self.sim
         worlds = self.worlds
-        from ..io.writer_process import WriterProcess
 
-        where = {"child": pool} if isinstance(pool, WriterProcess) else {"pool": pool}
-        writers = {w.index: self._writer(w, outs[w.index], names[w.index], end_time, attrs, **where)
-                   if outs[w.index] is not None else None for w in worlds}
+        def where(k: int) -> dict:  # (``pool``: a thread pool, or the writer processes, dealt in turn)
+            return {"child": pool[k % len(pool)]} if isinstance(pool, list) else {"pool": pool}
+
+        writers = {w.index: self._writer(w, outs[w.index], names[w.index], end_time, attrs, **where(k))
+                   if outs[w.index] is not None else None for k, w in enumerate(worlds)}
         paths = {w.index: Path(outs[w.index]) / f"{names[w.index]}.h5" if outs[w.index] is not None else None
                  for w in worlds}
         balances = {w.index: EnergyBalance(sim.stage.WORK_TERMS) for w in worlds}

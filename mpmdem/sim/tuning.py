@@ -172,10 +172,11 @@ class Tuning:
     (``mpmdem.io.background.thread_switch_interval``; 0: Python's own, 5 ms): how long the writer,
     having let Python's lock go around an HDF5 write, may wait for a busy main thread to give it back."""
 
-    batch_frames_in_process: bool = False
-    """A batch's frames are written by a child process (``mpmdem.io.writer_process``), not by a
-    thread of the process that steps (``mpmdem.io.background``): the writing then takes no Python
-    time from the thread that reads the frames back and launches the steps."""
+    batch_writer_processes: int = _knob(0, 0, 64)
+    """Child processes that write a batch's frames (``mpmdem.io.writer_process``), the worlds dealt
+    to them in turn; 0: one thread of the process that steps (``mpmdem.io.background``). A child's
+    writing takes no Python time from the thread that reads the frames back and launches the steps,
+    and several children write several worlds' files at once (h5py serialises a process's HDF5 calls)."""
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
