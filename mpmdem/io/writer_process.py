@@ -3,10 +3,12 @@
 A batch of worlds writes a frame of every world's file at every frame time (HDF5 stores, the XDMF
 views, the CSV row: a few milliseconds of Python each). In a thread of the stepping process that
 work takes Python's lock from the thread that reads the frame back and launches the next steps, and
-the device waits for both (``mpmdem.io.background``). Here one spawned child process owns the files
-(each a ``FrameWriter``) and writes what it is sent, in order, while the parent goes on. The child
+the device waits for both (``mpmdem.io.background``). Here a spawned child process owns some of the
+files (each a ``FrameWriter``) and writes what it is sent, in order, while the parent goes on
+(``BatchedSimulation`` deals its worlds to ``Tuning.batch_writer_processes`` children). The child
 is ``python -m mpmdem.io.writer_process`` in a session of its own, fed pickled messages on its stdin
-by a feeder thread of the parent (the caller only queues them), answering on its stdout (not
+by a feeder thread of the parent (the caller only queues them; the arrays' bytes follow each pickle
+out of band, written from their own memory), answering on its stdout (not
 ``multiprocessing``'s spawn, which would run a user's script again in the child).
 
 What a run keeps of ``BackgroundFrameWriter``'s promises:
