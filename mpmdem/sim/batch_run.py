@@ -325,16 +325,20 @@ class BatchedSimulation:
                                         extra={"left_tile": left_tile, "batch_wide": batch_wide})
 
         def record(t: float, steps: int, dt: float, bound: float, t_next: float | None) -> None:
-            # (every device read first: the batch's and each world's sums and fields; then the
-            # checks; then, unless a world failed, the next frame's first steps go, and the host
-            # writes the frame while they run: a failed world leaves the device at its frame)
+            # (every device read first: the batch's and each world's sums and fields, at the
+            # frame's time t; then the next frame's first steps go, and the host checks and writes
+            # the frame while they run. A world that fails the checks ends this pass, whose device
+            # state is dropped: the next pass starts again from t = 0, without it.)
             self._fresh_frame()
             batch_d = sim.stage.diagnostics()
             host = HostArrays()  # (each device array read back once this frame, for every world)
-            sums = {w.index: world_diagnostics(sim, w, self._points.get(w.index), batch_d, host) for w in worlds}
+            sums = {w.index: world_diagnostics(sim, w, self._points.get(w.index), batch_d, host, t)
+                    for w in worlds}
             # (read for the stray-world check below too, with or without files)
             frame = {w.index: (self.point_fields(w, copy=False) if sim.mpm else {},
                                self.body_fields(w) if sim.dem else None) for w in worlds}
+            if t_next is not None:
+                sim.launch_ahead(t, t_next, dt)
             diags, failures = {}, {}
             for w in worlds:
                 d = balances[w.index].update(sums[w.index])
@@ -348,8 +352,6 @@ class BatchedSimulation:
             for k, why in self.stray_worlds(fresh=False, time=t).items():
                 if k not in failures:
                     failures[k] = (f"world {ids[k]}: {why} at t = {t:.6g} s", self._beyond_tile(why))
-            if t_next is not None and not failures:
-                sim.launch_ahead(t, t_next, dt)
             times.append(t)
             for w in worlds:
                 d = diags[w.index]

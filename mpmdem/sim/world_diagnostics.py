@@ -81,11 +81,11 @@ class WorldPoints:
         return self._struct
 
 
-def point_sums(mpm, wpts: WorldPoints, world: World) -> dict[str, float]:
-    """Energies [J/m], momenta, mass [kg/m] and ``mass_<probe>`` of one world's points."""
+def point_sums(mpm, wpts: WorldPoints, world: World, t_now: float) -> dict[str, float]:
+    """Energies [J/m], momenta, mass [kg/m] and ``mass_<probe>`` of one world's points at time
+    ``t_now`` [s] (the clock's: the frame's)."""
     P = wpts.struct()
     n = len(wpts.index)
-    t_now = mpm.sim_clock.time
     wpts.diag.zero_()
     wp.launch(mpm.diagnostics_kernel, n, inputs=[P, mpm.D, mpm.materials, wpts.diag, t_now], device=mpm.device)
     out = {name: float(v) for name, v in zip(reduction_kernels.DIAG_NAMES, host_copy(wpts.diag), strict=True)}
@@ -101,7 +101,7 @@ def point_sums(mpm, wpts: WorldPoints, world: World) -> dict[str, float]:
     return out
 
 
-def tile_works(mpm, wpts: WorldPoints, world: World, host: HostArrays) -> dict[str, float]:
+def tile_works(mpm, wpts: WorldPoints, world: World, host: HostArrays, t_now: float) -> dict[str, float]:
     """The grid's works [J/m] and the forces on the obstacles [N/m] of one world's tile (walled tiles:
     ``kernels.grid.work_slot`` gives each tile its share of every term's slots), as
     ``diagnostics.point_diagnostics`` names them; the force is the impulse since the world's last
@@ -111,7 +111,6 @@ def tile_works(mpm, wpts: WorldPoints, world: World, host: HostArrays) -> dict[s
     sums = sums[:, world.tile * per:(world.tile + 1) * per].sum(axis=1)
     out = {name: float(w) for name, w in zip(grid_kernels.WORK_TERMS, sums, strict=False)}
     impulse = sums[grid_kernels.IMPULSE_BASE:]
-    t_now = mpm.sim_clock.time
     t_prev, i_prev = wpts.impulse_mark
     span = t_now - t_prev
     force = (impulse - i_prev) / span if span > 0.0 else np.zeros_like(impulse)
@@ -163,15 +162,18 @@ def body_sums(dem, world: World, host: HostArrays) -> dict[str, float]:
 
 
 def world_diagnostics(sim, world: World, wpts: WorldPoints | None, batch: dict[str, float],
-                      host: HostArrays | None = None) -> dict[str, float]:
+                      host: HostArrays | None = None, t_now: float | None = None) -> dict[str, float]:
     """One world's diagnostics under the names a lone run gives them: ``batch`` (the whole batch's,
     ``Stage.diagnostics``) with every per-world sum replaced (see the module's docstring). ``host``:
-    this frame's read-backs, shared by its worlds (a fresh one if None)."""
+    this frame's read-backs, shared by its worlds (a fresh one if None); ``t_now``: the frame's time
+    [s] (None: read from the clock)."""
     host = host if host is not None else HostArrays()
     d = {k: v for k, v in batch.items() if not k.startswith("mass_")}
-    m = point_sums(sim.mpm, wpts, world) if sim.mpm is not None else None
+    if sim.mpm is not None and t_now is None:
+        t_now = sim.mpm.sim_clock.time
+    m = point_sums(sim.mpm, wpts, world, t_now) if sim.mpm is not None else None
     if m is not None and world.tile is not None:
-        m.update(tile_works(sim.mpm, wpts, world, host))
+        m.update(tile_works(sim.mpm, wpts, world, host, t_now))
     b = body_sums(sim.dem, world, host) if sim.dem is not None else None
     if m is not None and b is not None:
         imp = imp_sums(sim.coupling, wpts, host)
