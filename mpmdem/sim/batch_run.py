@@ -272,9 +272,9 @@ class BatchedSimulation:
         by child k mod N."""
         from ..io.background import thread_switch_interval
 
-        writing = any(o is not None for o in outs)
-        processes = min(self.sim.tuning.batch_writer_processes, sum(o is not None for o in outs))
-        if writing and processes:
+        writing = sum(o is not None for o in outs)
+        processes = min(self.sim.tuning.batch_writer_processes, writing)
+        if processes:
             from contextlib import ExitStack
 
             from ..io.writer_process import WriterProcess

@@ -162,15 +162,13 @@ def body_sums(dem, world: World, host: HostArrays) -> dict[str, float]:
 
 
 def world_diagnostics(sim, world: World, wpts: WorldPoints | None, batch: dict[str, float],
-                      host: HostArrays | None = None, t_now: float | None = None) -> dict[str, float]:
+                      host: HostArrays | None, t_now: float) -> dict[str, float]:
     """One world's diagnostics under the names a lone run gives them: ``batch`` (the whole batch's,
     ``Stage.diagnostics``) with every per-world sum replaced (see the module's docstring). ``host``:
     this frame's read-backs, shared by its worlds (a fresh one if None); ``t_now``: the frame's time
-    [s] (None: read from the clock)."""
+    [s], the clock's (passed in: no clock read per world)."""
     host = host if host is not None else HostArrays()
     d = {k: v for k, v in batch.items() if not k.startswith("mass_")}
-    if sim.mpm is not None and t_now is None:
-        t_now = sim.mpm.sim_clock.time
     m = point_sums(sim.mpm, wpts, world, t_now) if sim.mpm is not None else None
     if m is not None and world.tile is not None:
         m.update(tile_works(sim.mpm, wpts, world, host, t_now))
