@@ -39,9 +39,9 @@ from mpmdem.sim.device_turns import DeviceTurns  # noqa: E402
 ROUND_STEPS = 400
 
 
-def make_batch(cell: float, worlds: int, device: str, flags: list[str]) -> BatchedSimulation:
+def make_batch(cell: float, worlds: int, device: str, flags: list[str], tuning=None) -> BatchedSimulation:
     built = [build(ORIFICES[k % len(ORIFICES)], device, ["--cell-size", str(cell), *flags]) for k in range(worlds)]
-    return BatchedSimulation([s for s, _ in built], built[0][1], device=device)
+    return BatchedSimulation([s for s, _ in built], built[0][1], device=device, tuning=tuning)
 
 
 def step(batch: BatchedSimulation, steps: int) -> float:

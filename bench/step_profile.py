@@ -17,6 +17,8 @@ and ``kernels``: [name, launches per step, µs per step] sorted by time. Nothing
 from __future__ import annotations
 
 import argparse
+import ast
+import functools
 import json
 import sys
 import time
@@ -44,14 +46,17 @@ def profile_case(name: str, device: str, warmup: int, steps: int, flags: list[st
     return profile_sim(name, sim, device, warmup, steps)
 
 
-def profile_silo_batch(spec: str, device: str, warmup: int, steps: int, flags: list[str]) -> dict:
-    """The same split for a Beverloo batch ``CELL:WORLDS`` (bench/side_by_side.py's silo worlds)."""
+def profile_silo_batch(spec: str, device: str, warmup: int, steps: int, flags: list[str], knobs: dict) -> dict:
+    """The same split for a Beverloo batch ``CELL:WORLDS`` (bench/side_by_side.py's silo worlds),
+    with ``Tuning(**knobs)``."""
     from side_by_side import make_batch
 
+    from mpmdem import Tuning
+
     cell, worlds = spec.split(":")
-    batch = make_batch(float(cell), int(worlds), device, flags)
+    batch = make_batch(float(cell), int(worlds), device, flags, tuning=Tuning(**knobs))
     row = profile_sim(f"silo-batch {cell} m x {worlds}", batch.sim, device, warmup, steps)
-    return {**row, "cell_size": float(cell), "worlds": int(worlds)}
+    return {**row, "cell_size": float(cell), "worlds": int(worlds), "tuning": knobs}
 
 
 def profile_sim(name: str, sim, device: str, warmup: int, steps: int) -> dict:
@@ -91,9 +96,13 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path, default=None, help="also append the JSON lines to this file")
     p.add_argument("--silo-batches", default="", help="comma-separated CELL:WORLDS Beverloo batches to "
                    "profile instead of the cases, e.g. 0.0025:5")
+    p.add_argument("--tuning", action="append", default=[], metavar="KNOB=VALUE",
+                   help="a Tuning knob of the silo batches (Python literal), e.g. tiled_p2g_granular=True")
     args, flags = p.parse_known_args(argv)
+    knobs = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.tuning)}
     if args.silo_batches:
-        jobs = [(profile_silo_batch, s.strip()) for s in args.silo_batches.split(",") if s.strip()]
+        jobs = [(functools.partial(profile_silo_batch, knobs=knobs), s.strip())
+                for s in args.silo_batches.split(",") if s.strip()]
     else:
         jobs = [(profile_case, c.strip()) for c in args.cases.split(",") if c.strip()]
     for profile, name in jobs:

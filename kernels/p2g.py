@@ -62,8 +62,9 @@ def make_p2g(
     block barrier) per stencil node, and the tile's non-empty nodes are then added to the grid,
     one atomic per node and field: about 3 TX TY / B global atomics a point instead of 27 (f32,
     bspline2: 4 × 22 nodes for 64 points). A node outside the tile takes the global atomic as
-    before, so any order is right, a cell-sorted one fast. Not with layered, deterministic or
-    multi-stencil variants. Empty: one global atomic per point and node.
+    before, so any order is right, a cell-sorted one fast. Layered: the tile holds the nodes' first
+    copies (layer 0), and a term for another copy takes the global atomic. Not with deterministic
+    or multi-stencil variants. Empty: one global atomic per point and node.
     rows: a point's K stencil rows over K threads (launched over K n threads: thread K p + i takes
     row i of point p), each reading the point and adding its row's K nodes: a small scene's P2G is
     as long as one warp's chain of instructions (bench/README.md, "Where a small step's kernels
@@ -90,8 +91,8 @@ def make_p2g(
     from_F = bool(derived) and force
     volume_stress = make_derived_state(tuple(derived) or (1,), precision).volume_stress
     tiled = bool(tile)
-    if tiled and (layered or deterministic or NC != 1):
-        raise ValueError("a tiled P2G is built for single-stencil, non-layered, non-deterministic variants")
+    if tiled and (deterministic or NC != 1):
+        raise ValueError("a tiled P2G is built for single-stencil, non-deterministic variants")
     B, TX, TY = tile if tiled else (1, 1, 1)
     if rows and (layered or tiled or NC != 1):
         raise ValueError("a P2G by stencil rows is built for single-stencil, non-layered, untiled variants")
@@ -133,7 +134,7 @@ def make_p2g(
             # the tile starts one column left of and two rows below the block's first point (points
             # are sorted by cell column, then by height: the rest of the block lies above it)
             c0 = (P.x[wp.min(first, n - 1)] - D.origin) * D.inv_h
-            ox = wp.clamp(int(wp.floor(c0[0])) - 1, 0, G.mass.shape[0] - wp.static(TX))
+            ox = wp.clamp(int(wp.floor(c0[0])) - 1, 0, D.layer_rows - wp.static(TX))  # (in the first layer)
             oy = wp.clamp(int(wp.floor(c0[1])) - 2, 0, G.mass.shape[1] - wp.static(TY))
             node_sums = wp.tile_zeros(shape=(wp.static(TX), wp.static(TY)), dtype=sums, storage="shared")
         if dt <= T(0.0):
@@ -220,6 +221,10 @@ def make_p2g(
                         li = gi - ox
                         lj = gj - oy
                         in_tile = active and li >= 0 and li < wp.static(TX) and lj >= 0 and lj < wp.static(TY)
+                        if wp.static(layered):
+                            # the tile holds the nodes' first copies (row gi): in a dense flow the
+                            # block's points are one component; another copy takes the global atomic
+                            in_tile = in_tile and row == gi
                         if not in_tile:
                             li = 0
                             lj = 0

@@ -327,12 +327,14 @@ class MPMSolver(ClockedStage):
     def p2g_tile(self) -> tuple:
         """(B, TX, TY) of the shared-memory P2G (``kernels.p2g.make_p2g``'s ``tile``), or ()
         for one global atomic per point and node: tiles pay on CUDA from ``tuning.tiled_p2g_points``
-        points on, for single-stencil shapes, outside granular and deterministic mode. A block of B
+        points on, for single-stencil shapes, outside deterministic mode, in granular mode with
+        ``tuning.tiled_p2g_granular``. A block of B
         cell-sorted points spans about B / ppc cells of one cell column, so the tile is K + 1
         nodes wide and B / ppc + K + 3 high (K the stencil's nodes per axis)."""
         c = self.config
         K = SUPPORT_NODES[c.shape]
-        if (not self.device.is_cuda or self.particle_count < self.tuning.tiled_p2g_points or c.granular
+        if (not self.device.is_cuda or self.particle_count < self.tuning.tiled_p2g_points
+                or (c.granular and not self.tuning.tiled_p2g_granular)
                 or c.deterministic or transfer_kernels.CORNERS.get(c.shape, 1) != 1):
             return ()
         ppc = min(b.points_per_cell for b in self.model.bodies) ** 2

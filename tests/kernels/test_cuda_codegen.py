@@ -48,6 +48,19 @@ def test_granular_tent_step_compiles_for_sm90(tmp_path):
     assert _compile(kernels, tmp_path) >= 10
 
 
+def test_tiled_granular_p2g_compiles_for_sm90(tmp_path):
+    """The shared-memory P2G in granular mode (``Tuning.tiled_p2g_granular``): tile calls beside the
+    copies' claims, for the passes of USL (fused) and MUSL (mass and momentum; force)."""
+    from mpmdem.kernels import transfer
+
+    tile = (64, 4, 22)
+    kernels = [transfer.make_p2g("bspline2", "apic", "f32", layered=True, tile=tile, **flags)
+               for flags in (dict(mass=True, momentum=True, force=True, fused_impulse=True),
+                             dict(mass=True, momentum=True, force=False),
+                             dict(mass=False, momentum=False, force=True))]
+    assert _compile(kernels, tmp_path) == 3
+
+
 def test_dem_step_compiles_for_sm90(tmp_path):
     scene = M.Scene(domain=((0, 0), (1, 1)), gravity=(0, -9.81), contact=M.ContactLaw(1e6, restitution=0.5))
     scene.add_walls(("left", "right", "bottom"), friction=0.5)

@@ -79,7 +79,7 @@ def test_tiled_p2g_adds_what_the_global_atomics_add(device, shuffled, step_pass)
 
 def test_tiles_only_where_they_pay(device):
     """Verify the tile is chosen on CUDA for a large single-stencil scene, and not on the CPU,
-    in granular mode, or for a multi-stencil shape."""
+    in granular mode (unless ``Tuning.tiled_p2g_granular``), or for a multi-stencil shape."""
     scene = Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=1 / 300)
     scene.add_mpm_body(rectangle(0.05, 0.05, 0.95, 0.95), NeoHookean(1e5, 0.3, 1000.0))  # 4 per cell
     sim = Simulation(scene, SolverConfig(precision="f32"), device=device)
@@ -93,3 +93,62 @@ def test_tiles_only_where_they_pay(device):
     assert Simulation(scene, SolverConfig(precision="f32", shape="cpdi1"), device=device).mpm.p2g_tile() == ()
     assert Simulation(scene, SolverConfig(precision="f32", deterministic=True),
                       device=device).mpm.p2g_tile() == ()
+    granular = SolverConfig(precision="f32", granular=True)
+    assert Simulation(scene, granular, device=device).mpm.p2g_tile() == ()  # (off until timed)
+    assert Simulation(scene, granular, device=device,
+                      tuning=Tuning(tiled_p2g_granular=True)).mpm.p2g_tile() == (block, 4, block // 4 + 6)
+
+
+@pytest.mark.parametrize("step_pass", ["fused", "separate-force", "force-only"])
+def test_tiled_p2g_in_granular_mode_adds_what_the_global_atomics_add(device, step_pass):
+    """Granular mode (``layered``): the tile holds the nodes' first copies and a term for another
+    copy takes the global atomic, so every copy of every node must hold what the one-atomic P2G
+    gives, to the same reordering bound. A block of sand (one component, first copies) beside a
+    cloud of separate points (spacing 0.65 h, domains h/2: each its own component, so a node holds
+    several copies) exercises both the tile and the global atomics of the other copies."""
+    from mpmdem import MohrCoulomb
+
+    h = 1 / 64
+    scene = Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=h)
+    # (a critical density: points below it separate, "Granular MPM" §3.3)
+    sand = MohrCoulomb(1.0e7, 0.3, 2250.0, 30.0, 0.0, bagnold=0.15, critical_density=2235.0)
+    scene.add_mpm_body(rectangle(0.1, 0.1, 0.45, 0.5), sand, velocity=(0.2, 0.0))
+    ii, jj = np.divmod(np.arange(24 * 24), 24)
+    cloud = np.column_stack([0.55 + (jj + 0.5) * 0.65 * h, 0.1 + (ii + 0.5) * 0.65 * h])
+    scene.add_points(cloud, sand, size=0.5 * h, velocity=(-0.2, 0.1))
+    config = SolverConfig(precision="f32", granular=True, shape="bspline2")
+    sim = Simulation(scene, config, device=device)
+    sim.run(0.002, frames=1)  # stresses, layers in use
+    m = sim.mpm
+    clock = m.clock.numpy()
+    clock[CLOCK_DT] = 1.0e-5
+    m.clock.assign(clock)
+    flags = {k: v for k, v in PASSES[step_pass].items()}
+    flags["mass"] = False  # (a pass that moves mass claims copies: the step's first, not re-run here)
+
+    def fields(tile):
+        import warp as wp
+
+        for field in (m.G.mass, m.G.mom, m.G.force):
+            field.zero_()
+        kernel = transfer.make_p2g(config.shape, config.scheme.affine, config.precision, layered=True,
+                                   derived=m.material_kinds if m.derived_stress else (), tile=tile, **flags)
+        n = m.particle_count
+        inputs = [m.points, m.G, m.D, m.clock, m.status, m.materials]
+        if tile:
+            wp.launch(kernel, -(-n // tile[0]) * tile[0], inputs=inputs, block_dim=tile[0], device=m.device)
+        else:
+            wp.launch(kernel, n, inputs=inputs, device=m.device)
+        return [f.numpy().copy() for f in (m.G.mom, m.G.force)]
+
+    layer_rows = m.D.layer_rows
+    want = fields(())
+    got = fields((BLOCK, 4, BLOCK // 4 + 6))
+    written = 0
+    for name, a, b in zip(("mom", "force"), want, got, strict=True):
+        scale = np.abs(a).max()
+        written += scale > 0
+        np.testing.assert_allclose(b, a, rtol=0, atol=1e-5 * scale, err_msg=name)
+    assert written == (1 if flags.get("fused_impulse") else 1 + bool(flags.get("momentum")))
+    # (the second copies hold terms: the global atomics' share of the tiled pass was exercised)
+    assert np.abs(want[-1 if not flags.get("fused_impulse") else 0][layer_rows:]).max() > 0
