@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The tiled P2G in granular mode (Tuning.tiled_p2g_granular, off by default) in one GPU call:
+# The tiled P2G in granular mode (Tuning.tiled_p2g_granular, on by default since it was timed so) in one GPU call:
 #   its CUDA tests (the tile against the global atomics, with many copies a node; sm_90 codegen),
 #   then a Beverloo batch's step (five silos at 2.5 mm, 190k points) without and with it,
 #   alternated twice: graph µs a step and the per-kernel split (P2G's row) -> $OUT/step_profile.jsonl

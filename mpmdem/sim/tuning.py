@@ -43,10 +43,10 @@ class Tuning:
     (``MPMSolver.p2g_tile``); below it a step is latency-bound and the tile's barriers only add."""
     tiled_p2g_block: int = _knob(64, 4, 1024)
     """Threads (cell-sorted points) per block of the tiled P2G."""
-    tiled_p2g_granular: bool = False
+    tiled_p2g_granular: bool = True
     """The tiled P2G in granular mode too: the tile holds the nodes' first copies, a term for another
-    copy takes the global atomic (``kernels.p2g.make_p2g``'s ``tile`` with ``layered``). Off until
-    timed on a GPU (``bench/step_profile.py --silo-batches``)."""
+    copy takes the global atomic (``kernels.p2g.make_p2g``'s ``tile`` with ``layered``). Timed with
+    ``bench/step_profile.py --silo-batches`` (docs/benchmarks.md's tuning table)."""
     row_p2g_points: int = _knob(16384, 0)
     """Scenes of fewer points run P2G a stencil row a thread (``kernels.p2g.make_p2g``'s
     ``rows``) on ``row_p2g_devices``, outside granular mode: their GPU is nearly idle and each

@@ -79,7 +79,7 @@ def test_tiled_p2g_adds_what_the_global_atomics_add(device, shuffled, step_pass)
 
 def test_tiles_only_where_they_pay(device):
     """Verify the tile is chosen on CUDA for a large single-stencil scene, and not on the CPU,
-    in granular mode (unless ``Tuning.tiled_p2g_granular``), or for a multi-stencil shape."""
+    in granular mode when ``Tuning.tiled_p2g_granular`` is off, or for a multi-stencil shape."""
     scene = Scene(domain=((0.0, 0.0), (1.0, 1.0)), cell_size=1 / 300)
     scene.add_mpm_body(rectangle(0.05, 0.05, 0.95, 0.95), NeoHookean(1e5, 0.3, 1000.0))  # 4 per cell
     sim = Simulation(scene, SolverConfig(precision="f32"), device=device)
@@ -94,9 +94,9 @@ def test_tiles_only_where_they_pay(device):
     assert Simulation(scene, SolverConfig(precision="f32", deterministic=True),
                       device=device).mpm.p2g_tile() == ()
     granular = SolverConfig(precision="f32", granular=True)
-    assert Simulation(scene, granular, device=device).mpm.p2g_tile() == ()  # (off until timed)
+    assert Simulation(scene, granular, device=device).mpm.p2g_tile() == (block, 4, block // 4 + 6)
     assert Simulation(scene, granular, device=device,
-                      tuning=Tuning(tiled_p2g_granular=True)).mpm.p2g_tile() == (block, 4, block // 4 + 6)
+                      tuning=Tuning(tiled_p2g_granular=False)).mpm.p2g_tile() == ()
 
 
 @pytest.mark.parametrize("step_pass", ["fused", "separate-force", "force-only"])
