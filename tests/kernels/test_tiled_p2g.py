@@ -28,16 +28,16 @@ PASSES = {
 }
 
 
-def p2g_fields(sim, tile, flags=PASSES["fused"]):
+def p2g_fields(sim, tile, flags=PASSES["fused"], layered=False):
     """Grid mass, momentum, force and re-mapped momentum after the P2G pass ``flags`` with ``tile``
-    (() for the global atomics)."""
+    (() for the global atomics); ``layered``: the granular mode's pass, onto the nodes' copies."""
     import warp as wp
 
     m = sim.mpm
     c = m.config
     for field in (m.G.mass, m.G.mom, m.G.force, m.G.vm):
         field.zero_()
-    kernel = transfer.make_p2g(c.shape, c.scheme.affine, c.precision,
+    kernel = transfer.make_p2g(c.shape, c.scheme.affine, c.precision, layered=layered,
                                derived=m.material_kinds if m.derived_stress else (), tile=tile, **flags)
     n = m.particle_count
     inputs = [m.points, m.G, m.D, m.clock, m.status, m.materials]
@@ -127,19 +127,7 @@ def test_tiled_p2g_in_granular_mode_adds_what_the_global_atomics_add(device, ste
     flags["mass"] = False  # (a pass that moves mass claims copies: the step's first, not re-run here)
 
     def fields(tile):
-        import warp as wp
-
-        for field in (m.G.mass, m.G.mom, m.G.force):
-            field.zero_()
-        kernel = transfer.make_p2g(config.shape, config.scheme.affine, config.precision, layered=True,
-                                   derived=m.material_kinds if m.derived_stress else (), tile=tile, **flags)
-        n = m.particle_count
-        inputs = [m.points, m.G, m.D, m.clock, m.status, m.materials]
-        if tile:
-            wp.launch(kernel, -(-n // tile[0]) * tile[0], inputs=inputs, block_dim=tile[0], device=m.device)
-        else:
-            wp.launch(kernel, n, inputs=inputs, device=m.device)
-        return [f.numpy().copy() for f in (m.G.mom, m.G.force)]
+        return p2g_fields(sim, tile, flags, layered=True)[1:3]  # (momentum, force)
 
     layer_rows = m.D.layer_rows
     want = fields(())
