@@ -5,7 +5,12 @@ For each case of bench/small_scenes.py at its default size: the step replayed as
 synchronisations, then ``--steps`` eager steps under Warp's activity timing (CUDA events around
 every kernel, memset and memcpy), summed per kernel name. The gap between the graph's µs per step
 and the sum of the kernels' device time is what launching costs (graph nodes, dependencies,
-conditional nodes); the kernel rows show which kernels to fuse or shrink.
+conditional nodes); the kernel rows show which kernels to fuse or shrink. The events around every
+eager kernel inflate its time: in a batch of five Beverloo silos (190k points, H100) the eager
+kernels added to 386 µs where the graph's whole step took 249, and P2G read 106 µs against the
+34 µs Nsight Compute gives it in the graph (``results/ncu_split/h100_silo_batch.txt``, made with
+``bench/without_conditionals.py`` and ``ncu_split.py``). Read the rows as a ranking, not as µs
+of the graph's step.
 
 One JSON line per case to stdout and ``--out`` (appended): case, device, points, bodies,
 graph_us_per_step, eager_us_per_step, device_us_per_step (sum of activities), launches_per_step,
