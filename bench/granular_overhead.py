@@ -56,10 +56,12 @@ stderr at the end.
 from __future__ import annotations
 
 import argparse
+import ast
 import gc
 import json
 import math
 import re
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -70,6 +72,7 @@ import warp as wp
 from mpmdem import MohrCoulomb, Scene, Simulation, SolverConfig, rectangle
 from mpmdem.kernels import granular as kgran
 from mpmdem.sim.mpm import initial_dt_bound
+from mpmdem.sim.tuning import Tuning
 
 #: "Granular MPM" sand, E lowered from 1 GPa to 10 MPa (a 10× larger stable step).
 MATERIAL = MohrCoulomb(1.0e7, 0.3, 2250.0, 30.0, 0.0, bagnold=0.15, critical_density=2235.0)
@@ -155,10 +158,20 @@ def kernel_split(mpm, steps: int) -> dict[str, float]:
     return dict(sorted(totals.items(), key=lambda kv: -kv[1]))
 
 
+def commit() -> str:
+    """This tree's short commit ("" outside a git checkout)."""
+    try:
+        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                              cwd=Path(__file__).parent).stdout.strip()
+    except OSError:
+        return ""
+
+
 def time_mode(scene: Scene, config: SolverConfig, steps: int, device, kernel_steps: int = 0,
-              warmup: int = WARMUP_STEPS) -> dict:
-    """Warm up, then time ``steps`` steps of one Simulation; the fields of its JSON line."""
-    sim = Simulation(scene, config, device=str(device))
+              warmup: int = WARMUP_STEPS, tuning: Tuning | None = None) -> dict:
+    """Warm up, then time ``steps`` steps of one Simulation (``tuning``: its performance knobs, None
+    the defaults); the fields of its JSON line."""
+    sim = Simulation(scene, config, device=str(device), tuning=tuning)
     mpm = sim.mpm
     sim.advance_to(1.0e-12)  # loads the modules, records the CUDA graph, takes one step
     t, dt, *_ = mpm.read_clock()
@@ -196,8 +209,10 @@ def time_mode(scene: Scene, config: SolverConfig, steps: int, device, kernel_ste
 
 
 def measure(case: str, particles: int, config: SolverConfig, steps: int, device,
-            cloud_speed: float = CLOUD_SPEED, kernel_steps: int = 0, warmup_steps: int = WARMUP_STEPS) -> list[dict]:
-    """Plain, then granular, on one scene; their two rows (the granular one with ``overhead``)."""
+            cloud_speed: float = CLOUD_SPEED, kernel_steps: int = 0, warmup_steps: int = WARMUP_STEPS,
+            knobs: dict | None = None) -> list[dict]:
+    """Plain, then granular, on one scene, both with ``Tuning(**knobs)``; their two rows (the
+    granular one with ``overhead``)."""
     scene = dispersed_cloud(particles, speed=cloud_speed) if case == "dispersed-cloud" else dense_column(particles)
     count = len(scene.particles()["mass"])
     dt = DT_FACTOR * initial_dt_bound(scene)
@@ -206,7 +221,7 @@ def measure(case: str, particles: int, config: SolverConfig, steps: int, device,
     rows = []
     for granular in (False, True):
         cfg = config.replace(granular=granular, dt=dt)
-        r = time_mode(scene, cfg, steps, device, kernel_steps, warmup)
+        r = time_mode(scene, cfg, steps, device, kernel_steps, warmup, Tuning(**(knobs or {})))
         row = dict(case=case, mode="granular" if granular else "plain", device=str(device),
                    device_name=wp.get_device(device).name, particles=count, requested=particles, steps=steps,
                    seconds=r["seconds"], seconds_per_step=r["seconds_per_step"], pups=count * steps / r["seconds"])
@@ -221,7 +236,7 @@ def measure(case: str, particles: int, config: SolverConfig, steps: int, device,
                    density_control=cfg.density_control, dt=dt, cell_size=scene.cell_size, grid=[nx, ny],
                    cuda_graph=r["cuda_graph"], finite=r["finite"], warmup_steps=warmup, seed=SEED,
                    block_layouts=r["block_layouts"],
-                   warp=wp.__version__)
+                   warp=wp.__version__, tuning=dict(knobs or {}), commit=commit())
         if case == "dispersed-cloud":
             row["cloud_speed"] = cloud_speed
         rows.append(row)
@@ -250,7 +265,10 @@ def main(argv=None) -> int:
                              "blocks' layout is chosen after 100 of them, mpmdem.sim.block_layout)")
     parser.add_argument("--kernel-steps", type=int, default=0,
                         help="on cuda, also time each kernel over this many steps launched without the graph")
+    parser.add_argument("--tuning", action="append", default=[], metavar="KNOB=VALUE",
+                        help="a Tuning knob of both modes (Python literal), e.g. tiled_p2g_granular=False")
     args = parser.parse_args(argv)
+    knobs = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.tuning)}
 
     wp.init()
     device = wp.get_device(args.device or ("cuda" if wp.get_cuda_device_count() > 0 else "cpu"))
@@ -272,7 +290,7 @@ def main(argv=None) -> int:
         for case in scenes:
             for particles in sizes:
                 for row in measure(case, particles, config, steps, device, args.cloud_speed, args.kernel_steps,
-                                   args.warmup):
+                                   args.warmup, knobs):
                     line = json.dumps(row)
                     print(line, flush=True)
                     if args.out is not None:
