@@ -38,7 +38,7 @@ from .batch_scene import STENCIL_CELLS, World, combine_scenes
 from .diagnostics import EnergyBalance, check_energy
 from .simulation import RunResult, Simulation, frame_time
 from .tuning import Tuning
-from .world_diagnostics import HostArrays, WorldPoints, world_diagnostics
+from .world_diagnostics import HostArrays, WorldPoints, frame_arrays, launch_point_sums, world_diagnostics
 
 __all__ = ["LEFT_TILE", "BatchedSimulation", "WorldView"]
 
@@ -331,9 +331,12 @@ class BatchedSimulation:
             # state is dropped: the next pass starts again from t = 0, without it.)
             self._fresh_frame()
             batch_d = sim.stage.diagnostics()
-            host = HostArrays()  # (each device array read back once this frame, for every world)
-            sums = {w.index: world_diagnostics(sim, w, self._points.get(w.index), batch_d, host, t)
-                    for w in worlds}
+            for w in worlds if sim.mpm is not None else ():
+                launch_point_sums(sim.mpm, self._points[w.index], t)
+            host = HostArrays()  # (each device array read back once this frame, for every world,
+            host.prefetch(frame_arrays(sim, worlds, self._points))  # all after one wait)
+            sums = {w.index: world_diagnostics(sim, w, self._points.get(w.index), batch_d, host, t,
+                                               launched=sim.mpm is not None) for w in worlds}
             # (read for the stray-world check below too, with or without files)
             frame = {w.index: (self.point_fields(w, copy=False) if sim.mpm else {},
                                self.body_fields(w) if sim.dem else None) for w in worlds}

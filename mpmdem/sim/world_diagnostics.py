@@ -25,9 +25,10 @@ from ..kernels import dem as dem_kernels
 from ..kernels import grid as grid_kernels
 from ..kernels import reductions as reduction_kernels
 from .batch_scene import World
-from .host_copy import host_copy
+from .host_copy import host_copies, host_copy
 
-__all__ = ["HostArrays", "WorldPoints", "body_sums", "imp_sums", "point_sums", "world_diagnostics"]
+__all__ = ["HostArrays", "WorldPoints", "body_sums", "frame_arrays", "imp_sums", "launch_point_sums", "point_sums",
+           "world_diagnostics"]
 
 
 class HostArrays:
@@ -42,6 +43,13 @@ class HostArrays:
         if name not in self._arrays:
             self._arrays[name] = host_copy(array)
         return self._arrays[name]
+
+    def prefetch(self, named: dict) -> None:
+        """Read back every array of ``named`` (name → device array) not read yet this frame, with
+        one wait for them all (``host_copies``)."""
+        missing = [(k, a) for k, a in named.items() if k not in self._arrays]
+        for (k, _), values in zip(missing, host_copies([a for _, a in missing]), strict=True):
+            self._arrays[k] = values
 
 
 class WorldPoints:
@@ -81,20 +89,41 @@ class WorldPoints:
         return self._struct
 
 
-def point_sums(mpm, wpts: WorldPoints, world: World, t_now: float) -> dict[str, float]:
-    """Energies [J/m], momenta, mass [kg/m] and ``mass_<probe>`` of one world's points at time
-    ``t_now`` [s] (the clock's: the frame's)."""
+def launch_point_sums(mpm, wpts: WorldPoints, t_now: float) -> None:
+    """Launch the reductions of one world's points at time ``t_now`` [s] into ``wpts.diag`` and
+    ``wpts.probe_mass`` (read back by ``point_sums``; a batch launches every world's before it waits)."""
     P = wpts.struct()
     n = len(wpts.index)
     wpts.diag.zero_()
     wp.launch(mpm.diagnostics_kernel, n, inputs=[P, mpm.D, mpm.materials, wpts.diag, t_now], device=mpm.device)
-    out = {name: float(v) for name, v in zip(reduction_kernels.DIAG_NAMES, host_copy(wpts.diag), strict=True)}
+    if wpts.probe_boxes.shape[0]:
+        wpts.probe_mass.zero_()
+        wp.launch(mpm.probe_mass_kernel, n, inputs=[P, wpts.probe_boxes, wpts.probe_mass, t_now], device=mpm.device)
+
+
+def point_arrays(world: World, wpts: WorldPoints) -> dict:
+    """The device arrays ``point_sums`` reads for ``world``, under their ``HostArrays`` names."""
+    out = {f"diag/{world.index}": wpts.diag}
+    if world.scene.mass_probes:
+        out[f"probe_mass/{world.index}"] = wpts.probe_mass
+    return out
+
+
+def point_sums(mpm, wpts: WorldPoints, world: World, t_now: float, host: HostArrays | None = None,
+               launched: bool = False) -> dict[str, float]:
+    """Energies [J/m], momenta, mass [kg/m] and ``mass_<probe>`` of one world's points at time
+    ``t_now`` [s] (the clock's: the frame's); ``launched``: its reductions were launched already
+    (``launch_point_sums``); ``host``: this frame's read-backs (a fresh one if None)."""
+    if not launched:
+        launch_point_sums(mpm, wpts, t_now)
+    host = host if host is not None else HostArrays()
+    diag = host(f"diag/{world.index}", wpts.diag)
+    out = {name: float(v) for name, v in zip(reduction_kernels.DIAG_NAMES, diag, strict=True)}
     X = world.offset
     probes = world.scene.mass_probes
     if probes:
-        wpts.probe_mass.zero_()
-        wp.launch(mpm.probe_mass_kernel, n, inputs=[P, wpts.probe_boxes, wpts.probe_mass, t_now], device=mpm.device)
-        out.update({f"mass_{p.name}": float(m) for p, m in zip(probes, host_copy(wpts.probe_mass), strict=True)})
+        masses = host(f"probe_mass/{world.index}", wpts.probe_mass)
+        out.update({f"mass_{p.name}": float(m) for p, m in zip(probes, masses, strict=True)})
     if X:
         out["momentum_angular"] -= X * out["momentum_y"]
         out["energy_gravity"] += world.scene.gravity[0] * X * out["mass"]
@@ -161,15 +190,36 @@ def body_sums(dem, world: World, host: HostArrays) -> dict[str, float]:
     return out
 
 
+def frame_arrays(sim, worlds, points: dict) -> dict:
+    """Every device array the frame's ``world_diagnostics`` of ``worlds`` read, under their
+    ``HostArrays`` names (``points``: world index → WorldPoints), for one ``HostArrays.prefetch``.
+    An array left out is still read, at its first use, with a wait of its own."""
+    out = {}
+    if sim.mpm is not None:
+        for w in worlds:
+            out.update(point_arrays(w, points[w.index]))
+        if any(w.tile is not None for w in worlds):
+            out["work"] = sim.mpm.work
+    if sim.dem is not None:
+        B, C = sim.dem.B, sim.dem.C
+        out.update({"B.mass": B.mass, "B.inertia": B.inertia, "B.v": B.v, "B.omega": B.omega, "B.x": B.x,
+                    "B.motion": B.motion, "B.work": B.work, "C.energy": C.energy, "C.dissipated": C.dissipated,
+                    "C.body_dissipated": C.body_dissipated})
+        if sim.mpm is not None and sim.coupling is not None:
+            out.update({"L.energy": sim.coupling.L.energy, "L.dissipated": sim.coupling.L.dissipated})
+    return out
+
+
 def world_diagnostics(sim, world: World, wpts: WorldPoints | None, batch: dict[str, float],
-                      host: HostArrays | None, t_now: float) -> dict[str, float]:
+                      host: HostArrays | None, t_now: float, launched: bool = False) -> dict[str, float]:
     """One world's diagnostics under the names a lone run gives them: ``batch`` (the whole batch's,
     ``Stage.diagnostics``) with every per-world sum replaced (see the module's docstring). ``host``:
     this frame's read-backs, shared by its worlds (a fresh one if None); ``t_now``: the frame's time
-    [s], the clock's (passed in: no clock read per world)."""
+    [s], the clock's (passed in: no clock read per world); ``launched``: the world's point reductions
+    were launched already (``launch_point_sums``)."""
     host = host if host is not None else HostArrays()
     d = {k: v for k, v in batch.items() if not k.startswith("mass_")}
-    m = point_sums(sim.mpm, wpts, world, t_now) if sim.mpm is not None else None
+    m = point_sums(sim.mpm, wpts, world, t_now, host, launched) if sim.mpm is not None else None
     if m is not None and world.tile is not None:
         m.update(tile_works(sim.mpm, wpts, world, host, t_now))
     b = body_sums(sim.dem, world, host) if sim.dem is not None else None
