@@ -61,13 +61,13 @@ import gc
 import json
 import math
 import re
-import subprocess
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import warp as wp
+from small_scenes import commit  # (bench/ is on the path of a bench script)
 
 from mpmdem import MohrCoulomb, Scene, Simulation, SolverConfig, rectangle
 from mpmdem.kernels import granular as kgran
@@ -156,15 +156,6 @@ def kernel_split(mpm, steps: int) -> dict[str, float]:
         name = re.sub(r"(_[0-9a-f]{7,})+$", "", r.name.split("__locals__")[-1])  # drop Warp's hashes
         totals[name] = totals.get(name, 0.0) + r.elapsed * 1.0e3 / steps  # ms -> µs per step
     return dict(sorted(totals.items(), key=lambda kv: -kv[1]))
-
-
-def commit() -> str:
-    """This tree's short commit ("" outside a git checkout)."""
-    try:
-        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                              cwd=Path(__file__).parent).stdout.strip()
-    except OSError:
-        return ""
 
 
 def time_mode(scene: Scene, config: SolverConfig, steps: int, device, kernel_steps: int = 0,
