@@ -7,7 +7,7 @@ import sys
 
 __all__ = ["main"]
 
-USAGE = """usage: mpmdem COMMAND ...
+USAGE = """usage: mpmdem COMMAND ...   (mpmdem --version: its version and Warp's)
 
 commands:
   run CASE [flags]     run a case (mpmdem run CASE --help lists its flags)
@@ -24,6 +24,21 @@ commands:
                        a movie of the run: points coloured by a field, body outlines, the time
                        (MP4 with ffmpeg, else GIF)
 """
+
+
+def _version() -> int:
+    """Print mpmdem's version and that of the Warp installed beside it (read from the package
+    metadata: Warp is not initialised for it)."""
+    from importlib import metadata
+
+    from .. import __version__
+
+    try:
+        warp = metadata.version("warp-lang")
+    except metadata.PackageNotFoundError:
+        warp = "not installed"
+    print(f"mpmdem {__version__} (warp {warp})")
+    return 0
 
 
 def _list() -> int:
@@ -255,6 +270,8 @@ def _dispatch(argv: list[str]) -> int:
         print(USAGE)
         return 0 if argv else 2
     cmd, rest = argv[0], argv[1:]
+    if cmd in ("--version", "-V"):
+        return _version()
     if cmd == "list":
         return _list()
     if cmd == "info":

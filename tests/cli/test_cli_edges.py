@@ -129,3 +129,16 @@ def test_cuda_without_a_gpu_is_one_line_of_ours():
     proc = subprocess.run(CLI + ["run", "axial-bar", "--quick", "--device", "cuda"], capture_output=True, text=True,
                           env=ENV, timeout=120)
     _one_line_error(proc, "device='cuda' is invalid: cpu")
+
+
+@pytest.mark.parametrize("flag", ["--version", "-V"])
+def test_version_names_mpmdem_and_warp(flag, capsys):
+    """Verify `mpmdem --version` (and -V) prints mpmdem's version and the Warp it runs on, and exits 0."""
+    import warp as wp
+
+    from mpmdem import __version__
+    from mpmdem.cli.commands import main
+
+    assert main([flag]) == 0
+    out = capsys.readouterr().out.strip()
+    assert out == f"mpmdem {__version__} (warp {wp.config.version})", out
