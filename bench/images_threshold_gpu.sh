@@ -6,7 +6,7 @@
 #                           and the grid update folding them (the knob raised above their size)
 #   granular_overhead.jsonl the dense 1M column and the cloud, both modes, the same two settings
 # The Nsight Compute split of the batch (bench/results/ncu_split/h100_silo_batch.txt) gives the two
-# launches 8 µs of kernels and, with their gaps, about 14 µs of a 238 µs step.
+# launches 8 µs of kernels of a 238 µs step, plus two gaps between graph nodes.
 #   OUT=$OUT bash bench/images_threshold_gpu.sh
 set -uo pipefail
 out=${OUT:-/tmp/out}; mkdir -p "$out"
