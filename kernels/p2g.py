@@ -41,6 +41,7 @@ def make_p2g(
     derived: tuple = (),
     tile: tuple = (),
     rows: bool = False,
+    tile_layers: int = 1,
 ):
     """P2G of mass, momentum (with the affine term) and internal force.
 
@@ -63,8 +64,10 @@ def make_p2g(
     one atomic per node and field: about 3 TX TY / B global atomics a point instead of 27 (f32,
     bspline2: 4 × 22 nodes for 64 points). A node outside the tile takes the global atomic as
     before, so any order is right, a cell-sorted one fast. Layered: the tile holds the nodes' first
-    copies (layer 0), and a term for another copy takes the global atomic. Not with deterministic
-    or multi-stencil variants. Empty: one global atomic per point and node.
+    copies (layer 0), and a term for another copy takes the global atomic; with ``tile_layers`` L
+    it holds the first L copies of each node (L tiles of TX × TY), a term for a deeper copy taking
+    the global atomic. Not with deterministic or multi-stencil variants. Empty: one global atomic
+    per point and node.
     rows: a point's K stencil rows over K threads (launched over K n threads: thread K p + i takes
     row i of point p), each reading the point and adding its row's K nodes: a small scene's P2G is
     as long as one warp's chain of instructions (bench/README.md, "Where a small step's kernels
@@ -94,6 +97,9 @@ def make_p2g(
     if tiled and (deterministic or NC != 1):
         raise ValueError("a tiled P2G is built for single-stencil, non-deterministic variants")
     B, TX, TY = tile if tiled else (1, 1, 1)
+    LT = int(tile_layers) if tiled and layered else 1  # copies of a node in the tile
+    if not 1 <= int(tile_layers) <= 8 or (int(tile_layers) > 1 and not (tiled and layered)):
+        raise ValueError("tile_layers is 1 to 8, above 1 only for a tiled, layered P2G")
     if rows and (layered or tiled or NC != 1):
         raise ValueError("a P2G by stencil rows is built for single-stencil, non-layered, untiled variants")
     ROWS = 1 if rows else K  # rows of the stencil a thread adds
@@ -136,7 +142,7 @@ def make_p2g(
             c0 = (P.x[wp.min(first, n - 1)] - D.origin) * D.inv_h
             ox = wp.clamp(int(wp.floor(c0[0])) - 1, 0, D.layer_rows - wp.static(TX))  # (in the first layer)
             oy = wp.clamp(int(wp.floor(c0[1])) - 2, 0, G.mass.shape[1] - wp.static(TY))
-            node_sums = wp.tile_zeros(shape=(wp.static(TX), wp.static(TY)), dtype=sums, storage="shared")
+            node_sums = wp.tile_zeros(shape=(wp.static(LT * TX), wp.static(TY)), dtype=sums, storage="shared")
         if dt <= T(0.0):
             if wp.static(not tiled):
                 return
@@ -222,9 +228,15 @@ def make_p2g(
                         lj = gj - oy
                         in_tile = active and li >= 0 and li < wp.static(TX) and lj >= 0 and lj < wp.static(TY)
                         if wp.static(layered):
-                            # the tile holds the nodes' first copies (row gi): in a dense flow the
-                            # block's points are one component; another copy takes the global atomic
-                            in_tile = in_tile and row == gi
+                            # the tile holds the nodes' first LT copies (rows gi + l layer_rows, l < LT):
+                            # in a dense flow the block's points are one component (l = 0); a deeper
+                            # copy takes the global atomic
+                            if wp.static(LT == 1):
+                                in_tile = in_tile and row == gi
+                            else:
+                                depth = (row - gi) // D.layer_rows
+                                in_tile = in_tile and row >= 0 and depth < wp.static(LT)
+                                li = li + depth * wp.static(TX)
                         if not in_tile:
                             li = 0
                             lj = 0
@@ -254,15 +266,22 @@ def make_p2g(
         if wp.static(tiled):
             # the block's sums onto the grid, a node per thread, one atomic per field and node
             # that holds something (the last scatter's barrier made the tile complete)
-            for e in range(lane, wp.static(TX * TY), threads):
+            for e in range(lane, wp.static(LT * TX * TY), threads):
                 a = e // wp.static(TY)
                 b = e - a * wp.static(TY)
                 v = wp.tile_extract(node_sums, a, b)
                 held = True
                 if wp.static(mass):
                     held = v[wp.static(M0)] != T(0.0)
+                elif wp.static(LT > 1):
+                    held = False  # (a deeper copy's tile is mostly empty: no atomic of zeros)
+                    for q in range(wp.static(SUMS)):
+                        held = held or v[q] != T(0.0)
                 if held:
                     gi = ox + a
+                    if wp.static(LT > 1):
+                        depth = a // wp.static(TX)
+                        gi = ox + a - depth * wp.static(TX) + depth * D.layer_rows  # (copy ``depth`` of the node)
                     gj = oy + b
                     if wp.static(mass):
                         wp.atomic_add(G.mass, gi, gj, v[wp.static(M0)])

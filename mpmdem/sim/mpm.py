@@ -205,7 +205,9 @@ class MPMSolver(ClockedStage):
                                                layered=layered, staged=self.staged,
                                                contact=self.coupled and c.coupling == "imp",
                                                derived=self.material_kinds if self.derived_stress else (),
-                                               tile=tile, rows=rows, **flags)
+                                               tile=tile, rows=rows,
+                                               tile_layers=self.tuning.tiled_p2g_layers if tile and layered else 1,
+                                               **flags)
             fused = flags.get("fused_impulse", False)
             extra = []
             if self.coupled and c.coupling == "grid" and (flags["force"] or fused):

@@ -47,6 +47,10 @@ class Tuning:
     """The tiled P2G in granular mode too: the tile holds the nodes' first copies, a term for another
     copy takes the global atomic (``kernels.p2g.make_p2g``'s ``tile`` with ``layered``). Timed with
     ``bench/step_profile.py --silo-batches`` (docs/benchmarks.md's tuning table)."""
+    tiled_p2g_layers: int = _knob(1, 1, 8)
+    """Copies of a node the granular tile holds (``make_p2g``'s ``tile_layers``): 1, the first copy
+    (a dense flow's); more for scenes of many small components (a dispersed cloud puts terms on up to
+    nine copies of a node), each copy a TX × TY tile more of shared memory. Not yet timed on a GPU."""
     row_p2g_points: int = _knob(16384, 0)
     """Scenes of fewer points run P2G a stencil row a thread (``kernels.p2g.make_p2g``'s
     ``rows``) on ``row_p2g_devices``, outside granular mode: their GPU is nearly idle and each

@@ -54,11 +54,12 @@ def test_tiled_granular_p2g_compiles_for_sm90(tmp_path):
     from mpmdem.kernels import transfer
 
     tile = (64, 4, 22)
-    kernels = [transfer.make_p2g("bspline2", "apic", "f32", layered=True, tile=tile, **flags)
+    kernels = [transfer.make_p2g("bspline2", "apic", "f32", layered=True, tile=tile, tile_layers=layers, **flags)
                for flags in (dict(mass=True, momentum=True, force=True, fused_impulse=True),
                              dict(mass=True, momentum=True, force=False),
-                             dict(mass=False, momentum=False, force=True))]
-    assert _compile(kernels, tmp_path) == 3
+                             dict(mass=False, momentum=False, force=True))
+               for layers in (1, 4)]  # (``Tuning.tiled_p2g_layers``: the first copy, or four)
+    assert _compile(kernels, tmp_path) == 6
 
 
 def test_dem_step_compiles_for_sm90(tmp_path):

@@ -28,9 +28,10 @@ PASSES = {
 }
 
 
-def p2g_fields(sim, tile, flags=PASSES["fused"], layered=False):
+def p2g_fields(sim, tile, flags=PASSES["fused"], layered=False, tile_layers=1):
     """Grid mass, momentum, force and re-mapped momentum after the P2G pass ``flags`` with ``tile``
-    (() for the global atomics); ``layered``: the granular mode's pass, onto the nodes' copies."""
+    (() for the global atomics); ``layered``: the granular mode's pass, onto the nodes' copies, the
+    first ``tile_layers`` of them in the tile."""
     import warp as wp
 
     m = sim.mpm
@@ -38,7 +39,8 @@ def p2g_fields(sim, tile, flags=PASSES["fused"], layered=False):
     for field in (m.G.mass, m.G.mom, m.G.force, m.G.vm):
         field.zero_()
     kernel = transfer.make_p2g(c.shape, c.scheme.affine, c.precision, layered=layered,
-                               derived=m.material_kinds if m.derived_stress else (), tile=tile, **flags)
+                               derived=m.material_kinds if m.derived_stress else (), tile=tile,
+                               tile_layers=tile_layers if tile else 1, **flags)
     n = m.particle_count
     inputs = [m.points, m.G, m.D, m.clock, m.status, m.materials]
     if tile:
@@ -99,13 +101,15 @@ def test_tiles_only_where_they_pay(device):
                       tuning=Tuning(tiled_p2g_granular=False)).mpm.p2g_tile() == ()
 
 
+@pytest.mark.parametrize("tile_layers", [1, 4])
 @pytest.mark.parametrize("step_pass", ["fused", "separate-force", "force-only"])
-def test_tiled_p2g_in_granular_mode_adds_what_the_global_atomics_add(device, step_pass):
+def test_tiled_p2g_in_granular_mode_adds_what_the_global_atomics_add(device, step_pass, tile_layers):
     """Granular mode (``layered``): the tile holds the nodes' first copies and a term for another
     copy takes the global atomic, so every copy of every node must hold what the one-atomic P2G
     gives, to the same reordering bound. A block of sand (one component, first copies) beside a
     cloud of separate points (spacing 0.65 h, domains h/2: each its own component, so a node holds
-    several copies) exercises both the tile and the global atomics of the other copies."""
+    several copies) exercises both the tile and the global atomics of the other copies; with
+    ``tile_layers`` 4 the tile holds the first four copies of each node and the deeper ones go global."""
     from mpmdem import MohrCoulomb
 
     h = 1 / 64
@@ -127,7 +131,7 @@ def test_tiled_p2g_in_granular_mode_adds_what_the_global_atomics_add(device, ste
     flags["mass"] = False  # (a pass that moves mass claims copies: the step's first, not re-run here)
 
     def fields(tile):
-        return p2g_fields(sim, tile, flags, layered=True)[1:3]  # (momentum, force)
+        return p2g_fields(sim, tile, flags, layered=True, tile_layers=tile_layers)[1:3]  # (momentum, force)
 
     layer_rows = m.D.layer_rows
     want = fields(())
@@ -138,5 +142,5 @@ def test_tiled_p2g_in_granular_mode_adds_what_the_global_atomics_add(device, ste
         written += scale > 0
         np.testing.assert_allclose(b, a, rtol=0, atol=1e-5 * scale, err_msg=name)
     assert written == (1 if flags.get("fused_impulse") else 1 + bool(flags.get("momentum")))
-    # (the second copies hold terms: the global atomics' share of the tiled pass was exercised)
-    assert np.abs(want[-1 if not flags.get("fused_impulse") else 0][layer_rows:]).max() > 0
+    # (the copies past the tile's hold terms: the global atomics' share of the tiled pass was exercised)
+    assert np.abs(want[-1 if not flags.get("fused_impulse") else 0][tile_layers * layer_rows:]).max() > 0
