@@ -19,12 +19,4 @@ for round in 1 2; do
     grep "granular/plain" "$out/go.err" | sed "s/^/round $round images_in_kernels_points=$points /"
   done
 done
-python - "$out" <<'PY'
-import json, sys
-for line in open(f"{sys.argv[1]}/step_profile.jsonl"):
-    r = json.loads(line)
-    print(r["case"], r.get("tuning"), "graph_us", round(r["graph_us_per_step"], 1))
-for line in open(f"{sys.argv[1]}/granular_overhead.jsonl"):
-    r = json.loads(line)
-    print(r["case"], r["mode"], r.get("tuning"), "us", round(r["seconds_per_step"] * 1e6, 1))
-PY
+python bench/tuning_rows.py "$out/step_profile.jsonl" "$out/granular_overhead.jsonl"

@@ -17,9 +17,4 @@ for round in 1 2; do
       --tuning tiled_p2g_layers=$layers --out "$out/step_profile.jsonl" > /dev/null 2>&1
   done
 done
-python - "$out" <<'PY'
-import json, sys
-for line in open(f"{sys.argv[1]}/step_profile.jsonl"):
-    r = json.loads(line)
-    print(r["case"], r.get("tuning"), "graph_us", round(r["graph_us_per_step"], 1))
-PY
+python bench/tuning_rows.py "$out/step_profile.jsonl"
