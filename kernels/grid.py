@@ -108,10 +108,6 @@ WALLS = ("obstacles",)
 IMPULSE_BASE = len(WORK_TERMS)
 
 
-#: Registers per thread of the layered (granular) grid update on CUDA, None for the compiler's choice.
-GRID_UPDATE_REGISTERS = 32
-
-
 @wp.func
 def work_slot(term: int, row: int, key: int, tile_rows: int, layer_rows: int) -> int:
     """Address in the works array of a contribution to term ``term`` from node row ``row`` (a point:
@@ -169,7 +165,7 @@ def make_boundary(precision: str, bilateral_only: bool = False, moving: bool = F
 def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impulse: bool = False,
                      remap: bool = False, damping: bool = False, layered: bool = False, obstacles: bool = False,
                      clear: bool = False, zero_remap: bool = False, fold: tuple = (), images: bool = False,
-                     moving: bool = False):
+                     moving: bool = False, copies: int = 4, max_registers: int | None = None):
     """Nodal velocity V = p/m, and/or Ṽ = V + dt (f/m + g), both with the wall conditions.
 
     fused_impulse: the momentum already holds p + dt f (USL + PIC), so Ṽ = p/m + dt g.
@@ -194,7 +190,12 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
     ``transfer.make_g2p``'s ``mirror``, and such walls do no work); in a clearing update their
     copies are cleared by the node that folds them, or by their own thread where none does.
     moving: fixed walls move along themselves (``make_boundary``'s ``moving``); not with fold.
+    copies (layered): the copies of a node loaded at once before they are updated (1, 2 or 4;
+    ``Tuning.grid_update_copies``). max_registers (layered, CUDA): registers per thread, None for the
+    compiler's choice (``Tuning.grid_update_registers``).
     """
+    if copies not in (1, 2, 4):
+        raise ValueError(f"make_grid_update: copies must be 1, 2 or 4, got {copies}")
     t = scalar_types(precision)
     T = t.scalar
     Particles, Grid, Domain = make_state_structs(precision)
@@ -329,7 +330,7 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
             # Ṽ = V + a Δt, a = f/m + g ("Motion integration" eq. 28; "MPM notes" steps 5-7)
             G.vt[i, j] = constrain(v + dt * f * inv_m, m, D, G, ib, j, work)
 
-    @kernel(max_registers=GRID_UPDATE_REGISTERS if layered else None)
+    @kernel(max_registers=max_registers if layered else None)
     def grid_update(G: Grid, D: Domain, clock: wp.array(dtype=wp.float64), work: wp.array(dtype=wp.float64)):
         i, j = wp.tid()
         if clock[CLOCK_DT] <= wp.float64(0.0):
@@ -343,34 +344,49 @@ def make_grid_update(precision: str, *, velocity: bool, force: bool, fused_impul
             # launched over one layer: the copies in use at a node are a prefix (claimed first-fit);
             # every node of a run goes as deep as the busiest one (COPY_RUN), so that the clearing
             # stores cover whole sectors (copies not in use have no mass and are written zero).
-            # Four copies at a time: their loads leave together, where one copy after another would
-            # wait for each (its loads may not pass the stores of the copy before, which for all the
-            # compiler knows could alias them); rows past the depth are clamped to the last one and
-            # loaded, not updated.
+            # ``copies`` copies at a time: their loads leave together, where one copy after another
+            # would wait for each (its loads may not pass the stores of the copy before, which for
+            # all the compiler knows could alias them); rows past the depth are clamped to the last
+            # one and loaded, not updated.
             n = G.depth[i, j // COPY_RUN]
             if n == 1:
                 # one component on the whole run (a dense body): copy 0 alone, without the batch
-                # of four (whose registers a capped kernel would spill here too)
+                # (whose registers a capped kernel would spill here too)
                 m, mom, fint = load_node(G, i, j)
                 update_node(G, D, clock, work, i, i, j, m, mom, fint)
                 return
             rows = D.layer_rows
-            for b in range(0, n, 4):
-                r0 = b * rows + i
-                r1 = wp.min(b + 1, n - 1) * rows + i
-                r2 = wp.min(b + 2, n - 1) * rows + i
-                r3 = wp.min(b + 3, n - 1) * rows + i
-                m0, p0, f0 = load_node(G, r0, j)
-                m1, p1, f1 = load_node(G, r1, j)
-                m2, p2, f2 = load_node(G, r2, j)
-                m3, p3, f3 = load_node(G, r3, j)
-                update_node(G, D, clock, work, r0, i, j, m0, p0, f0)
-                if b + 1 < n:
-                    update_node(G, D, clock, work, r1, i, j, m1, p1, f1)
-                if b + 2 < n:
-                    update_node(G, D, clock, work, r2, i, j, m2, p2, f2)
-                if b + 3 < n:
-                    update_node(G, D, clock, work, r3, i, j, m3, p3, f3)
+            if wp.static(copies == 1):
+                for b in range(n):
+                    r = b * rows + i
+                    m, mom, fint = load_node(G, r, j)
+                    update_node(G, D, clock, work, r, i, j, m, mom, fint)
+            elif wp.static(copies == 2):
+                for b in range(0, n, 2):
+                    r0 = b * rows + i
+                    r1 = wp.min(b + 1, n - 1) * rows + i
+                    m0, p0, f0 = load_node(G, r0, j)
+                    m1, p1, f1 = load_node(G, r1, j)
+                    update_node(G, D, clock, work, r0, i, j, m0, p0, f0)
+                    if b + 1 < n:
+                        update_node(G, D, clock, work, r1, i, j, m1, p1, f1)
+            else:
+                for b in range(0, n, 4):
+                    r0 = b * rows + i
+                    r1 = wp.min(b + 1, n - 1) * rows + i
+                    r2 = wp.min(b + 2, n - 1) * rows + i
+                    r3 = wp.min(b + 3, n - 1) * rows + i
+                    m0, p0, f0 = load_node(G, r0, j)
+                    m1, p1, f1 = load_node(G, r1, j)
+                    m2, p2, f2 = load_node(G, r2, j)
+                    m3, p3, f3 = load_node(G, r3, j)
+                    update_node(G, D, clock, work, r0, i, j, m0, p0, f0)
+                    if b + 1 < n:
+                        update_node(G, D, clock, work, r1, i, j, m1, p1, f1)
+                    if b + 2 < n:
+                        update_node(G, D, clock, work, r2, i, j, m2, p2, f2)
+                    if b + 3 < n:
+                        update_node(G, D, clock, work, r3, i, j, m3, p3, f3)
         else:
             m, mom, fint = load_node(G, i, j)
             update_node(G, D, clock, work, i, i, j, m, mom, fint)

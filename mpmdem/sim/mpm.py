@@ -221,12 +221,17 @@ class MPMSolver(ClockedStage):
                 mass=flags["mass"], momentum=flags["momentum"] or fused, force=flags["force"] and not fused,
                 remap=flags.get("remap", False))
 
+        # the granular update's batch of copies and register cap (other updates ignore them: left at
+        # their defaults there, so that they share one kernel whatever the tuning)
+        copies = ({"copies": self.tuning.grid_update_copies, "max_registers": self.tuning.grid_update_registers}
+                  if layered else {})
+
         def grid(**flags):
             def make(clear=False, zero_remap=False, fold=(), images=False):
                 return grid_kernels.make_grid_update(prec, damping=c.damping > 0.0, layered=layered,
                                                      obstacles=bool(self.model.obstacles), clear=clear,
                                                      zero_remap=zero_remap, fold=fold, images=images, **flags,
-                                                     **moving)
+                                                     **moving, **copies)
 
             if flags.get("remap"):
                 fields = [G.vm]

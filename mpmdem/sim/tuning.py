@@ -50,7 +50,14 @@ class Tuning:
     tiled_p2g_layers: int = _knob(1, 1, 8)
     """Copies of a node the granular tile holds (``make_p2g``'s ``tile_layers``): 1, the first copy
     (a dense flow's); more for scenes of many small components (a dispersed cloud puts terms on up to
-    nine copies of a node), each copy a TX × TY tile more of shared memory. Not yet timed on a GPU."""
+    nine copies of a node), each copy a TX × TY tile more of shared memory. Timed in
+    ``bench/tile_layers_gpu.sh``: four help a cloud by 3 % and cost a dense body 2-4 %."""
+    grid_update_registers: int | None = _knob(32, 16, 255)
+    """Registers per thread of the granular (layered) grid update on CUDA (``kernels.grid.make_grid_update``'s
+    ``max_registers``; None: the compiler's choice)."""
+    grid_update_copies: int = _knob(4, 1, 4)
+    """Copies of a node the granular grid update loads at once before updating them (1, 2 or 4): more
+    loads in flight, more registers live."""
     row_p2g_points: int = _knob(16384, 0)
     """Scenes of fewer points run P2G a stencil row a thread (``kernels.p2g.make_p2g``'s
     ``rows``) on ``row_p2g_devices``, outside granular mode: their GPU is nearly idle and each
@@ -203,6 +210,8 @@ class Tuning:
         if not self.conditional_below < self.inline_above:
             raise InputError("conditional_below", self.conditional_below,
                              f"a fraction below inline_above={self.inline_above!r}")
+        if self.grid_update_copies not in (1, 2, 4):
+            raise InputError("grid_update_copies", self.grid_update_copies, "1, 2 or 4")
         if self.critical_band > self.wide_band_cap:
             raise InputError("critical_band", self.critical_band, f"at most wide_band_cap={self.wide_band_cap!r}")
 
