@@ -52,7 +52,7 @@ class Tuning:
     (a dense flow's); more for scenes of many small components (a dispersed cloud puts terms on up to
     nine copies of a node), each copy a TX × TY tile more of shared memory. Timed in
     ``bench/tile_layers_gpu.sh``: four help a cloud by 3 % and cost a dense body 2-4 %."""
-    grid_update_registers: int | None = _knob(32, 16, 255)
+    grid_update_registers: int | None = _knob(48, 16, 255)
     """Registers per thread of the granular (layered) grid update on CUDA (``kernels.grid.make_grid_update``'s
     ``max_registers``; None: the compiler's choice)."""
     grid_update_copies: int = _knob(4, 1, 4)
