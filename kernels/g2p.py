@@ -48,6 +48,7 @@ def make_g2p(
     mirror: bool = False,
     remap: bool = False,
     periodic_x: bool = False,
+    max_registers: int | None = None,
 ):
     """G2P: particle velocity, affine matrix, position, and (optionally fused) stress update.
 
@@ -73,6 +74,7 @@ def make_g2p(
     point's nodes (copies), the terms ``make_p2g(mass=False, momentum=True, remap=True)`` adds, in
     the same order per node (one launch fewer: a small scene's step is paid per launch).
     periodic_x (with position): a point that left [x0, x1) wraps back (``periodic.make_wrap_point``).
+    max_registers: registers per thread on CUDA (``Tuning.g2p_registers``; None: the compiler's choice).
     """
     t = scalar_types(precision)
     T = t.scalar
@@ -127,7 +129,7 @@ def make_g2p(
             return read(G.vm, row, gj, sx, sy)
         return read(G.v, row, gj, sx, sy)
 
-    @kernel
+    @kernel(max_registers=max_registers)
     def g2p(
         P: Particles,
         G: Grid,

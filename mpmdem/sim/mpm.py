@@ -246,7 +246,8 @@ class MPMSolver(ClockedStage):
             k = transfer_kernels.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds,
                                           density_control=c.density_control, critical=self.critical,
                                           layered=layered, staged=self.staged, derived=self.derived_stress,
-                                          mirror=self.mirror_in_g2p, **flags,
+                                          mirror=self.mirror_in_g2p, max_registers=self.tuning.g2p_registers,
+                                          **flags,
                                           **({"periodic_x": True} if edges.periodic and flags["position"] else {}))
             return [Launch(k, n, [points, G, D, clock, mats, self.max_speed, self.status, work])]
 

@@ -58,6 +58,9 @@ class Tuning:
     grid_update_copies: int = _knob(4, 1, 4)
     """Copies of a node the granular grid update loads at once before updating them (1, 2 or 4): more
     loads in flight, more registers live."""
+    g2p_registers: int | None = _knob(None, 16, 255)
+    """Registers per thread of G2P on CUDA (``kernels.g2p.make_g2p``'s ``max_registers``; None: the
+    compiler's choice, about 70 with a plastic law, which leaves 37.5 % occupancy)."""
     row_p2g_points: int = _knob(16384, 0)
     """Scenes of fewer points run P2G a stencil row a thread (``kernels.p2g.make_p2g``'s
     ``rows``) on ``row_p2g_devices``, outside granular mode: their GPU is nearly idle and each

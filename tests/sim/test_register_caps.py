@@ -1,5 +1,6 @@
-"""The granular grid update's batch of copies (``Tuning.grid_update_copies``) and register cap
-(``Tuning.grid_update_registers``) choose how the update runs, not what it computes.
+"""The granular grid update's batch of copies (``Tuning.grid_update_copies``) and the register caps
+of it and of G2P (``Tuning.grid_update_registers``, ``Tuning.g2p_registers``) choose how the kernels
+run, not what they compute.
 
 A dispersed cloud of single-point components puts up to thirteen copies on a node, so the batches
 of four and two go round more than once and end part-full. Each thread updates its copies in the
@@ -14,6 +15,7 @@ import warp as wp
 
 import mpmdem as M
 from mpmdem.kernels import grid as grid_kernels
+from mpmdem.kernels import transfer
 
 H = 0.01  # m, cell size
 SPACING = 0.65  # cells between the cloud's points (their domains, half a cell wide, stay apart)
@@ -68,6 +70,12 @@ def test_the_register_cap_changes_no_result(device):
     _same(state, reference, device, "uncapped, two copies at a time")
 
 
+def test_a_g2p_register_cap_changes_no_result(device):
+    reference, _ = _run(M.Tuning(), device)
+    state, _ = _run(M.Tuning(g2p_registers=64), device)
+    _same(state, reference, device, "G2P capped at 64 registers")
+
+
 @pytest.mark.parametrize("copies", [0, 3, 8])
 def test_copies_outside_one_two_four_is_an_input_error(copies):
     with pytest.raises(M.InputError, match="grid_update_copies"):
@@ -85,3 +93,12 @@ def test_each_batch_compiles_for_sm90(tmp_path):
             assert paths and all(p.exists() for p in paths)
             done += 1
     assert done == 6
+
+
+def test_a_capped_g2p_compiles_for_sm90(tmp_path):
+    """G2P capped (plain and granular, with a plastic law), in CUDA code."""
+    for layered in (False, True):
+        k = transfer.make_g2p("linear", "none", 0.0, "pic", "f32", (2,), velocity=True, position=True, stress="vt",
+                              layered=layered, max_registers=64)
+        paths = wp.compile_aot_module(k.module, arch=90, module_dir=str(tmp_path))
+        assert paths and all(p.exists() for p in paths)
