@@ -200,7 +200,12 @@ class Simulation:
     def advance(self, steps: int) -> None:
         """Launch ``steps`` explicit steps without any host synchronisation (with an explicit
         ``sort_interval`` N > 0, the points are re-sorted by cell every N steps, between two steps;
-        the automatic re-sorting of the default runs only in ``advance_to``)."""
+        the automatic re-sorting of the default runs only in ``advance_to``).
+
+        A step past the stop time does nothing (the device's clock decides, without a host sync).
+        The stop time is the last one ``advance_to``, ``run`` or ``launch_ahead`` set, or
+        ``stage.set_stop_time``; a new Simulation's is its start time, so there ``advance`` alone
+        moves nothing: call ``advance_to(t)`` to step to a time, or set a stop time first."""
         left = steps
         while left > 0:
             until_sort = self.sort_interval - self._steps_since_sort if self.mpm and self.sort_interval else left
