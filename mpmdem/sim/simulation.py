@@ -204,7 +204,7 @@ class Simulation:
 
         A step past the stop time does nothing (the device's clock decides, without a host sync).
         The stop time is the last one ``advance_to``, ``run`` or ``launch_ahead`` set, or
-        ``stage.set_stop_time``; a new Simulation's is its start time, so there ``advance`` alone
+        ``stage.set_stop_time``; a new Simulation has none ahead of its clock, so there ``advance`` alone
         moves nothing: call ``advance_to(t)`` to step to a time, or set a stop time first."""
         left = steps
         while left > 0:
