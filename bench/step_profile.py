@@ -45,10 +45,12 @@ def timed(fn, device: str, steps: int) -> float:
     return 1e6 * (time.perf_counter() - start) / steps
 
 
-def profile_case(name: str, device: str, warmup: int, steps: int, flags: list[str]) -> dict:
-    """Graph and eager µs per step of one case and its per-kernel device time."""
-    sim, _ = build_case(name, device, flags)
-    return profile_sim(name, sim, device, warmup, steps)
+def profile_case(name: str, device: str, warmup: int, steps: int, flags: list[str], knobs: dict) -> dict:
+    """Graph and eager µs per step of one case and its per-kernel device time, with ``Tuning(**knobs)``."""
+    from mpmdem import Tuning
+
+    sim, _ = build_case(name, device, flags, Tuning(**knobs))
+    return {**profile_sim(name, sim, device, warmup, steps), "tuning": knobs}
 
 
 def profile_silo_batch(spec: str, device: str, warmup: int, steps: int, flags: list[str], knobs: dict) -> dict:
@@ -102,14 +104,14 @@ def main(argv=None) -> int:
     p.add_argument("--silo-batches", default="", help="comma-separated CELL:WORLDS Beverloo batches to "
                    "profile instead of the cases, e.g. 0.0025:5")
     p.add_argument("--tuning", action="append", default=[], metavar="KNOB=VALUE",
-                   help="a Tuning knob of the silo batches (Python literal), e.g. tiled_p2g_granular=True")
+                   help="a Tuning knob of the cases or silo batches (Python literal), e.g. tiled_p2g_granular=True")
     args, flags = p.parse_known_args(argv)
     knobs = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.tuning)}
     if args.silo_batches:
         jobs = [(functools.partial(profile_silo_batch, knobs=knobs), s.strip())
                 for s in args.silo_batches.split(",") if s.strip()]
     else:
-        jobs = [(profile_case, c.strip()) for c in args.cases.split(",") if c.strip()]
+        jobs = [(functools.partial(profile_case, knobs=knobs), c.strip()) for c in args.cases.split(",") if c.strip()]
     for profile, name in jobs:
         row = profile(name, args.device, args.warmup, args.steps, flags)
         print(json.dumps(row), flush=True)
