@@ -23,6 +23,7 @@ Nothing is asserted.
 from __future__ import annotations
 
 import argparse
+import ast
 import json
 import os
 import sys
@@ -56,6 +57,8 @@ def main(argv=None) -> int:
                    help="Tuning.batch_writer_processes: the frames written by N child processes (0: a thread)")
     p.add_argument("--no-files", action="store_true",
                    help="run without files (outs None): the frame's reads and checks without the writers")
+    p.add_argument("--tuning", action="append", default=[], metavar="KNOB=VALUE",
+                   help="any other Tuning knob (Python literal), e.g. launch_ahead_fraction=0.9")
     p.add_argument("--label", default="", help="a label for the row (e.g. which tree ran)")
     p.add_argument("--out", type=Path, default=None, help="append the JSON line here")
     args = p.parse_args(argv)
@@ -78,6 +81,8 @@ def main(argv=None) -> int:
     module = case_module(args.case)
     worlds = args.worlds or len(ORIFICES)
 
+    extra_knobs = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.tuning)}
+
     def batch():
         built = []
         for k in range(worlds):
@@ -88,6 +93,7 @@ def main(argv=None) -> int:
         knobs = {k: v for k, v in (("module_load_workers", args.load_workers),
                                     ("writer_switch_interval", args.switch_interval),
                                     ("batch_writer_processes", args.writer_processes)) if v is not None}
+        knobs.update(extra_knobs)
         tuning = Tuning(**knobs)
         return (BatchedSimulation([s.scene for s, _ in built], built[0][1], device=device, tuning=tuning),
                 built[0][0])
@@ -152,7 +158,7 @@ def main(argv=None) -> int:
            "case": args.case, "worlds": worlds, "cell_size": args.cell_size,
            "points": b.sim.particle_count, "end_time": end, "frames": frames, "steps": steps,
            "cold": args.cold, "load_workers": args.load_workers, "switch_interval": args.switch_interval,
-           "writer_processes": args.writer_processes, "files": not args.no_files,
+           "writer_processes": args.writer_processes, "tuning": extra_knobs, "files": not args.no_files,
            "import_s": round(import_s, 2),
            "build_s": round(build_s, 2),
            "first_step_s": round(first_step_s, 2), "steps_s": round(steps_s, 2), "run_s": round(run_s, 2),

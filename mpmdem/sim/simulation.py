@@ -44,12 +44,6 @@ from .warp_init import check_device, init_warp
 __all__ = ["RunResult", "Simulation", "default_device"]
 
 
-#: The share of a frame's steps ``Simulation.launch_ahead`` launches before the host's work on the
-#: last frame: few enough that a growing dt cannot carry them past the frame (dt would have to double
-#: within it; a step past it would be idle and its dt = 0 would show in the frame's diagnostics).
-AHEAD_FRACTION = 0.5
-
-
 def frame_time(t_start: float, end_time: float, k: int, frames: int) -> float:
     """The time [s] of frame k of ``frames`` from t_start to end_time (the last one exactly end_time)."""
     return end_time if k == frames else t_start + (end_time - t_start) * k / frames
@@ -226,8 +220,8 @@ class Simulation:
                 self._steps_since_sort = 0
 
     def launch_ahead(self, t_now: float, t_stop: float, dt: float) -> int:
-        """On a CUDA device: move the stop time to t_stop [s] and launch about half of the steps from
-        t_now to it (dt [s]: the last step's) without waiting for them, so that the host's work on
+        """On a CUDA device: move the stop time to t_stop [s] and launch a share of the steps from
+        t_now to it (``Tuning.launch_ahead_fraction`` of them; dt [s]: the last step's) without waiting for them, so that the host's work on
         the frame it has just read back runs while they do; ``advance_to(t_stop)`` goes on from where
         they end. The steps are the same as ``advance_to`` alone would take (a step's dt is set on the
         device; steps past t_stop do nothing). Returns the steps launched: 0 on the CPU, whose
@@ -236,7 +230,7 @@ class Simulation:
             return 0
         self._capture()
         self.stage.set_stop_time(t_stop)
-        steps = int(AHEAD_FRACTION * (t_stop - t_now) / dt)
+        steps = int(self.tuning.launch_ahead_fraction * (t_stop - t_now) / dt)
         if steps > 0:
             self.advance(steps)
         return steps

@@ -181,6 +181,11 @@ class Tuning:
     """Fewest points for which the order is watched (below it points and grid fit in the L2 cache)."""
     auto_sort_check_steps: int = _knob(0, 0)
     """Fewest steps between two drift checks; 0: after every batch of ``advance_to``."""
+    launch_ahead_fraction: float = _knob(0.5, 0.0, 0.95)
+    """The share of a frame's steps a run launches before its host work on the frame before
+    (``Simulation.launch_ahead``): more overlaps more of that work with the steps, but a dt that
+    grows by more than 1/fraction - 1 within the frame carries the last of them past it, idle, and
+    the frame's dt diagnostic then reads 0 (0.5: dt would have to double)."""
     module_load_workers: int = _knob(8, 0, 64)
     """Threads that compile (or load from Warp's cache) the step's kernel modules at once before the
     first step on CUDA (``wp.force_load``'s ``max_workers``; 0: one after another, as the first

@@ -14,7 +14,6 @@ import pytest
 import mpmdem as m
 from mpmdem.model.config import SolverConfig
 from mpmdem.model.spheropolygons import rounded_rectangle
-from mpmdem.sim import simulation as simulation_module
 from mpmdem.sim.batch_run import BatchedSimulation
 from mpmdem.sim.simulation import Simulation
 
@@ -38,7 +37,7 @@ def launch_at_once(self, t_now: float, t_stop: float, dt: float) -> int:
     if not (dt > 0.0 and t_stop > t_now):
         return 0
     self.stage.set_stop_time(t_stop)
-    steps = int(simulation_module.AHEAD_FRACTION * (t_stop - t_now) / dt)
+    steps = int(self.tuning.launch_ahead_fraction * (t_stop - t_now) / dt)
     if steps > 0:
         self.advance(steps)
     return steps
@@ -55,9 +54,12 @@ CONFIGS = {"mpm": SolverConfig(precision="f64", dt=2.0e-5),
            "granular": SolverConfig(precision="f64", dt=2.0e-5, granular=True, shape="bspline2")}
 
 
-@pytest.mark.parametrize("config", list(CONFIGS), ids=list(CONFIGS))
-@pytest.mark.parametrize("batched", [False, True], ids=["lone", "batch"])
-def test_a_frame_is_read_before_the_next_steps_are_launched(tmp_path, monkeypatch, config, batched):
+@pytest.mark.parametrize("config,batched,fraction", [("mpm", False, 0.5), ("mpm", True, 0.5), ("granular", False, 0.5),
+                                                     ("granular", True, 0.5), ("mpm", False, 0.95)],
+                         ids=["mpm-lone", "mpm-batch", "granular-lone", "granular-batch", "mpm-lone-0.95"])
+def test_a_frame_is_read_before_the_next_steps_are_launched(tmp_path, monkeypatch, config, batched, fraction):
+    tuning = m.Tuning(launch_ahead_fraction=fraction)
+
     def files(out, ahead: bool) -> list[dict]:
         if ahead:
             monkeypatch.setattr(Simulation, "launch_ahead", launch_at_once)
@@ -65,11 +67,11 @@ def test_a_frame_is_read_before_the_next_steps_are_launched(tmp_path, monkeypatc
             monkeypatch.undo()
         cfg = CONFIGS[config]
         if batched:
-            b = BatchedSimulation([sand_on_plate(), sand_on_plate(0.15, left=0.15)], cfg, device="cpu")
+            b = BatchedSimulation([sand_on_plate(), sand_on_plate(0.15, left=0.15)], cfg, device="cpu", tuning=tuning)
             results = b.run(END, outs=[out / "w0", out / "w1"], frames=FRAMES, names="sand")
         else:
-            results = [Simulation(sand_on_plate(), cfg, device="cpu").run(END, frames=FRAMES, out=out / "w0",
-                                                                           name="sand")]
+            results = [Simulation(sand_on_plate(), cfg, device="cpu", tuning=tuning).run(
+                END, frames=FRAMES, out=out / "w0", name="sand")]
         assert [r.status for r in results] == ["completed"] * len(results)
         return [datasets(r.path) for r in results]
 
