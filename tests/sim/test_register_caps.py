@@ -64,7 +64,10 @@ def test_copies_in_flight_give_the_same_state(device, copies):
     _same(state, reference, device, f"with {copies} copies at a time")
 
 
-def test_the_register_cap_changes_no_result(device):
+@pytest.mark.cuda
+@pytest.mark.skipif(not wp.get_cuda_device_count(), reason="a register cap is a CUDA matter: no CUDA device here")
+def test_the_register_cap_changes_no_result():
+    device = "cuda"
     reference, _ = _run(M.Tuning(), device)
     state, _ = _run(M.Tuning(grid_update_registers=None, grid_update_copies=2), device)
     _same(state, reference, device, "uncapped, two copies at a time")
