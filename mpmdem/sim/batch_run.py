@@ -325,23 +325,26 @@ class BatchedSimulation:
                                         extra={"left_tile": left_tile, "batch_wide": batch_wide})
 
         def record(t: float, steps: int, dt: float, bound: float, t_next: float | None) -> None:
-            # (every device read first: the batch's and each world's sums and fields, at the
-            # frame's time t; then the next frame's first steps go, and the host checks and writes
-            # the frame while they run. A world that fails the checks ends this pass, whose device
-            # state is dropped: the next pass starts again from t = 0, without it.)
+            # (every device read first: the batch's sums, the arrays of each world's sums and the
+            # fields, at the frame's time t; then the next frame's first steps go, and the host sums
+            # each world's diagnostics from its copies (``HostArrays``, sealed: no read after the
+            # launch), checks and writes the frame while they run. A world that fails the checks ends
+            # this pass, whose device state is dropped: the next pass starts again from t = 0,
+            # without it.)
             self._fresh_frame()
             batch_d = sim.stage.diagnostics()
             for w in worlds if sim.mpm is not None else ():
                 launch_point_sums(sim.mpm, self._points[w.index], t)
             host = HostArrays()  # (each device array read back once this frame, for every world,
             host.prefetch(frame_arrays(sim, worlds, self._points))  # all after one wait)
-            sums = {w.index: world_diagnostics(sim, w, self._points.get(w.index), batch_d, host, t,
-                                               launched=sim.mpm is not None) for w in worlds}
             # (read for the stray-world check below too, with or without files)
             frame = {w.index: (self.point_fields(w, copy=False) if sim.mpm else {},
                                self.body_fields(w) if sim.dem else None) for w in worlds}
+            host.seal()
             if t_next is not None:
                 sim.launch_ahead(t, t_next, dt)
+            sums = {w.index: world_diagnostics(sim, w, self._points.get(w.index), batch_d, host, t,
+                                               launched=sim.mpm is not None) for w in worlds}
             diags, failures = {}, {}
             for w in worlds:
                 d = balances[w.index].update(sums[w.index])

@@ -221,11 +221,11 @@ class Simulation:
 
     def launch_ahead(self, t_now: float, t_stop: float, dt: float) -> int:
         """On a CUDA device: move the stop time to t_stop [s] and launch a share of the steps from
-        t_now to it (``Tuning.launch_ahead_fraction`` of them; dt [s]: the last step's) without waiting for them, so that the host's work on
-        the frame it has just read back runs while they do; ``advance_to(t_stop)`` goes on from where
-        they end. The steps are the same as ``advance_to`` alone would take (a step's dt is set on the
-        device; steps past t_stop do nothing). Returns the steps launched: 0 on the CPU, whose
-        kernels run as they are launched."""
+        t_now to it (``Tuning.launch_ahead_fraction`` of them; dt [s]: the last step's) without
+        waiting for them, so that the host's work on the frame it has just read back runs while they
+        do; ``advance_to(t_stop)`` goes on from where they end. The steps are the same as
+        ``advance_to`` alone would take (a step's dt is set on the device; steps past t_stop do
+        nothing). Returns the steps launched: 0 on the CPU, whose kernels run as they are launched."""
         if not wp.get_device(self.device).is_cuda or not (dt > 0.0 and t_stop > t_now):
             return 0
         self._capture()

@@ -33,16 +33,25 @@ __all__ = ["HostArrays", "WorldPoints", "body_sums", "frame_arrays", "imp_sums",
 
 class HostArrays:
     """The device arrays a frame's per-world sums read, each copied to the host once per frame and
-    shared by every world (a fresh object each frame)."""
+    shared by every world (a fresh object each frame). Once ``seal``-ed (the next frame's steps have
+    been launched, and the device arrays no longer hold this frame) it refuses a name it has not read."""
 
     def __init__(self):
         self._arrays: dict[str, np.ndarray] = {}
+        self._sealed = False
 
     def __call__(self, name: str, array) -> np.ndarray:
         """``array`` on the host, read back at the first call of this frame under ``name``."""
         if name not in self._arrays:
+            if self._sealed:
+                raise RuntimeError(f"HostArrays: {name!r} was not read back before the next steps were launched "
+                                   "(add it to frame_arrays)")
             self._arrays[name] = host_copy(array)
         return self._arrays[name]
+
+    def seal(self) -> None:
+        """No more reads from the device: every array the frame's sums need is on the host."""
+        self._sealed = True
 
     def prefetch(self, named: dict) -> None:
         """Read back every array of ``named`` (name → device array) not read yet this frame, with

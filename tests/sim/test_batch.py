@@ -573,3 +573,18 @@ def test_a_nan_point_of_one_world_leaves_the_other_worlds_points_alone(shape):
     assert clean.keys() == poisoned.keys()
     for name in clean:
         np.testing.assert_array_equal(poisoned[name], clean[name], err_msg=name)
+
+
+def test_a_frames_host_copies_refuse_a_read_after_the_launch():
+    """A batch launches the next frame's first steps before it sums each world's diagnostics from the
+    frame's host copies (``HostArrays.seal``): a sum that reads an array not copied before the launch
+    would read the device as those steps leave it, so it is refused, naming the array."""
+    from mpmdem.sim.world_diagnostics import HostArrays
+
+    a = wp.array(np.arange(4.0), dtype=wp.float64, device="cpu")
+    host = HostArrays()
+    host.prefetch({"a": a})
+    host.seal()
+    np.testing.assert_array_equal(host("a", a), np.arange(4.0))  # (read before the seal)
+    with pytest.raises(RuntimeError, match="'b' was not read back before the next steps"):
+        host("b", a)
