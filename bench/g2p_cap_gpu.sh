@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Where a G2P register cap pays (Tuning.g2p_registers; uncapped by default): on one H200 a cap of 64
+# Where a G2P register cap pays (Tuning.g2p_registers; since call s59-B the default from 524288 points on): on one H200 a cap of 64
 # made plain MPM at 1M points 6 % faster and a dense granular column 3-5 %, and a batch of five
 # 2.5 mm Beverloo silos 2-3 % slower (docs/benchmarks.md). This call asks which scenes gain, to
 # choose between a default cap, a cap by size, or none. Uncapped and 64, alternated twice (rows to
@@ -13,12 +13,12 @@ out=${OUT:-/tmp/out}; mkdir -p "$out"
 for round in 1 2; do
   for cap in None 64; do
     python bench/granular_overhead.py --device cuda --scenes dense-column --sizes 65536,262144,1048576,4194304 \
-      --tuning g2p_registers=$cap --out "$out/granular_overhead.jsonl" > /dev/null 2> "$out/go.err"
+      --tuning g2p_registers=$cap --tuning g2p_registers_points=0 --out "$out/granular_overhead.jsonl" > /dev/null 2> "$out/go.err"
     grep "granular/plain" "$out/go.err" | sed "s/^/round $round g2p_registers=$cap /"
-    python bench/step_profile.py --device cuda --steps 100 --tuning g2p_registers=$cap \
+    python bench/step_profile.py --device cuda --steps 100 --tuning g2p_registers=$cap --tuning g2p_registers_points=0 \
       --out "$out/step_profile.jsonl" > /dev/null 2>&1
     python bench/step_profile.py --device cuda --silo-batches 0.0025:1,0.0025:5,0.005:5 --steps 100 \
-      --tuning g2p_registers=$cap --out "$out/step_profile.jsonl" > /dev/null 2>&1
+      --tuning g2p_registers=$cap --tuning g2p_registers_points=0 --out "$out/step_profile.jsonl" > /dev/null 2>&1
   done
 done
 python bench/tuning_rows.py "$out/step_profile.jsonl" "$out/granular_overhead.jsonl"

@@ -194,6 +194,9 @@ class MPMSolver(ClockedStage):
             tn.mirror_in_g2p and c.update in ("USL", "MUSL") and not s.xpic
             and not (self.coupled and c.coupling == "liu") and n < tn.images_in_kernels_points))
         self.wall_band, self.mirror_in_g2p = edges.wall_band, edges.mirror_in_g2p
+        #: G2P's register cap on CUDA (``Tuning.g2p_registers`` from ``Tuning.g2p_registers_points`` points on;
+        #: None: the compiler's choice)
+        self.g2p_registers = tn.g2p_registers if n >= tn.g2p_registers_points else None
         fold, mirrored, moving = edges.fold, edges.mirrored, edges.moving
         layered = c.granular
 
@@ -246,7 +249,7 @@ class MPMSolver(ClockedStage):
             k = transfer_kernels.make_g2p(c.shape, s.affine, s.flip_fraction, s.position, prec, self.material_kinds,
                                           density_control=c.density_control, critical=self.critical,
                                           layered=layered, staged=self.staged, derived=self.derived_stress,
-                                          mirror=self.mirror_in_g2p, max_registers=self.tuning.g2p_registers,
+                                          mirror=self.mirror_in_g2p, max_registers=self.g2p_registers,
                                           **flags,
                                           **({"periodic_x": True} if edges.periodic and flags["position"] else {}))
             return [Launch(k, n, [points, G, D, clock, mats, self.max_speed, self.status, work])]

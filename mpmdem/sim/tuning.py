@@ -58,9 +58,14 @@ class Tuning:
     grid_update_copies: int = _knob(4, 1, 4)
     """Copies of a node the granular grid update loads at once before updating them (1, 2 or 4): more
     loads in flight, more registers live."""
-    g2p_registers: int | None = _knob(None, 16, 255)
-    """Registers per thread of G2P on CUDA (``kernels.g2p.make_g2p``'s ``max_registers``; None: the
-    compiler's choice, about 70 with a plastic law, which leaves 37.5 % occupancy)."""
+    g2p_registers: int | None = _knob(64, 16, 255)
+    """Registers per thread of G2P on CUDA in scenes of at least ``g2p_registers_points`` points
+    (``kernels.g2p.make_g2p``'s ``max_registers``; None: the compiler's choice, about 70 with a
+    plastic law, which leaves 37.5 % occupancy)."""
+    g2p_registers_points: int = _knob(524288, 0)
+    """Scenes of fewer points keep the compiler's choice for G2P: the cap pays where G2P streams
+    many points (1M and 4M points 2-6 % faster a step) and costs the small, latency-bound scenes
+    and the Beverloo batches 1-5 %."""
     row_p2g_points: int = _knob(16384, 0)
     """Scenes of fewer points run P2G a stencil row a thread (``kernels.p2g.make_p2g``'s
     ``rows``) on ``row_p2g_devices``, outside granular mode: their GPU is nearly idle and each

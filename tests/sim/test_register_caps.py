@@ -77,9 +77,20 @@ def test_the_register_cap_changes_no_result():
 @pytest.mark.skipif(not wp.get_cuda_device_count(), reason="a register cap is a CUDA matter: no CUDA device here")
 def test_a_g2p_register_cap_changes_no_result():
     device = "cuda"
-    reference, _ = _run(M.Tuning(), device)
-    state, _ = _run(M.Tuning(g2p_registers=64), device)
+    reference, _ = _run(M.Tuning(g2p_registers=None), device)
+    state, _ = _run(M.Tuning(g2p_registers=64, g2p_registers_points=0), device)
     _same(state, reference, device, "G2P capped at 64 registers")
+
+
+def test_g2p_is_capped_from_its_size_on():
+    """The cap pays in large scenes and costs small ones: it applies from ``g2p_registers_points`` on."""
+    config = M.SolverConfig(granular=True, shape="linear", transfer="PIC", update="USL")
+    n = 12 * 12  # the cloud's points
+    caps = {points: M.Simulation(_cloud(), config, device="cpu",
+                                 tuning=M.Tuning(g2p_registers_points=points)).mpm.g2p_registers
+            for points in (n, n + 1)}
+    assert caps == {n: 64, n + 1: None}
+    assert M.Simulation(_cloud(), config, device="cpu").mpm.g2p_registers is None  # (the default: 524288 points)
 
 
 @pytest.mark.parametrize("copies", [0, 3, 8])
