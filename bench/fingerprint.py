@@ -52,7 +52,7 @@ RUNS = [
 
 
 #: Datasets left out of the hash (see the module docstring)
-SKIPPED = ("wall_time", "_rebuilds", "_relabels")
+SKIPPED = ("wall_time", "_rebuilds", "_relabels", "diagnostic_values")
 
 
 def hash_h5(path: Path) -> str:
@@ -63,7 +63,8 @@ def hash_h5(path: Path) -> str:
         f.visititems(lambda name, obj: names.append(name) if isinstance(obj, h5py.Dataset) else None)
         for name in sorted(names):
             if name.endswith(SKIPPED):
-                continue  # the host clock, different every run; how often the reuse rebuilt
+                continue  # the host clock, different every run; how often the reuse rebuilt; the
+                # diagnostics' table, whose columns are hashed one by one as /diagnostics/<name>
             data = np.ascontiguousarray(f[name][()])
             digest.update(name.encode())
             digest.update(str(data.dtype).encode() + str(data.shape).encode())

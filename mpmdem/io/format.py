@@ -13,7 +13,10 @@ fixed count M >= 0 of rigid DEM bodies (spheropolygons):
   mass (M,) float64 [kg/m], name (M,) variable-length UTF-8 strings, plus any extra per-body
   arrays the writer was given;
 * ``/time``: the simulated time of each frame [s], float64;
-* ``/diagnostics/<name>``: one float64 scalar per frame (energies, momenta, dt, ...);
+* ``/diagnostics/<name>``: one float64 scalar per frame (energies, momenta, dt, ...): a virtual
+  dataset, column ``k`` of ``/diagnostic_values`` (older files: a plain dataset each);
+* ``/diagnostic_values``: the diagnostics of every frame, shape (n_frames, n_diagnostics), float64,
+  its attribute ``names`` naming the columns in order (written as one row per frame);
 * ``/xdmf/...``: what the XDMF sidecars point at (per-frame virtual views of the fields, the
   bodies' world outlines, connectivities; see ``mpmdem.io.xdmf``); readers of the run ignore it;
 * root attributes: every entry of the writer's ``attrs`` as a JSON string, plus ``format``
@@ -32,11 +35,14 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["BODY_GEOMETRY_KEYS", "FORMAT", "GEOMETRY_DTYPES", "MOTION_FIXED", "MOTION_FREE", "MOTION_KINEMATIC",
-           "PLAIN_ATTRS", "PRECISIONS", "default_body_field_specs", "default_field_specs"]
+__all__ = ["BODY_GEOMETRY_KEYS", "DIAGNOSTIC_TABLE", "FORMAT", "GEOMETRY_DTYPES", "MOTION_FIXED", "MOTION_FREE",
+           "MOTION_KINEMATIC", "PLAIN_ATTRS", "PRECISIONS", "default_body_field_specs", "default_field_specs"]
 
 FORMAT = "mpmdem-1"
 """Value of the root attribute ``format`` of every run file this module writes."""
+
+DIAGNOSTIC_TABLE = "diagnostic_values"
+"""Root dataset of the per-frame diagnostics (frames × names); ``/diagnostics/<name>`` are its columns."""
 
 #: Root attributes stored as plain strings, not JSON.
 PLAIN_ATTRS = ("format", "status", "status_message")

@@ -12,7 +12,7 @@ import h5py
 import numpy as np
 
 from .closing import ClosesOnExit
-from .format import MOTION_FIXED, MOTION_FREE, MOTION_KINEMATIC, PLAIN_ATTRS
+from .format import DIAGNOSTIC_TABLE, MOTION_FIXED, MOTION_FREE, MOTION_KINEMATIC, PLAIN_ATTRS
 
 __all__ = ["RunFile"]
 
@@ -207,6 +207,11 @@ class RunFile(ClosesOnExit):
     @property
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Per-frame diagnostic scalars: name → float64 array of length frame_count."""
+        table = self._file.get(DIAGNOSTIC_TABLE)
+        if table is not None:  # (one read for every name: ``/diagnostics/<name>`` are its columns)
+            values = np.asarray(table[: self._frames], dtype=np.float64)
+            names = [n.decode() if isinstance(n, bytes) else str(n) for n in table.attrs["names"]]
+            return {k: values[:, j].copy() for j, k in enumerate(names)}
         g = self._file.get("diagnostics")
         if g is None:
             return {}

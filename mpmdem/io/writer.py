@@ -20,13 +20,14 @@ from typing import Any
 
 import h5py
 import numpy as np
-from h5py import h5s, h5t
+from h5py import h5d, h5p, h5s, h5t
 
 from ..errors import InputError
 from .closing import ClosesOnExit
 from .csv import EnergyLog
 from .format import (
     BODY_GEOMETRY_KEYS,
+    DIAGNOSTIC_TABLE,
     FORMAT,
     GEOMETRY_DTYPES,
     MOTION_FIXED,
@@ -87,6 +88,28 @@ class _Appender:
         self.file_space.select_hyperslab((i, *self.origin), (1, *self.frame))
         self.id.write(self.memory, self.file_space, np.ascontiguousarray(value, dtype=self.dtype),
                       mtype=self.memory_type)
+
+
+def _diagnostic_table(file: h5py.File, group: h5py.Group, names: list[str]) -> h5py.Dataset:
+    """``/diagnostic_values`` (frames × diagnostics, float64; attribute ``names``) and, in ``group``
+    (``/diagnostics``), one virtual dataset per name: its column, for every frame the table has (an
+    unlimited mapping: the view grows with the table and stores nothing). A frame's diagnostics are
+    then one append instead of one per name (most of a small scene's frame writing, issue 46)."""
+    count = len(names)
+    table = file.create_dataset(DIAGNOSTIC_TABLE, shape=(0, count), maxshape=(None, count),
+                                chunks=(max(1, 4096 // count), count), dtype=np.float64)
+    table.attrs["names"] = np.array(names, dtype=h5py.string_dtype("utf-8"))
+    memory_type = h5t.py_create(np.dtype(np.float64), logical=1)
+    for k, name in enumerate(names):
+        view = h5s.create_simple((0,), (h5s.UNLIMITED,))
+        view.select_hyperslab((0,), (h5s.UNLIMITED,), (1,), (1,))
+        column = h5s.create_simple((0, count), (h5s.UNLIMITED, count))
+        column.select_hyperslab((0, k), (h5s.UNLIMITED, 1), (1, 1), (1, 1))
+        dcpl = h5p.create(h5p.DATASET_CREATE)
+        dcpl.set_fill_value(np.array([np.nan]))
+        dcpl.set_virtual(view, b".", f"/{DIAGNOSTIC_TABLE}".encode(), column)
+        h5d.create(group.id, name.encode("utf-8"), memory_type, view, dcpl=dcpl)
+    return table
 
 
 def _check_frame_fields(
@@ -323,9 +346,8 @@ class FrameWriter(ClosesOnExit):
             self._appenders = ({name: _Appender(ds) for name, ds in self._datasets.items()},
                                {name: _Appender(ds) for name, ds in self._body_datasets.items()})
             self._time_appender = _Appender(self._time_ds)
-            self._diag_appenders: dict[str, _Appender] = {}
             self._diag_group = self._file.create_group("diagnostics", track_order=True)
-            self._diag_ds: dict[str, h5py.Dataset] = {}
+            self._diag_table: _Appender | None = None  # (made at the first frame, which names the diagnostics)
             self._file.flush()
         except BaseException:
             self._file.close()
@@ -396,13 +418,10 @@ class FrameWriter(ClosesOnExit):
                 appenders[name].append(i, a)
         if self._diag_names is None:
             self._diag_names = list(diag)
-            for k in self._diag_names:
-                self._diag_ds[k] = self._diag_group.create_dataset(
-                    k, shape=(0,), maxshape=(None,), chunks=(1024,), dtype=np.float64
-                )
-                self._diag_appenders[k] = _Appender(self._diag_ds[k])
-        for k in self._diag_names:
-            self._diag_appenders[k].append(i, diag[k])
+            if self._diag_names:
+                self._diag_table = _Appender(_diagnostic_table(self._file, self._diag_group, self._diag_names))
+        if self._diag_table is not None:
+            self._diag_table.append(i, np.array([diag[k] for k in self._diag_names], dtype=np.float64))
         self._xdmf.add_frame(i, bodies=body_arrays)
         self._time_appender.append(i, time)
         self._file.flush()

@@ -50,8 +50,13 @@ class HostArrays:
         return self._arrays[name]
 
     def seal(self) -> None:
-        """No more reads from the device: every array the frame's sums need is on the host."""
+        """No more reads from the device: every array the frame's sums need is on the host. A CPU
+        array's host copy is the array itself (``host_copy``): it is copied now, so that steps run
+        after the seal do not change the frame's values."""
         self._sealed = True
+        for name, values in self._arrays.items():
+            if values.base is not None or not values.flags.owndata:
+                self._arrays[name] = values.copy()
 
     def prefetch(self, named: dict) -> None:
         """Read back every array of ``named`` (name → device array) not read yet this frame, with

@@ -127,6 +127,41 @@ def test_round_trip_three_frames(tmp_path):
         assert f["time"].dtype == np.float64 and f["diagnostics/dt"].dtype == np.float64
 
 
+def test_diagnostics_are_one_table_and_a_view_of_each_column(tmp_path):
+    """A frame's diagnostics are one row of ``/diagnostic_values`` (columns named by its ``names``);
+    ``/diagnostics/<name>`` is a virtual dataset of its column, which plain h5py reads as the values."""
+    path = tmp_path / "run.h5"
+    write_run(path)
+    with h5py.File(path, "r") as f:
+        table = f["diagnostic_values"]
+        names = [n.decode() if isinstance(n, bytes) else n for n in table.attrs["names"]]
+        assert names == list(DIAG_NAMES) and table.shape == (3, len(DIAG_NAMES))
+        for j, name in enumerate(names):
+            view = f["diagnostics"][name]
+            assert view.is_virtual and view.shape == (3,)
+            np.testing.assert_array_equal(view[...], [make_diag(k)[name] for k in range(3)])
+            np.testing.assert_array_equal(table[:, j], view[...])
+
+
+def test_files_with_a_dataset_per_diagnostic_still_read(tmp_path):
+    """Files written before the table (a plain dataset per name, no ``/diagnostic_values``) read the same."""
+    path = tmp_path / "run.h5"
+    write_run(path)
+    with RunFile(path) as rf:
+        expected = rf.diagnostics
+    with h5py.File(path, "r+") as f:
+        values = {name: f["diagnostics"][name][...] for name in f["diagnostics"]}
+        del f["diagnostic_values"]
+        for name, v in values.items():
+            del f["diagnostics"][name]
+            f["diagnostics"].create_dataset(name, data=v, maxshape=(None,), chunks=(1024,))
+    with RunFile(path) as rf:
+        got = rf.diagnostics
+    assert list(got) == list(expected)
+    for name in expected:
+        np.testing.assert_array_equal(got[name], expected[name], err_msg=name)
+
+
 def test_precision_sets_float_dtype(tmp_path):
     """Verify "float" fields are float32 by default and float64 with precision f64; body stays int32."""
     for precision, dtype in ((None, np.float32), ("f32", np.float32), ("f64", np.float64)):
@@ -236,6 +271,8 @@ def test_killed_writer_leaves_readable_file(tmp_path, mode, interval, listed):
         assert rf.attrs["version"] == "test" and rf.status is None
         text = rf.summary()
         assert "frames:      2" in text and "not set" in text
+    with h5py.File(path, "r") as f:  # (the per-name views too, as any HDF5 reader sees them)
+        np.testing.assert_array_equal(f["diagnostics/momentum_x"][...], [0.0, 2.0])
     assert len(csv.read_text().splitlines()) == 3
     assert len(ET.parse(path.with_suffix(".xdmf")).getroot().find("Domain/Grid").findall("Grid")) == listed
 

@@ -47,7 +47,8 @@ def datasets(path) -> dict[str, np.ndarray]:
     with h5py.File(path, "r") as f:
         names = []
         f.visit(names.append)
-        return {n: f[n][()] for n in names if isinstance(f[n], h5py.Dataset) and not n.endswith("wall_time")}
+        return {n: f[n][()] for n in names if isinstance(f[n], h5py.Dataset)
+                and not n.endswith(("wall_time", "diagnostic_values"))}  # (the table: its columns are the views)
 
 
 CONFIGS = {"mpm": SolverConfig(precision="f64", dt=2.0e-5),
