@@ -6,10 +6,10 @@ work takes Python's lock from the thread that reads the frame back and launches 
 the device waits for both (``mpmdem.io.background``). Here a spawned child process owns some of the
 files (each a ``FrameWriter``) and writes what it is sent, in order, while the parent goes on
 (``BatchedSimulation`` deals its worlds to ``Tuning.batch_writer_processes`` children). The child
-is ``python -m mpmdem.io.writer_process`` in a session of its own, fed pickled messages on its stdin
-by a feeder thread of the parent (the caller only queues them; the arrays' bytes follow each pickle
-out of band, written from their own memory), answering on its stdout (not
-``multiprocessing``'s spawn, which would run a user's script again in the child).
+runs this module's ``main`` (``CHILD``: the run files' modules without Warp) in a session of its
+own, fed pickled messages on its stdin by a feeder thread of the parent (the caller only queues
+them; the arrays' bytes follow each pickle out of band, written from their own memory), answering
+on its stdout (not ``multiprocessing``'s spawn, which would run a user's script again in the child).
 
 What a run keeps of ``BackgroundFrameWriter``'s promises:
 
@@ -48,6 +48,12 @@ __all__ = ["ProcessFrameWriter", "WriterProcess"]
 
 #: seconds between the parent's checks that its child still runs while it waits for a reply
 POLL_S = 0.5
+
+#: The child's program (argument: the folder of the ``mpmdem`` package): ``main`` of this module, with
+#: ``mpmdem`` a bare package of that folder, so that the child imports the run files' modules alone,
+#: not the package's ``__init__`` (Warp and the simulation: about 1 s of a child's start, against 0.2 s)
+CHILD = ("import sys, types; package = types.ModuleType('mpmdem'); package.__path__ = [sys.argv[1]]; "
+         "sys.modules['mpmdem'] = package; from mpmdem.io.writer_process import main; main()")
 
 
 def _write_message(stream, message) -> None:
@@ -142,7 +148,8 @@ class WriterProcess(ClosesOnExit):
 
     def __init__(self, max_pending: int = 2):
         self.max_pending = int(max_pending)
-        self._process = subprocess.Popen([sys.executable, "-m", "mpmdem.io.writer_process"], stdin=subprocess.PIPE,
+        package = str(Path(__file__).resolve().parents[1])
+        self._process = subprocess.Popen([sys.executable, "-c", CHILD, package], stdin=subprocess.PIPE,
                                          stdout=subprocess.PIPE, start_new_session=True)
         self._outbox: queue.Queue = queue.Queue()
         self._replies: queue.Queue = queue.Queue()

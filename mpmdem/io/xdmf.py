@@ -21,8 +21,10 @@ ends:
 Every DataItem names a whole HDF5 dataset of exactly its dimensions (no HyperSlab: ParaView's Xdmf3
 reader crashes on one, and meshio reads none). The frame-stacked datasets ``/particles/<f>`` and
 ``/bodies/<f>`` (n_frames, count, ...) are exposed per frame as HDF5 virtual datasets
-``/xdmf/<group>/frame_<k>/<f>``, which store no data, only the mapping; the bodies' world outlines
-are real datasets ``/xdmf/bodies/frame_<k>/outline`` (M K, 3) [m]. The connectivities are written
+``/xdmf/<group>/frame_<k>/<f>`` (particles, grains), which store no data, only the mapping; the
+outlined bodies' are copies ``/xdmf/bodies/frame_<k>/<f>`` (a plain dataset is a quarter of a
+virtual one's cost to create, and a few bytes a body beside its outline), and their world outlines
+real datasets ``/xdmf/bodies/frame_<k>/outline`` (M K, 3) [m]. The connectivities are written
 once. The views are made with each frame, before its flush; the sidecar text lists only flushed
 frames, so the sidecars are valid whenever the run stops (and list every frame once it ended).
 """
@@ -192,13 +194,11 @@ class XdmfSidecars:
             self._add_views("particles", k)
         if self._has_bodies:
             m = self._outlined
-            rows = None if m == self._m else (0, m)
-            g = self._add_views("bodies", k, rows=rows)
             if bodies is None:
                 stored = self._file["bodies"]
-                x, angle = stored["x"][k], stored["angle"][k] if "angle" in stored else None
-            else:
-                x, angle = bodies["x"], bodies.get("angle")
+                bodies = {name: ds[k] for name, ds in stored.items() if isinstance(ds, h5py.Dataset)}
+            g = self._add_copies("bodies", k, bodies, m)
+            x, angle = bodies["x"], bodies.get("angle")
             ring = place_rings(self._rings, x[:m], None if angle is None else angle[:m]).reshape(-1, 2)
             outline = np.column_stack([ring, np.zeros(len(ring))])
             if self._outline is None:  # (h5py makes the first; the later ones are made as it made that one)
@@ -210,6 +210,40 @@ class XdmfSidecars:
                                                                                                  outline)
         if self._has_grains:
             self._add_views("grains", k, source="bodies", rows=(self._outlined, self._m))
+
+    def _add_copies(self, group: str, k: int, values: Mapping[str, np.ndarray], count: int) -> h5g.GroupID:
+        """Datasets /xdmf/<group>/frame_<k>/<view> holding what the views of ``_add_views`` would show
+        of frame k's ``values`` (each /bodies/<field>'s frame, as stored), of its first ``count``
+        items; returns the frame's group. For the outlined bodies: few items a frame, where a plain
+        dataset costs a quarter of a virtual one's creation and its copy a few bytes a body."""
+        parent, plan = self._copy_plan(group, count)
+        out = h5g.create(parent.id, b"frame_%06d" % k, lcpl=self._lcpl, gcpl=self._gcpl)
+        for view, stored_type, space, name, dtype, dims, parts in plan:
+            block = np.zeros(dims, dtype)  # (the padding a view's unmapped elements read: its fill 0)
+            source = np.asarray(values[name])
+            for columns, index in parts:
+                block[(slice(None), *columns)] = source[(slice(0, count), *index)]
+            h5d.create(out, view, stored_type, space, lcpl=self._lcpl).write(h5s.ALL, h5s.ALL, block)
+        return out
+
+    def _copy_plan(self, group: str, count: int) -> tuple[h5py.Group, list]:
+        """/xdmf/<group> and, per view of ``_views``, (name, file type, dataspace, source field, dtype,
+        shape, [(view columns, source index)]); made at the first frame and again if /bodies changes."""
+        cached = self._plans.get(f"{group} copies")
+        if cached is not None and cached[0].get_num_objs() == cached[1]:
+            return cached[2], cached[3]
+        src = self._file["bodies"]
+        plan = []
+        for name, ds in src.items():
+            if not isinstance(ds, h5py.Dataset):
+                continue
+            for view, _, shape, parts in _views(name, ds.shape[2:]):
+                dims = (count, *shape)
+                plan.append((view.encode("utf-8"), h5t.py_create(ds.dtype, logical=1), h5s.create_simple(dims), name,
+                             ds.dtype, dims, parts))
+        parent = self._file[GROUP][group]
+        self._plans[f"{group} copies"] = (src.id, src.id.get_num_objs(), parent, plan)
+        return parent, plan
 
     def _add_views(self, group: str, k: int, *, source: str | None = None,
                    rows: tuple[int, int] | None = None) -> h5g.GroupID:

@@ -4,6 +4,7 @@
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -129,3 +130,15 @@ def test_a_killed_parent_leaves_every_frame_it_sent_readable(tmp_path):
         assert r.frame_count == 3
         x = r.field("x", 2)
         assert np.array_equal(x, frames()[2][1]["x"].astype(x.dtype))
+
+
+def test_the_child_imports_the_run_files_modules_without_warp():
+    """The child's program loads ``mpmdem.io.writer_process`` without the package's ``__init__`` (which
+    imports Warp and the simulation), so that a batch's writers start in a fraction of a second."""
+    import mpmdem.io.writer_process as wp
+
+    program = wp.CHILD.replace("main()", "print(sorted(m for m in ('warp', 'mpmdem.sim') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", program, str(Path(wp.__file__).resolve().parents[1])],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"

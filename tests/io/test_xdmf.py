@@ -318,3 +318,19 @@ def test_outlines_are_placed_from_the_stored_body_fields(tmp_path):
             assert x.dtype == np.float32 and not np.array_equal(x, make_body_fields(k)["x"])
             ring = place_rings(rings, x, angle).reshape(-1, 2)
             np.testing.assert_array_equal(f[f"xdmf/bodies/frame_{k:06d}/outline"][:, :2], ring)
+
+
+def test_body_frames_are_copies_the_particles_views(tmp_path):
+    """The outlined bodies' per-frame datasets are plain copies of their stored fields (a Vector padded
+    with 0, as a view would read), the particles' frames virtual views of theirs."""
+    path = tmp_path / "run.h5"
+    write_body_run(path, particles=N, csv=False)
+    with h5py.File(path, "r") as f:
+        for k in range(3):
+            frame = f[f"xdmf/bodies/frame_{k:06d}"]
+            for name in ("x", "v", "force"):
+                assert not frame[name].is_virtual
+                np.testing.assert_array_equal(frame[name][...], padded(f["bodies"][name][k]), err_msg=name)
+            for name in ("angle", "omega", "torque"):
+                np.testing.assert_array_equal(frame[name][...], f["bodies"][name][k], err_msg=name)
+            assert f[f"xdmf/particles/frame_{k:06d}/x"].is_virtual
