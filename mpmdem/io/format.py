@@ -16,7 +16,8 @@ fixed count M >= 0 of rigid DEM bodies (spheropolygons):
 * ``/diagnostics/<name>``: one float64 scalar per frame (energies, momenta, dt, ...): a virtual
   dataset, column ``k`` of ``/diagnostic_values`` (older files: a plain dataset each);
 * ``/diagnostic_values``: the diagnostics of every frame, shape (n_frames, n_diagnostics), float64,
-  its attribute ``names`` naming the columns in order (written as one row per frame);
+  its attribute ``names`` naming the columns in order (written as one row per frame; a plain
+  dataset, for tools built on HDF5 1.8, which cannot read virtual datasets);
 * ``/xdmf/...``: what the XDMF sidecars point at (per-frame virtual views of the fields, the
   bodies' world outlines, connectivities; see ``mpmdem.io.xdmf``); readers of the run ignore it;
 * root attributes: every entry of the writer's ``attrs`` as a JSON string, plus ``format``
