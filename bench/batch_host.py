@@ -57,6 +57,8 @@ def main() -> None:
     p.add_argument("--switch-interval", type=float, default=None, help="[s] (default Python's)")
     p.add_argument("--processes", type=int, default=0, help="the frames written by N child processes "
                    "(mpmdem.io.writer_process, worlds dealt in turn), not a thread of this one (0)")
+    p.add_argument("--sidecar-interval", type=float, default=1.0,
+                   help="[s] least wall time between two rewrites of one file's XDMF sidecars (FrameWriter's)")
     p.add_argument("--tag", default="")
     p.add_argument("--out", type=Path, default=None, help="append the JSON line here")
     args = p.parse_args()
@@ -71,7 +73,8 @@ def main() -> None:
         children = [WriterProcess() for _ in range(args.processes)]
         kwargs = [{"particle_count": args.points, "attrs": {"precision": "f32"},
                    "csv_path": Path(tmp) / f"w{k}" / "e.csv", "body_count": args.bodies, "field_specs": specs,
-                   "body_geometry": geometry(args.bodies)} for k in range(args.worlds)]
+                   "body_geometry": geometry(args.bodies), "sidecar_interval": args.sidecar_interval}
+                  for k in range(args.worlds)]
         for k in range(args.worlds):
             (Path(tmp) / f"w{k}").mkdir()
         writers = ([children[k % len(children)].open(Path(tmp) / f"w{k}" / "run.h5", **kwargs[k])
@@ -102,7 +105,8 @@ def main() -> None:
            "points": args.points,
            "bodies": args.bodies, "diagnostics": args.diagnostics, "frames": args.frames,
            "record_ms": args.record_ms, "step_ms": args.step_ms, "launches": args.launches,
-           "switch_interval": args.switch_interval or switch, "seconds_per_frame": wall / args.frames,
+           "switch_interval": args.switch_interval or switch, "sidecar_interval": args.sidecar_interval,
+           "seconds_per_frame": wall / args.frames,
            "floor_s_per_frame": 1e-3 * (args.record_ms + args.step_ms)}
     print(json.dumps(row), flush=True)
     if args.out is not None:

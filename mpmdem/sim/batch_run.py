@@ -259,7 +259,7 @@ class BatchedSimulation:
             geometry = _geometry(sim.dem.scene_geometry(), world.bodies, f"w{world.index}_")
         kwargs = {"particle_count": world.points.stop - world.points.start, "attrs": meta,
                   "csv_path": out / "energy.csv", "body_count": len(world.bodies), "field_specs": specs,
-                  "body_geometry": geometry}
+                  "body_geometry": geometry, "sidecar_interval": self.sim.tuning.batch_sidecar_interval}
         if child is not None:
             return child.open(out / f"{name}.h5", **kwargs)
         return BackgroundFrameWriter(FrameWriter(out / f"{name}.h5", **kwargs), pool=pool)

@@ -200,6 +200,11 @@ class Tuning:
     (``mpmdem.io.background.thread_switch_interval``; 0: Python's own, 5 ms): how long the writer,
     having let Python's lock go around an HDF5 write, may wait for a busy main thread to give it back."""
 
+    batch_sidecar_interval: float = _knob(4.0, 0.0)
+    """Least wall time between two rewrites of one world's XDMF sidecars in a batch [s] (``FrameWriter``'s
+    ``sidecar_interval``; a lone run's is 1 s): a batch's worlds share one writer, and each rewrite
+    costs it the whole text again. A batch that ends, fails or is stopped brings them up to date; one
+    killed outright may miss this long of frames in its sidecars (its HDF5 files have them all)."""
     batch_writer_processes: int = _knob(0, 0, 64)
     """Child processes that write a batch's frames (``mpmdem.io.writer_process``), the worlds dealt
     to them in turn; 0: one thread of the process that steps (``mpmdem.io.background``). A child's

@@ -590,3 +590,25 @@ def test_a_frames_host_copies_refuse_a_read_after_the_launch():
     np.testing.assert_array_equal(host("a", a), np.arange(4.0))  # the frame's values
     with pytest.raises(RuntimeError, match="'b' was not read back before the next steps"):
         host("b", a)
+
+
+@pytest.mark.parametrize("interval, rewrites", [(0.0, FRAMES + 1), (1e6, 2)])
+def test_a_batch_rewrites_its_worlds_sidecars_at_the_tunings_interval(tmp_path, monkeypatch, interval, rewrites):
+    """A batch's worlds share one writer, so each world's XDMF sidecars are rewritten at most every
+    ``Tuning.batch_sidecar_interval`` seconds (0: after every frame), and once more at the end."""
+    from mpmdem.io.writer import FrameWriter
+
+    counts: dict = {}
+    real = FrameWriter._write_xdmf
+
+    def counted(self):
+        counts[self.path] = counts.get(self.path, 0) + 1
+        return real(self)
+
+    monkeypatch.setattr(FrameWriter, "_write_xdmf", counted)
+    b = BatchedSimulation([sand_on_plate(), sand_on_plate(0.15)], CONFIG, device="cpu",
+                          tuning=m.Tuning(batch_sidecar_interval=interval))
+    results = b.run(END, outs=[tmp_path / "w0", tmp_path / "w1"], frames=FRAMES, names="sand")
+    # (0 s: after each of the FRAMES + 1 frames, and the end has nothing to add; a long interval: after
+    # the first frame and at the end)
+    assert {r.path: counts[r.path] for r in results} == {r.path: rewrites for r in results}
