@@ -38,7 +38,14 @@ from .batch_scene import STENCIL_CELLS, World, combine_scenes
 from .diagnostics import EnergyBalance, check_energy
 from .simulation import RunResult, Simulation, frame_time
 from .tuning import Tuning
-from .world_diagnostics import HostArrays, WorldPoints, frame_arrays, launch_point_sums, world_diagnostics
+from .world_diagnostics import (
+    HostArrays,
+    WorldPoints,
+    body_rows,
+    frame_arrays,
+    launch_point_sums,
+    world_diagnostics,
+)
 
 __all__ = ["LEFT_TILE", "BatchedSimulation", "WorldView"]
 
@@ -112,6 +119,8 @@ class BatchedSimulation:
         self.sim = Simulation(self.combined, self.config, device=device, tuning=tuning)
         self._points = ({w.index: WorldPoints(self.sim.mpm, w) for w in self.layout.worlds}
                         if self.sim.mpm is not None else {})
+        self._body_rows = ({w.index: body_rows(self.sim.dem, w) for w in self.layout.worlds}
+                           if self.sim.dem is not None else {})
         self._frame_fields: dict | None = None
         self._frame_bodies: dict | None = None
 
@@ -160,24 +169,26 @@ class BatchedSimulation:
             self._fresh_frame()
         now = self.sim.time if time is None else time
         bad = {}
+        if self.sim.mpm is not None and self._frame_fields is None:
+            self._frame_fields = self.sim.mpm.fields()
         for w in self.worlds:
             (x0, y0), (x1, y1) = w.domain
             if self.sim.mpm is not None and w.points.stop > w.points.start:
-                f = self.point_fields(w, copy=False)
-                x, v = f["x"], f["v"]
-                xs = x + np.array([w.offset, 0.0])
-                live = np.ones(len(x), bool)
+                # (views of the frame's fields, in the batch's coordinates: x shifted by the world's
+                # offset, whose finiteness is x's)
+                xs, v = self._frame_fields["x"][w.points], self._frame_fields["v"][w.points]
                 if self.sim.mpm.staged:  # (points not released yet are written as NaN)
                     live = ~(self.sim.mpm.release_times[w.points] > now)
-                if not (np.isfinite(x[live]).all() and np.isfinite(v[live]).all()):
-                    bad[w.index] = f"{int((~np.isfinite(x[live]).all(1)).sum())} points have NaN/inf values"
+                    xs, v = xs[live], v[live]
+                if not (np.isfinite(xs).all() and np.isfinite(v).all()):
+                    bad[w.index] = f"{int((~np.isfinite(xs).all(1)).sum())} points have NaN/inf values"
                     continue
                 # (a wall acts on the nodes of its side: a point whose stencil reaches them feels it,
                 # which is right only where the tile has the world's walls)
                 reach = 0.0 if self.layout.walls else STENCIL_CELLS * self.combined.cell_size
                 lo = x0 + (reach if w.scene.boundaries["left"].kind != "free" else 0.0)
                 hi = x1 - (reach if w.scene.boundaries["right"].kind != "free" else 0.0)
-                out = live & ((xs[:, 0] < lo) | (xs[:, 0] > hi) | (xs[:, 1] < y0) | (xs[:, 1] > y1))
+                out = (xs[:, 0] < lo) | (xs[:, 0] > hi) | (xs[:, 1] < y0) | (xs[:, 1] > y1)
                 if out.any():
                     bad[w.index] = (f"{int(out.sum())} points {LEFT_TILE}" if self.layout.walls else
                                     f"{int(out.sum())} points {LEFT_TILE} or came within {STENCIL_CELLS} cells of "
@@ -344,7 +355,8 @@ class BatchedSimulation:
             if t_next is not None:
                 sim.launch_ahead(t, t_next, dt)
             sums = {w.index: world_diagnostics(sim, w, self._points.get(w.index), batch_d, host, t,
-                                               launched=sim.mpm is not None) for w in worlds}
+                                               launched=sim.mpm is not None, bodies=self._body_rows.get(w.index))
+                    for w in worlds}
             diags, failures = {}, {}
             for w in worlds:
                 d = balances[w.index].update(sums[w.index])

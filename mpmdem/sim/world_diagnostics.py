@@ -27,8 +27,8 @@ from ..kernels import reductions as reduction_kernels
 from .batch_scene import World
 from .host_copy import host_copies, host_copy
 
-__all__ = ["HostArrays", "WorldPoints", "body_sums", "frame_arrays", "imp_sums", "launch_point_sums", "point_sums",
-           "world_diagnostics"]
+__all__ = ["HostArrays", "WorldPoints", "body_rows", "body_sums", "frame_arrays", "imp_sums", "launch_point_sums",
+           "point_sums", "world_diagnostics"]
 
 
 class HostArrays:
@@ -74,6 +74,10 @@ class WorldPoints:
     def __init__(self, mpm, world: World):
         pid = host_copy(mpm.points.pid)
         self.index = np.flatnonzero((pid >= world.points.start) & (pid < world.points.stop))
+        #: the same positions as a slice where they are one run (as tiles along x keep them): a view,
+        #: where indexing by ``index`` copies
+        contiguous = len(self.index) > 0 and int(self.index[-1]) + 1 - int(self.index[0]) == len(self.index)
+        self.rows = slice(int(self.index[0]), int(self.index[-1]) + 1) if contiguous else self.index
         self.mpm = mpm
         self._struct = None
         self._pid_seen = None
@@ -166,19 +170,23 @@ def tile_works(mpm, wpts: WorldPoints, world: World, host: HostArrays, t_now: fl
 def imp_sums(coupling, wpts: WorldPoints, host: HostArrays) -> dict[str, float]:
     """The point–body contact energy [J/m] and its damping and friction works of one world's points."""
     L = coupling.L
-    e = host("L.energy", L.energy)[wpts.index].astype(np.float64)
-    lost = host("L.dissipated", L.dissipated)[wpts.index]
+    e = host("L.energy", L.energy)[wpts.rows].astype(np.float64)
+    lost = host("L.dissipated", L.dissipated)[wpts.rows]
     return {"energy_imp": float(e.sum()), "dissipated_imp_damping": float(lost[:, 0].sum()),
             "dissipated_imp_friction": float(lost[:, 1].sum())}
 
 
-def body_sums(dem, world: World, host: HostArrays) -> dict[str, float]:
+def body_rows(dem, world: World) -> np.ndarray:
+    """The device rows of ``world``'s bodies, ascending (``dem.order`` is fixed for a run)."""
+    return np.flatnonzero(np.isin(dem.order, world.bodies))
+
+
+def body_sums(dem, world: World, host: HostArrays, rows: np.ndarray | None = None) -> dict[str, float]:
     """Energies [J/m], momenta and mass of one world's free bodies and grains, their contact energy,
     the works of its contacts' damping and friction and of its driven bodies (``DEMSolver.WORK_TERMS``),
     and ``mass_<probe>`` of its free bodies (float64 sums on the host)."""
     B, C = dem.B, dem.C
-    scene_of_device = dem.order
-    idx = np.flatnonzero(np.isin(scene_of_device, world.bodies))
+    idx = body_rows(dem, world) if rows is None else rows
     X = world.offset
     m, inertia = host("B.mass", B.mass)[idx].astype(float), host("B.inertia", B.inertia)[idx].astype(float)
     v, w = host("B.v", B.v)[idx].astype(float), host("B.omega", B.omega)[idx].astype(float)
@@ -225,18 +233,20 @@ def frame_arrays(sim, worlds, points: dict) -> dict:
 
 
 def world_diagnostics(sim, world: World, wpts: WorldPoints | None, batch: dict[str, float],
-                      host: HostArrays | None, t_now: float, launched: bool = False) -> dict[str, float]:
+                      host: HostArrays | None, t_now: float, launched: bool = False,
+                      bodies: np.ndarray | None = None) -> dict[str, float]:
     """One world's diagnostics under the names a lone run gives them: ``batch`` (the whole batch's,
     ``Stage.diagnostics``) with every per-world sum replaced (see the module's docstring). ``host``:
     this frame's read-backs, shared by its worlds (a fresh one if None); ``t_now``: the frame's time
     [s], the clock's (passed in: no clock read per world); ``launched``: the world's point reductions
-    were launched already (``launch_point_sums``)."""
+    were launched already (``launch_point_sums``); ``bodies``: its bodies' device rows (``body_rows``,
+    found once for a run; None: found now)."""
     host = host if host is not None else HostArrays()
     d = {k: v for k, v in batch.items() if not k.startswith("mass_")}
     m = point_sums(sim.mpm, wpts, world, t_now, host, launched) if sim.mpm is not None else None
     if m is not None and world.tile is not None:
         m.update(tile_works(sim.mpm, wpts, world, host, t_now))
-    b = body_sums(sim.dem, world, host) if sim.dem is not None else None
+    b = body_sums(sim.dem, world, host, bodies) if sim.dem is not None else None
     if m is not None and b is not None:
         imp = imp_sums(sim.coupling, wpts, host)
         d.update({k: v for k, v in m.items() if not k.startswith("mass_")})
