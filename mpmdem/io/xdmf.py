@@ -197,7 +197,7 @@ class XdmfSidecars:
             if bodies is None:
                 stored = self._file["bodies"]
                 bodies = {name: ds[k] for name, ds in stored.items() if isinstance(ds, h5py.Dataset)}
-            g = self._add_copies("bodies", k, bodies, m)
+            g = self._add_copies(k, bodies, m)
             x, angle = bodies["x"], bodies.get("angle")
             ring = place_rings(self._rings, x[:m], None if angle is None else angle[:m]).reshape(-1, 2)
             outline = np.column_stack([ring, np.zeros(len(ring))])
@@ -211,12 +211,12 @@ class XdmfSidecars:
         if self._has_grains:
             self._add_views("grains", k, source="bodies", rows=(self._outlined, self._m))
 
-    def _add_copies(self, group: str, k: int, values: Mapping[str, np.ndarray], count: int) -> h5g.GroupID:
-        """Datasets /xdmf/<group>/frame_<k>/<view> holding what the views of ``_add_views`` would show
+    def _add_copies(self, k: int, values: Mapping[str, np.ndarray], count: int) -> h5g.GroupID:
+        """Datasets /xdmf/bodies/frame_<k>/<view> holding what the views of ``_add_views`` would show
         of frame k's ``values`` (each /bodies/<field>'s frame, as stored), of its first ``count``
         items; returns the frame's group. For the outlined bodies: few items a frame, where a plain
         dataset costs a quarter of a virtual one's creation and its copy a few bytes a body."""
-        parent, plan = self._copy_plan(group, count)
+        parent, plan = self._copy_plan(count)
         out = h5g.create(parent.id, b"frame_%06d" % k, lcpl=self._lcpl, gcpl=self._gcpl)
         for view, stored_type, space, name, dtype, dims, parts in plan:
             block = np.zeros(dims, dtype)  # (the padding a view's unmapped elements read: its fill 0)
@@ -226,10 +226,10 @@ class XdmfSidecars:
             h5d.create(out, view, stored_type, space, lcpl=self._lcpl).write(h5s.ALL, h5s.ALL, block)
         return out
 
-    def _copy_plan(self, group: str, count: int) -> tuple[h5py.Group, list]:
-        """/xdmf/<group> and, per view of ``_views``, (name, file type, dataspace, source field, dtype,
+    def _copy_plan(self, count: int) -> tuple[h5py.Group, list]:
+        """/xdmf/bodies and, per view of ``_views``, (name, file type, dataspace, source field, dtype,
         shape, [(view columns, source index)]); made at the first frame and again if /bodies changes."""
-        cached = self._plans.get(f"{group} copies")
+        cached = self._plans.get("bodies copies")
         if cached is not None and cached[0].get_num_objs() == cached[1]:
             return cached[2], cached[3]
         src = self._file["bodies"]
@@ -241,8 +241,8 @@ class XdmfSidecars:
                 dims = (count, *shape)
                 plan.append((view.encode("utf-8"), h5t.py_create(ds.dtype, logical=1), h5s.create_simple(dims), name,
                              ds.dtype, dims, parts))
-        parent = self._file[GROUP][group]
-        self._plans[f"{group} copies"] = (src.id, src.id.get_num_objs(), parent, plan)
+        parent = self._file[GROUP]["bodies"]
+        self._plans["bodies copies"] = (src.id, src.id.get_num_objs(), parent, plan)
         return parent, plan
 
     def _add_views(self, group: str, k: int, *, source: str | None = None,

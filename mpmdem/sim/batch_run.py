@@ -138,10 +138,7 @@ class BatchedSimulation:
         """World's point fields, in its own coordinates (copied once per frame from the device).
         ``copy=False``: views of this frame's host copy where the values need no change (the frame's
         writing and checks, which only read them)."""
-        if self._frame_fields is None:
-            self._frame_fields = self.sim.mpm.fields()
-        f = self._frame_fields
-        out = {k: v[world.points].copy() if copy else v[world.points] for k, v in f.items()}
+        out = {k: v[world.points].copy() if copy else v[world.points] for k, v in self._batch_points().items()}
         out["x"] = out["x"].copy() if not copy else out["x"]  # (x changes: never a view)
         out["x"][:, 0] -= world.offset
         out["body"] = out["body"] - sum(len(w.scene.bodies) for w in self.worlds[:world.index])
@@ -149,11 +146,21 @@ class BatchedSimulation:
 
     def body_fields(self, world: World) -> dict[str, np.ndarray]:
         """World's body fields, in its own coordinates and its scene's order."""
-        if self._frame_bodies is None:
-            self._frame_bodies = self.sim.dem.fields()
-        out = {k: v[world.bodies].copy() for k, v in self._frame_bodies.items()}
+        out = {k: v[world.bodies] for k, v in self._batch_bodies().items()}  # (copies: ``bodies`` is an index array)
         out["x"][:, 0] -= world.offset
         return out
+
+    def _batch_points(self) -> dict[str, np.ndarray]:
+        """This frame's point fields of the whole batch, in its coordinates (read from the device once a frame)."""
+        if self._frame_fields is None:
+            self._frame_fields = self.sim.mpm.fields()
+        return self._frame_fields
+
+    def _batch_bodies(self) -> dict[str, np.ndarray]:
+        """This frame's body fields of the whole batch, in its coordinates (read from the device once a frame)."""
+        if self._frame_bodies is None:
+            self._frame_bodies = self.sim.dem.fields()
+        return self._frame_bodies
 
     def _fresh_frame(self) -> None:
         self._frame_fields = self._frame_bodies = None
@@ -169,14 +176,13 @@ class BatchedSimulation:
             self._fresh_frame()
         now = self.sim.time if time is None else time
         bad = {}
-        if self.sim.mpm is not None and self._frame_fields is None:
-            self._frame_fields = self.sim.mpm.fields()
         for w in self.worlds:
             (x0, y0), (x1, y1) = w.domain
             if self.sim.mpm is not None and w.points.stop > w.points.start:
                 # (views of the frame's fields, in the batch's coordinates: x shifted by the world's
                 # offset, whose finiteness is x's)
-                xs, v = self._frame_fields["x"][w.points], self._frame_fields["v"][w.points]
+                points = self._batch_points()
+                xs, v = points["x"][w.points], points["v"][w.points]
                 if self.sim.mpm.staged:  # (points not released yet are written as NaN)
                     live = ~(self.sim.mpm.release_times[w.points] > now)
                     xs, v = xs[live], v[live]
@@ -196,13 +202,14 @@ class BatchedSimulation:
                                     "between them: run it alone)")
                     continue
             if self.sim.dem is not None and len(w.bodies):
-                b = self.body_fields(w)
-                if not all(np.isfinite(b[k]).all() for k in ("x", "v", "angle", "omega")):
+                # (the batch's coordinates, as for the points)
+                b = {k: self._batch_bodies()[k][w.bodies] for k in ("x", "v", "angle", "omega")}
+                if not all(np.isfinite(values).all() for values in b.values()):
                     bad[w.index] = "a rigid body has NaN/inf values"
                     continue
                 free = np.array([r.motion == "free" for r in w.scene.rigid_bodies]
                                 + [True] * sum(len(g) for g in w.scene.grains), bool)
-                xb = b["x"][free] + np.array([w.offset, 0.0])
+                xb = b["x"][free]
                 gone = (xb[:, 0] < x0) | (xb[:, 0] > x1) | (xb[:, 1] < y0) | (xb[:, 1] > y1)
                 if gone.any():
                     bad[w.index] = f"{int(gone.sum())} free bodies {LEFT_TILE}"

@@ -55,7 +55,7 @@ class HostArrays:
         after the seal do not change the frame's values."""
         self._sealed = True
         for name, values in self._arrays.items():
-            if values.base is not None or not values.flags.owndata:
+            if not values.flags.owndata:
                 self._arrays[name] = values.copy()
 
     def prefetch(self, named: dict) -> None:
